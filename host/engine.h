@@ -1,0 +1,105 @@
+// engine.h — the integration engine: runs a model's estimator over many cells
+// on a backend (OpenCL device or the host serial reference), with a fixed
+// sample budget or an adaptive per-cell tolerance.
+//
+// Estimators:
+//   closed-form  one evaluation per cell, stderr 0.
+//   mc           Philox-4x32-10 pseudo-random samples; stderr from the sample
+//                variance (batches merged with Chan's formula).
+//   rqmc         Owen-scrambled Sobol points; each batch is an independently
+//                scrambled copy of the first batch_size points, so batch means
+//                are i.i.d. and the stderr is that of their mean (needs >= 2
+//                batches; at least 4 are always run).
+// Determinism: every random number depends only on (seed, cell, batch, sample,
+// dimension) and the per-cell stopping rule only on that cell's batches, so
+// tables are bit-identical for any slab size on the same device.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "model_registry.h"
+
+namespace brdftab {
+
+enum class Precision { Double, Float };
+const char* precision_name(Precision p);
+Precision parse_precision(const std::string& s);  // throws InputError
+
+struct IntegrationSettings {
+    std::string method = "auto";      // auto | closed-form | mc | rqmc
+    std::uint64_t samples = 0;        // fixed budget per cell (0 = default 4096) unless tolerance > 0
+    double tolerance = 0;             // > 0: adaptive, relative
+    double abs_floor = 1e-6;          // stderr target = max(tolerance*|mean|, tolerance*abs_floor)
+    std::uint64_t max_samples = 1u << 22;  // cap under --tolerance
+    std::uint64_t seed = 1;
+    std::uint32_t batch_size = 0;     // 0 = automatic
+    std::size_t slab_work_items = 0;  // 0 = automatic; work items per device launch
+};
+
+// One launch: `n_work` work items, each a (cell, batch) pair with its point.
+struct BatchLaunch {
+    const ModelInfo* model = nullptr;
+    int quantity = 0;
+    std::vector<int> options;
+    std::uint32_t method = 0;  // BT_METHOD_* from kernels/common/sampler.h
+    std::uint32_t key0 = 0, key1 = 0;
+    std::size_t stride = 0;
+    std::vector<double> points;  // n_work * stride
+    std::vector<std::uint32_t> cells, batches;
+    std::uint32_t batch_size = 1;
+};
+
+class Backend {
+public:
+    virtual ~Backend() = default;
+    virtual std::string device_name() const = 0;
+    virtual Precision precision() const = 0;
+    // Fills mean[w], m2[w] for every work item.
+    virtual void run(const BatchLaunch& launch, std::vector<double>& mean,
+                     std::vector<double>& m2) = 0;
+    // Suggested work items per launch.
+    virtual std::size_t preferred_slab() const = 0;
+};
+
+// "host" selects the serial C++ reference; anything else selects an OpenCL
+// device (index or name substring; empty = $BRDFTAB_DEVICE or first CPU).
+std::unique_ptr<Backend> make_backend(const std::string& device_selector,
+                                      Precision precision,
+                                      const std::string& kernel_dir = "");
+
+struct Progress {
+    std::size_t cells_total = 0;
+    std::size_t cells_done = 0;      // converged or budget exhausted
+    std::uint64_t samples_done = 0;
+    double elapsed_seconds = 0;
+    double fraction = 0;             // best estimate of work fraction done, 0..1
+};
+using ProgressFn = std::function<void(const Progress&)>;
+
+struct EstimateResult {
+    std::vector<double> value, stderr_;
+    std::vector<std::uint32_t> samples;
+    std::string method;
+    std::uint64_t total_samples = 0;
+    double tolerance_achieved = 0;
+    double elapsed_seconds = 0;
+};
+
+// Supplies the kernel point of a cell (stride = model.point_stride()).
+using PointFn = std::function<void(std::size_t cell, double* point)>;
+
+// Resolve "auto" to the quantity's default; reject impossible combinations
+// (closed-form method for an integral) with InputError.
+std::string resolve_method(const QuantityInfo& q, const std::string& requested);
+
+EstimateResult estimate(Backend& backend, const ModelInfo& model,
+                        const QuantityInfo& quantity, const std::vector<int>& options,
+                        std::size_t cell_count, const PointFn& point_of,
+                        const IntegrationSettings& settings,
+                        const ProgressFn& progress = nullptr);
+
+}  // namespace brdftab

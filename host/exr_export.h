@@ -1,0 +1,27 @@
+// exr_export.h — write a 2-D slice of a table as an OpenEXR image.
+#pragma once
+
+#include <map>
+#include <string>
+
+#include "table.h"
+
+namespace brdftab {
+
+struct ExrExportOptions {
+    // Fixed values for every axis except two; each value must be one of the
+    // axis' nodes (within 1e-9 relative) or an InputError names the nearest.
+    // Axes of size 1 need no entry.
+    std::map<std::string, double> slice;
+    bool half = false;        // HALF channels instead of FLOAT
+    bool with_stderr = true;  // G channel = stderr when the table has it
+};
+
+// Scanline, ZIP compression.  The image's x axis is the last free axis, y the
+// first free axis (row 0 = first node).  Channels: R = value, G = stderr (or
+// 0), B = 0, A = 1, so every loader reads it.  Axis names and ranges go into
+// string attributes.  Written to a temporary file, then renamed.
+void export_exr_slice(const TableData& table, const std::string& out_path,
+                      const ExrExportOptions& options);
+
+}  // namespace brdftab

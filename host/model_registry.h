@@ -1,0 +1,128 @@
+// model_registry.h — what models exist, their quantities, parameters (with
+// allowed ranges), categorical options and implemented equations.
+//
+// Point layout shared with the kernels (kernels/common/estimator.h): each cell
+// is a vector of REALs
+//     [theta_i, phi_i, theta_o, phi_o, <continuous parameters in registry order>]
+// with angles in radians.  Categorical options go to the kernel as ints, in
+// registry order, each the index of the chosen value in `choices`.
+//
+// User-facing coordinate names (CLI `eval`, spec axes), all in degrees except mu:
+//   theta_i, phi_i, theta_o, phi_o   polar angle in [0, 180] from the macro normal
+//                                    (> 90 = below the surface), azimuth
+//   phi_d                            phi_o - phi_i (phi_i then defaults to 0)
+//   mu_i, mu_o                       cos(theta), in [-1, 1]
+#pragma once
+
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "../kernels/common/compat.h"
+#include "../kernels/common/sampler.h"
+
+namespace brdftab {
+
+typedef REAL (*HostSampleFn)(const REAL* point, const int* options, int quantity,
+                             const bt_sampler* sampler);
+
+constexpr int kDirectionSlots = 4;
+
+struct ParameterInfo {
+    std::string name;
+    std::string unit;  // "1", "deg"
+    std::string description;
+    double min = 0, max = 0;
+    bool min_inclusive = true, max_inclusive = true;
+    std::optional<double> default_value;
+    bool in_degrees = false;  // converted to radians before reaching the kernel
+
+    bool accepts(double v) const;
+    std::string range_text() const;  // e.g. "(0, 4]"
+};
+
+struct OptionInfo {
+    std::string name;
+    std::string description;
+    std::vector<std::string> choices;
+    std::string default_choice;
+    int index_of(const std::string& choice) const;  // -1 when absent
+};
+
+enum class QuantityKind { ClosedForm, Integral };
+
+struct QuantityInfo {
+    std::string name;
+    int id = 0;  // the `quantity` argument of the model's sample function
+    std::string description;
+    std::string units;  // "1/sr" or "1"
+    QuantityKind kind = QuantityKind::ClosedForm;
+    std::vector<std::string> directions;  // subset of theta_i, phi_i, theta_o, phi_o it depends on
+    std::vector<std::string> uses_options;  // options that matter (others ignored)
+    std::string equations;                  // e.g. "eqs. 20-21 (Walter 2007)"
+    std::string default_method = "closed-form";  // "closed-form" | "rqmc" | "mc"
+    unsigned dimensions = 0;  // random dimensions per sample (integrals)
+};
+
+struct ModelInfo {
+    std::string name;
+    std::string citation;
+    std::string description;
+    std::string kernel_file;  // relative to kernels/, e.g. "rough_dielectric.cl"
+    std::string kernel_name;  // entry point
+    std::vector<ParameterInfo> parameters;
+    std::vector<OptionInfo> options;
+    std::vector<QuantityInfo> quantities;
+    HostSampleFn host_fn = nullptr;
+
+    const QuantityInfo* find_quantity(const std::string& name) const;
+    const ParameterInfo* find_parameter(const std::string& name) const;
+    const OptionInfo* find_option(const std::string& name) const;
+    // Throwing variants: InputError listing the valid names.
+    const QuantityInfo& quantity(const std::string& name) const;
+    std::size_t point_stride() const { return kDirectionSlots + parameters.size(); }
+};
+
+const std::vector<ModelInfo>& all_models();
+// Throws InputError listing known models.
+const ModelInfo& find_model(const std::string& name);
+
+// Names that can be a spec axis or an `eval` argument for directions.
+bool is_direction_coordinate(const std::string& name);
+// Unit and allowed range of a direction coordinate ("deg", [0,180] etc.).
+std::string direction_unit(const std::string& name);
+bool direction_accepts(const std::string& name, double value);
+std::string direction_range_text(const std::string& name);
+
+// Turns named user values into a kernel point.  `values` maps coordinate and
+// parameter names (user units) to numbers; missing directions default to 0
+// (phi) or must be given when the quantity uses them; missing parameters take
+// their default or raise InputError.  `where` prefixes error messages (e.g.
+// "spec.toml:12: key 'alpha'" or "argument").
+class PointBuilder {
+public:
+    PointBuilder(const ModelInfo& model, const QuantityInfo& quantity);
+    // The names a caller must supply (directions the quantity needs and
+    // parameters without defaults).
+    std::vector<std::string> required_names() const;
+    // Validate a single name/value; returns an error text or empty.
+    std::string check(const std::string& name, double value) const;
+    void build(const std::map<std::string, double>& values, double* out_point) const;
+
+private:
+    const ModelInfo& model_;
+    const QuantityInfo& quantity_;
+};
+
+// Options as kernel ints from a JSON object of name -> choice string; absent
+// options take their default.  Throws InputError on unknown choice.
+std::vector<int> resolve_options(const ModelInfo& model, const nlohmann::json& given,
+                                 const std::string& where);
+
+// JSON description of every model (for `brdftab models --json` and docs).
+nlohmann::json describe_models();
+
+}  // namespace brdftab

@@ -1,0 +1,89 @@
+/*
+ * compat.h — the one set of macros that lets every shared math header compile
+ * both as OpenCL C 1.2 (device) and as C++17 (host serial reference path and
+ * unit tests).  Include it first from every shared header.
+ *
+ * Conventions used by all shared code:
+ *   REAL        the kernel floating type: double by default, float when the
+ *               program is built with -D BT_REAL_IS_FLOAT=1 (`--precision float`).
+ *               The host C++ build always uses double.
+ *   ACCUM       accumulator type for per-batch sums: double whenever the device
+ *               has cl_khr_fp64 (BT_HAS_FP64=1), else float.
+ *   R(x)        a REAL literal: R(0.5).  Bare `0.5` would be a double in OpenCL C
+ *               and needs fp64 even in float mode.
+ *   BT_INLINE   function qualifier for shared functions (static inline).
+ *   uint, ulong the OpenCL fixed-width unsigned types (32 and 64 bit).
+ *   Math calls (sqrt, exp, log, cos, sin, acos, atan2, erf, fabs, fmin, fmax,
+ *   floor, copysign) are written bare: OpenCL provides them as overloaded
+ *   built-ins, and the C++ branch below brings the std:: overloads into scope.
+ *   Shared code never calls pow(): PoCL's pow is ~10x slower than glibc
+ *   (PLATFORM-NOTES.md); integer powers are written as products.
+ */
+#ifndef BRDFTAB_COMPAT_H
+#define BRDFTAB_COMPAT_H
+
+#if defined(__OPENCL_C_VERSION__) || defined(__OPENCL_VERSION__)
+/* ------------------------------------------------------------ OpenCL C */
+#define BT_DEVICE 1
+#if defined(BT_HAS_FP64) && BT_HAS_FP64
+#pragma OPENCL EXTENSION cl_khr_fp64 : enable
+#endif
+#if defined(BT_REAL_IS_FLOAT) && BT_REAL_IS_FLOAT
+typedef float REAL;
+#else
+typedef double REAL;
+#endif
+#if defined(BT_HAS_FP64) && BT_HAS_FP64
+typedef double ACCUM;
+#else
+typedef float ACCUM;
+#endif
+#define BT_INLINE static inline
+#define BT_GLOBAL __global
+#define BT_CONSTANT __constant
+
+#else
+/* ------------------------------------------------------------------ C++ */
+#define BT_DEVICE 0
+#include <cmath>
+#include <cstdint>
+typedef double REAL;
+typedef double ACCUM;
+typedef std::uint32_t uint;
+typedef std::uint64_t ulong;
+#define BT_INLINE static inline
+#define BT_GLOBAL
+#define BT_CONSTANT
+using std::acos;
+using std::atan;
+using std::atan2;
+using std::copysign;
+using std::cos;
+using std::erf;
+using std::exp;
+using std::fabs;
+using std::floor;
+using std::fmax;
+using std::fmin;
+using std::log;
+using std::sin;
+using std::sqrt;
+using std::tan;
+#endif
+
+#define R(x) ((REAL)(x))
+
+/* Constants as REAL.  Written with enough digits for double. */
+#define BT_PI R(3.14159265358979323846)
+#define BT_TWO_PI R(6.28318530717958647692)
+#define BT_INV_PI R(0.31830988618379067154)
+#define BT_HALF_PI R(1.57079632679489661923)
+#define BT_SQRT_PI R(1.77245385090551602730)
+
+BT_INLINE REAL bt_sqr(REAL x) { return x * x; }
+BT_INLINE REAL bt_clamp(REAL x, REAL lo, REAL hi) { return fmin(fmax(x, lo), hi); }
+/* sqrt that tolerates tiny negative arguments produced by rounding. */
+BT_INLINE REAL bt_safe_sqrt(REAL x) { return sqrt(fmax(x, R(0.0))); }
+BT_INLINE REAL bt_safe_acos(REAL x) { return acos(bt_clamp(x, R(-1.0), R(1.0))); }
+
+#endif /* BRDFTAB_COMPAT_H */
