@@ -1,1 +1,417 @@
-// placeholder: implementation pending
+// engine.cpp — backends (OpenCL device, host serial reference) and the
+// per-cell estimation loop with fixed or adaptive budgets.
+#include "engine.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <map>
+
+#include "../kernels/common/estimator.h"
+#include "error.h"
+#include "kernel_sources.h"
+#include "opencl_runtime.h"
+
+namespace brdftab {
+
+const char* precision_name(Precision p) { return p == Precision::Double ? "double" : "float"; }
+
+Precision parse_precision(const std::string& s) {
+    if (s == "double") return Precision::Double;
+    if (s == "float") return Precision::Float;
+    throw InputError("precision '" + s + "' is not valid; allowed: double, float");
+}
+
+namespace {
+
+// ------------------------------------------------------------ host backend
+
+// Serial C++ evaluation of the very same kernel math: the reference path.
+class HostBackend final : public Backend {
+public:
+    std::string device_name() const override { return "host"; }
+    Precision precision() const override { return Precision::Double; }
+    std::size_t preferred_slab() const override { return 1u << 14; }
+
+    void run(const BatchLaunch& l, std::vector<double>& mean,
+             std::vector<double>& m2) override {
+        const std::size_t n = l.cells.size();
+        mean.assign(n, 0.0);
+        m2.assign(n, 0.0);
+        int opts[BT_MAX_OPTIONS] = {0};
+        for (std::size_t k = 0; k < l.options.size() && k < BT_MAX_OPTIONS; ++k)
+            opts[k] = l.options[k];
+        REAL point[BT_MAX_POINT] = {0};
+        for (std::size_t w = 0; w < n; ++w) {
+            std::copy_n(&l.points[w * l.stride], l.stride, point);
+            bt_estimate_batch(l.model->host_fn, point, opts, l.quantity, l.method, l.key0,
+                              l.key1, l.cells[w], l.batches[w], l.batch_size, &mean[w],
+                              &m2[w]);
+        }
+    }
+};
+
+// ---------------------------------------------------------- OpenCL backend
+
+class OpenCLBackend final : public Backend {
+public:
+    OpenCLBackend(const DeviceInfo& device, Precision precision, std::string kernel_dir)
+        : runtime_(device), precision_(precision), kernel_dir_(std::move(kernel_dir)) {
+        if (precision == Precision::Double && !device.has_fp64)
+            throw InputError("device '" + device.name +
+                             "' does not support double precision (cl_khr_fp64); use "
+                             "--precision float");
+    }
+    std::string device_name() const override { return runtime_.device_info().name; }
+    Precision precision() const override { return precision_; }
+    std::size_t preferred_slab() const override { return 1u << 17; }
+
+    void run(const BatchLaunch& l, std::vector<double>& mean,
+             std::vector<double>& m2) override {
+        const std::size_t n = l.cells.size();
+        mean.assign(n, 0.0);
+        m2.assign(n, 0.0);
+        if (n == 0) return;
+        cl::Kernel& kernel = kernel_for(*l.model);
+        const bool real_float = precision_ == Precision::Float;
+        const bool accum_double = runtime_.device_info().has_fp64;
+        try {
+            cl::Context& ctx = runtime_.context();
+            cl::CommandQueue& queue = runtime_.queue();
+            std::vector<float> points_f;
+            cl::Buffer points;
+            if (real_float) {
+                points_f.assign(l.points.begin(), l.points.end());
+                points = cl::Buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR,
+                                    points_f.size() * sizeof(float), points_f.data());
+            } else {
+                points = cl::Buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR,
+                                    l.points.size() * sizeof(double),
+                                    const_cast<double*>(l.points.data()));
+            }
+            std::vector<int> opts = l.options;
+            if (opts.empty()) opts.push_back(0);
+            cl::Buffer options(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR,
+                               opts.size() * sizeof(int), opts.data());
+            cl::Buffer cells(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR,
+                             n * sizeof(std::uint32_t), const_cast<std::uint32_t*>(l.cells.data()));
+            cl::Buffer batches(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR,
+                               n * sizeof(std::uint32_t),
+                               const_cast<std::uint32_t*>(l.batches.data()));
+            const std::size_t accum_size = accum_double ? sizeof(double) : sizeof(float);
+            cl::Buffer out_mean(ctx, CL_MEM_WRITE_ONLY, n * accum_size);
+            cl::Buffer out_m2(ctx, CL_MEM_WRITE_ONLY, n * accum_size);
+            int a = 0;
+            kernel.setArg(a++, points);
+            kernel.setArg(a++, static_cast<cl_uint>(l.stride));
+            kernel.setArg(a++, options);
+            kernel.setArg(a++, static_cast<cl_uint>(l.options.size()));
+            kernel.setArg(a++, static_cast<cl_int>(l.quantity));
+            kernel.setArg(a++, static_cast<cl_uint>(l.method));
+            kernel.setArg(a++, static_cast<cl_uint>(l.key0));
+            kernel.setArg(a++, static_cast<cl_uint>(l.key1));
+            kernel.setArg(a++, cells);
+            kernel.setArg(a++, batches);
+            kernel.setArg(a++, static_cast<cl_uint>(n));
+            kernel.setArg(a++, static_cast<cl_uint>(l.batch_size));
+            kernel.setArg(a++, out_mean);
+            kernel.setArg(a++, out_m2);
+            // Round the global size up to a multiple of 256 so PoCL can choose
+            // a reasonable work-group size (the kernel ignores the padding);
+            // a prime global size would force work-groups of one item.
+            const std::size_t global = (n + 255) / 256 * 256;
+            queue.enqueueNDRangeKernel(kernel, cl::NullRange, cl::NDRange(global),
+                                       cl::NullRange);
+            if (accum_double) {
+                queue.enqueueReadBuffer(out_mean, CL_TRUE, 0, n * sizeof(double), mean.data());
+                queue.enqueueReadBuffer(out_m2, CL_TRUE, 0, n * sizeof(double), m2.data());
+            } else {
+                std::vector<float> tmp(n);
+                queue.enqueueReadBuffer(out_mean, CL_TRUE, 0, n * sizeof(float), tmp.data());
+                std::copy(tmp.begin(), tmp.end(), mean.begin());
+                queue.enqueueReadBuffer(out_m2, CL_TRUE, 0, n * sizeof(float), tmp.data());
+                std::copy(tmp.begin(), tmp.end(), m2.begin());
+            }
+        } catch (const cl::Error& e) {
+            throw OpenCLError(e.what(), e.err(), "while running kernel " + l.model->kernel_name);
+        }
+    }
+
+private:
+    cl::Kernel& kernel_for(const ModelInfo& model) {
+        auto it = kernels_.find(model.kernel_name);
+        if (it != kernels_.end()) return it->second;
+        const std::string source = load_kernel_source(model.kernel_file, kernel_dir_);
+        std::string options = "-cl-std=CL1.2";
+        options += runtime_.device_info().has_fp64 ? " -D BT_HAS_FP64=1" : " -D BT_HAS_FP64=0";
+        if (precision_ == Precision::Float) options += " -D BT_REAL_IS_FLOAT=1";
+        cl::Program program = runtime_.build_program(source, options);
+        try {
+            programs_.push_back(program);
+            return kernels_.emplace(model.kernel_name, cl::Kernel(program, model.kernel_name.c_str()))
+                .first->second;
+        } catch (const cl::Error& e) {
+            throw OpenCLError(e.what(), e.err(), "kernel '" + model.kernel_name + "' in " +
+                                                     model.kernel_file);
+        }
+    }
+
+    ClRuntime runtime_;
+    Precision precision_;
+    std::string kernel_dir_;
+    std::vector<cl::Program> programs_;
+    std::map<std::string, cl::Kernel> kernels_;
+};
+
+// Running statistics of one cell across batches.
+struct CellState {
+    std::uint64_t samples = 0;
+    std::uint32_t batches = 0;
+    double mean = 0, m2 = 0;              // sample level (Chan merge)
+    double batch_mean = 0, batch_m2 = 0;  // batch-mean level (Welford)
+    bool done = false;
+};
+
+void merge_batch(CellState& c, double mean, double m2, std::uint32_t batch_size) {
+    // Chan, Golub & LeVeque: combine (n_a, mean_a, M2_a) with (n_b, mean_b, M2_b).
+    const double na = static_cast<double>(c.samples), nb = batch_size;
+    const double n = na + nb;
+    const double delta = mean - c.mean;
+    c.mean += delta * nb / n;
+    c.m2 += m2 + delta * delta * na * nb / n;
+    c.samples += batch_size;
+    // Welford over batch means (the RQMC error estimate).
+    c.batches += 1;
+    const double d = mean - c.batch_mean;
+    c.batch_mean += d / c.batches;
+    c.batch_m2 += d * (mean - c.batch_mean);
+}
+
+double cell_stderr(const CellState& c, bool rqmc) {
+    if (rqmc) {
+        if (c.batches < 2) return INFINITY;
+        return std::sqrt(c.batch_m2 / (c.batches - 1) / c.batches);
+    }
+    if (c.samples < 2) return INFINITY;
+    return std::sqrt(c.m2 / static_cast<double>(c.samples - 1) / static_cast<double>(c.samples));
+}
+
+std::uint32_t floor_pow2(std::uint64_t x) {
+    std::uint32_t p = 1;
+    while (static_cast<std::uint64_t>(p) * 2 <= x && p < (1u << 30)) p *= 2;
+    return p;
+}
+
+}  // namespace
+
+std::unique_ptr<Backend> make_backend(const std::string& device_selector, Precision precision,
+                                      const std::string& kernel_dir) {
+    if (device_selector == "host") {
+        if (precision != Precision::Double)
+            throw InputError("--device host computes in double only; drop --precision float");
+        return std::make_unique<HostBackend>();
+    }
+    return std::make_unique<OpenCLBackend>(select_device(device_selector), precision,
+                                           kernel_dir);
+}
+
+std::string resolve_method(const QuantityInfo& q, const std::string& requested) {
+    if (requested.empty() || requested == "auto") return q.default_method;
+    if (requested != "closed-form" && requested != "mc" && requested != "rqmc")
+        throw InputError("integration method '" + requested +
+                         "' is not valid; allowed: auto, closed-form, mc, rqmc");
+    if (q.kind == QuantityKind::ClosedForm && requested != "closed-form")
+        throw InputError("quantity '" + q.name +
+                         "' has a closed form; method must be auto or closed-form, not '" +
+                         requested + "'");
+    if (q.kind == QuantityKind::Integral && requested == "closed-form")
+        throw InputError("quantity '" + q.name +
+                         "' is an integral without closed form; method must be auto, mc or rqmc");
+    return requested;
+}
+
+EstimateResult estimate(Backend& backend, const ModelInfo& model, const QuantityInfo& quantity,
+                        const std::vector<int>& options, std::size_t cell_count,
+                        const PointFn& point_of, const IntegrationSettings& settings,
+                        const ProgressFn& progress) {
+    if (!model.host_fn) throw Error("model '" + model.name + "' has no sample function");
+    if (cell_count > 0xFFFFFFFFull)
+        throw InputError("table has " + std::to_string(cell_count) +
+                         " cells; at most 2^32 - 1 are supported");
+    const auto start = std::chrono::steady_clock::now();
+    auto elapsed = [&] {
+        return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    };
+
+    EstimateResult result;
+    result.method = resolve_method(quantity, settings.method);
+    const bool closed = result.method == "closed-form";
+    const bool rqmc = result.method == "rqmc";
+    const bool adaptive = !closed && settings.tolerance > 0;
+    if (adaptive && !(settings.tolerance < 1))
+        throw InputError("tolerance must be in (0, 1)");
+
+    BatchLaunch launch;
+    launch.model = &model;
+    launch.quantity = quantity.id;
+    launch.options = options;
+    launch.method = closed ? BT_METHOD_CLOSED : rqmc ? BT_METHOD_RQMC : BT_METHOD_MC;
+    launch.key0 = static_cast<std::uint32_t>(settings.seed);
+    launch.key1 = static_cast<std::uint32_t>(settings.seed >> 32);
+    launch.stride = model.point_stride();
+
+    // Budget.  RQMC batches are independently scrambled point sets whose size
+    // is a power of two (Sobol nets are balanced there); at least 4 batches give
+    // a usable error estimate.  MC batches are plain chunks of the sample stream.
+    const std::uint64_t first_budget = settings.samples ? settings.samples : 4096;
+    std::uint32_t batch_size = 1;
+    std::uint32_t first_batches = 1;
+    if (!closed) {
+        if (settings.batch_size) {
+            batch_size = settings.batch_size;
+        } else if (rqmc) {
+            batch_size = std::max<std::uint32_t>(1, std::min<std::uint32_t>(
+                                                        floor_pow2(first_budget / 8), 8192));
+        } else {
+            batch_size = static_cast<std::uint32_t>(std::min<std::uint64_t>(first_budget, 4096));
+        }
+        first_batches = static_cast<std::uint32_t>((first_budget + batch_size - 1) / batch_size);
+        if (rqmc) first_batches = std::max<std::uint32_t>(first_batches, 4);
+    }
+    const std::uint64_t max_samples =
+        adaptive ? std::max<std::uint64_t>(settings.max_samples,
+                                           static_cast<std::uint64_t>(first_batches) * batch_size)
+                 : static_cast<std::uint64_t>(first_batches) * batch_size;
+    const std::uint32_t max_batches =
+        static_cast<std::uint32_t>(std::min<std::uint64_t>(max_samples / batch_size, 0xFFFFFFFFu));
+    launch.batch_size = batch_size;
+
+    std::vector<CellState> cells(cell_count);
+    const std::size_t slab = settings.slab_work_items ? settings.slab_work_items
+                                                       : backend.preferred_slab();
+    std::vector<double> slab_mean, slab_m2;
+    std::vector<double> point(launch.stride);
+
+    Progress prog;
+    prog.cells_total = cell_count;
+    // Per-cell batches wanted this round (0 = cell done).
+    std::vector<std::uint32_t> wanted(cell_count, first_batches);
+    // Batches handed out so far per cell: the next batch's index.  (A cell's
+    // batches may straddle two slabs, so the merged count cannot serve.)
+    std::vector<std::uint32_t> issued(cell_count, 0);
+    std::uint64_t total_work_estimate = static_cast<std::uint64_t>(cell_count) * first_batches;
+    std::uint64_t work_done = 0;
+
+    for (int round = 0;; ++round) {
+        // Work list of this round, ordered by (cell, batch), so every cell
+        // merges its batches in batch order whatever the slab size.
+        std::size_t cell_cursor = 0;
+        std::uint32_t batch_cursor = 0;
+        auto advance_to_work = [&] {
+            while (cell_cursor < cell_count && batch_cursor >= wanted[cell_cursor]) {
+                ++cell_cursor;
+                batch_cursor = 0;
+            }
+        };
+        advance_to_work();
+        if (cell_cursor >= cell_count) break;
+        while (cell_cursor < cell_count) {
+            launch.cells.clear();
+            launch.batches.clear();
+            launch.points.clear();
+            std::size_t last_cell = static_cast<std::size_t>(-1);
+            while (cell_cursor < cell_count && launch.cells.size() < slab) {
+                if (cell_cursor != last_cell) {
+                    point_of(cell_cursor, point.data());
+                    last_cell = cell_cursor;
+                }
+                launch.cells.push_back(static_cast<std::uint32_t>(cell_cursor));
+                launch.batches.push_back(issued[cell_cursor]++);
+                launch.points.insert(launch.points.end(), point.begin(), point.end());
+                ++batch_cursor;
+                advance_to_work();
+            }
+            backend.run(launch, slab_mean, slab_m2);
+            for (std::size_t w = 0; w < launch.cells.size(); ++w)
+                merge_batch(cells[launch.cells[w]], slab_mean[w], slab_m2[w], batch_size);
+            work_done += launch.cells.size();
+            if (progress) {
+                prog.samples_done = work_done * batch_size;
+                prog.elapsed_seconds = elapsed();
+                prog.fraction = std::min(1.0, static_cast<double>(work_done) /
+                                                  static_cast<double>(std::max<std::uint64_t>(
+                                                      total_work_estimate, 1)));
+                progress(prog);
+            }
+        }
+        // Decide which cells continue.
+        std::uint64_t next_work = 0;
+        std::size_t done = 0;
+        for (std::size_t c = 0; c < cell_count; ++c) {
+            CellState& s = cells[c];
+            wanted[c] = 0;
+            if (s.done) {
+                ++done;
+                continue;
+            }
+            if (!adaptive || s.batches >= max_batches) {
+                s.done = true;
+                ++done;
+                continue;
+            }
+            const double se = cell_stderr(s, rqmc);
+            const double target = std::max(settings.tolerance * std::fabs(s.mean), settings.abs_floor);
+            if (se <= target) {
+                s.done = true;
+                ++done;
+                continue;
+            }
+            // The error falls as 1/sqrt(batches): ask for the total that should
+            // meet the target (+10 %), but at least double and at most 16x the
+            // current count per round, so a noisy early estimate cannot explode
+            // the budget.
+            const double ratio = se / target;
+            double need = std::ceil(s.batches * ratio * ratio * 1.1);
+            need = std::clamp(need, 2.0 * s.batches, 16.0 * s.batches);
+            const std::uint32_t more = static_cast<std::uint32_t>(
+                std::min<double>(need, max_batches) - s.batches);
+            wanted[c] = more;
+            next_work += more;
+        }
+        prog.cells_done = done;
+        total_work_estimate = work_done + next_work;
+        if (next_work == 0) break;
+    }
+
+    result.value.resize(cell_count);
+    result.stderr_.resize(cell_count);
+    result.samples.resize(cell_count);
+    double worst = 0;
+    std::size_t unconverged = 0;
+    for (std::size_t c = 0; c < cell_count; ++c) {
+        const CellState& s = cells[c];
+        // RQMC: the mean of the batch means is the estimator whose error we report.
+        result.value[c] = rqmc ? s.batch_mean : s.mean;
+        result.stderr_[c] = closed ? 0.0 : cell_stderr(s, rqmc);
+        result.samples[c] = static_cast<std::uint32_t>(std::min<std::uint64_t>(s.samples, 0xFFFFFFFFu));
+        result.total_samples += s.samples;
+        const double rel = result.stderr_[c] / std::max(std::fabs(result.value[c]), settings.abs_floor);
+        worst = std::max(worst, rel);
+        if (adaptive &&
+            result.stderr_[c] > std::max(settings.tolerance * std::fabs(result.value[c]), settings.abs_floor))
+            ++unconverged;
+    }
+    result.tolerance_achieved = worst;
+    result.cells_unconverged = unconverged;
+    result.elapsed_seconds = elapsed();
+    if (progress) {
+        prog.cells_done = cell_count;
+        prog.fraction = 1.0;
+        prog.elapsed_seconds = result.elapsed_seconds;
+        prog.samples_done = result.total_samples;
+        progress(prog);
+    }
+    return result;
+}
+
+}  // namespace brdftab

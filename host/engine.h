@@ -33,7 +33,7 @@ struct IntegrationSettings {
     std::string method = "auto";      // auto | closed-form | mc | rqmc
     std::uint64_t samples = 0;        // fixed budget per cell (0 = default 4096) unless tolerance > 0
     double tolerance = 0;             // > 0: adaptive, relative
-    double abs_floor = 1e-6;          // stderr target = max(tolerance*|mean|, tolerance*abs_floor)
+    double abs_floor = 1e-6;          // a cell is done when stderr <= max(tolerance*|mean|, abs_floor)
     std::uint64_t max_samples = 1u << 22;  // cap under --tolerance
     std::uint64_t seed = 1;
     std::uint32_t batch_size = 0;     // 0 = automatic
@@ -85,7 +85,10 @@ struct EstimateResult {
     std::vector<std::uint32_t> samples;
     std::string method;
     std::uint64_t total_samples = 0;
+    // max over cells of stderr / max(|value|, abs_floor)
     double tolerance_achieved = 0;
+    // cells that hit max_samples before meeting the tolerance (adaptive runs)
+    std::size_t cells_unconverged = 0;
     double elapsed_seconds = 0;
 };
 

@@ -1,1 +1,222 @@
-// placeholder: implementation pending
+// exr_export.cpp — one 2-D slice of a table as a scanline OpenEXR image.
+//
+// Scanline + ZIP + R/G/B/A in HALF or FLOAT is the combination every EXR
+// loader reads (tinyexr included); DWA/B44 would be lossy and are not used.
+#include "exr_export.h"
+
+#include <ImfChannelList.h>
+#include <ImfFrameBuffer.h>
+#include <ImfHeader.h>
+#include <ImfOutputFile.h>
+#include <ImfStringAttribute.h>
+#include <Imath/half.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <exception>
+#include <sstream>
+#include <unistd.h>
+#include <vector>
+
+#include "error.h"
+
+#ifndef BRDFTAB_VERSION
+#define BRDFTAB_VERSION "unknown"
+#endif
+
+namespace brdftab {
+namespace {
+
+std::string num(double v) {
+    std::ostringstream s;
+    s.precision(12);  // enough to paste back within the 1e-9 node tolerance
+    s << v;
+    return s.str();
+}
+
+std::string axis_label(const Axis& a) {
+    std::string unit = a.unit.empty() || a.unit == "1" ? "" : " " + a.unit;
+    return a.name + " [" + num(a.min) + ", " + num(a.max) + "]" + unit + ", " +
+           std::to_string(a.count) + " nodes, " + spacing_name(a.spacing);
+}
+
+// Index of the node equal to `v`.  "Equal" is within 1e-9 of the larger of
+// the node's magnitude and the axis span, so nodes at 0 can be matched too.
+std::size_t find_node(const Axis& a, double v) {
+    const double span = std::fabs(a.max - a.min);
+    for (std::size_t k = 0; k < a.values.size(); ++k) {
+        const double node = a.values[k];
+        if (std::fabs(node - v) <= 1e-9 * std::max({std::fabs(node), span, 1e-300})) return k;
+    }
+    // Not a node: name the bracketing nodes (or the end node when outside).
+    std::string near;
+    auto hi = std::lower_bound(a.values.begin(), a.values.end(), v);
+    if (hi == a.values.begin())
+        near = num(a.values.front());
+    else if (hi == a.values.end())
+        near = num(a.values.back());
+    else
+        near = num(*(hi - 1)) + " and " + num(*hi);
+    throw InputError("slice " + a.name + "=" + num(v) + " is not a node of axis '" + a.name +
+                     "' (" + num(a.min) + " to " + num(a.max) +
+                     (a.unit.empty() ? "" : " " + a.unit) + ", " + std::to_string(a.count) +
+                     " nodes); nearest node" + (near.find(" and ") != std::string::npos ? "s: " : ": ") +
+                     near);
+}
+
+std::string join_names(const std::vector<std::size_t>& idx, const std::vector<Axis>& axes) {
+    std::string s;
+    for (std::size_t i : idx) s += (s.empty() ? "" : ", ") + axes[i].name;
+    return s.empty() ? "none" : s;
+}
+
+class TempFile {
+public:
+    explicit TempFile(std::string path) : path_(std::move(path)) {}
+    ~TempFile() {
+        if (!committed_) std::remove(path_.c_str());
+    }
+    const std::string& path() const { return path_; }
+    void commit() { committed_ = true; }
+
+private:
+    std::string path_;
+    bool committed_ = false;
+};
+
+}  // namespace
+
+void export_exr_slice(const TableData& table, const std::string& out_path,
+                      const ExrExportOptions& options) {
+    const std::vector<Axis>& axes = table.axes;
+    const std::string where = "EXR export of table '" + table.name + "': ";
+    if (table.value.size() != table.cell_count())
+        throw Error(where + "value has " + std::to_string(table.value.size()) +
+                    " entries, the axes need " + std::to_string(table.cell_count()));
+    for (const Axis& a : axes)
+        if (a.values.size() != a.count)
+            throw Error(where + "axis '" + a.name + "' has count " + std::to_string(a.count) +
+                        " but " + std::to_string(a.values.size()) + " node values");
+
+    // Every slice key must name an axis.
+    for (const auto& [key, value] : options.slice) {
+        (void)value;
+        bool known = std::any_of(axes.begin(), axes.end(),
+                                 [&](const Axis& a) { return a.name == key; });
+        if (!known) {
+            std::string all;
+            for (const Axis& a : axes) all += (all.empty() ? "" : ", ") + a.name;
+            throw InputError(where + "--slice names unknown axis '" + key + "' (axes: " + all +
+                             ")");
+        }
+    }
+
+    // Fixed index per axis; free axes are those of count > 1 not in the slice.
+    std::vector<std::size_t> index(axes.size(), 0);
+    std::vector<std::size_t> free_axes;
+    for (std::size_t i = 0; i < axes.size(); ++i) {
+        auto it = options.slice.find(axes[i].name);
+        if (it != options.slice.end())
+            index[i] = find_node(axes[i], it->second);
+        else if (axes[i].count > 1)
+            free_axes.push_back(i);
+    }
+    if (free_axes.size() != 2) {
+        std::vector<std::size_t> multi;
+        for (std::size_t i = 0; i < axes.size(); ++i)
+            if (axes[i].count > 1) multi.push_back(i);
+        throw InputError(where + "an image needs exactly two free axes, got " +
+                         std::to_string(free_axes.size()) + " (" +
+                         join_names(free_axes, axes) + "); fix all but two of the axes " +
+                         join_names(multi, axes) + " with axis=value");
+    }
+    const std::size_t ay = free_axes[0], ax = free_axes[1];
+    const int width = static_cast<int>(axes[ax].count);
+    const int height = static_cast<int>(axes[ay].count);
+    const bool have_stderr = options.with_stderr && !table.stderr_.empty() &&
+                             table.stderr_.size() == table.value.size();
+
+    // Gather the slice (y rows, x fastest) in double first.
+    const std::size_t npix = static_cast<std::size_t>(width) * static_cast<std::size_t>(height);
+    std::vector<double> r(npix), g(npix, 0.0);
+    for (int y = 0; y < height; ++y)
+        for (int x = 0; x < width; ++x) {
+            index[ay] = static_cast<std::size_t>(y);
+            index[ax] = static_cast<std::size_t>(x);
+            const std::size_t c = table.flat_index(index);
+            const std::size_t p = static_cast<std::size_t>(y) * width + x;
+            r[p] = table.value[c];
+            if (have_stderr) g[p] = table.stderr_[c];
+        }
+
+    Imf::Header header(width, height);
+    header.compression() = Imf::ZIP_COMPRESSION;
+    const Imf::PixelType pt = options.half ? Imf::HALF : Imf::FLOAT;
+    for (const char* ch : {"R", "G", "B", "A"}) header.channels().insert(ch, Imf::Channel(pt));
+
+    std::string slice_desc;
+    for (std::size_t i = 0; i < axes.size(); ++i) {
+        if (i == ax || i == ay) continue;
+        slice_desc += (slice_desc.empty() ? "" : ", ") + axes[i].name + "=" +
+                      num(axes[i].values[index[i]]) +
+                      (axes[i].unit.empty() || axes[i].unit == "1" ? "" : " " + axes[i].unit);
+    }
+    auto put = [&](const char* key, const std::string& v) {
+        header.insert(key, Imf::StringAttribute(v));
+    };
+    put("brdftab_table", table.name);
+    put("brdftab_model", table.model);
+    put("brdftab_quantity", table.quantity);
+    put("brdftab_units", table.units);
+    put("brdftab_x_axis", axis_label(axes[ax]));
+    put("brdftab_y_axis", axis_label(axes[ay]) + " (row 0 = first node)");
+    put("brdftab_slice", slice_desc.empty() ? "none" : slice_desc);
+    put("brdftab_channels",
+        std::string("R=value G=") + (have_stderr ? "stderr" : "0") + " B=0 A=1");
+    put("brdftab_version", BRDFTAB_VERSION);
+
+    // The frame-buffer slice type must equal the channel type, so HALF
+    // channels get half data converted here (round to nearest via float).
+    std::vector<float> fr, fg, fb(npix, 0.0f), fa(npix, 1.0f);
+    std::vector<Imath::half> hr, hg, hb(npix, Imath::half(0.0f)), ha(npix, Imath::half(1.0f));
+    Imf::FrameBuffer fbuf;
+    auto add = [&](const char* ch, char* base, std::size_t elem) {
+        fbuf.insert(ch, Imf::Slice(pt, base, elem, elem * static_cast<std::size_t>(width)));
+    };
+    if (options.half) {
+        auto to_h = [](double v) { return Imath::half(static_cast<float>(v)); };
+        hr.resize(npix);
+        hg.resize(npix);
+        std::transform(r.begin(), r.end(), hr.begin(), to_h);
+        std::transform(g.begin(), g.end(), hg.begin(), to_h);
+        add("R", reinterpret_cast<char*>(hr.data()), sizeof(Imath::half));
+        add("G", reinterpret_cast<char*>(hg.data()), sizeof(Imath::half));
+        add("B", reinterpret_cast<char*>(hb.data()), sizeof(Imath::half));
+        add("A", reinterpret_cast<char*>(ha.data()), sizeof(Imath::half));
+    } else {
+        fr.assign(r.begin(), r.end());
+        fg.assign(g.begin(), g.end());
+        add("R", reinterpret_cast<char*>(fr.data()), sizeof(float));
+        add("G", reinterpret_cast<char*>(fg.data()), sizeof(float));
+        add("B", reinterpret_cast<char*>(fb.data()), sizeof(float));
+        add("A", reinterpret_cast<char*>(fa.data()), sizeof(float));
+    }
+
+    TempFile tmp(out_path + ".tmp-" + std::to_string(static_cast<long>(::getpid())));
+    try {
+        Imf::OutputFile file(tmp.path().c_str(), header);
+        file.setFrameBuffer(fbuf);
+        file.writePixels(height);
+    } catch (const std::exception& e) {
+        throw Error("cannot write EXR '" + out_path + "': " + e.what());
+    }
+    if (std::rename(tmp.path().c_str(), out_path.c_str()) != 0)
+        throw Error("cannot rename '" + tmp.path() + "' to '" + out_path +
+                    "': " + std::strerror(errno));
+    tmp.commit();
+}
+
+}  // namespace brdftab

@@ -1,1 +1,123 @@
-// placeholder: implementation pending
+// host_models.cpp — the model entries of the registry, and the host (C++)
+// compilation of each model's kernel math, which is the serial reference path
+// (`--device host`) and what the unit tests exercise.
+//
+// Adding a model: write kernels/models/<model>.h (sample function) and
+// kernels/<model>.cl (entry kernel), then add an entry below.
+#include "model_registry.h"
+
+namespace brdftab::detail {
+
+// Host compilations of the models' sample functions (host_kernels.cpp).
+REAL host_rough_dielectric_sample(const REAL* point, const int* options, int quantity,
+                                  const bt_sampler* sampler);
+
+namespace {
+
+ModelInfo rough_dielectric_model() {
+    ModelInfo m;
+    m.name = "rough-dielectric";
+    m.citation =
+        "B. Walter, S. R. Marschner, H. Li, K. E. Torrance. Microfacet Models for "
+        "Refraction through Rough Surfaces. Eurographics Symposium on Rendering, 2007.";
+    m.description =
+        "Rough dielectric interface (glass, water, varnish): microfacet reflection and "
+        "transmission with exact dielectric Fresnel, Beckmann/GGX/Phong normal "
+        "distributions and Smith shadowing. Light may arrive from either side.";
+    m.kernel_file = "rough_dielectric.cl";
+    m.kernel_name = "rough_dielectric_estimate";
+
+    ParameterInfo alpha;
+    alpha.name = "alpha";
+    alpha.unit = "1";
+    alpha.description = "roughness (Beckmann/GGX alpha; Phong uses alpha_p = 2/alpha^2 - 2)";
+    alpha.min = 0;
+    alpha.min_inclusive = false;
+    alpha.max = 4;
+    ParameterInfo eta;
+    eta.name = "eta";
+    eta.unit = "1";
+    eta.description = "index of refraction, interior / exterior (may be < 1)";
+    eta.min = 0;
+    eta.min_inclusive = false;
+    eta.max = 10;
+    m.parameters = {alpha, eta};
+
+    m.options = {
+        {"distribution", "microfacet normal distribution", {"beckmann", "ggx", "phong"}, "ggx"},
+        {"g1",
+         "Smith masking: exact, or Walter's rational fit (eq. 27; Beckmann and Phong only)",
+         {"smith", "walter-fit"},
+         "smith"},
+        {"shadowing",
+         "G from G1: separable G1(i)G1(o) (eq. 23), or height-correlated 1/(1+L(i)+L(o))",
+         {"separable", "height-correlated"},
+         "separable"},
+        {"lobe", "albedo_avg: which lobes are counted", {"both", "reflection", "transmission"},
+         "both"},
+        {"side", "albedo_avg: light arriving from outside (above) or inside (below)",
+         {"outside", "inside"},
+         "outside"},
+    };
+
+    const std::vector<std::string> all_dirs = {"theta_i", "phi_i", "theta_o", "phi_o"};
+    const std::vector<std::string> shape_opts = {"distribution", "g1", "shadowing"};
+    auto closed = [&](const char* name, int id, const char* desc, const char* eqs) {
+        QuantityInfo q;
+        q.name = name;
+        q.id = id;
+        q.description = desc;
+        q.units = "1/sr";
+        q.kind = QuantityKind::ClosedForm;
+        q.directions = all_dirs;
+        q.uses_options = shape_opts;
+        q.equations = eqs;
+        q.default_method = "closed-form";
+        return q;
+    };
+    auto integral = [&](const char* name, int id, const char* desc, const char* eqs,
+                        std::vector<std::string> dirs, std::vector<std::string> opts,
+                        unsigned dims) {
+        QuantityInfo q;
+        q.name = name;
+        q.id = id;
+        q.description = desc;
+        q.units = "1";
+        q.kind = QuantityKind::Integral;
+        q.directions = std::move(dirs);
+        q.uses_options = std::move(opts);
+        q.equations = eqs;
+        q.default_method = "rqmc";
+        q.dimensions = dims;
+        return q;
+    };
+    // ids: the `quantity` switch of rough_dielectric_sample (kernels/models/rough_dielectric.h)
+    m.quantities = {
+        closed("brdf", 0, "reflection f_r (0 when i and o are on opposite sides)",
+               "eqs. 13, 20 (h_r, f_r), 5 (Fresnel), 23 (G)"),
+        closed("btdf", 1, "transmission f_t (0 when i and o are on the same side)",
+               "eqs. 16, 21 (h_t, f_t), 5, 23"),
+        closed("bsdf", 2, "f_r or f_t, whichever applies to the pair of sides",
+               "eqs. 20-21"),
+        integral("albedo_r", 3,
+                 "directional reflectance: integral of f_r cos(theta_o) over outgoing directions",
+                 "eqs. 38-41 (sampling m ~ D|m.n|, weight)", {"theta_i"}, shape_opts, 2),
+        integral("albedo_t", 4,
+                 "directional transmittance: integral of f_t |cos(theta_o)| over outgoing "
+                 "directions",
+                 "eqs. 38-41", {"theta_i"}, shape_opts, 2),
+        integral("albedo_avg", 5,
+                 "cosine-weighted hemispherical average of the directional albedo, "
+                 "2 * int E(mu) mu dmu, for the chosen lobe(s) and side",
+                 "eqs. 38-41", {},
+                 {"distribution", "g1", "shadowing", "lobe", "side"}, 3),
+    };
+    m.host_fn = &host_rough_dielectric_sample;
+    return m;
+}
+
+}  // namespace
+
+std::vector<ModelInfo> build_model_list() { return {rough_dielectric_model()}; }
+
+}  // namespace brdftab::detail

@@ -1,1 +1,205 @@
-// placeholder: implementation pending
+// kernel_sources.cpp — include resolution over the embedded kernel table (or a
+// kernel directory on disk), producing one self-contained OpenCL C source.
+//
+// Why textual inclusion instead of clCompileProgram with a header list: PoCL
+// never caches programs built from in-memory headers, and `-I` cannot carry
+// paths with spaces (PLATFORM-NOTES.md).  One flat source with `#line`
+// markers builds from PoCL's cache and still reports errors against the real
+// file and line.
+#include "kernel_sources.h"
+
+#include <fstream>
+#include <map>
+#include <set>
+#include <sstream>
+#include <sys/stat.h>
+
+#include "error.h"
+
+namespace brdftab {
+namespace detail {
+// Defined in the generated build/generated/embedded_kernels.cpp
+// (cmake/EmbedKernelsScript.cmake); key = path relative to kernels/.
+const std::map<std::string, std::string>& embedded_kernel_map();
+}  // namespace detail
+
+namespace {
+
+// Lexically normalise a '/'-separated relative path: drop "." and empty
+// components, resolve "..".  Returns false when the path is absolute or
+// climbs above the kernel root, so such an include can never name a file
+// outside kernels/.
+bool normalise(const std::string& path, std::string& out) {
+    if (path.empty() || path[0] == '/') return false;
+    std::vector<std::string> parts;
+    std::size_t start = 0;
+    while (start <= path.size()) {
+        std::size_t slash = path.find('/', start);
+        if (slash == std::string::npos) slash = path.size();
+        std::string part = path.substr(start, slash - start);
+        start = slash + 1;
+        if (part.empty() || part == ".") continue;
+        if (part == "..") {
+            if (parts.empty()) return false;
+            parts.pop_back();
+        } else {
+            parts.push_back(part);
+        }
+    }
+    if (parts.empty()) return false;
+    out.clear();
+    for (std::size_t i = 0; i < parts.size(); ++i) {
+        if (i) out += '/';
+        out += parts[i];
+    }
+    return true;
+}
+
+std::string directory_of(const std::string& path) {
+    std::size_t slash = path.rfind('/');
+    return slash == std::string::npos ? std::string() : path.substr(0, slash + 1);
+}
+
+bool is_regular_file(const std::string& path) {
+    struct stat st;
+    return ::stat(path.c_str(), &st) == 0 && S_ISREG(st.st_mode);
+}
+
+bool is_directory(const std::string& path) {
+    struct stat st;
+    return ::stat(path.c_str(), &st) == 0 && S_ISDIR(st.st_mode);
+}
+
+// Where kernel files come from: the embedded table or a directory.
+class SourceStore {
+public:
+    explicit SourceStore(const std::string& kernel_dir) : dir_(kernel_dir) {
+        if (!dir_.empty() && dir_.back() != '/') dir_ += '/';
+    }
+    bool from_disk() const { return !dir_.empty(); }
+    const std::string& dir() const { return dir_; }
+
+    bool exists(const std::string& rel) const {
+        if (!from_disk()) return detail::embedded_kernel_map().count(rel) != 0;
+        return is_regular_file(dir_ + rel);
+    }
+
+    std::string read(const std::string& rel) const {
+        if (!from_disk()) return detail::embedded_kernel_map().at(rel);
+        std::ifstream in(dir_ + rel, std::ios::binary);
+        if (!in) throw InputError("cannot read kernel file '" + dir_ + rel + "'");
+        std::ostringstream ss;
+        ss << in.rdbuf();
+        return ss.str();
+    }
+
+private:
+    std::string dir_;
+};
+
+// If `line` is a `#include "name"` directive, store name and return true.
+// Angle-bracket includes and anything else return false (left untouched).
+bool parse_quoted_include(const std::string& line, std::string& name) {
+    std::size_t i = 0, n = line.size();
+    auto skip_blank = [&] {
+        while (i < n && (line[i] == ' ' || line[i] == '\t')) ++i;
+    };
+    skip_blank();
+    if (i >= n || line[i] != '#') return false;
+    ++i;
+    skip_blank();
+    if (line.compare(i, 7, "include") != 0) return false;
+    i += 7;
+    skip_blank();
+    if (i >= n || line[i] != '"') return false;
+    std::size_t close = line.find('"', i + 1);
+    if (close == std::string::npos) return false;
+    name = line.substr(i + 1, close - i - 1);
+    return !name.empty();
+}
+
+std::string line_marker(std::size_t line, const std::string& rel) {
+    return "#line " + std::to_string(line) + " \"kernels/" + rel + "\"\n";
+}
+
+// Appends `rel` (already normalised and known to exist) to `out`, inlining
+// its quoted includes depth-first.  `seen` holds every file already emitted:
+// a second include of the same file becomes a comment, which keeps the line
+// count (so no marker is needed) and stops include cycles.
+// Limitation: an include inside `#if 0` or a block comment is still inlined
+// here; our kernels do not do that.
+void expand(const SourceStore& store, const std::string& rel, std::set<std::string>& seen,
+            std::string& out) {
+    seen.insert(rel);
+    out += line_marker(1, rel);
+    const std::string text = store.read(rel);
+    std::size_t pos = 0, line_no = 0;
+    while (pos < text.size()) {
+        std::size_t eol = text.find('\n', pos);
+        const bool has_newline = eol != std::string::npos;
+        if (!has_newline) eol = text.size();
+        std::string line = text.substr(pos, eol - pos);
+        pos = eol + 1;
+        ++line_no;
+
+        std::string stripped = line;
+        if (!stripped.empty() && stripped.back() == '\r') stripped.pop_back();
+        std::string name;
+        if (!parse_quoted_include(stripped, name)) {
+            out += line;
+            out += '\n';
+            continue;
+        }
+        // Relative to the including file first, then to the kernel root —
+        // the same order a C preprocessor uses for quoted includes with
+        // -I kernels/.
+        std::string target, candidate;
+        if (normalise(directory_of(rel) + name, candidate) && store.exists(candidate)) {
+            target = candidate;
+        } else if (normalise(name, candidate) && store.exists(candidate)) {
+            target = candidate;
+        }
+        if (target.empty()) {
+            std::string where = store.from_disk() ? "in kernel directory '" + store.dir() + "'"
+                                                  : "among the embedded kernel sources";
+            std::string msg = "kernels/" + rel + ":" + std::to_string(line_no) +
+                              ": included file \"" + name + "\" not found " + where;
+            if (store.from_disk()) throw InputError(msg);
+            throw Error(msg);
+        }
+        if (seen.count(target)) {
+            out += "/* #include \"" + name + "\": already included */\n";
+            continue;
+        }
+        expand(store, target, seen, out);
+        if (!out.empty() && out.back() != '\n') out += '\n';
+        out += line_marker(line_no + 1, rel);
+    }
+}
+
+}  // namespace
+
+std::vector<std::string> embedded_kernel_files() {
+    std::vector<std::string> files;
+    for (const auto& entry : detail::embedded_kernel_map()) files.push_back(entry.first);
+    return files;
+}
+
+std::string load_kernel_source(const std::string& relative_path, const std::string& kernel_dir) {
+    SourceStore store(kernel_dir);
+    if (store.from_disk() && !is_directory(kernel_dir))
+        throw InputError("kernel directory '" + kernel_dir + "' does not exist");
+    std::string rel;
+    if (!normalise(relative_path, rel) || !store.exists(rel)) {
+        if (store.from_disk())
+            throw InputError("kernel file '" + relative_path + "' not found in kernel directory '" +
+                             kernel_dir + "'");
+        throw Error("kernel file '" + relative_path + "' is not among the embedded kernel sources");
+    }
+    std::set<std::string> seen;
+    std::string out;
+    expand(store, rel, seen, out);
+    return out;
+}
+
+}  // namespace brdftab

@@ -1,1 +1,272 @@
-// placeholder: implementation pending
+// model_registry.cpp — generic registry machinery (lookups, validation, point
+// building).  The model entries themselves live in host_models.cpp, next to
+// the host compilation of their kernels.
+#include "model_registry.h"
+
+#include <cmath>
+#include <sstream>
+
+#include "error.h"
+
+namespace brdftab {
+
+namespace detail {
+// Defined in host_models.cpp.
+std::vector<ModelInfo> build_model_list();
+}  // namespace detail
+
+namespace {
+
+constexpr double kDegToRad = 3.14159265358979323846 / 180.0;
+
+std::string join(const std::vector<std::string>& items, const char* sep = ", ") {
+    std::string out;
+    for (std::size_t k = 0; k < items.size(); ++k) {
+        if (k) out += sep;
+        out += items[k];
+    }
+    return out;
+}
+
+std::string format_number(double v) {
+    std::ostringstream s;
+    s.precision(10);
+    s << v;
+    return s.str();
+}
+
+}  // namespace
+
+bool ParameterInfo::accepts(double v) const {
+    if (!std::isfinite(v)) return false;
+    if (min_inclusive ? v < min : v <= min) return false;
+    if (max_inclusive ? v > max : v >= max) return false;
+    return true;
+}
+
+std::string ParameterInfo::range_text() const {
+    return std::string(min_inclusive ? "[" : "(") + format_number(min) + ", " +
+           format_number(max) + (max_inclusive ? "]" : ")") +
+           (unit.empty() || unit == "1" ? "" : " " + unit);
+}
+
+int OptionInfo::index_of(const std::string& choice) const {
+    for (std::size_t k = 0; k < choices.size(); ++k)
+        if (choices[k] == choice) return static_cast<int>(k);
+    return -1;
+}
+
+const QuantityInfo* ModelInfo::find_quantity(const std::string& n) const {
+    for (const auto& q : quantities)
+        if (q.name == n) return &q;
+    return nullptr;
+}
+const ParameterInfo* ModelInfo::find_parameter(const std::string& n) const {
+    for (const auto& p : parameters)
+        if (p.name == n) return &p;
+    return nullptr;
+}
+const OptionInfo* ModelInfo::find_option(const std::string& n) const {
+    for (const auto& o : options)
+        if (o.name == n) return &o;
+    return nullptr;
+}
+
+const QuantityInfo& ModelInfo::quantity(const std::string& n) const {
+    if (const QuantityInfo* q = find_quantity(n)) return *q;
+    std::vector<std::string> names;
+    for (const auto& q : quantities) names.push_back(q.name);
+    throw InputError("model '" + name + "' has no quantity '" + n +
+                     "'; allowed: " + join(names));
+}
+
+const std::vector<ModelInfo>& all_models() {
+    static const std::vector<ModelInfo> models = detail::build_model_list();
+    return models;
+}
+
+const ModelInfo& find_model(const std::string& name) {
+    std::vector<std::string> names;
+    for (const auto& m : all_models()) {
+        if (m.name == name) return m;
+        names.push_back(m.name);
+    }
+    throw InputError("unknown model '" + name + "'; allowed: " + join(names));
+}
+
+// ---------------------------------------------------------------- directions
+
+bool is_direction_coordinate(const std::string& n) {
+    return n == "theta_i" || n == "phi_i" || n == "theta_o" || n == "phi_o" ||
+           n == "phi_d" || n == "mu_i" || n == "mu_o";
+}
+
+std::string direction_unit(const std::string& n) {
+    return (n == "mu_i" || n == "mu_o") ? "1" : "deg";
+}
+
+bool direction_accepts(const std::string& n, double v) {
+    if (!std::isfinite(v)) return false;
+    if (n == "theta_i" || n == "theta_o") return v >= 0 && v <= 180;
+    if (n == "mu_i" || n == "mu_o") return v >= -1 && v <= 1;
+    return v >= -360 && v <= 360;  // azimuths
+}
+
+std::string direction_range_text(const std::string& n) {
+    if (n == "theta_i" || n == "theta_o") return "[0, 180] deg";
+    if (n == "mu_i" || n == "mu_o") return "[-1, 1]";
+    return "[-360, 360] deg";
+}
+
+// -------------------------------------------------------------- PointBuilder
+
+PointBuilder::PointBuilder(const ModelInfo& model, const QuantityInfo& quantity)
+    : model_(model), quantity_(quantity) {}
+
+namespace {
+bool uses(const QuantityInfo& q, const char* direction) {
+    for (const auto& d : q.directions)
+        if (d == direction) return true;
+    return false;
+}
+}  // namespace
+
+std::vector<std::string> PointBuilder::required_names() const {
+    std::vector<std::string> out;
+    if (uses(quantity_, "theta_i")) out.push_back("theta_i");
+    if (uses(quantity_, "theta_o")) out.push_back("theta_o");
+    for (const auto& p : model_.parameters)
+        if (!p.default_value) out.push_back(p.name);
+    return out;
+}
+
+std::string PointBuilder::check(const std::string& name, double value) const {
+    if (is_direction_coordinate(name)) {
+        if (!direction_accepts(name, value))
+            return "value " + format_number(value) + " of '" + name +
+                   "' is out of range; allowed: " + direction_range_text(name);
+        return {};
+    }
+    const ParameterInfo* p = model_.find_parameter(name);
+    if (!p) {
+        std::vector<std::string> names = {"theta_i", "phi_i", "theta_o", "phi_o",
+                                          "phi_d",   "mu_i",  "mu_o"};
+        for (const auto& q : model_.parameters) names.push_back(q.name);
+        return "'" + name + "' is not a coordinate or parameter of model '" +
+               model_.name + "'; allowed: " + join(names);
+    }
+    if (!p->accepts(value))
+        return "value " + format_number(value) + " of '" + name +
+               "' is out of range; allowed: " + p->range_text();
+    return {};
+}
+
+void PointBuilder::build(const std::map<std::string, double>& values,
+                         double* out) const {
+    for (const auto& [name, value] : values) {
+        std::string problem = check(name, value);
+        if (!problem.empty()) throw InputError(problem);
+    }
+    auto get = [&](const char* n) -> const double* {
+        auto it = values.find(n);
+        return it == values.end() ? nullptr : &it->second;
+    };
+    auto theta = [&](const char* theta_name, const char* mu_name) -> double {
+        const double* t = get(theta_name);
+        const double* m = get(mu_name);
+        if (t && m)
+            throw InputError(std::string("give either '") + theta_name + "' or '" +
+                             mu_name + "', not both");
+        if (t) return *t * kDegToRad;
+        if (m) return std::acos(*m);
+        if (uses(quantity_, theta_name))
+            throw InputError("quantity '" + quantity_.name + "' needs '" + theta_name +
+                             "' (or '" + mu_name + "')");
+        return 0.0;
+    };
+    out[0] = theta("theta_i", "mu_i");
+    out[2] = theta("theta_o", "mu_o");
+    const double* phi_i = get("phi_i");
+    const double* phi_o = get("phi_o");
+    const double* phi_d = get("phi_d");
+    if (phi_o && phi_d) throw InputError("give either 'phi_o' or 'phi_d', not both");
+    out[1] = phi_i ? *phi_i * kDegToRad : 0.0;
+    out[3] = phi_o ? *phi_o * kDegToRad : out[1] + (phi_d ? *phi_d * kDegToRad : 0.0);
+
+    for (std::size_t k = 0; k < model_.parameters.size(); ++k) {
+        const ParameterInfo& p = model_.parameters[k];
+        double v;
+        if (const double* given = get(p.name.c_str()))
+            v = *given;
+        else if (p.default_value)
+            v = *p.default_value;
+        else
+            throw InputError("model '" + model_.name + "' needs parameter '" + p.name +
+                             "' (allowed " + p.range_text() + ")");
+        out[kDirectionSlots + k] = p.in_degrees ? v * kDegToRad : v;
+    }
+}
+
+std::vector<int> resolve_options(const ModelInfo& model, const nlohmann::json& given,
+                                 const std::string& where) {
+    std::vector<int> out;
+    for (const auto& o : model.options) out.push_back(o.index_of(o.default_choice));
+    if (given.is_null()) return out;
+    const std::string prefix = where.empty() ? "" : where + ": ";
+    for (auto it = given.begin(); it != given.end(); ++it) {
+        const OptionInfo* o = model.find_option(it.key());
+        if (!o) {
+            std::vector<std::string> names;
+            for (const auto& x : model.options) names.push_back(x.name);
+            throw InputError(prefix + "model '" + model.name + "' has no option '" +
+                             it.key() + "'; allowed: " + join(names));
+        }
+        if (!it.value().is_string())
+            throw InputError(prefix + "option '" + it.key() + "' takes a string; allowed: " +
+                             join(o->choices));
+        int idx = o->index_of(it.value().get<std::string>());
+        if (idx < 0)
+            throw InputError(prefix + "option '" + it.key() + "' cannot be '" +
+                             it.value().get<std::string>() + "'; allowed: " +
+                             join(o->choices));
+        out[static_cast<std::size_t>(o - model.options.data())] = idx;
+    }
+    return out;
+}
+
+nlohmann::json describe_models() {
+    nlohmann::json models = nlohmann::json::array();
+    for (const auto& m : all_models()) {
+        nlohmann::json jm;
+        jm["name"] = m.name;
+        jm["citation"] = m.citation;
+        jm["description"] = m.description;
+        for (const auto& p : m.parameters) {
+            nlohmann::json jp = {{"name", p.name},
+                                 {"unit", p.unit},
+                                 {"range", p.range_text()},
+                                 {"description", p.description}};
+            if (p.default_value) jp["default"] = *p.default_value;
+            jm["parameters"].push_back(jp);
+        }
+        for (const auto& o : m.options)
+            jm["options"].push_back({{"name", o.name},
+                                     {"choices", o.choices},
+                                     {"default", o.default_choice},
+                                     {"description", o.description}});
+        for (const auto& q : m.quantities)
+            jm["quantities"].push_back(
+                {{"name", q.name},
+                 {"description", q.description},
+                 {"units", q.units},
+                 {"kind", q.kind == QuantityKind::ClosedForm ? "closed-form" : "integral"},
+                 {"directions", q.directions},
+                 {"options", q.uses_options},
+                 {"default_method", q.default_method},
+                 {"equations", q.equations}});
+        models.push_back(jm);
+    }
+    return models;
+}
+
+}  // namespace brdftab

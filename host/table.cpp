@@ -1,1 +1,55 @@
-// placeholder: implementation pending
+// table.cpp — small helpers of the in-memory table (see table.h).
+#include "table.h"
+
+#include <string>
+
+#include "error.h"
+
+namespace brdftab {
+
+const char* stored_type_name(StoredType t) {
+    switch (t) {
+    case StoredType::Float64: return "float64";
+    case StoredType::Float32: return "float32";
+    case StoredType::Float16: return "float16";
+    }
+    return "unknown";
+}
+
+StoredType parse_stored_type(const std::string& name) {
+    if (name == "float64") return StoredType::Float64;
+    if (name == "float32") return StoredType::Float32;
+    if (name == "float16") return StoredType::Float16;
+    throw InputError("unknown stored type '" + name +
+                     "' (allowed: float64, float32, float16)");
+}
+
+std::size_t TableData::cell_count() const {
+    std::size_t n = 1;  // a table without axes is a single value
+    for (const Axis& a : axes) n *= a.count;
+    return n;
+}
+
+std::vector<std::size_t> TableData::shape() const {
+    std::vector<std::size_t> s;
+    s.reserve(axes.size());
+    for (const Axis& a : axes) s.push_back(a.count);
+    return s;
+}
+
+std::size_t TableData::flat_index(const std::vector<std::size_t>& index) const {
+    if (index.size() != axes.size())
+        throw Error("table '" + name + "': index has " + std::to_string(index.size()) +
+                    " components, the table has " + std::to_string(axes.size()) + " axes");
+    std::size_t flat = 0;
+    for (std::size_t i = 0; i < axes.size(); ++i) {
+        if (index[i] >= axes[i].count)
+            throw Error("table '" + name + "': index " + std::to_string(index[i]) +
+                        " out of range for axis '" + axes[i].name + "' (count " +
+                        std::to_string(axes[i].count) + ")");
+        flat = flat * axes[i].count + index[i];  // Horner form of the row-major offset
+    }
+    return flat;
+}
+
+}  // namespace brdftab

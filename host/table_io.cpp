@@ -1,1 +1,786 @@
-// placeholder: implementation pending
+// table_io.cpp — brdftab HDF5 table files (layout: docs/format.md).
+//
+// A thin RAII layer over the HDF5 C API: H5Cpp has no dimension-scale API and
+// HighFive is not packaged on Debian 12, so every hid_t lives in a Handle that
+// closes it, and every failing call becomes a brdftab::Error naming the call
+// and the innermost message of HDF5's error stack.  HDF5's automatic printing
+// of that stack is switched off because the library never prints.
+#include "table_io.h"
+
+#include <hdf5.h>
+#include <hdf5_hl.h>
+
+#include <Imath/half.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstring>
+#include <ctime>
+#include <fcntl.h>
+#include <filesystem>
+#include <set>
+#include <unistd.h>
+
+#include "error.h"
+
+#ifndef BRDFTAB_VERSION
+#define BRDFTAB_VERSION "unknown"
+#endif
+
+namespace brdftab {
+namespace {
+
+constexpr int kFormatVersion = 1;
+// Upper bound of one chunk.  HDF5's default chunk cache is 1 MiB per dataset,
+// so a chunk of at most that size is cached whole when a reader revisits it.
+constexpr std::size_t kMaxChunkBytes = 1u << 20;
+
+// ---------------------------------------------------------------- errors ----
+
+void silence_hdf5() {
+    // Once per process: HDF5 keeps the setting globally.
+    static const bool done = [] {
+        H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+        return true;
+    }();
+    (void)done;
+}
+
+herr_t collect_error(unsigned, const H5E_error2_t* e, void* data) {
+    auto* out = static_cast<std::string*>(data);
+    // The walk runs from the API call inwards; the innermost entry usually
+    // carries the concrete cause (errno text, missing object name).
+    if (e && e->desc && *e->desc) *out = e->desc;
+    return 0;
+}
+
+[[noreturn]] void fail(const std::string& call, const std::string& what) {
+    std::string detail;
+    H5Ewalk2(H5E_DEFAULT, H5E_WALK_DOWNWARD, collect_error, &detail);
+    H5Eclear2(H5E_DEFAULT);
+    std::string msg = "HDF5 " + call + " failed";
+    if (!what.empty()) msg += " (" + what + ")";
+    if (!detail.empty()) msg += ": " + detail;
+    throw Error(msg);
+}
+
+herr_t check(herr_t status, const char* call, const std::string& what = {}) {
+    if (status < 0) fail(call, what);
+    return status;
+}
+
+// ---------------------------------------------------------------- handles ---
+
+class Handle {
+public:
+    using Closer = herr_t (*)(hid_t);
+    Handle() = default;
+    Handle(hid_t id, Closer closer, const char* call, const std::string& what = {})
+        : id_(id), closer_(closer) {
+        if (id_ < 0) fail(call, what);
+    }
+    Handle(const Handle&) = delete;
+    Handle& operator=(const Handle&) = delete;
+    Handle(Handle&& o) noexcept : id_(o.id_), closer_(o.closer_) { o.id_ = -1; }
+    Handle& operator=(Handle&& o) noexcept {
+        if (this != &o) {
+            reset();
+            id_ = o.id_;
+            closer_ = o.closer_;
+            o.id_ = -1;
+        }
+        return *this;
+    }
+    ~Handle() { reset(); }
+
+    hid_t get() const { return id_; }
+    operator hid_t() const { return id_; }  // NOLINT: handles pass straight to the C API
+
+    // Close now and report failure (the destructor must stay silent).  Used
+    // for the file, whose close flushes everything to disk.
+    void close(const char* call, const std::string& what = {}) {
+        if (id_ < 0) return;
+        hid_t id = id_;
+        id_ = -1;
+        check(closer_(id), call, what);
+    }
+
+private:
+    void reset() noexcept {
+        if (id_ >= 0 && closer_) closer_(id_);
+        id_ = -1;
+    }
+    hid_t id_ = -1;
+    Closer closer_ = nullptr;
+};
+
+Handle make_plist(hid_t cls, const char* what) {
+    return Handle(H5Pcreate(cls), H5Pclose, "H5Pcreate", what);
+}
+Handle copy_type(hid_t t) { return Handle(H5Tcopy(t), H5Tclose, "H5Tcopy"); }
+Handle scalar_space() { return Handle(H5Screate(H5S_SCALAR), H5Sclose, "H5Screate"); }
+
+Handle utf8_string_type() {
+    Handle t = copy_type(H5T_C_S1);
+    check(H5Tset_size(t, H5T_VARIABLE), "H5Tset_size");
+    check(H5Tset_cset(t, H5T_CSET_UTF8), "H5Tset_cset");
+    return t;
+}
+
+// IEEE binary16 as an HDF5 float type: sign bit 15, exponent bits 10..14,
+// mantissa bits 0..9, bias 15.  h5py maps exactly this layout to numpy.float16.
+Handle half_type() {
+    Handle t = copy_type(H5T_IEEE_F32LE);
+    check(H5Tset_fields(t, 15, 10, 5, 0, 10), "H5Tset_fields");
+    check(H5Tset_size(t, 2), "H5Tset_size");
+    check(H5Tset_ebias(t, 15), "H5Tset_ebias");
+    return t;
+}
+
+// Double -> binary16 bits, correctly rounded (nearest, ties to even).
+// HDF5's own conversion is wrong for some values (PLATFORM-NOTES.md), and
+// Imath::half only takes a float: double -> float -> half can round twice.
+// That only matters when the float lands exactly on a midpoint between two
+// halves although the double did not; then the other float neighbour of the
+// double decides, and we keep whichever half is nearer the double.
+std::uint16_t half_bits(double d) {
+    if (std::isnan(d)) return 0x7e00;  // a quiet NaN
+    float f = static_cast<float>(d);
+    Imath::half h(f);
+    if (std::isfinite(f) && static_cast<double>(f) != d) {
+        float g = std::nextafter(f, d < static_cast<double>(f) ? -INFINITY : INFINITY);
+        Imath::half h2(g);
+        if (h2.bits() != h.bits()) {
+            double e1 = std::fabs(static_cast<double>(static_cast<float>(h)) - d);
+            double e2 = std::fabs(static_cast<double>(static_cast<float>(h2)) - d);
+            if (e2 < e1) h = h2;
+        }
+    }
+    return h.bits();
+}
+
+double half_to_double(std::uint16_t bits) {
+    Imath::half h;
+    h.setBits(bits);
+    return static_cast<double>(static_cast<float>(h));  // exact: half ⊂ float ⊂ double
+}
+
+// ---------------------------------------------------------------- attributes
+
+void write_string_attr(hid_t obj, const char* name, const std::string& value) {
+    Handle type = utf8_string_type();
+    Handle space = scalar_space();
+    Handle attr(H5Acreate2(obj, name, type, space, H5P_DEFAULT, H5P_DEFAULT), H5Aclose,
+                "H5Acreate2", name);
+    const char* p = value.c_str();
+    check(H5Awrite(attr, type, &p), "H5Awrite", name);
+}
+
+void write_attr(hid_t obj, const char* name, hid_t file_type, hid_t mem_type,
+                const void* value) {
+    Handle space = scalar_space();
+    Handle attr(H5Acreate2(obj, name, file_type, space, H5P_DEFAULT, H5P_DEFAULT), H5Aclose,
+                "H5Acreate2", name);
+    check(H5Awrite(attr, mem_type, value), "H5Awrite", name);
+}
+
+void write_double_attr(hid_t obj, const char* name, double v) {
+    write_attr(obj, name, H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, &v);
+}
+void write_u64_attr(hid_t obj, const char* name, std::uint64_t v) {
+    write_attr(obj, name, H5T_STD_U64LE, H5T_NATIVE_UINT64, &v);
+}
+void write_i32_attr(hid_t obj, const char* name, std::int32_t v) {
+    write_attr(obj, name, H5T_STD_I32LE, H5T_NATIVE_INT32, &v);
+}
+
+bool has_attr(hid_t obj, const char* name) {
+    htri_t r = H5Aexists(obj, name);
+    check(r, "H5Aexists", name);
+    return r > 0;
+}
+
+Handle open_attr(hid_t obj, const char* name) {
+    return Handle(H5Aopen(obj, name, H5P_DEFAULT), H5Aclose, "H5Aopen", name);
+}
+
+// Reads variable- or fixed-length string attributes alike, so files touched
+// by other tools still load.
+std::string read_string_attr(hid_t obj, const char* name) {
+    Handle attr = open_attr(obj, name);
+    Handle ftype(H5Aget_type(attr), H5Tclose, "H5Aget_type", name);
+    if (H5Tget_class(ftype) != H5T_STRING) throw Error(std::string("attribute '") + name + "' is not a string");
+    htri_t var = H5Tis_variable_str(ftype);
+    check(var, "H5Tis_variable_str", name);
+    if (var > 0) {
+        Handle mtype = utf8_string_type();
+        check(H5Tset_cset(mtype, H5Tget_cset(ftype)), "H5Tset_cset", name);
+        char* p = nullptr;
+        check(H5Aread(attr, mtype, &p), "H5Aread", name);
+        std::string s = p ? p : "";
+        if (p) H5free_memory(p);
+        return s;
+    }
+    std::size_t n = H5Tget_size(ftype);
+    std::string s(n, '\0');
+    Handle mtype = copy_type(ftype);
+    check(H5Aread(attr, mtype, s.data()), "H5Aread", name);
+    s.resize(std::strlen(s.c_str()));  // fixed-length strings may be NUL padded
+    return s;
+}
+
+double read_double_attr(hid_t obj, const char* name) {
+    Handle attr = open_attr(obj, name);
+    double v = 0;
+    check(H5Aread(attr, H5T_NATIVE_DOUBLE, &v), "H5Aread", name);
+    return v;
+}
+
+std::uint64_t read_u64_attr(hid_t obj, const char* name) {
+    Handle attr = open_attr(obj, name);
+    std::uint64_t v = 0;
+    check(H5Aread(attr, H5T_NATIVE_UINT64, &v), "H5Aread", name);
+    return v;
+}
+
+// Any scalar or 1-D string/integer/float attribute as JSON (others: null).
+nlohmann::json attr_to_json(hid_t obj, const std::string& name) {
+    Handle attr = open_attr(obj, name.c_str());
+    Handle ftype(H5Aget_type(attr), H5Tclose, "H5Aget_type", name);
+    Handle space(H5Aget_space(attr), H5Sclose, "H5Aget_space", name);
+    H5T_class_t cls = H5Tget_class(ftype);
+    if (cls == H5T_STRING) return read_string_attr(obj, name.c_str());
+    hssize_t n = H5Sget_simple_extent_npoints(space);
+    int rank = H5Sget_simple_extent_ndims(space);
+    if (n < 0 || rank > 1) return nullptr;
+    nlohmann::json out;
+    if (cls == H5T_INTEGER) {
+        if (H5Tget_sign(ftype) == H5T_SGN_NONE) {
+            std::vector<std::uint64_t> v(static_cast<std::size_t>(n));
+            check(H5Aread(attr, H5T_NATIVE_UINT64, v.data()), "H5Aread", name);
+            out = v;
+        } else {
+            std::vector<std::int64_t> v(static_cast<std::size_t>(n));
+            check(H5Aread(attr, H5T_NATIVE_INT64, v.data()), "H5Aread", name);
+            out = v;
+        }
+    } else if (cls == H5T_FLOAT) {
+        std::vector<double> v(static_cast<std::size_t>(n));
+        check(H5Aread(attr, H5T_NATIVE_DOUBLE, v.data()), "H5Aread", name);
+        out = v;
+    } else {
+        return nullptr;
+    }
+    if (rank == 0 && out.size() == 1) return out[0];
+    return out;
+}
+
+herr_t collect_name(hid_t, const char* name, const H5A_info_t*, void* data) noexcept {
+    try {
+        static_cast<std::vector<std::string>*>(data)->emplace_back(name);
+        return 0;
+    } catch (...) {
+        return -1;
+    }
+}
+
+std::vector<std::string> attr_names(hid_t obj) {
+    std::vector<std::string> names;
+    hsize_t idx = 0;
+    check(H5Aiterate2(obj, H5_INDEX_NAME, H5_ITER_INC, &idx, collect_name, &names),
+          "H5Aiterate2");
+    return names;
+}
+
+// ---------------------------------------------------------------- writing ---
+
+std::string utc_now_iso8601() {
+    std::time_t t = std::time(nullptr);
+    std::tm tm{};
+    gmtime_r(&t, &tm);
+    char buf[32];
+    std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
+    return buf;
+}
+
+// The name becomes an HDF5 link name: no '/', not empty, not "." .
+void check_link_name(const std::string& name, const std::string& what) {
+    if (name.empty() || name == "." || name.find('/') != std::string::npos ||
+        name.find('\0') != std::string::npos)
+        throw InputError(what + " name '" + name +
+                         "' cannot be an HDF5 name (must be non-empty, without '/')");
+}
+
+void validate_table(const TableData& t) {
+    check_link_name(t.name, "table");
+    const std::string where = "table '" + t.name + "': ";
+    std::set<std::string> seen;
+    for (const Axis& a : t.axes) {
+        check_link_name(a.name, where + "axis");
+        if (a.name == "value" || a.name == "stderr" || a.name == "samples")
+            throw InputError(where + "axis name '" + a.name +
+                             "' is reserved (value, stderr, samples are dataset names)");
+        if (!seen.insert(a.name).second)
+            throw InputError(where + "axis '" + a.name + "' appears twice");
+        if (a.count == 0) throw Error(where + "axis '" + a.name + "' has no nodes");
+        if (a.values.size() != a.count)
+            throw Error(where + "axis '" + a.name + "' has count " + std::to_string(a.count) +
+                        " but " + std::to_string(a.values.size()) + " node values");
+    }
+    const std::size_t n = t.cell_count();
+    if (t.value.size() != n)
+        throw Error(where + "value has " + std::to_string(t.value.size()) +
+                    " entries, the axes need " + std::to_string(n));
+    if (!t.stderr_.empty() && t.stderr_.size() != n)
+        throw Error(where + "stderr has " + std::to_string(t.stderr_.size()) +
+                    " entries, the axes need " + std::to_string(n));
+    if (!t.samples.empty() && t.samples.size() != n)
+        throw Error(where + "samples has " + std::to_string(t.samples.size()) +
+                    " entries, the axes need " + std::to_string(n));
+    if (t.compression < 0 || t.compression > 9)
+        throw InputError(where + "compression level " + std::to_string(t.compression) +
+                         " outside 0..9");
+}
+
+// Largest row-major block of at most kMaxChunkBytes: trailing axes are kept
+// whole as long as they fit (a 2-D slice over the last two axes is then one
+// chunk), leading axes are grouped so small tables do not end up in many
+// tiny chunks.
+std::vector<hsize_t> chunk_shape(const std::vector<hsize_t>& dims, std::size_t elem) {
+    std::vector<hsize_t> chunk = dims;
+    const std::size_t limit = std::max<std::size_t>(1, kMaxChunkBytes / elem);
+    for (std::size_t i = 0; i < chunk.size(); ++i) {
+        std::size_t inner = 1;
+        for (std::size_t j = i + 1; j < chunk.size(); ++j) inner *= chunk[j];
+        if (chunk[i] * inner <= limit) break;
+        chunk[i] = std::max<std::size_t>(1, limit / inner);
+        if (chunk[i] * inner <= limit) break;
+    }
+    return chunk;
+}
+
+Handle create_dataset(hid_t group, const char* name, hid_t file_type,
+                      const std::vector<hsize_t>& dims, int compression) {
+    Handle space = dims.empty()
+                       ? scalar_space()
+                       : Handle(H5Screate_simple(static_cast<int>(dims.size()), dims.data(),
+                                                 nullptr),
+                                H5Sclose, "H5Screate_simple", name);
+    Handle dcpl = make_plist(H5P_DATASET_CREATE, name);
+    if (!dims.empty()) {  // a scalar dataspace cannot be chunked
+        std::vector<hsize_t> chunk = chunk_shape(dims, H5Tget_size(file_type));
+        check(H5Pset_chunk(dcpl, static_cast<int>(chunk.size()), chunk.data()),
+              "H5Pset_chunk", name);
+        if (compression > 0) {
+            // Shuffle groups the bytes of equal significance, which is what
+            // makes smooth floating-point tables compress at all.
+            check(H5Pset_shuffle(dcpl), "H5Pset_shuffle", name);
+            check(H5Pset_deflate(dcpl, static_cast<unsigned>(compression)), "H5Pset_deflate",
+                  name);
+        }
+    }
+    return Handle(H5Dcreate2(group, name, file_type, space, H5P_DEFAULT, dcpl, H5P_DEFAULT),
+                  H5Dclose, "H5Dcreate2", name);
+}
+
+Handle write_real_dataset(hid_t group, const char* name, const std::vector<double>& data,
+                          StoredType type, const std::vector<hsize_t>& dims, int compression) {
+    switch (type) {
+    case StoredType::Float64: {
+        Handle ds = create_dataset(group, name, H5T_IEEE_F64LE, dims, compression);
+        check(H5Dwrite(ds, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, data.data()),
+              "H5Dwrite", name);
+        return ds;
+    }
+    case StoredType::Float32: {
+        // Our own cast (round to nearest) rather than HDF5's conversion path,
+        // so the stored value is exactly (float)x.
+        std::vector<float> f(data.begin(), data.end());
+        Handle ds = create_dataset(group, name, H5T_IEEE_F32LE, dims, compression);
+        check(H5Dwrite(ds, H5T_NATIVE_FLOAT, H5S_ALL, H5S_ALL, H5P_DEFAULT, f.data()),
+              "H5Dwrite", name);
+        return ds;
+    }
+    case StoredType::Float16: {
+        std::vector<std::uint16_t> h(data.size());
+        std::transform(data.begin(), data.end(), h.begin(), half_bits);
+        Handle ht = half_type();
+        Handle ds = create_dataset(group, name, ht, dims, compression);
+        // Memory type = file type: HDF5 copies the bits without converting.
+        check(H5Dwrite(ds, ht, H5S_ALL, H5S_ALL, H5P_DEFAULT, h.data()), "H5Dwrite", name);
+        return ds;
+    }
+    }
+    throw Error("unknown stored type");
+}
+
+void write_table(hid_t file, const TableData& t) {
+    htri_t exists = H5Lexists(file, t.name.c_str(), H5P_DEFAULT);
+    check(exists, "H5Lexists", t.name);
+    if (exists > 0) throw InputError("table name '" + t.name + "' used twice in one file");
+
+    Handle group(H5Gcreate2(file, t.name.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
+                 H5Gclose, "H5Gcreate2", t.name);
+
+    // Axis datasets first: they become the dimension scales.
+    std::vector<Handle> axis_ds;
+    std::vector<hsize_t> dims;
+    nlohmann::json axis_names = nlohmann::json::array();
+    for (const Axis& a : t.axes) {
+        const hsize_t n = a.count;
+        Handle space(H5Screate_simple(1, &n, nullptr), H5Sclose, "H5Screate_simple", a.name);
+        Handle ds(H5Dcreate2(group, a.name.c_str(), H5T_IEEE_F64LE, space, H5P_DEFAULT,
+                             H5P_DEFAULT, H5P_DEFAULT),
+                  H5Dclose, "H5Dcreate2", a.name);
+        check(H5Dwrite(ds, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, a.values.data()),
+              "H5Dwrite", a.name);
+        write_string_attr(ds, "unit", a.unit);
+        write_string_attr(ds, "spacing", spacing_name(a.spacing));
+        write_double_attr(ds, "min", a.min);
+        write_double_attr(ds, "max", a.max);
+        check(H5DSset_scale(ds, a.name.c_str()), "H5DSset_scale", a.name);
+        axis_ds.push_back(std::move(ds));
+        dims.push_back(n);
+        axis_names.push_back(a.name);
+    }
+
+    std::vector<Handle> data_ds;
+    data_ds.push_back(write_real_dataset(group, "value", t.value, t.stored_type, dims,
+                                         t.compression));
+    if (t.keep_stderr && !t.stderr_.empty())
+        data_ds.push_back(write_real_dataset(group, "stderr", t.stderr_, t.stored_type, dims,
+                                             t.compression));
+    if (!t.samples.empty()) {
+        Handle ds = create_dataset(group, "samples", H5T_STD_U32LE, dims, t.compression);
+        check(H5Dwrite(ds, H5T_NATIVE_UINT32, H5S_ALL, H5S_ALL, H5P_DEFAULT, t.samples.data()),
+              "H5Dwrite", "samples");
+        data_ds.push_back(std::move(ds));
+    }
+    for (const Handle& ds : data_ds) {
+        for (std::size_t i = 0; i < t.axes.size(); ++i) {
+            check(H5DSattach_scale(ds, axis_ds[i], static_cast<unsigned>(i)),
+                  "H5DSattach_scale", t.axes[i].name);
+            check(H5DSset_label(ds, static_cast<unsigned>(i), t.axes[i].name.c_str()),
+                  "H5DSset_label", t.axes[i].name);
+        }
+    }
+
+    write_string_attr(group, "model", t.model);
+    write_string_attr(group, "quantity", t.quantity);
+    write_string_attr(group, "description", t.description);
+    write_string_attr(group, "units", t.units);
+    write_string_attr(group, "parameters", t.parameters.dump());
+    write_string_attr(group, "axes", axis_names.dump());
+    write_string_attr(group, "method", t.method);
+    write_u64_attr(group, "samples_requested", t.samples_requested);
+    write_double_attr(group, "tolerance_requested", t.tolerance_requested);
+    write_double_attr(group, "abs_floor", t.abs_floor);
+    write_double_attr(group, "tolerance_achieved", t.tolerance_achieved);
+    write_u64_attr(group, "seed", t.seed);
+    write_string_attr(group, "precision", t.precision);
+    write_string_attr(group, "device", t.device);
+    write_string_attr(group, "brdftab_version", t.version.empty() ? BRDFTAB_VERSION : t.version);
+    write_string_attr(group, "spec_file", t.spec_file);
+    write_double_attr(group, "elapsed_seconds", t.elapsed_seconds);
+    write_u64_attr(group, "total_samples", t.total_samples);
+    write_string_attr(group, "stored_type", stored_type_name(t.stored_type));
+}
+
+// Removes the temporary file unless the write was committed.
+class TempFile {
+public:
+    explicit TempFile(std::string path) : path_(std::move(path)) {}
+    ~TempFile() {
+        if (!committed_) std::remove(path_.c_str());
+    }
+    const std::string& path() const { return path_; }
+    void commit() { committed_ = true; }
+
+private:
+    std::string path_;
+    bool committed_ = false;
+};
+
+void sync_file(const std::string& path) {
+    // The rename must not overtake the data on a crash: flush it first.
+    int fd = ::open(path.c_str(), O_RDONLY);
+    if (fd < 0) throw Error("cannot reopen '" + path + "' to sync it: " + std::strerror(errno));
+    int rc = ::fsync(fd);
+    int err = errno;
+    ::close(fd);
+    if (rc != 0) throw Error("fsync of '" + path + "' failed: " + std::strerror(err));
+}
+
+// ---------------------------------------------------------------- reading ---
+
+Handle open_brdftab_file(const std::string& path) {
+    silence_hdf5();
+    std::error_code ec;
+    if (!std::filesystem::exists(path, ec))
+        throw InputError("table file '" + path + "' does not exist");
+    if (std::filesystem::is_directory(path, ec))
+        throw InputError("table file '" + path + "' is a directory");
+    htri_t is_h5 = H5Fis_hdf5(path.c_str());
+    H5Eclear2(H5E_DEFAULT);
+    if (is_h5 <= 0)
+        throw InputError("'" + path + "' is not an HDF5 file (or cannot be read)");
+    hid_t id = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+    if (id < 0) {
+        H5Eclear2(H5E_DEFAULT);
+        throw InputError("cannot open HDF5 file '" + path + "'");
+    }
+    Handle file(id, H5Fclose, "H5Fopen", path);
+    if (!has_attr(file, "brdftab_format"))
+        throw InputError("'" + path +
+                         "' is an HDF5 file but not a brdftab table file (no brdftab_format "
+                         "attribute)");
+    std::uint64_t fmt = read_u64_attr(file, "brdftab_format");
+    if (fmt != static_cast<std::uint64_t>(kFormatVersion))
+        throw InputError("'" + path + "' has brdftab_format " + std::to_string(fmt) +
+                         "; this build reads format " + std::to_string(kFormatVersion));
+    return file;
+}
+
+herr_t collect_link(hid_t, const char* name, const H5L_info_t*, void* data) noexcept {
+    try {
+        static_cast<std::vector<std::string>*>(data)->emplace_back(name);
+        return 0;
+    } catch (...) {
+        return -1;
+    }
+}
+
+std::vector<std::string> group_names(hid_t file) {
+    std::vector<std::string> links, groups;
+    hsize_t idx = 0;
+    check(H5Literate(file, H5_INDEX_NAME, H5_ITER_INC, &idx, collect_link, &links),
+          "H5Literate");
+    for (const std::string& l : links) {
+        Handle obj(H5Oopen(file, l.c_str(), H5P_DEFAULT), H5Oclose, "H5Oopen", l);
+        if (H5Iget_type(obj) == H5I_GROUP) groups.push_back(l);
+    }
+    return groups;
+}
+
+std::vector<hsize_t> dataset_dims(hid_t ds, const std::string& name) {
+    Handle space(H5Dget_space(ds), H5Sclose, "H5Dget_space", name);
+    int rank = H5Sget_simple_extent_ndims(space);
+    if (rank < 0) fail("H5Sget_simple_extent_ndims", name);
+    std::vector<hsize_t> dims(static_cast<std::size_t>(rank));
+    if (rank > 0) check(H5Sget_simple_extent_dims(space, dims.data(), nullptr),
+                        "H5Sget_simple_extent_dims", name);
+    return dims;
+}
+
+// Any real dataset into doubles.  Widening float64/float32 is exact through
+// HDF5; 2-byte floats are read as raw bits and widened by Imath.
+std::vector<double> read_real(hid_t ds, const std::string& name, std::size_t n) {
+    Handle ftype(H5Dget_type(ds), H5Tclose, "H5Dget_type", name);
+    std::vector<double> out(n);
+    if (H5Tget_class(ftype) == H5T_FLOAT && H5Tget_size(ftype) == 2) {
+        std::vector<std::uint16_t> bits(n);
+        Handle ht = half_type();
+        check(H5Dread(ds, ht, H5S_ALL, H5S_ALL, H5P_DEFAULT, bits.data()), "H5Dread", name);
+        std::transform(bits.begin(), bits.end(), out.begin(), half_to_double);
+    } else {
+        check(H5Dread(ds, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, out.data()),
+              "H5Dread", name);
+    }
+    return out;
+}
+
+StoredType stored_type_of(hid_t ds, const std::string& name) {
+    Handle ftype(H5Dget_type(ds), H5Tclose, "H5Dget_type", name);
+    switch (H5Tget_size(ftype)) {
+    case 2: return StoredType::Float16;
+    case 4: return StoredType::Float32;
+    default: return StoredType::Float64;
+    }
+}
+
+int deflate_level(hid_t ds, const std::string& name) {
+    Handle dcpl(H5Dget_create_plist(ds), H5Pclose, "H5Dget_create_plist", name);
+    int n = H5Pget_nfilters(dcpl);
+    for (int i = 0; i < n; ++i) {
+        unsigned flags = 0, cd[4] = {0, 0, 0, 0};
+        std::size_t ncd = 4;
+        char fname[64];
+        H5Z_filter_t f = H5Pget_filter2(dcpl, static_cast<unsigned>(i), &flags, &ncd, cd,
+                                        sizeof fname, fname, nullptr);
+        if (f == H5Z_FILTER_DEFLATE) return ncd > 0 ? static_cast<int>(cd[0]) : 6;
+    }
+    return 0;
+}
+
+bool has_link(hid_t loc, const std::string& name) {
+    htri_t r = H5Lexists(loc, name.c_str(), H5P_DEFAULT);
+    check(r, "H5Lexists", name);
+    return r > 0;
+}
+
+}  // namespace
+
+// ------------------------------------------------------------------ public --
+
+void write_tables(const std::string& path, const std::vector<TableData>& tables) {
+    silence_hdf5();
+    if (H5Zfilter_avail(H5Z_FILTER_DEFLATE) <= 0 || H5Zfilter_avail(H5Z_FILTER_SHUFFLE) <= 0)
+        throw Error("this HDF5 library lacks the deflate or shuffle filter");
+
+    TempFile tmp(path + ".tmp-" + std::to_string(static_cast<long>(::getpid())));
+    {
+        Handle fapl = make_plist(H5P_FILE_ACCESS, "file access");
+        // Oldest object formats that still hold everything we write, so
+        // readers linked against older HDF5 releases can open the file.
+        check(H5Pset_libver_bounds(fapl, H5F_LIBVER_EARLIEST, H5F_LIBVER_V18),
+              "H5Pset_libver_bounds");
+        Handle file(H5Fcreate(tmp.path().c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl), H5Fclose,
+                    "H5Fcreate", tmp.path());
+
+        write_i32_attr(file, "brdftab_format", kFormatVersion);
+        write_string_attr(file, "brdftab_version", BRDFTAB_VERSION);
+        write_string_attr(file, "created", utc_now_iso8601());
+
+        for (const TableData& t : tables) {
+            // Checked table by table; an error on a later table still only
+            // ever touches the temporary file.
+            validate_table(t);
+            write_table(file, t);
+        }
+        file.close("H5Fclose", tmp.path());
+    }
+    sync_file(tmp.path());
+    if (std::rename(tmp.path().c_str(), path.c_str()) != 0)
+        throw Error("cannot rename '" + tmp.path() + "' to '" + path +
+                    "': " + std::strerror(errno));
+    tmp.commit();
+}
+
+std::vector<std::string> list_tables(const std::string& path) {
+    Handle file = open_brdftab_file(path);
+    return group_names(file);
+}
+
+TableData read_table(const std::string& path, const std::string& name) {
+    Handle file = open_brdftab_file(path);
+    if (name.empty() || name.find('/') != std::string::npos || !has_link(file, name) ||
+        [&] {
+            Handle o(H5Oopen(file, name.c_str(), H5P_DEFAULT), H5Oclose, "H5Oopen", name);
+            return H5Iget_type(o) != H5I_GROUP;
+        }()) {
+        std::string avail;
+        for (const std::string& g : group_names(file)) avail += (avail.empty() ? "" : ", ") + g;
+        throw InputError("'" + path + "' has no table '" + name + "' (available: " +
+                         (avail.empty() ? "none" : avail) + ")");
+    }
+    Handle group(H5Gopen2(file, name.c_str(), H5P_DEFAULT), H5Gclose, "H5Gopen2", name);
+    const std::string where = "'" + path + "', table '" + name + "': ";
+
+    TableData t;
+    t.name = name;
+    auto str = [&](const char* key) {
+        return has_attr(group, key) ? read_string_attr(group, key) : std::string();
+    };
+    auto dbl = [&](const char* key) { return has_attr(group, key) ? read_double_attr(group, key) : 0.0; };
+    auto u64 = [&](const char* key) {
+        return has_attr(group, key) ? read_u64_attr(group, key) : std::uint64_t{0};
+    };
+    t.model = str("model");
+    t.quantity = str("quantity");
+    t.description = str("description");
+    t.units = str("units");
+    t.method = str("method");
+    t.precision = str("precision");
+    t.device = str("device");
+    t.version = str("brdftab_version");
+    t.spec_file = str("spec_file");
+    t.samples_requested = u64("samples_requested");
+    t.tolerance_requested = dbl("tolerance_requested");
+    t.abs_floor = dbl("abs_floor");
+    t.tolerance_achieved = dbl("tolerance_achieved");
+    t.seed = u64("seed");
+    t.elapsed_seconds = dbl("elapsed_seconds");
+    t.total_samples = u64("total_samples");
+    try {
+        std::string p = str("parameters");
+        t.parameters = p.empty() ? nlohmann::json::object() : nlohmann::json::parse(p);
+    } catch (const nlohmann::json::exception& e) {
+        throw InputError(where + "attribute 'parameters' is not JSON: " + e.what());
+    }
+
+    nlohmann::json axes;
+    try {
+        if (!has_attr(group, "axes")) throw InputError(where + "missing attribute 'axes'");
+        axes = nlohmann::json::parse(read_string_attr(group, "axes"));
+    } catch (const nlohmann::json::exception& e) {
+        throw InputError(where + "attribute 'axes' is not JSON: " + e.what());
+    }
+    if (!axes.is_array()) throw InputError(where + "attribute 'axes' is not a JSON array");
+    for (const auto& an : axes) {
+        if (!an.is_string()) throw InputError(where + "attribute 'axes' holds a non-string");
+        const std::string aname = an.get<std::string>();
+        if (!has_link(group, aname))
+            throw InputError(where + "axis dataset '" + aname + "' is missing");
+        Handle ds(H5Dopen2(group, aname.c_str(), H5P_DEFAULT), H5Dclose, "H5Dopen2", aname);
+        std::vector<hsize_t> d = dataset_dims(ds, aname);
+        if (d.size() != 1) throw InputError(where + "axis dataset '" + aname + "' is not 1-D");
+        Axis a;
+        a.name = aname;
+        a.count = d[0];
+        a.values = read_real(ds, aname, a.count);
+        a.unit = has_attr(ds, "unit") ? read_string_attr(ds, "unit") : std::string();
+        a.spacing = Spacing::Explicit;  // the node list alone still defines the axis
+        if (has_attr(ds, "spacing")) {
+            try {
+                a.spacing = parse_spacing(read_string_attr(ds, "spacing"));
+            } catch (const InputError& e) {
+                throw InputError(where + "axis '" + aname + "': " + e.what());
+            }
+        }
+        a.min = has_attr(ds, "min") ? read_double_attr(ds, "min")
+                                    : (a.values.empty() ? 0.0 : a.values.front());
+        a.max = has_attr(ds, "max") ? read_double_attr(ds, "max")
+                                    : (a.values.empty() ? 0.0 : a.values.back());
+        t.axes.push_back(std::move(a));
+    }
+    const std::vector<std::size_t> shape = t.shape();
+    const std::size_t n = t.cell_count();
+
+    auto read_cells = [&](const char* dname, auto&& reader) {
+        Handle ds(H5Dopen2(group, dname, H5P_DEFAULT), H5Dclose, "H5Dopen2", dname);
+        std::vector<hsize_t> d = dataset_dims(ds, dname);
+        if (!std::equal(d.begin(), d.end(), shape.begin(), shape.end()))
+            throw InputError(where + "dataset '" + dname + "' shape does not match the axes");
+        reader(ds);
+    };
+    if (!has_link(group, "value")) throw InputError(where + "dataset 'value' is missing");
+    read_cells("value", [&](hid_t ds) {
+        t.value = read_real(ds, "value", n);
+        t.stored_type = stored_type_of(ds, "value");
+        t.compression = deflate_level(ds, "value");
+    });
+    if (has_attr(group, "stored_type")) t.stored_type = parse_stored_type(str("stored_type"));
+    t.keep_stderr = has_link(group, "stderr");
+    if (t.keep_stderr)
+        read_cells("stderr", [&](hid_t ds) { t.stderr_ = read_real(ds, "stderr", n); });
+    if (has_link(group, "samples"))
+        read_cells("samples", [&](hid_t ds) {
+            t.samples.resize(n);
+            check(H5Dread(ds, H5T_NATIVE_UINT32, H5S_ALL, H5S_ALL, H5P_DEFAULT,
+                          t.samples.data()),
+                  "H5Dread", "samples");
+        });
+    return t;
+}
+
+nlohmann::json read_file_attributes(const std::string& path) {
+    Handle file = open_brdftab_file(path);
+    nlohmann::json out = nlohmann::json::object();
+    for (const std::string& a : attr_names(file)) out[a] = attr_to_json(file, a);
+    return out;
+}
+
+}  // namespace brdftab

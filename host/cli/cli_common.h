@@ -1,0 +1,61 @@
+// cli_common.h — pieces shared by the CLI subcommands: device/integration
+// options, progress display, name=value parsing.  Only the CLI prints.
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+#include <chrono>
+#include <cstdio>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "engine.h"
+#include "model_registry.h"
+
+namespace brdftab::cli {
+
+// Options every computing subcommand accepts.
+struct ComputeOptions {
+    std::string device;  // "" = $BRDFTAB_DEVICE or first CPU; "host" = serial reference
+    std::string precision = "double";
+    std::string kernel_dir;
+    std::string method;  // empty = keep spec / auto
+    std::uint64_t samples = 0;
+    double tolerance = 0;
+    double abs_floor = -1;
+    std::uint64_t max_samples = 0;
+    std::uint64_t seed = 0;
+    bool seed_given = false;
+    std::size_t slab = 0;
+
+    void add_to(CLI::App& app, bool with_integration = true);
+    // Apply CLI overrides on top of `base` (from a spec or defaults).
+    IntegrationSettings apply(IntegrationSettings base) const;
+    std::unique_ptr<Backend> make_backend() const;
+};
+
+// Progress on stderr: a redrawn bar on a terminal, plain lines otherwise.
+class ProgressPrinter {
+public:
+    explicit ProgressPrinter(std::string label);
+    void operator()(const Progress& p);
+    void finish();
+
+private:
+    std::string label_;
+    bool tty_;
+    std::chrono::steady_clock::time_point last_;
+    bool printed_ = false;
+    double last_fraction_ = -1;
+};
+
+// Split "name=value"; throws InputError naming the argument.
+std::pair<std::string, std::string> split_assignment(const std::string& arg);
+double parse_number(const std::string& text, const std::string& what);
+
+// Human formatting.
+std::string format_seconds(double s);
+std::string format_count(double n);
+
+}  // namespace brdftab::cli

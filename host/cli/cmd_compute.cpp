@@ -1,0 +1,281 @@
+// eval and generate: the commands that run the engine.
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <sstream>
+
+#include "cli_common.h"
+#include "commands.h"
+#include "error.h"
+#include "generate.h"
+#include "spec.h"
+#include "table_io.h"
+
+namespace brdftab::cli {
+
+namespace {
+
+// Split a CSV line on commas (no quoting: our inputs are numbers and names).
+std::vector<std::string> split_csv(const std::string& line) {
+    std::vector<std::string> out;
+    std::string cell;
+    std::istringstream s(line);
+    while (std::getline(s, cell, ',')) {
+        const auto b = cell.find_first_not_of(" \t\r");
+        const auto e = cell.find_last_not_of(" \t\r");
+        out.push_back(b == std::string::npos ? "" : cell.substr(b, e - b + 1));
+    }
+    if (!line.empty() && line.back() == ',') out.push_back("");
+    return out;
+}
+
+std::string format_double(double v) {
+    char buf[40];
+    std::snprintf(buf, sizeof buf, "%.17g", v);
+    return buf;
+}
+
+// Fail early, before any computing, when the output cannot be written.
+void check_output_writable(const std::string& path) {
+    namespace fs = std::filesystem;
+    fs::path p(path);
+    fs::path dir = p.has_parent_path() ? p.parent_path() : fs::path(".");
+    std::error_code ec;
+    if (!fs::is_directory(dir, ec))
+        throw InputError("output '" + path + "': directory '" + dir.string() + "' does not exist");
+    if (access(dir.c_str(), W_OK) != 0)
+        throw InputError("output '" + path + "': directory '" + dir.string() + "' is not writable");
+    if (fs::is_directory(p, ec)) throw InputError("output '" + path + "' is a directory");
+}
+
+}  // namespace
+
+void register_eval(CLI::App& app) {
+    auto* cmd = app.add_subcommand(
+        "eval",
+        "evaluate one quantity at one point (or at every row of --points FILE.csv) on the "
+        "device, with its standard error");
+    struct State {
+        std::string model, quantity;
+        std::vector<std::string> assignments;
+        bool json = false;
+        std::string points_file, output;
+        ComputeOptions compute;
+    };
+    static State st;
+    cmd->add_option("MODEL", st.model, "model name (see `brdftab models`)")->required();
+    cmd->add_option("QUANTITY", st.quantity, "quantity of the model")->required();
+    cmd->add_option("VALUES", st.assignments,
+                    "name=value pairs: directions theta_i phi_i theta_o phi_o phi_d (degrees) "
+                    "or mu_i mu_o, model parameters, and options (e.g. distribution=ggx)");
+    cmd->add_flag("--json", st.json, "print one JSON object (value, stderr, samples, method)");
+    cmd->add_option("--points", st.points_file,
+                    "CSV file with a header row of coordinate/parameter names and one point per "
+                    "row; all rows are evaluated in one device launch");
+    cmd->add_option("-o,--output", st.output, "with --points: write the CSV here instead of stdout");
+    st.compute.add_to(*cmd);
+    cmd->callback([] {
+        const ModelInfo& model = find_model(st.model);
+        const QuantityInfo& q = model.quantity(st.quantity);
+        PointBuilder builder(model, q);
+        nlohmann::json option_values = nlohmann::json::object();
+        std::map<std::string, double> fixed;
+        for (const auto& a : st.assignments) {
+            auto [name, text] = split_assignment(a);
+            if (model.find_option(name)) {
+                option_values[name] = text;
+                continue;
+            }
+            const double v = parse_number(text, "argument '" + name + "'");
+            const std::string problem = builder.check(name, v);
+            if (!problem.empty()) throw InputError("argument '" + a + "': " + problem);
+            fixed[name] = v;
+        }
+        const std::vector<int> options = resolve_options(model, option_values, "argument");
+
+        // Points: one from the arguments, or one per CSV row (arguments act as
+        // defaults for columns the CSV does not have).
+        std::vector<std::string> header;
+        std::vector<std::vector<std::string>> rows;
+        std::vector<std::map<std::string, double>> points;
+        if (!st.points_file.empty()) {
+            std::ifstream in(st.points_file);
+            if (!in) throw InputError("cannot open points file '" + st.points_file + "'");
+            std::string line;
+            std::size_t line_no = 0;
+            while (std::getline(in, line)) {
+                ++line_no;
+                if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
+                if (header.empty()) {
+                    header = split_csv(line);
+                    for (const auto& h : header)
+                        if (!is_direction_coordinate(h) && !model.find_parameter(h))
+                            throw InputError(st.points_file + ":" + std::to_string(line_no) +
+                                             ": column '" + h +
+                                             "' is not a coordinate or parameter of '" +
+                                             model.name + "'");
+                    continue;
+                }
+                auto cells = split_csv(line);
+                if (cells.size() != header.size())
+                    throw InputError(st.points_file + ":" + std::to_string(line_no) + ": " +
+                                     std::to_string(cells.size()) + " columns, header has " +
+                                     std::to_string(header.size()));
+                std::map<std::string, double> p = fixed;
+                for (std::size_t c = 0; c < cells.size(); ++c) {
+                    const std::string where = st.points_file + ":" + std::to_string(line_no) +
+                                              ": column '" + header[c] + "'";
+                    const double v = parse_number(cells[c], where);
+                    const std::string problem = builder.check(header[c], v);
+                    if (!problem.empty()) throw InputError(where + ": " + problem);
+                    p[header[c]] = v;
+                }
+                rows.push_back(cells);
+                points.push_back(std::move(p));
+            }
+            if (points.empty()) throw InputError("points file '" + st.points_file + "' has no rows");
+        } else {
+            points.push_back(fixed);
+        }
+        const std::size_t stride = model.point_stride();
+        std::vector<double> kernel_points(points.size() * stride);
+        for (std::size_t k = 0; k < points.size(); ++k) {
+            try {
+                builder.build(points[k], &kernel_points[k * stride]);
+            } catch (const InputError& e) {
+                throw InputError((st.points_file.empty() ? std::string("arguments")
+                                                         : st.points_file + " row " +
+                                                               std::to_string(k + 1)) +
+                                 ": " + e.what());
+            }
+        }
+        IntegrationSettings settings = st.compute.apply(IntegrationSettings{});
+        if (!st.output.empty()) check_output_writable(st.output);
+        auto backend = st.compute.make_backend();
+        EstimateResult r = estimate(
+            *backend, model, q, options, points.size(),
+            [&](std::size_t cell, double* out) {
+                std::copy_n(&kernel_points[cell * stride], stride, out);
+            },
+            settings);
+
+        if (st.points_file.empty()) {
+            if (st.json) {
+                nlohmann::json j = {{"model", model.name},
+                                    {"quantity", q.name},
+                                    {"value", r.value[0]},
+                                    {"stderr", r.stderr_[0]},
+                                    {"samples", r.method == "closed-form" ? 1u : r.samples[0]},
+                                    {"method", r.method},
+                                    {"units", q.units},
+                                    {"device", backend->device_name()},
+                                    {"precision", precision_name(backend->precision())}};
+                std::cout << j.dump() << "\n";
+            } else {
+                std::cout << model.name << " " << q.name << " = " << format_double(r.value[0]);
+                if (r.method != "closed-form")
+                    std::cout << " ± " << r.stderr_[0] << " (1 stderr, " << r.samples[0]
+                              << " samples, " << r.method << ")";
+                else
+                    std::cout << " (closed form)";
+                std::cout << " [" << q.units << "]\n";
+            }
+            return;
+        }
+        std::ostringstream csv;
+        for (const auto& h : header) csv << h << ",";
+        csv << "value,stderr,samples\n";
+        for (std::size_t k = 0; k < rows.size(); ++k) {
+            for (const auto& c : rows[k]) csv << c << ",";
+            csv << format_double(r.value[k]) << "," << format_double(r.stderr_[k]) << ","
+                << (r.method == "closed-form" ? 1u : r.samples[k]) << "\n";
+        }
+        if (st.output.empty()) {
+            std::cout << csv.str();
+        } else {
+            const std::string tmp = st.output + ".tmp-" + std::to_string(getpid());
+            {
+                std::ofstream out(tmp);
+                out << csv.str();
+                if (!out) {
+                    std::remove(tmp.c_str());
+                    throw Error("cannot write '" + tmp + "'");
+                }
+            }
+            if (std::rename(tmp.c_str(), st.output.c_str()) != 0) {
+                std::remove(tmp.c_str());
+                throw Error("cannot rename '" + tmp + "' to '" + st.output + "'");
+            }
+            std::cerr << "wrote " << rows.size() << " rows to " << st.output << "\n";
+        }
+    });
+}
+
+void register_generate(CLI::App& app) {
+    auto* cmd = app.add_subcommand(
+        "generate",
+        "compute every table of a TOML spec (see tables/ and docs/spec.md) and write them to "
+        "one HDF5 file");
+    struct State {
+        std::string spec_path, output;
+        ComputeOptions compute;
+        bool quiet = false;
+    };
+    static State st;
+    cmd->add_option("SPEC", st.spec_path, "table specification (TOML)")->required();
+    cmd->add_option("-o,--output", st.output, "output file (default: the spec's output.path)");
+    cmd->add_flag("-q,--quiet", st.quiet, "no progress display");
+    st.compute.add_to(*cmd);
+    cmd->callback([] {
+        Spec spec = parse_spec_file(st.spec_path);
+        const std::string out_path = st.output.empty() ? spec.output.path : st.output;
+        check_output_writable(out_path);
+        const IntegrationSettings settings = st.compute.apply(spec.integration);
+        auto backend = st.compute.make_backend();
+        std::cerr << "brdftab: " << spec.model << ", " << spec.tables.size()
+                  << " table(s) from " << st.spec_path << " on " << backend->device_name()
+                  << " (" << precision_name(backend->precision()) << ")\n";
+        std::unique_ptr<ProgressPrinter> printer;
+        std::size_t current = static_cast<std::size_t>(-1);
+        auto on_progress = [&](const GenerateEvent& e) {
+            if (st.quiet) return;
+            if (e.table_index != current) {
+                if (printer) printer->finish();
+                current = e.table_index;
+                printer = std::make_unique<ProgressPrinter>(
+                    "[" + std::to_string(e.table_index + 1) + "/" +
+                    std::to_string(e.table_count) + "] " + e.table->name);
+            }
+            (*printer)(e.progress);
+        };
+        std::vector<GeneratedTable> tables = generate_tables(spec, *backend, settings, on_progress);
+        if (printer) printer->finish();
+        std::vector<TableData> data;
+        for (auto& t : tables) data.push_back(t.data);
+        write_tables(out_path, data);
+        std::cout << "wrote " << out_path << "\n";
+        for (const auto& t : tables) {
+            const TableData& d = t.data;
+            double lo = d.value.empty() ? 0 : d.value[0], hi = lo;
+            for (double v : d.value) lo = std::min(lo, v), hi = std::max(hi, v);
+            std::cout << "  " << d.name << ": " << d.quantity << " [";
+            for (std::size_t a = 0; a < d.axes.size(); ++a)
+                std::cout << (a ? " x " : "") << d.axes[a].name << " " << d.axes[a].count;
+            std::cout << "] = " << d.cell_count() << " cells, " << d.method;
+            if (d.method != "closed-form")
+                std::cout << ", " << format_count(static_cast<double>(d.total_samples))
+                          << " samples, max rel. stderr " << d.tolerance_achieved;
+            std::cout << ", values in [" << lo << ", " << hi << "], "
+                      << format_seconds(d.elapsed_seconds) << "\n";
+            if (t.cells_unconverged)
+                std::cout << "  warning: " << t.cells_unconverged
+                          << " cell(s) reached max_samples before the tolerance\n";
+        }
+    });
+}
+
+}  // namespace brdftab::cli

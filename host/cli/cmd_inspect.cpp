@@ -1,0 +1,126 @@
+// devices, models, info: commands that only describe things.
+#include <iomanip>
+#include <iostream>
+
+#include "cli_common.h"
+#include "commands.h"
+#include "error.h"
+#include "opencl_runtime.h"
+#include "table_io.h"
+
+namespace brdftab::cli {
+
+void register_devices(CLI::App& app) {
+    auto* cmd = app.add_subcommand("devices", "list OpenCL devices (and the `host` reference)");
+    cmd->callback([] {
+        const auto devices = list_devices();
+        for (const auto& d : devices) {
+            std::cout << "[" << d.index << "] " << d.name << "\n"
+                      << "    platform: " << d.platform_name << " (" << d.version << ")\n"
+                      << "    type: " << (d.is_cpu ? "CPU" : d.is_gpu ? "GPU" : "other")
+                      << ", compute units: " << d.compute_units
+                      << ", fp64: " << (d.has_fp64 ? "yes" : "no")
+                      << ", memory: " << d.global_mem_bytes / (1024 * 1024) << " MiB"
+                      << ", max allocation: " << d.max_alloc_bytes / (1024 * 1024) << " MiB\n";
+        }
+        std::cout << "[host] serial C++ reference path (double precision, one core)\n";
+        const DeviceInfo chosen = select_device("");
+        std::cout << "default: [" << chosen.index << "] " << chosen.name
+                  << " (override with --device or BRDFTAB_DEVICE)\n";
+    });
+}
+
+void register_models(CLI::App& app) {
+    auto* cmd = app.add_subcommand(
+        "models", "list models: quantities, parameters with allowed ranges, options, equations");
+    static bool as_json = false;
+    cmd->add_flag("--json", as_json, "machine-readable output");
+    cmd->callback([] {
+        if (as_json) {
+            std::cout << describe_models().dump(2) << "\n";
+            return;
+        }
+        for (const auto& m : all_models()) {
+            std::cout << m.name << "\n  " << m.description << "\n  Source: " << m.citation
+                      << "\n  Parameters:\n";
+            for (const auto& p : m.parameters) {
+                std::cout << "    " << std::left << std::setw(14) << p.name << p.range_text();
+                if (p.default_value) std::cout << "  default " << *p.default_value;
+                std::cout << "  " << p.description << "\n";
+            }
+            std::cout << "  Options:\n";
+            for (const auto& o : m.options) {
+                std::cout << "    " << std::left << std::setw(14) << o.name;
+                for (std::size_t k = 0; k < o.choices.size(); ++k)
+                    std::cout << (k ? " | " : "") << o.choices[k];
+                std::cout << "  (default " << o.default_choice << ")  " << o.description << "\n";
+            }
+            std::cout << "  Quantities:\n";
+            for (const auto& q : m.quantities) {
+                std::cout << "    " << std::left << std::setw(14) << q.name << "["
+                          << (q.kind == QuantityKind::ClosedForm ? "closed form" : "integral, " +
+                                                                                       q.default_method)
+                          << "; " << q.units << "; depends on:";
+                for (const auto& d : q.directions) std::cout << " " << d;
+                if (q.directions.empty()) std::cout << " no direction";
+                std::cout << "] " << q.description << "  (" << q.equations << ")\n";
+            }
+            std::cout << "\n";
+        }
+        std::cout << "Directions: theta in [0, 180] deg from the macro normal (> 90 = below the "
+                     "surface), phi in deg; phi_d = phi_o - phi_i; mu = cos(theta).\n";
+    });
+}
+
+namespace {
+void print_table_summary(const TableData& t, bool verbose) {
+    std::cout << "  table '" << t.name << "': " << t.model << " / " << t.quantity << " ["
+              << t.units << "]\n";
+    std::cout << "    shape:";
+    for (const auto& a : t.axes) std::cout << " " << a.name << "=" << a.count;
+    std::cout << "  (" << t.cell_count() << " cells, stored " << stored_type_name(t.stored_type)
+              << ")\n";
+    for (const auto& a : t.axes)
+        std::cout << "    axis " << std::left << std::setw(8) << a.name << " [" << a.min << ", "
+                  << a.max << "] " << a.unit << ", " << a.count << " nodes, "
+                  << spacing_name(a.spacing) << "\n";
+    std::cout << "    parameters: " << t.parameters.dump() << "\n";
+    std::cout << "    method: " << t.method;
+    if (t.method != "closed-form") {
+        std::cout << ", samples/cell requested " << t.samples_requested;
+        if (t.tolerance_requested > 0) std::cout << ", tolerance " << t.tolerance_requested;
+        std::cout << ", achieved max rel. stderr " << t.tolerance_achieved << ", total samples "
+                  << t.total_samples;
+    }
+    std::cout << "\n    computed on " << t.device << " (" << t.precision << ") in "
+              << format_seconds(t.elapsed_seconds) << ", seed " << t.seed << ", brdftab "
+              << t.version << "\n";
+    if (verbose && !t.value.empty()) {
+        double lo = t.value[0], hi = t.value[0], se = 0;
+        for (double v : t.value) lo = std::min(lo, v), hi = std::max(hi, v);
+        for (double s : t.stderr_) se = std::max(se, s);
+        std::cout << "    values in [" << lo << ", " << hi << "]";
+        if (!t.stderr_.empty()) std::cout << ", max stderr " << se;
+        std::cout << "\n";
+    }
+}
+}  // namespace
+
+void register_info(CLI::App& app) {
+    auto* cmd = app.add_subcommand("info", "describe a brdftab table file");
+    static std::string path;
+    static bool values = false;
+    cmd->add_option("FILE", path, "HDF5 file written by `brdftab generate`")->required();
+    cmd->add_flag("--values", values, "also read the data and print value ranges");
+    cmd->callback([] {
+        const auto names = list_tables(path);
+        const auto attrs = read_file_attributes(path);
+        std::cout << path << ": " << names.size() << " table(s)";
+        if (attrs.contains("brdftab_version"))
+            std::cout << ", written by brdftab " << attrs["brdftab_version"].get<std::string>();
+        std::cout << "\n";
+        for (const auto& n : names) print_table_summary(read_table(path, n), values);
+    });
+}
+
+}  // namespace brdftab::cli

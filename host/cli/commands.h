@@ -1,0 +1,18 @@
+// commands.h — one register_* function per subcommand group.
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+namespace brdftab::cli {
+
+void register_devices(CLI::App& app);
+void register_models(CLI::App& app);
+void register_eval(CLI::App& app);
+void register_generate(CLI::App& app);
+void register_info(CLI::App& app);
+void register_export(CLI::App& app);
+void register_bench(CLI::App& app);
+// query / validate / plot (renderer-side library, issue 7)
+void register_table_commands(CLI::App& app);
+
+}  // namespace brdftab::cli

@@ -1,0 +1,39 @@
+#!/usr/bin/env bash
+# Installs the Debian 12 packages brdftab needs to build, test and run, if any
+# are missing.  Non-interactive.  When not root, prints the command instead of
+# running it (prefix with sudo yourself).
+set -euo pipefail
+
+packages=(
+  build-essential cmake pkg-config
+  pocl-opencl-icd ocl-icd-opencl-dev opencl-clhpp-headers   # OpenCL on the CPU
+  libhdf5-dev hdf5-tools                                    # tables
+  libopenexr-dev                                            # EXR export (and Imath half)
+  libpng-dev                                                # `brdftab plot`
+  doctest-dev libtomlplusplus-dev libcli11-dev nlohmann-json3-dev
+  python3-h5py python3-numpy                                # format tests read files with h5py
+)
+
+missing=()
+for p in "${packages[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+    missing+=("$p")
+  fi
+done
+
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "setup: all ${#packages[@]} packages present"
+  exit 0
+fi
+
+cmd="apt-get install -y --no-install-recommends ${missing[*]}"
+if [ "$(id -u)" -ne 0 ]; then
+  echo "setup: missing packages: ${missing[*]}"
+  echo "setup: run as root:  apt-get update && $cmd"
+  exit 1
+fi
+echo "setup: installing ${missing[*]}"
+export DEBIAN_FRONTEND=noninteractive
+apt-get update -qq
+# shellcheck disable=SC2086
+apt-get install -y -qq --no-install-recommends ${missing[*]}
