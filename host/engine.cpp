@@ -165,6 +165,7 @@ private:
 
 // Running statistics of one cell across batches.
 struct CellState {
+    double first_batch = 0, second_batch = 0;  // quadrature: accurate, coarse rule
     std::uint64_t samples = 0;
     std::uint32_t batches = 0;
     double mean = 0, m2 = 0;              // sample level (Chan merge)
@@ -174,6 +175,8 @@ struct CellState {
 
 void merge_batch(CellState& c, double mean, double m2, std::uint32_t batch_size) {
     // Chan, Golub & LeVeque: combine (n_a, mean_a, M2_a) with (n_b, mean_b, M2_b).
+    if (c.batches == 0) c.first_batch = mean;
+    if (c.batches == 1) c.second_batch = mean;
     const double na = static_cast<double>(c.samples), nb = batch_size;
     const double n = na + nb;
     const double delta = mean - c.mean;
@@ -215,21 +218,6 @@ std::unique_ptr<Backend> make_backend(const std::string& device_selector, Precis
                                            kernel_dir);
 }
 
-std::string resolve_method(const QuantityInfo& q, const std::string& requested) {
-    if (requested.empty() || requested == "auto") return q.default_method;
-    if (requested != "closed-form" && requested != "mc" && requested != "rqmc")
-        throw InputError("integration method '" + requested +
-                         "' is not valid; allowed: auto, closed-form, mc, rqmc");
-    if (q.kind == QuantityKind::ClosedForm && requested != "closed-form")
-        throw InputError("quantity '" + q.name +
-                         "' has a closed form; method must be auto or closed-form, not '" +
-                         requested + "'");
-    if (q.kind == QuantityKind::Integral && requested == "closed-form")
-        throw InputError("quantity '" + q.name +
-                         "' is an integral without closed form; method must be auto, mc or rqmc");
-    return requested;
-}
-
 EstimateResult estimate(Backend& backend, const ModelInfo& model, const QuantityInfo& quantity,
                         const std::vector<int>& options, std::size_t cell_count,
                         const PointFn& point_of, const IntegrationSettings& settings,
@@ -245,7 +233,9 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
 
     EstimateResult result;
     result.method = resolve_method(quantity, settings.method);
-    const bool closed = result.method == "closed-form";
+    const bool quadrature = result.method == "quadrature";
+    // Quadrature runs like a closed form with two one-sample batches.
+    const bool closed = result.method == "closed-form" || quadrature;
     const bool rqmc = result.method == "rqmc";
     const bool adaptive = !closed && settings.tolerance > 0;
     if (adaptive && !(settings.tolerance < 1))
@@ -255,7 +245,10 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
     launch.model = &model;
     launch.quantity = quantity.id;
     launch.options = options;
-    launch.method = closed ? BT_METHOD_CLOSED : rqmc ? BT_METHOD_RQMC : BT_METHOD_MC;
+    launch.method = quadrature ? BT_METHOD_QUADRATURE
+                    : closed   ? BT_METHOD_CLOSED
+                    : rqmc     ? BT_METHOD_RQMC
+                               : BT_METHOD_MC;
     launch.key0 = static_cast<std::uint32_t>(settings.seed);
     launch.key1 = static_cast<std::uint32_t>(settings.seed >> 32);
     launch.stride = model.point_stride();
@@ -265,7 +258,7 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
     // a usable error estimate.  MC batches are plain chunks of the sample stream.
     const std::uint64_t first_budget = settings.samples ? settings.samples : 4096;
     std::uint32_t batch_size = 1;
-    std::uint32_t first_batches = 1;
+    std::uint32_t first_batches = quadrature ? 2 : 1;
     if (!closed) {
         if (settings.batch_size) {
             batch_size = settings.batch_size;
@@ -336,6 +329,9 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
                 merge_batch(cells[launch.cells[w]], slab_mean[w], slab_m2[w], batch_size);
             work_done += launch.cells.size();
             if (progress) {
+                // Without a tolerance every cell is finished once its batches
+                // are merged: the cursor counts them.
+                if (!adaptive) prog.cells_done = cell_cursor;
                 prog.samples_done = work_done * batch_size;
                 prog.elapsed_seconds = elapsed();
                 prog.fraction = std::min(1.0, static_cast<double>(work_done) /
@@ -391,9 +387,12 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
     for (std::size_t c = 0; c < cell_count; ++c) {
         const CellState& s = cells[c];
         // RQMC: the mean of the batch means is the estimator whose error we report.
-        result.value[c] = rqmc ? s.batch_mean : s.mean;
-        result.stderr_[c] = closed ? 0.0 : cell_stderr(s, rqmc);
-        result.samples[c] = static_cast<std::uint32_t>(std::min<std::uint64_t>(s.samples, 0xFFFFFFFFu));
+        // Quadrature: the accurate rule, with the coarse rule's distance as error.
+        result.value[c] = quadrature ? s.first_batch : rqmc ? s.batch_mean : s.mean;
+        result.stderr_[c] = quadrature ? std::fabs(s.first_batch - s.second_batch)
+                            : closed   ? 0.0
+                                       : cell_stderr(s, rqmc);
+        result.samples[c] = quadrature ? 1u : static_cast<std::uint32_t>(std::min<std::uint64_t>(s.samples, 0xFFFFFFFFu));
         result.total_samples += s.samples;
         const double rel = result.stderr_[c] / std::max(std::fabs(result.value[c]), settings.abs_floor);
         worst = std::max(worst, rel);

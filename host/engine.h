@@ -95,10 +95,6 @@ struct EstimateResult {
 // Supplies the kernel point of a cell (stride = model.point_stride()).
 using PointFn = std::function<void(std::size_t cell, double* point)>;
 
-// Resolve "auto" to the quantity's default; reject impossible combinations
-// (closed-form method for an integral) with InputError.
-std::string resolve_method(const QuantityInfo& q, const std::string& requested);
-
 EstimateResult estimate(Backend& backend, const ModelInfo& model,
                         const QuantityInfo& quantity, const std::vector<int>& options,
                         std::size_t cell_count, const PointFn& point_of,

@@ -1,5 +1,7 @@
 #include "generate.h"
 
+#include <cmath>
+
 #include "error.h"
 
 #ifndef BRDFTAB_VERSION
@@ -8,15 +10,57 @@
 
 namespace brdftab {
 
+namespace {
+constexpr double kDegToRad = 3.14159265358979323846 / 180.0;
+}
+
 CellPoints::CellPoints(const ModelInfo& model, const QuantityInfo& quantity,
                        const TableSpec& table)
-    : builder_(model, quantity), fixed_(table.fixed), grid_(table.axes) {}
+    : grid_(table.axes), base_(model.point_stride()) {
+    // Validate everything once through the general builder, at the first node.
+    std::map<std::string, double> values = table.fixed;
+    for (const Axis& a : table.axes) values[a.name] = a.values.at(0);
+    PointBuilder(model, quantity).build(values, base_.data());
+
+    auto has = [&](const char* n) { return values.count(n) != 0; };
+    phi_o_from_phi_d_ = has("phi_d");
+    if (has("phi_d") && table.fixed.count("phi_d")) fixed_phi_d_ = table.fixed.at("phi_d") * kDegToRad;
+    for (const Axis& a : table.axes) {
+        if (a.name == "theta_i") feeds_.push_back({Feed::ThetaDeg, 0});
+        else if (a.name == "mu_i") feeds_.push_back({Feed::Mu, 0});
+        else if (a.name == "theta_o") feeds_.push_back({Feed::ThetaDeg, 2});
+        else if (a.name == "mu_o") feeds_.push_back({Feed::Mu, 2});
+        else if (a.name == "phi_i") feeds_.push_back({Feed::PhiIDeg, 1});
+        else if (a.name == "phi_o") feeds_.push_back({Feed::PhiODeg, 3});
+        else if (a.name == "phi_d") feeds_.push_back({Feed::PhiDDeg, 3});
+        else {
+            const ParameterInfo* p = model.find_parameter(a.name);
+            if (!p) throw InputError("axis '" + a.name + "' is not a coordinate or parameter of '" +
+                                     model.name + "'");
+            const std::size_t slot = kDirectionSlots + static_cast<std::size_t>(p - model.parameters.data());
+            feeds_.push_back({p->in_degrees ? Feed::ParamDeg : Feed::Param, slot});
+        }
+    }
+}
 
 void CellPoints::point(std::size_t cell, double* out) const {
-    std::map<std::string, double> values = fixed_;
-    const std::vector<double> coords = grid_.coordinates(cell);
-    for (std::size_t a = 0; a < coords.size(); ++a) values[grid_.axes()[a].name] = coords[a];
-    builder_.build(values, out);
+    std::copy(base_.begin(), base_.end(), out);
+    double phi_d = fixed_phi_d_;
+    const std::vector<std::size_t> index = grid_.index_of(cell);
+    for (std::size_t a = 0; a < feeds_.size(); ++a) {
+        const double v = grid_.axes()[a].values[index[a]];
+        switch (feeds_[a].feed) {
+            case Feed::ThetaDeg:
+            case Feed::PhiIDeg:
+            case Feed::PhiODeg:
+            case Feed::ParamDeg: out[feeds_[a].slot] = v * kDegToRad; break;
+            case Feed::Mu: out[feeds_[a].slot] = std::acos(v); break;
+            case Feed::PhiDDeg: phi_d = v * kDegToRad; break;
+            case Feed::Param: out[feeds_[a].slot] = v; break;
+        }
+    }
+    // Same rule as PointBuilder: phi_o = phi_i + phi_d when phi_d is given.
+    if (phi_o_from_phi_d_) out[3] = out[1] + phi_d;
 }
 
 std::vector<GeneratedTable> generate_tables(const Spec& spec, Backend& backend,

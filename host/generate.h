@@ -30,6 +30,9 @@ std::vector<GeneratedTable> generate_tables(const Spec& spec, Backend& backend,
                                             const GenerateProgressFn& progress = nullptr);
 
 // Kernel point of one table cell: fixed values + the cell's axis values.
+// The full PointBuilder (validation, defaults, name resolution) runs once, on
+// the first node; each cell then only rewrites the slots its axes feed, which
+// keeps point building off the critical path of large closed-form tables.
 class CellPoints {
 public:
     CellPoints(const ModelInfo& model, const QuantityInfo& quantity, const TableSpec& table);
@@ -37,9 +40,16 @@ public:
     void point(std::size_t cell, double* out) const;
 
 private:
-    PointBuilder builder_;
-    std::map<std::string, double> fixed_;
+    enum class Feed { ThetaDeg, Mu, PhiIDeg, PhiODeg, PhiDDeg, Param, ParamDeg };
+    struct AxisFeed {
+        Feed feed;
+        std::size_t slot;
+    };
     Grid grid_;
+    std::vector<double> base_;      // point at the first node of every axis
+    std::vector<AxisFeed> feeds_;   // one per axis
+    bool phi_o_from_phi_d_ = false; // phi_o = phi_i + phi_d (phi_d given)
+    double fixed_phi_d_ = 0;        // radians, when phi_d is fixed, not an axis
 };
 
 }  // namespace brdftab

@@ -46,7 +46,9 @@ ModelInfo rough_dielectric_model() {
     m.options = {
         {"distribution", "microfacet normal distribution", {"beckmann", "ggx", "phong"}, "ggx"},
         {"g1",
-         "Smith masking: exact, or Walter's rational fit (eq. 27; Beckmann and Phong only)",
+         "Smith masking for Beckmann: exact (eq. 26), or Walter's rational fit (eq. 27); GGX is "
+         "always exact (eq. 34); Phong always uses Walter's rational fit (eqs. 27, 31) whatever "
+         "this option says",
          {"smith", "walter-fit"},
          "smith"},
         {"shadowing",
@@ -58,10 +60,18 @@ ModelInfo rough_dielectric_model() {
         {"side", "albedo_avg: light arriving from outside (above) or inside (below)",
          {"outside", "inside"},
          "outside"},
+        {"sampling",
+         "albedos: how microfacet normals are sampled: visible normals (Heitz 2018 for GGX, "
+         "Heitz & d'Eon 2014 for Beckmann; weights bounded by 1) or Walter's m ~ D|m.n| "
+         "(eqs. 28-35, weight eq. 41: heavy-tailed). Phong has no visible-normal sampler and "
+         "always uses Walter's",
+         {"visible", "walter"},
+         "visible"},
     };
 
     const std::vector<std::string> all_dirs = {"theta_i", "phi_i", "theta_o", "phi_o"};
     const std::vector<std::string> shape_opts = {"distribution", "g1", "shadowing"};
+    const std::vector<std::string> albedo_opts = {"distribution", "g1", "shadowing", "sampling"};
     auto closed = [&](const char* name, int id, const char* desc, const char* eqs) {
         QuantityInfo q;
         q.name = name;
@@ -91,26 +101,30 @@ ModelInfo rough_dielectric_model() {
         q.dimensions = dims;
         return q;
     };
+    const char* kAlbedoEqs =
+        "eqs. 14, 17, 20-22, 39-40; sampling=walter: eqs. 28-35 and weight eq. 41; "
+        "sampling=visible: Heitz 2018 (JCGT 7(4), GGX) and Heitz & d'Eon 2014 (EGSR, "
+        "Beckmann), weight F G/G1(i)";
     // ids: the `quantity` switch of rough_dielectric_sample (kernels/models/rough_dielectric.h)
     m.quantities = {
         closed("brdf", 0, "reflection f_r (0 when i and o are on opposite sides)",
-               "eqs. 13, 20 (h_r, f_r), 5 (Fresnel), 23 (G)"),
+               "eqs. 13, 20 (h_r, f_r), 22 (Fresnel), 23 (G)"),
         closed("btdf", 1, "transmission f_t (0 when i and o are on the same side)",
-               "eqs. 16, 21 (h_t, f_t), 5, 23"),
+               "eqs. 16, 21 (h_t, f_t), 22 (Fresnel), 23 (G)"),
         closed("bsdf", 2, "f_r or f_t, whichever applies to the pair of sides",
                "eqs. 20-21"),
         integral("albedo_r", 3,
                  "directional reflectance: integral of f_r cos(theta_o) over outgoing directions",
-                 "eqs. 38-41 (sampling m ~ D|m.n|, weight)", {"theta_i"}, shape_opts, 2),
+                 kAlbedoEqs, {"theta_i"}, albedo_opts, 2),
         integral("albedo_t", 4,
                  "directional transmittance: integral of f_t |cos(theta_o)| over outgoing "
                  "directions",
-                 "eqs. 38-41", {"theta_i"}, shape_opts, 2),
+                 kAlbedoEqs, {"theta_i"}, albedo_opts, 2),
         integral("albedo_avg", 5,
                  "cosine-weighted hemispherical average of the directional albedo, "
                  "2 * int E(mu) mu dmu, for the chosen lobe(s) and side",
-                 "eqs. 38-41", {},
-                 {"distribution", "g1", "shadowing", "lobe", "side"}, 3),
+                 kAlbedoEqs, {},
+                 {"distribution", "g1", "shadowing", "lobe", "side", "sampling"}, 3),
     };
     m.host_fn = &host_rough_dielectric_sample;
     return m;

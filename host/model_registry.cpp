@@ -11,8 +11,13 @@
 namespace brdftab {
 
 namespace detail {
-// Defined in host_models.cpp.
+// Defined in host_models.cpp (rough-dielectric, the first model).
 std::vector<ModelInfo> build_model_list();
+// One per model file under host/models/ (each appends its entries).
+void register_oren_nayar(std::vector<ModelInfo>& models);
+void register_interfaced_lambertian(std::vector<ModelInfo>& models);
+void register_lambert_sphere(std::vector<ModelInfo>& models);
+void register_micrograin(std::vector<ModelInfo>& models);
 }  // namespace detail
 
 namespace {
@@ -81,7 +86,14 @@ const QuantityInfo& ModelInfo::quantity(const std::string& n) const {
 }
 
 const std::vector<ModelInfo>& all_models() {
-    static const std::vector<ModelInfo> models = detail::build_model_list();
+    static const std::vector<ModelInfo> models = [] {
+        std::vector<ModelInfo> m = detail::build_model_list();
+        detail::register_oren_nayar(m);
+        detail::register_interfaced_lambertian(m);
+        detail::register_lambert_sphere(m);
+        detail::register_micrograin(m);
+        return m;
+    }();
     return models;
 }
 
@@ -234,6 +246,33 @@ std::vector<int> resolve_options(const ModelInfo& model, const nlohmann::json& g
     return out;
 }
 
+std::string resolve_method(const QuantityInfo& q, const std::string& requested) {
+    if (requested.empty() || requested == "auto") return q.default_method;
+    if (requested != "closed-form" && requested != "mc" && requested != "rqmc" &&
+        requested != "quadrature")
+        throw InputError("integration method '" + requested +
+                         "' is not valid; allowed: auto, closed-form, quadrature, mc, rqmc");
+    if (requested == "quadrature" && q.kind != QuantityKind::Quadrature)
+        throw InputError("quantity '" + q.name + "' has no deterministic quadrature; method "
+                         "must be auto" + std::string(q.kind == QuantityKind::ClosedForm
+                                                          ? " or closed-form"
+                                                          : ", mc or rqmc"));
+    if (q.kind == QuantityKind::Quadrature) {
+        if (requested == "closed-form")
+            throw InputError("quantity '" + q.name + "' is computed by quadrature; method must "
+                             "be auto, quadrature, mc or rqmc");
+        return requested;  // quadrature, or a sampling estimator of the same integral
+    }
+    if (q.kind == QuantityKind::ClosedForm && requested != "closed-form")
+        throw InputError("quantity '" + q.name +
+                         "' has a closed form; method must be auto or closed-form, not '" +
+                         requested + "'");
+    if (q.kind == QuantityKind::Integral && requested == "closed-form")
+        throw InputError("quantity '" + q.name +
+                         "' is an integral without closed form; method must be auto, mc or rqmc");
+    return requested;
+}
+
 nlohmann::json describe_models() {
     nlohmann::json models = nlohmann::json::array();
     for (const auto& m : all_models()) {
@@ -259,7 +298,9 @@ nlohmann::json describe_models() {
                 {{"name", q.name},
                  {"description", q.description},
                  {"units", q.units},
-                 {"kind", q.kind == QuantityKind::ClosedForm ? "closed-form" : "integral"},
+                 {"kind", q.kind == QuantityKind::ClosedForm   ? "closed-form"
+                          : q.kind == QuantityKind::Quadrature ? "quadrature"
+                                                               : "integral"},
                  {"directions", q.directions},
                  {"options", q.uses_options},
                  {"default_method", q.default_method},

@@ -52,7 +52,10 @@ struct OptionInfo {
     int index_of(const std::string& choice) const;  // -1 when absent
 };
 
-enum class QuantityKind { ClosedForm, Integral };
+// ClosedForm: one evaluation, no error.  Integral: Monte Carlo / RQMC with
+// standard errors.  Quadrature: a deterministic rule evaluated twice (accurate
+// and coarse, see BT_METHOD_QUADRATURE); the difference is the error estimate.
+enum class QuantityKind { ClosedForm, Integral, Quadrature };
 
 struct QuantityInfo {
     std::string name;
@@ -63,7 +66,7 @@ struct QuantityInfo {
     std::vector<std::string> directions;  // subset of theta_i, phi_i, theta_o, phi_o it depends on
     std::vector<std::string> uses_options;  // options that matter (others ignored)
     std::string equations;                  // e.g. "eqs. 20-21 (Walter 2007)"
-    std::string default_method = "closed-form";  // "closed-form" | "rqmc" | "mc"
+    std::string default_method = "closed-form";  // "closed-form" | "quadrature" | "rqmc" | "mc"
     unsigned dimensions = 0;  // random dimensions per sample (integrals)
 };
 
@@ -121,6 +124,11 @@ private:
 // options take their default.  Throws InputError on unknown choice.
 std::vector<int> resolve_options(const ModelInfo& model, const nlohmann::json& given,
                                  const std::string& where);
+
+// Resolve "auto" to the quantity's default; reject impossible combinations
+// (closed-form method for an integral) with InputError.
+// Methods: closed-form | quadrature | mc | rqmc (see engine.h).
+std::string resolve_method(const QuantityInfo& q, const std::string& requested);
 
 // JSON description of every model (for `brdftab models --json` and docs).
 nlohmann::json describe_models();

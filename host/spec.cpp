@@ -353,100 +353,98 @@ Parser::AxisSrc Parser::parse_axis(const toml::table& t, const std::string& pref
     AxisSrc out;
     out.pos = npos;
     out.key = prefix;
-    {
-        if (spacing == Spacing::Explicit) {
-            if (t.get("range"))
-                fail(pos_of(*t.get("range")), sub(prefix, "range"),
-                     "not allowed with spacing = \"explicit\" (the nodes come from 'values')");
-            if (t.get("count"))
-                fail(pos_of(*t.get("count")), sub(prefix, "count"),
-                     "not allowed with spacing = \"explicit\" (the count is the number of "
-                     "'values')");
-            const toml::node* vn = t.get("values");
-            const std::string vkey = sub(prefix, "values");
-            if (!vn)
-                fail(tpos, vkey, "missing; spacing = \"explicit\" needs the node list "
-                                 "values = [v0, v1, ...] (at least 2, strictly increasing)");
-            const toml::array* va = vn->as_array();
-            if (!va) fail(pos_of(*vn), vkey, "must be an array of numbers");
-            std::vector<double> vals;
-            for (std::size_t k = 0; k < va->size(); ++k) {
-                const toml::node& e = (*va)[k];
-                double x;
-                if (e.is_integer())
-                    x = double(e.as_integer()->get());
-                else if (e.is_floating_point())
-                    x = e.as_floating_point()->get();
-                else
-                    fail(pos_of(e), indexed(vkey, k), "must be a number");
-                if (!accepts(x))
-                    fail(pos_of(e), indexed(vkey, k),
-                         "value " + num(x) + " is outside the allowed range of '" + *name +
-                             "'; allowed: " + range_text);
-                vals.push_back(x);
-            }
-            if (vals.size() > kMaxAxisCount)
-                fail(pos_of(*vn), vkey,
-                     "too many nodes; allowed: at most " + std::to_string(kMaxAxisCount));
-            try {
-                out.axis = make_axis(*name, unit, 0, 0, 0, spacing, vals);
-            } catch (const InputError& e) {
-                fail(pos_of(*vn), vkey, e.what());
-            }
-            return out;
-        }
-
-        if (const toml::node* vn = t.get("values"))
-            fail(pos_of(*vn), sub(prefix, "values"),
-                 "only allowed with spacing = \"explicit\"; use range and count otherwise");
-        const toml::node* rn = t.get("range");
-        const std::string rkey = sub(prefix, "range");
-        if (!rn) fail(tpos, rkey, "missing; give range = [min, max] (allowed: " + range_text + ")");
-        const toml::array* ra = rn->as_array();
-        if (!ra || ra->size() != 2)
-            fail(pos_of(*rn), rkey, "must be an array of two numbers [min, max]");
-        double ends[2];
-        for (std::size_t k = 0; k < 2; ++k) {
-            const toml::node& e = (*ra)[k];
+    if (spacing == Spacing::Explicit) {
+        if (t.get("range"))
+            fail(pos_of(*t.get("range")), sub(prefix, "range"),
+                 "not allowed with spacing = \"explicit\" (the nodes come from 'values')");
+        if (t.get("count"))
+            fail(pos_of(*t.get("count")), sub(prefix, "count"),
+                 "not allowed with spacing = \"explicit\" (the count is the number of "
+                 "'values')");
+        const toml::node* vn = t.get("values");
+        const std::string vkey = sub(prefix, "values");
+        if (!vn)
+            fail(tpos, vkey, "missing; spacing = \"explicit\" needs the node list "
+                             "values = [v0, v1, ...] (at least 2, strictly increasing)");
+        const toml::array* va = vn->as_array();
+        if (!va) fail(pos_of(*vn), vkey, "must be an array of numbers");
+        std::vector<double> vals;
+        for (std::size_t k = 0; k < va->size(); ++k) {
+            const toml::node& e = (*va)[k];
+            double x;
             if (e.is_integer())
-                ends[k] = double(e.as_integer()->get());
+                x = double(e.as_integer()->get());
             else if (e.is_floating_point())
-                ends[k] = e.as_floating_point()->get();
+                x = e.as_floating_point()->get();
             else
-                fail(pos_of(e), indexed(rkey, k), "must be a number");
+                fail(pos_of(e), indexed(vkey, k), "must be a number");
+            if (!accepts(x))
+                fail(pos_of(e), indexed(vkey, k),
+                     "value " + num(x) + " is outside the allowed range of '" + *name +
+                         "'; allowed: " + range_text);
+            vals.push_back(x);
         }
-        if (!(ends[0] < ends[1]))
-            fail(pos_of(*rn), rkey,
-                 "min must be less than max, got [" + num(ends[0]) + ", " + num(ends[1]) + "]");
-        for (std::size_t k = 0; k < 2; ++k)
-            if (!accepts(ends[k]))
-                fail(pos_of((*ra)[k]), indexed(rkey, k),
-                     std::string(k == 0 ? "min " : "max ") + num(ends[k]) +
-                         " is outside the allowed range of '" + *name + "'; allowed: " +
-                         range_text);
-        if (spacing == Spacing::Log && !(ends[0] > 0))
-            fail(pos_of(*rn), rkey, "log spacing needs min > 0, got " + num(ends[0]));
-        if (spacing == Spacing::Cos) {
-            if (unit != "deg")
-                fail(pos_of(*t.get("spacing")), sub(prefix, "spacing"),
-                     "cos spacing is uniform in the cosine of an angle in degrees; '" + *name +
-                         "' is not an angle (for mu_i/mu_o use linear spacing, which is "
-                         "already uniform in the cosine)");
-            if (ends[0] < 0 || ends[1] > 180)
-                fail(pos_of(*rn), rkey, "cos spacing needs a range within [0, 180] deg");
-        }
-        const std::optional<std::int64_t> count = get_integer(t, prefix, "count");
-        const std::string ckey = sub(prefix, "count");
-        if (!count) fail(tpos, ckey, "missing; give count = <number of nodes, >= 2>");
-        if (*count < 2 || std::uint64_t(*count) > kMaxAxisCount)
-            fail(pos_of(*t.get("count")), ckey,
-                 "count " + std::to_string(*count) + " is out of range; allowed: 2 .. " +
-                     std::to_string(kMaxAxisCount));
+        if (vals.size() > kMaxAxisCount)
+            fail(pos_of(*vn), vkey,
+                 "too many nodes; allowed: at most " + std::to_string(kMaxAxisCount));
         try {
-            out.axis = make_axis(*name, unit, ends[0], ends[1], std::size_t(*count), spacing);
+            out.axis = make_axis(*name, unit, 0, 0, 0, spacing, vals);
         } catch (const InputError& e) {
-            fail(pos_of(*rn), rkey, e.what());
+            fail(pos_of(*vn), vkey, e.what());
         }
+        return out;
+    }
+
+    if (const toml::node* vn = t.get("values"))
+        fail(pos_of(*vn), sub(prefix, "values"),
+             "only allowed with spacing = \"explicit\"; use range and count otherwise");
+    const toml::node* rn = t.get("range");
+    const std::string rkey = sub(prefix, "range");
+    if (!rn) fail(tpos, rkey, "missing; give range = [min, max] (allowed: " + range_text + ")");
+    const toml::array* ra = rn->as_array();
+    if (!ra || ra->size() != 2)
+        fail(pos_of(*rn), rkey, "must be an array of two numbers [min, max]");
+    double ends[2];
+    for (std::size_t k = 0; k < 2; ++k) {
+        const toml::node& e = (*ra)[k];
+        if (e.is_integer())
+            ends[k] = double(e.as_integer()->get());
+        else if (e.is_floating_point())
+            ends[k] = e.as_floating_point()->get();
+        else
+            fail(pos_of(e), indexed(rkey, k), "must be a number");
+    }
+    if (!(ends[0] < ends[1]))
+        fail(pos_of(*rn), rkey,
+             "min must be less than max, got [" + num(ends[0]) + ", " + num(ends[1]) + "]");
+    for (std::size_t k = 0; k < 2; ++k)
+        if (!accepts(ends[k]))
+            fail(pos_of((*ra)[k]), indexed(rkey, k),
+                 std::string(k == 0 ? "min " : "max ") + num(ends[k]) +
+                     " is outside the allowed range of '" + *name + "'; allowed: " +
+                     range_text);
+    if (spacing == Spacing::Log && !(ends[0] > 0))
+        fail(pos_of(*rn), rkey, "log spacing needs min > 0, got " + num(ends[0]));
+    if (spacing == Spacing::Cos) {
+        if (unit != "deg")
+            fail(pos_of(*t.get("spacing")), sub(prefix, "spacing"),
+                 "cos spacing is uniform in the cosine of an angle in degrees; '" + *name +
+                     "' is not an angle (for mu_i/mu_o use linear spacing, which is "
+                     "already uniform in the cosine)");
+        if (ends[0] < 0 || ends[1] > 180)
+            fail(pos_of(*rn), rkey, "cos spacing needs a range within [0, 180] deg");
+    }
+    const std::optional<std::int64_t> count = get_integer(t, prefix, "count");
+    const std::string ckey = sub(prefix, "count");
+    if (!count) fail(tpos, ckey, "missing; give count = <number of nodes, >= 2>");
+    if (*count < 2 || std::uint64_t(*count) > kMaxAxisCount)
+        fail(pos_of(*t.get("count")), ckey,
+             "count " + std::to_string(*count) + " is out of range; allowed: 2 .. " +
+                 std::to_string(kMaxAxisCount));
+    try {
+        out.axis = make_axis(*name, unit, ends[0], ends[1], std::size_t(*count), spacing);
+    } catch (const InputError& e) {
+        fail(pos_of(*rn), rkey, e.what());
     }
     return out;
 }
@@ -477,9 +475,11 @@ void Parser::parse_integration(const toml::table& t, IntegrationSettings& s) con
     check_keys(t, pre, {"method", "samples", "tolerance", "abs_floor", "max_samples", "seed",
                         "batch_size"});
     if (auto m = get_string(t, pre, "method")) {
-        if (*m != "auto" && *m != "closed-form" && *m != "mc" && *m != "rqmc")
+        if (*m != "auto" && *m != "closed-form" && *m != "quadrature" && *m != "mc" &&
+            *m != "rqmc")
             fail(pos_of(*t.get("method")), sub(pre, "method"),
-                 "unknown method '" + *m + "'; allowed: auto, closed-form, mc, rqmc");
+                 "unknown method '" + *m +
+                     "'; allowed: auto, closed-form, quadrature, mc, rqmc");
         s.method = *m;
     }
     auto u64 = [&](const char* key, std::uint64_t lo, std::uint64_t hi) -> std::optional<std::uint64_t> {
@@ -677,10 +677,12 @@ TableSpec Parser::build_table(const toml::table& t, const std::string& prefix,
                      tlabel + ": give it in [parameters] or as an axis (allowed: " +
                      p.range_text() + ")");
 
-    if (integration.method == "closed-form" && q->kind == QuantityKind::Integral)
-        fail(method_pos, "integration.method",
-             "quantity '" + q->name + "' of " + tlabel + " is an integral without closed " +
-                 "form; allowed for it: auto, mc, rqmc");
+    // The engine's own rule decides which methods suit the quantity.
+    try {
+        resolve_method(*q, integration.method);
+    } catch (const InputError& e) {
+        fail(method_pos, "integration.method", tlabel + ": " + e.what());
+    }
 
     // The kernels index cells with 32-bit integers.
     std::uint64_t cells = 1;

@@ -41,6 +41,14 @@
  * slope distribution and stretch the slopes by (alpha_x, alpha_y); for
  * alpha_x = alpha_y this is exactly Walter's theta_m formula.
  *
+ * Visible-normal sampling (end of file): m with pdf
+ *   D_v(m) = G1(v,m) max(0, v.m) D(m) / (v.n)
+ * (Heitz & d'Eon 2014 eq. 2 / Heitz 2018 eq. 1), the exact Smith G1 as the
+ * normaliser.  GGX: Heitz 2018 (JCGT 7(4)), stretched hemisphere and
+ * projected disk.  Beckmann: Heitz & d'Eon 2014 (EGSR), inversion of the
+ * visible-slope CDF.  Phong: none (no closed-form Smith G1, see above).
+ * Both use the same slope-stretch convention as bt_mf_sample, derived below.
+ *
  * No pow() anywhere (PoCL's pow is ~10x slower): Phong's cos^alpha_p is
  * exp(alpha_p log c).
  */
@@ -260,6 +268,231 @@ BT_INLINE bt_vec3 bt_mf_sample(const bt_microfacet* mf, REAL u0, REAL u1, REAL* 
 BT_INLINE REAL bt_mf_pdf(const bt_microfacet* mf, bt_vec3 m)
 {
     return m.z > R(0.0) ? bt_mf_d(mf, m) * m.z : R(0.0);
+}
+
+/* ===================================================== visible normals
+ *
+ * Slope picture (shared by both distributions).  A normal m (m.z > 0) has
+ * slope s = (-m.x/m.z, -m.y/m.z); the anisotropic Beckmann and GGX are the
+ * unit-width slope densities P(s~) stretched by S = diag(ax, ay):
+ * s = S s~, so m prop. to (ax m~.x, ay m~.y, m~.z) for the unit-width normal m~.
+ * The visible-slope density for view v is  prop. to max(0, v.m / m.z) P_S(s)
+ * (D_v(m) dw_m = G1 (v.m)/(m.z) D(m) m.z dw_m / v.z and D(m) m.z dw_m is the
+ * slope measure).  With P_S(s) = P(S^-1 s) / (ax ay) and
+ *   v.m / m.z = v.z - v.x s.x - v.y s.y = v.z - (ax v.x) s~.x - (ay v.y) s~.y
+ *             = |(ax v.x, ay v.y, v.z)| v~.m~ / m~.z,
+ * the change of variables s = S s~ (Jacobian ax ay) turns it into the
+ * unit-width visible-slope density for the view
+ *   v~ = normalize(ax v.x, ay v.y, v.z).                             (V1)
+ * So every sampler below: stretch v to v~ (V1), sample a unit-width visible
+ * normal m~ for v~, unstretch m = normalize(ax m~.x, ay m~.y, m~.z).
+ *
+ * Precondition everywhere: v.z > 0 (the estimator works in the frame where
+ * the light is above; rough_dielectric.h mirrors).  v.z <= 0 is clamped to a
+ * tiny positive value, never NaN. */
+
+/* Exact Smith G1 without chi+ for Beckmann and GGX, whatever mf->g1 says:
+ * the normaliser of D_v.  Phong has none; it returns Walter's fit (only
+ * used if a caller asks for Phong's D_v, which is then not normalised). */
+BT_INLINE REAL bt_mf_g1_smith_nochi(const bt_microfacet* mf, bt_vec3 v)
+{
+    if (mf->dist == BT_MF_GGX) return bt_ggx_g1_nochi(v, mf->ax, mf->ay);
+    if (mf->dist == BT_MF_PHONG) return bt_mf_g1_nochi(mf, v);
+    return bt_beckmann_g1_exact_a(bt_mf_a(v, mf->ax, mf->ay));
+}
+
+/* 1 when bt_mf_sample_visible samples D_v exactly (Beckmann, GGX). */
+BT_INLINE int bt_mf_has_visible(const bt_microfacet* mf) { return mf->dist != BT_MF_PHONG; }
+
+/* D_v(m) = G1(v,m) max(0, v.m) D(m) / v.z  (solid angle, v.z > 0; else 0).
+ * Integrates to 1 over m by Smith's identity int G1 (v.m)+ D dm = v.z. */
+BT_INLINE REAL bt_mf_pdf_visible(const bt_microfacet* mf, bt_vec3 v, bt_vec3 m)
+{
+    REAL vm = bt_v3_dot(v, m);
+    if (!(v.z > R(0.0)) || !(vm > R(0.0)) || !(m.z > R(0.0))) return R(0.0);
+    return bt_mf_g1_smith_nochi(mf, v) * vm * bt_mf_d(mf, m) / v.z;
+}
+
+/* G(v,o,m) / G1(v,m) for a light direction v with chi+(v,m) = 1, given
+ * gv = G1(v) (no chi) of the model's own G1:
+ *   separable          G1(v) G1(o) / G1(v)                = G1(o,m)
+ *   height-correlated  G1v G1o / (G1v + G1o - G1v G1o) / G1v = G1o / (G1v + G1o - G1v G1o)
+ * Both lie in [0, 1] (the HC denominator is >= G1o), written without the
+ * division by G1v so gv = 0 cannot give 0/0. */
+BT_INLINE REAL bt_mf_g_over_g1(const bt_microfacet* mf, REAL gv, bt_vec3 o, bt_vec3 m)
+{
+    if (!bt_mf_visible(o, m)) return R(0.0);
+    REAL go = bt_mf_g1_nochi(mf, o);
+    if (mf->shadowing == BT_SHADOW_HEIGHT_CORRELATED) {
+        REAL den = gv + go - gv * go;
+        return den > R(0.0) ? go / den : R(0.0);
+    }
+    return go;
+}
+
+/* Stretched view (V1), with a strictly positive z. */
+BT_INLINE bt_vec3 bt_mf_stretch_view(bt_vec3 v, REAL ax, REAL ay)
+{
+    return bt_v3_normalize(bt_v3(ax * v.x, ay * v.y, fmax(v.z, R(1e-30))));
+}
+
+/* Unstretch a unit-width normal; the z clamp keeps a rounding-level negative
+ * z from flipping the facet. */
+BT_INLINE bt_vec3 bt_mf_unstretch_normal(bt_vec3 mt, REAL ax, REAL ay)
+{
+    return bt_v3_normalize(bt_v3(ax * mt.x, ay * mt.y, fmax(mt.z, R(0.0))));
+}
+
+/* ---------------- GGX (Heitz 2018, JCGT 7(4))
+ * The unit-width GGX has D = 1/pi on the upper hemisphere: the normals of a
+ * hemisphere of radius 1 (a hemispherical bump).  Seen from v~, the visible
+ * normals of a convex body are distributed like its projected area: uniform
+ * over the silhouette of {n: |n| = 1, n.z > 0, n.v~ > 0} on the plane
+ * orthogonal to v~.  In the basis (t1, t2, v~) with t1 horizontal
+ * (t1 = normalize(-v~.y, v~.x, 0)), that silhouette is the half-disk
+ * p2 >= 0 plus the half-ellipse p2 in [-v~.z h, 0], h = sqrt(1 - p1^2)
+ * (the rim circle n.z = 0 projects to an ellipse of minor axis v~.z).
+ * A uniform point of the unit disk is mapped chord by chord: at fixed p1 the
+ * chord [-h, h] goes linearly onto [-v~.z h, h], i.e.
+ *   p2' = (1 - s) h + s p2,  s = (1 + v~.z) / 2,
+ * which scales every chord by the same factor s, so uniform stays uniform.
+ * Lifting the point back onto the sphere along v~,
+ *   m~ = p1 t1 + p2' t2 + sqrt(1 - p1^2 - p2'^2) v~,
+ * gives the visible normal; unstretching gives m.  Inputs u0 (radius^2) and
+ * u1 (angle) in [0, 1). */
+BT_INLINE bt_vec3 bt_ggx_sample_visible(bt_vec3 v, REAL ax, REAL ay, REAL u0, REAL u1)
+{
+    bt_vec3 vt = bt_mf_stretch_view(v, ax, ay);
+    REAL l2 = vt.x * vt.x + vt.y * vt.y;
+    bt_vec3 t1 = l2 > R(0.0) ? bt_v3_scale(bt_v3(-vt.y, vt.x, R(0.0)), R(1.0) / sqrt(l2))
+                             : bt_v3(R(1.0), R(0.0), R(0.0)); /* v~ = n: any t1 */
+    bt_vec3 t2 = bt_v3_cross(vt, t1);
+    REAL r = sqrt(u0), phi = BT_TWO_PI * u1;
+    REAL p1 = r * cos(phi), p2 = r * sin(phi);
+    REAL s = R(0.5) * (R(1.0) + vt.z);
+    p2 = (R(1.0) - s) * bt_safe_sqrt(R(1.0) - p1 * p1) + s * p2;
+    REAL p3 = bt_safe_sqrt(R(1.0) - p1 * p1 - p2 * p2);
+    bt_vec3 mt = bt_v3_add(bt_v3_add(bt_v3_scale(t1, p1), bt_v3_scale(t2, p2)),
+                           bt_v3_scale(vt, p3));
+    return bt_mf_unstretch_normal(mt, ax, ay);
+}
+
+/* ---------------- Beckmann (Heitz & d'Eon 2014, EGSR)
+ * Unit-width Beckmann slopes: P(x, y) = exp(-x^2 - y^2) / pi.  Rotate the
+ * slope axes so v~ = (sin t, 0, cos t); with m~ prop. to (-x, -y, 1),
+ *   v~.m~ / m~.z = cos t - x sin t,
+ * and the visible-slope density is  prop. to max(0, mu - x) exp(-x^2) exp(-y^2),
+ * mu = cot t: x and y are independent.
+ *   y ~ exp(-y^2)/sqrt(pi):      y = erfinv(2 u1 - 1).
+ *   x on (-inf, mu], unnormalised CDF
+ *     C(x) = int_{-inf}^x (mu - t) exp(-t^2) dt
+ *          = (mu sqrt(pi)/2) erfc(-x) + exp(-x^2)/2,
+ *   total C(mu) = sqrt(pi) mu / G1 (the Smith normaliser of eq. 26, a = mu).
+ *   x solves C(x) = u0 C(mu).
+ * Neither inverse has a closed form; both are roots of
+ *   L(x) = ln(a erfc(-x) + b exp(-x^2)) = target
+ * (x: a = mu sqrt(pi)/2, b = 1/2; y: a = 1/2, b = 0, target ln u).  L is
+ * increasing and concave (the CDF of a log-concave density is log-concave),
+ * so Newton on L converges from any start (after at most one step past the
+ * root to the left, the iterates increase monotonically); we keep a bracket
+ * and fall back to bisection anyway, so rounding can never make it wander.
+ * Departures from the paper: the paper inverts with a fitted initial guess
+ * and plain Newton on C; we use the bracketed log form, and cut the slope
+ * range to [-7, 7] (probability lost < erfc(7)/2 = 2e-23, below double
+ * resolution of u), which keeps every sample finite including u = 0.
+ * L' = exp(-x^2) (2a/sqrt(pi) - 2 b x) / C(x). */
+
+#if defined(BT_REAL_IS_FLOAT) && BT_REAL_IS_FLOAT && BT_DEVICE
+#define BT_MF_SOLVE_TOL R(3e-7)
+#else
+#define BT_MF_SOLVE_TOL R(1e-13)
+#endif
+#define BT_MF_SLOPE_MAX R(7.0)
+#define BT_MF_SOLVE_ITERS 80
+
+BT_INLINE REAL bt_mf_solve_log_cdf(REAL a, REAL b, REAL target, REAL lo, REAL hi, REAL x)
+{
+    const REAL two_over_sqrt_pi = R(1.12837916709551257390);
+    for (int it = 0; it < BT_MF_SOLVE_ITERS; ++it) {
+        REAL e = exp(-x * x);
+        REAL c = a * erfc(-x) + b * e;
+        REAL g = log(c) - target;
+        if (g == R(0.0)) return x;
+        if (g > R(0.0)) hi = x; else lo = x;
+        REAL dc = e * (two_over_sqrt_pi * a - R(2.0) * b * x); /* >= 0 for x <= mu */
+        REAL xn = dc > R(0.0) ? x - g * c / dc : R(0.5) * (lo + hi);
+        if (!(xn > lo && xn < hi)) xn = R(0.5) * (lo + hi); /* also catches NaN */
+        REAL tol = BT_MF_SOLVE_TOL * (R(1.0) + fabs(xn));
+        if (fabs(xn - x) <= tol || hi - lo <= tol) return xn;
+        x = xn;
+    }
+    return x;
+}
+
+/* Starting point for erfinv(2u - 1): Winitzki's closed-form approximation
+ * (relative error ~2e-3), with 1 - z^2 = 4 u (1 - u) so nothing cancels. */
+BT_INLINE REAL bt_mf_erfinv_unit_guess(REAL u)
+{
+    const REAL k = R(4.33074675)    /* 2 / (pi 0.147) */, inv_a = R(6.80272109); /* 1/0.147 */
+    REAL q = fmax(fmin(u, R(1.0) - u), R(1e-30));
+    REAL l = log(R(4.0) * q * (R(1.0) - q));
+    REAL t = k + R(0.5) * l;
+    REAL y = bt_safe_sqrt(bt_safe_sqrt(t * t - l * inv_a) - t);
+    return u < R(0.5) ? -y : y;
+}
+
+/* y with (1 + erf y)/2 = u (a normal variable of variance 1/2): by symmetry
+ * solve for u <= 1/2 (y <= 0) and flip, so 1 - u never cancels. */
+BT_INLINE REAL bt_mf_erfinv_unit(REAL u)
+{
+    int flip = u > R(0.5);
+    REAL q = flip ? R(1.0) - u : u;
+    q = fmax(q, R(1e-30)); /* u = 0 -> the range cut at -7 */
+    REAL x0 = fmax(bt_mf_erfinv_unit_guess(q), -BT_MF_SLOPE_MAX + R(0.5));
+    REAL y = bt_mf_solve_log_cdf(R(0.5), R(0.0), log(q), -BT_MF_SLOPE_MAX, R(0.0), x0);
+    return flip ? -y : y;
+}
+
+/* x-slope of the unit-width visible Beckmann slopes for mu = cot(theta~) >= 0. */
+BT_INLINE REAL bt_beckmann_visible_slope_x(REAL mu, REAL u)
+{
+    REAL a = R(0.5) * BT_SQRT_PI * mu;
+    REAL total = a * erfc(-mu) + R(0.5) * exp(-mu * mu); /* C(mu) */
+    REAL q = fmax(u, R(1e-30));
+    REAL target = log(q) + log(total);
+    REAL hi = fmin(mu, BT_MF_SLOPE_MAX), lo = -BT_MF_SLOPE_MAX;
+    /* Start: the mu -> inf limit (Gaussian), kept inside the bracket. */
+    REAL x0 = bt_mf_erfinv_unit_guess(q);
+    if (!(x0 > lo && x0 < hi)) x0 = R(0.5) * (lo + hi);
+    return bt_mf_solve_log_cdf(a, R(0.5), target, lo, hi, x0);
+}
+
+BT_INLINE bt_vec3 bt_beckmann_sample_visible(bt_vec3 v, REAL ax, REAL ay, REAL u0, REAL u1)
+{
+    bt_vec3 vt = bt_mf_stretch_view(v, ax, ay);
+    REAL st = sqrt(vt.x * vt.x + vt.y * vt.y);
+    /* Azimuth of v~ (any at normal incidence); mu = cot(theta~), capped so
+     * normal incidence stays finite (mu > 7 already means "no cut"). */
+    REAL cp = st > R(0.0) ? vt.x / st : R(1.0);
+    REAL sp = st > R(0.0) ? vt.y / st : R(0.0);
+    REAL mu = vt.z < st * R(1e15) ? vt.z / st : R(1e15);
+    REAL x = bt_beckmann_visible_slope_x(mu, u0);
+    REAL y = bt_mf_erfinv_unit(u1);
+    /* Rotate the slope back by the azimuth; m~ prop. to (-slope, 1). */
+    REAL sx = cp * x - sp * y, sy = sp * x + cp * y;
+    bt_vec3 mt = bt_v3_normalize(bt_v3(-sx, -sy, R(1.0)));
+    return bt_mf_unstretch_normal(mt, ax, ay);
+}
+
+/* m ~ D_v(m) for light/view v (v.z > 0).  Phong has no visible sampler:
+ * callers check bt_mf_has_visible and use bt_mf_sample instead; here Phong
+ * falls back to bt_mf_sample's m (pdf D|m.n|, NOT D_v). */
+BT_INLINE bt_vec3 bt_mf_sample_visible(const bt_microfacet* mf, bt_vec3 v, REAL u0, REAL u1)
+{
+    if (mf->dist == BT_MF_GGX) return bt_ggx_sample_visible(v, mf->ax, mf->ay, u0, u1);
+    if (mf->dist == BT_MF_BECKMANN) return bt_beckmann_sample_visible(v, mf->ax, mf->ay, u0, u1);
+    REAL pdf;
+    return bt_mf_sample(mf, u0, u1, &pdf);
 }
 
 #endif /* BRDFTAB_MICROFACET_H */

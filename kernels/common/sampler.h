@@ -6,6 +6,12 @@
  *   BT_METHOD_RQMC        Sobol point `sample` (0-based within the batch),
  *                         Owen-scrambled per (key, cell, batch, dim)
  *   BT_METHOD_CLOSED      no randomness; bt_uniform returns 0.5
+ *   BT_METHOD_QUADRATURE  deterministic quadrature: no randomness either.  The
+ *                         engine runs two one-sample batches per cell: batch 0
+ *                         must return the accurate rule, batch 1 a coarser one
+ *                         (e.g. half the nodes); |batch0 - batch1| is reported
+ *                         as the error estimate.  A sample function reads
+ *                         `s->batch` to tell which.
  *
  *   REAL bt_uniform(const bt_sampler* s, uint dim)   in [0, 1), never 1.0
  *   dim < BT_MAX_DIMS
@@ -18,6 +24,7 @@
 #define BT_METHOD_MC 0u
 #define BT_METHOD_RQMC 1u
 #define BT_METHOD_CLOSED 2u
+#define BT_METHOD_QUADRATURE 3u
 #define BT_MAX_DIMS 8u
 
 typedef struct {

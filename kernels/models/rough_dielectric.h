@@ -19,6 +19,9 @@
  *   o[2] shadowing      0 separable G1 G1, 1 height-correlated
  *   o[3] lobe           albedo_avg only: 0 both, 1 reflection, 2 transmission
  *   o[4] side           albedo_avg only: 0 light from outside, 1 from inside
+ *   o[5] sampling       albedos only: 0 visible normals (default), 1 Walter
+ *                       (m ~ D|m.n|, eqs. 28/32/35).  Phong has no visible-
+ *                       normal sampler and always uses Walter's.
  * Quantities:
  *   0 brdf        f_r (1/sr); 0 when i and o are on opposite sides
  *   1 btdf        f_t (1/sr); 0 when i and o are on the same side
@@ -26,7 +29,8 @@
  *   3 albedo_r    directional reflectance  int f_r |o.n| do  for light from i
  *   4 albedo_t    directional transmittance int f_t |o.n| do
  *   5 albedo_avg  2 int_0^1 E(mu) mu dmu for the chosen lobe(s) and side
- * Random dimensions: 0, 1 sample m ~ D(m)|m.n|; 2 picks mu = sqrt(u) (avg).
+ * Random dimensions: 0, 1 sample m (visible normals or D(m)|m.n|);
+ * 2 picks mu = sqrt(u) (avg).
  *
  * Sides.  The formulas are written for light arriving from outside (i.z > 0,
  * eta_i = 1, eta_o = eta on transmission).  When i is below the surface
@@ -72,6 +76,9 @@
 #define RD_LOBE_BOTH 0
 #define RD_LOBE_REFLECTION 1
 #define RD_LOBE_TRANSMISSION 2
+
+#define RD_SAMPLING_VISIBLE 0
+#define RD_SAMPLING_WALTER 1
 
 /* Floor on |cos theta| of i and o (see header comment). */
 #define RD_MIN_COS R(1e-9)
@@ -188,42 +195,78 @@ BT_INLINE REAL rough_dielectric_fs(const REAL* p, const int* o)
 
 /* ---------------------------------------------------- albedo estimator
  * One sample of the directional albedo for light from canonical direction i
- * (i.z > 0) and relative index eta.  m ~ D(m)|m.n| (eqs. 28/32/35 via
- * bt_mf_sample); o by reflection or refraction through m (eqs. 39, 40);
- * weight |i.m| G(i,o,m) / (|i.n| |m.n|) (eq. 41) times F or (1 - F).
- * Returns the reflected part in *wr and the transmitted part in *wt.
- * unit_fresnel != 0 replaces F by 1 (and hence 1 - F by 0): the pure
- * geometric reflection albedo, for tests against closed forms. */
-BT_INLINE void rd_albedo_weights(const bt_microfacet* mf, bt_vec3 i, REAL eta, REAL u0, REAL u1,
-                                 int unit_fresnel, REAL* wr, REAL* wt)
+ * (i.z > 0) and relative index eta.  Returns the reflected part in *wr and
+ * the transmitted part in *wt (the same m for both).  unit_fresnel != 0
+ * replaces F by 1 (and hence 1 - F by 0): the pure geometric reflection
+ * albedo, for tests against closed forms.
+ *
+ * Both estimators start from the albedo as an integral over m.  Reflection:
+ * o = reflect(i, m) (eq. 39), dw_o = 4 |o.m| dw_m (eq. 14), and with f_r of
+ * eq. 20
+ *   A_r = int f_r |o.n| dw_o = int F(i,m) D(m) G(i,o,m) |i.m| / |i.n| dw_m.
+ * Transmission: o = refract(i, m) (eq. 40), dw_o = (i.m + eta o.m)^2 /
+ * (eta^2 |o.m|) dw_m (eq. 17 with eta_i = 1), and eq. 21 collapses to the
+ * same form with 1 - F:
+ *   A_t = int (1 - F(i,m)) D(m) G(i,o,m) |i.m| / |i.n| dw_m.
+ *
+ * RD_SAMPLING_WALTER: m ~ D(m)|m.n| (eqs. 28/32/35), weight (eq. 41)
+ *   w = F |i.m| G(i,o,m) / (|i.n| |m.n|).
+ *   Unbounded: |i.m|/|m.n| grows without limit for m near grazing, where
+ *   the sampler rarely goes, so the weights are heavy-tailed and error
+ *   estimates from few samples run low.
+ * RD_SAMPLING_VISIBLE: m ~ D_v(m) = G1s(i,m) (i.m)+ D(m) / (i.n)
+ *   (microfacet.h; G1s is the exact Smith G1 that normalises D_v), so
+ *   w = F G(i,o,m) / G1s(i,m)
+ *     = F (G1(i)/G1s(i)) G(i,o,m)/G1(i,m)      (G1: the model's own G1)
+ *   with G/G1(i) = G1(o) (separable) or G1o/(G1i + G1o - G1i G1o)
+ *   (height-correlated), both in [0, 1].  With the exact G1 (the default)
+ *   G1 = G1s, so every weight, and wr + wt for one m, is at most 1; with
+ *   Walter's fit (eq. 27) the ratio G1/G1s stays within its 0.35 % accuracy.
+ *   Needs D_v sampling: Beckmann and GGX.  Phong always takes the Walter
+ *   path. */
+BT_INLINE void rd_albedo_weights(const bt_microfacet* mf, bt_vec3 i, REAL eta, int sampling,
+                                 REAL u0, REAL u1, int unit_fresnel, REAL* wr, REAL* wt)
 {
     *wr = R(0.0);
     *wt = R(0.0);
-    REAL pdf;
-    bt_vec3 m = bt_mf_sample(mf, u0, u1, &pdf);
+    int visible = sampling == RD_SAMPLING_VISIBLE && bt_mf_has_visible(mf);
+    bt_vec3 m;
+    REAL pdf = R(1.0);
+    if (visible)
+        m = bt_mf_sample_visible(mf, i, u0, u1);
+    else
+        m = bt_mf_sample(mf, u0, u1, &pdf);
     REAL im = bt_v3_dot(i, m);
     if (!(im > R(0.0)) || !(m.z > R(0.0)) || !(pdf > R(0.0))) return; /* chi+ of G1(i,m) */
     REAL F = unit_fresnel ? R(1.0) : bt_fresnel_dielectric(im, eta); /* eq. 22 */
-    REAL base = im / (i.z * m.z);                                    /* eq. 41 */
     bt_vec3 o_r = bt_reflect(i, m);                                  /* eq. 39 */
-    if (o_r.z > R(0.0) && F > R(0.0)) *wr = F * base * bt_mf_g(mf, i, o_r, m);
-    if (F < R(1.0)) {
-        bt_vec3 o_t;
-        if (bt_refract(i, m, eta, &o_t) && o_t.z < R(0.0)) /* eq. 40 */
-            *wt = (R(1.0) - F) * base * bt_mf_g(mf, i, o_t, m);
+    bt_vec3 o_t;
+    int has_t = F < R(1.0) && bt_refract(i, m, eta, &o_t) && o_t.z < R(0.0); /* eq. 40 */
+    int has_r = o_r.z > R(0.0) && F > R(0.0);
+    if (visible) {
+        REAL gi = bt_mf_g1_nochi(mf, i);
+        REAL gs = bt_mf_g1_smith_nochi(mf, i);
+        /* gs > 0 whenever i.z > 0; gi == gs exactly for the exact G1. */
+        REAL ratio = gi == gs ? R(1.0) : (gs > R(0.0) ? gi / gs : R(0.0));
+        if (has_r) *wr = F * ratio * bt_mf_g_over_g1(mf, gi, o_r, m);
+        if (has_t) *wt = (R(1.0) - F) * ratio * bt_mf_g_over_g1(mf, gi, o_t, m);
+    } else {
+        REAL base = im / (i.z * m.z); /* eq. 41 */
+        if (has_r) *wr = F * base * bt_mf_g(mf, i, o_r, m);
+        if (has_t) *wt = (R(1.0) - F) * base * bt_mf_g(mf, i, o_t, m);
     }
 }
 
 /* Canonicalise light direction by side, then one weight for the chosen lobe. */
 BT_INLINE REAL rd_albedo_sample_dir(const bt_microfacet* mf, bt_vec3 i, REAL eta, int lobe,
-                                    REAL u0, REAL u1)
+                                    int sampling, REAL u0, REAL u1)
 {
     if (i.z < R(0.0)) {
         i.z = -i.z;
         eta = R(1.0) / eta;
     }
     REAL wr, wt;
-    rd_albedo_weights(mf, i, eta, u0, u1, 0, &wr, &wt);
+    rd_albedo_weights(mf, i, eta, sampling, u0, u1, 0, &wr, &wt);
     if (lobe == RD_LOBE_REFLECTION) return wr;
     if (lobe == RD_LOBE_TRANSMISSION) return wt;
     return wr + wt;
@@ -242,16 +285,17 @@ BT_INLINE REAL rough_dielectric_sample(const REAL* p, const int* o, int quantity
     if (quantity == RD_Q_ALBEDO_R || quantity == RD_Q_ALBEDO_T) {
         int below;
         bt_vec3 i = rd_direction(p[0], p[1], &below);
-        return rd_albedo_sample_dir(&mf, i, p[5], quantity == RD_Q_ALBEDO_R ? RD_LOBE_REFLECTION
-                                                                            : RD_LOBE_TRANSMISSION,
-                                    u0, u1);
+        return rd_albedo_sample_dir(&mf, i, p[5],
+                                    quantity == RD_Q_ALBEDO_R ? RD_LOBE_REFLECTION
+                                                              : RD_LOBE_TRANSMISSION,
+                                    o[5], u0, u1);
     }
     if (quantity == RD_Q_ALBEDO_AVG) {
         /* 2 int E(mu) mu dmu = E[E(sqrt(u))] with u uniform (pdf of mu: 2 mu). */
         REAL mu = fmax(sqrt(bt_uniform(s, 2u)), RD_MIN_COS);
         REAL st = bt_safe_sqrt(R(1.0) - mu * mu);
         bt_vec3 i = bt_v3(st, R(0.0), o[4] == 1 ? -mu : mu);
-        return rd_albedo_sample_dir(&mf, i, p[5], o[3], u0, u1);
+        return rd_albedo_sample_dir(&mf, i, p[5], o[3], o[5], u0, u1);
     }
     return R(0.0);
 }

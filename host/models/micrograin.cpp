@@ -1,0 +1,171 @@
+// Registry entry and host compilation of the micrograin model (Lucas et al.
+// 2024, kernels/models/micrograin.h).
+#include <vector>
+
+#include "model_registry.h"
+
+#include "../../kernels/common/compat.h"
+#include "../../kernels/common/sampler.h"
+#include "../../kernels/models/micrograin.h"
+
+namespace brdftab::detail {
+
+// Host compilation of the kernel's sample function (the `--device host` path).
+REAL host_micrograin_sample(const REAL* point, const int* options, int quantity,
+                            const bt_sampler* sampler) {
+    return micrograin_sample(point, options, quantity, sampler);
+}
+
+namespace {
+
+ParameterInfo param(const char* name, const char* desc, double lo, bool lo_in, double hi,
+                    bool hi_in, double def) {
+    ParameterInfo p;
+    p.name = name;
+    p.unit = "1";
+    p.description = desc;
+    p.min = lo;
+    p.min_inclusive = lo_in;
+    p.max = hi;
+    p.max_inclusive = hi_in;
+    p.default_value = def;
+    return p;
+}
+
+}  // namespace
+
+void register_micrograin(std::vector<ModelInfo>& models) {
+    ModelInfo m;
+    m.name = "micrograin";
+    m.citation =
+        "S. Lucas, M. Ribardiere, R. Pacanowski, P. Barla. A Fully-correlated Anisotropic "
+        "Micrograin BSDF Model. ACM Transactions on Graphics 43(4), article 111, 2024. "
+        "doi:10.1145/3658224";
+    m.description =
+        "Porous layer of random half-ellipsoid grains (dust, rust, dirt) over a base surface: "
+        "anisotropic micrograin NDF, height- and direction-correlated GAF from exact shadow "
+        "areas, pore visibility, the full BRDF, and an explicit ray-traced grain simulator "
+        "as reference.";
+    m.kernel_file = "micrograin.cl";
+    m.kernel_name = "micrograin_estimate";
+
+    // Order = kernel point layout p[4..14] (kernels/models/micrograin.h).
+    m.parameters = {
+        param("tau0", "filling factor: fraction of the base covered by grains (eq. 8)", 0, false,
+              1, false, 0.5),
+        param("beta_x", "lateral stretch along x: grain semi-axis 1/beta_x (Fig. 2c)", 0.01,
+              true, 10, true, 1),
+        param("beta_y", "lateral stretch along y: grain semi-axis 1/beta_y", 0.01, true, 10,
+              true, 1),
+        param("h", "height in the layer (shadow/overlap areas, GAF quantities), n.m'", 0, true,
+              1, true, 0),
+        param("kd", "grain diffuse albedo (eq. 21)", 0, true, 1, true, 0.5),
+        param("eta", "grain index of refraction (dielectric) or its real part (conductor)", 0,
+              false, 10, true, 1.5),
+        param("k", "grain extinction coefficient (conductor grains)", 0, true, 20, true, 0),
+        param("base_albedo", "Lambertian base albedo", 0, true, 1, true, 0.5),
+        param("base_alpha", "GGX width of the rough-conductor base", 0, false, 2, true, 0.2),
+        param("base_eta", "rough-conductor base index, real part", 0, false, 10, true, 0.2),
+        param("base_k", "rough-conductor base extinction coefficient", 0, true, 20, true, 3.0),
+    };
+    m.options = {
+        {"grain",
+         "grain reflectance: diffuse (kd, no Fresnel), dielectric (Fresnel from eta plus the kd "
+         "lobe weighted by (1-F)(1-F)), conductor (Fresnel from eta + i k, same kd weighting)",
+         {"diffuse", "dielectric", "conductor"},
+         "diffuse"},
+        {"base",
+         "base (bulk) BRDF: absorbing, Lambertian (base_albedo), or rough conductor (GGX "
+         "base_alpha, height-correlated Smith, Fresnel base_eta + i base_k)",
+         {"absorbing", "lambertian", "conductor"},
+         "absorbing"},
+        {"correlation",
+         "distant GAF: direction-correlated with the shadow overlap (eqs. 18-19) or the "
+         "uncorrelated product G1 G1 (eq. 17); both are height-correlated",
+         {"direction", "none"},
+         "direction"},
+        {"weighting",
+         "component weights: this paper tau0 f^S + Vp f^B (eqs. 20, 23), or Lucas 2023 "
+         "w+ f^S + (1-w+) f^B with 1-w+ = (1-tau0) G1(i,0) G1(o,0) (eqs. 1, 4, 25)",
+         {"lucas2024", "lucas2023"},
+         "lucas2024"},
+    };
+
+    const std::vector<std::string> dir_i = {"theta_i", "phi_i"};
+    const std::vector<std::string> dir_io = {"theta_i", "phi_i", "theta_o", "phi_o"};
+    const std::vector<std::string> all_opts = {"grain", "base", "correlation", "weighting"};
+    auto q = [](const char* name, int id, const char* desc, const char* units, QuantityKind kind,
+                std::vector<std::string> dirs, std::vector<std::string> opts, const char* eqs,
+                const char* method, unsigned dims) {
+        QuantityInfo x;
+        x.name = name;
+        x.id = id;
+        x.description = desc;
+        x.units = units;
+        x.kind = kind;
+        x.directions = std::move(dirs);
+        x.uses_options = std::move(opts);
+        x.equations = eqs;
+        x.default_method = method;
+        x.dimensions = dims;
+        return x;
+    };
+    const auto C = QuantityKind::ClosedForm;
+    const auto I = QuantityKind::Integral;
+    // ids: MG_Q_* in kernels/models/micrograin.h
+    m.quantities = {
+        q("ndf", 0,
+          "normal distribution D(m) with m = (theta_i, phi_i); int D(m) m.n dm = 1", "1/sr", C,
+          dir_i, {}, "eqs. 10-12", "closed-form", 0),
+        q("alpha_x", 1, "equivalent GGX width along x (eq. 28, sign corrected)", "1", C, {}, {},
+          "eq. 28", "closed-form", 0),
+        q("alpha_y", 2, "equivalent GGX width along y (eq. 28, sign corrected)", "1", C, {}, {},
+          "eq. 28", "closed-form", 0),
+        q("shadow_area", 3,
+          "area of the shadow cast from direction i by one grain (unit radius before "
+          "stretching) on the plane at height h, outside the grain: sigma_s(i', h)/(beta_x "
+          "beta_y)",
+          "1", C, dir_i, {}, "Appendix A, §4.2 (det E^-1)", "closed-form", 0),
+        q("overlap_area", 4,
+          "area of the overlap of the shadows from i and o at height h: sigma_cap(i', o', "
+          "h)/(beta_x beta_y)",
+          "1", C, dir_io, {}, "Appendix B (equivalent polar decomposition, see docs)",
+          "closed-form", 0),
+        q("g1_dist", 5, "distant masking term G1_dist(i, h)", "1", C, dir_i, {},
+          "eqs. 16, 9; anisotropic via E (§4.2)", "closed-form", 0),
+        q("g_dist", 6, "distant bidirectional GAF G_dist(i, o, h)", "1", C, dir_io,
+          {"correlation"}, "eq. 19 (correlation=direction) or eq. 17 (none)", "closed-form", 0),
+        q("pore_visibility", 7, "pore (base) visibility Vp(i, o) = (1 - tau0) G_dist(i, o, 0)",
+          "1", C, dir_io, {"correlation"}, "eq. 23, Appendix C", "closed-form", 0),
+        q("brdf", 8,
+          "full BRDF tau0 f^S + Vp f^B; the diffuse-grain part (eq. 21) is a Monte Carlo "
+          "integral over microfacet normals (constant samples when kd = 0 or grains are "
+          "diffuse-free)",
+          "1/sr", I, dir_io, all_opts, "eqs. 20-23 (weighting=lucas2023: eqs. 1, 25)", "rqmc",
+          2),
+        q("albedo", 9, "directional albedo: integral of brdf cos(theta_o) over outgoing directions",
+          "1", I, dir_i, all_opts, "eqs. 20-23 integrated over o", "rqmc", 6),
+        q("explicit_g1", 10,
+          "reference: G1_dist(i, h) ray-traced on explicit random grains (fraction of pore "
+          "points at height h that see i)",
+          "1", I, dir_i, {}, "§5.1 simulation; compare eq. 16", "mc", 2),
+        q("explicit_g", 11, "reference: G_dist(i, o, h) ray-traced on explicit random grains",
+          "1", I, dir_io, {}, "§5.1 simulation; compare eqs. 17-19", "mc", 2),
+        q("explicit_brdf", 12,
+          "reference: single-scattering BRDF ray-traced on explicit random grains; non-Dirac "
+          "lobes only (grain kd lobe and base), the grain specular lobe is not simulated",
+          "1/sr", I, dir_io, {"grain", "base"}, "§5.1 simulation; compare eqs. 20-23", "mc", 2),
+        q("p_bulk", 13, "probability of sampling the base, eq. 26", "1", C, dir_i, {}, "eq. 26",
+          "closed-form", 0),
+        q("p_diffuse", 14, "probability of sampling the grain diffuse lobe, eq. 27", "1", C,
+          dir_i, {"grain"}, "eq. 27", "closed-form", 0),
+        q("explicit_coverage", 15,
+          "reference: fraction of the plane at height h inside grains, ray-free check of the "
+          "simulator's density (exact: 1 - (1 - tau0)^(1 - h^2))",
+          "1", I, {}, {}, "eqs. 7-9", "mc", 2),
+    };
+    m.host_fn = &host_micrograin_sample;
+    models.push_back(std::move(m));
+}
+
+}  // namespace brdftab::detail

@@ -1,0 +1,303 @@
+/*
+ * hfunction.h — Chandrasekhar H-functions for even polynomial characteristic
+ * functions, from the Fock/Chandrasekhar integral.
+ *
+ * E. d'Eon, "An analytic BRDF for materials with spherical Lambertian
+ * scatterers", Computer Graphics Forum 40(4) (EGSR 2021).  Equation numbers
+ * are that paper's; symbols restored in /work/shared/MODELS.md §3.
+ * Background: S. Chandrasekhar, Radiative Transfer (1960), ch. V;
+ * H. G. Horak, S. Chandrasekhar, ApJ 134 (1961) 45.
+ *
+ * Characteristic functions (all even polynomials, Psi(mu) = sum_k a_k mu^(2k)):
+ *   lambert0, lambert1, lambert2  Psi0, Psi1, Psi2 of eqs. 13-15 (parameter c)
+ *   isotropic                     Psi = c/2 (Chandrasekhar's classic case)
+ *   poly                          Psi = psi_0 + psi_1 mu^2 + psi_2 mu^4 + psi_3 mu^6
+ *
+ * Method (eq. 16):  H(mu) = exp(-(mu/pi) int_0^inf log K(t) / (1 + mu^2 t^2) dt),
+ * K(t) = 1 - 2 int_0^1 Psi(x)/(1 + x^2 t^2) dx   (eq. 17 in real form; closed
+ * forms eqs. 18-20 for the Lambert-sphere Psi's).
+ *
+ * Departures / additions (all exact rewritings, no approximation):
+ *  1. Small t.  With the moments m_j = int_0^1 Psi x^(2j) dx,
+ *       K(t) = (1 - 2 m_0) + 2 m_1 t^2 - 2 m_2 t^4 + ...   (|t| < 1),
+ *     used for t < HF_T_SERIES: eqs. 18-20 cancel catastrophically there
+ *     (terms of size 1/t^5 summing to O(1)).
+ *  2. The conservative singularity.  a = K(0) = 1 - 2 m_0 vanishes at c = 1
+ *     for Psi0 and for isotropic scattering: then K ~ b t^2 (b = 2 m_1) and
+ *     log K has a log singularity at t = 0.  We split
+ *       log K = log(K/Q) + log Q,     Q(t) = (a + b t^2)/(1 + b t^2)   (b > 0, see below),
+ *     and integrate log Q analytically with
+ *       int_0^inf log(p^2 + t^2)/(q^2 + t^2) dt = (pi/q) log(p + q):
+ *       exp(-(mu/pi) int log Q/(1+mu^2 t^2) dt) = (mu + sqrt b)/(mu sqrt a + sqrt b).
+ *     log(K/Q) is smooth, O(t^2) at 0 and O(1/t) at infinity, for every a >= 0.
+ *     The factor reproduces H(inf) = 1/sqrt(K(0)) (eq. 32) exactly.
+ *     When b <= 0 (Psi1 is negative for the Lambert sphere; K > 1) Q uses
+ *     beta = 1 in place of b: any beta > 0 keeps log(K/Q) = O(t^2) at 0,
+ *     which the trapezoidal tails below rely on.
+ *  3. Quadrature.  With t = e^s the remaining integral becomes
+ *       (1/pi) int L(e^s) (mu e^s)/(1 + mu^2 e^(2s)) ds,   L = log(K/Q),
+ *     whose integrand decays exponentially at both ends and is analytic in
+ *     the strip |Im s| < pi/2 (every singularity of K, of atan and of the
+ *     kernel lies on purely imaginary t).  The trapezoidal rule converges
+ *     like exp(-pi^2/h): h = HF_H_FINE gives ~1e-15, and the coarse rule
+ *     (every second node, batch 1 of BT_METHOD_QUADRATURE) ~1e-7 — the
+ *     reported error estimate is therefore very conservative.
+ *  4. Moments alpha_n = int_0^1 mu^n H(mu) dmu by Gauss-Legendre in u with
+ *     mu = u^2 (H has a mu log mu term at 0 that plain Gauss-Legendre in mu
+ *     resolves slowly).
+ *
+ * Validity: H exists for a = 1 - 2 int Psi >= 0.  For poly coefficients with
+ * a < 0 (or K <= 0 somewhere) the functions return NaN.
+ */
+#ifndef BRDFTAB_HFUNCTION_H
+#define BRDFTAB_HFUNCTION_H
+
+#include "../common/compat.h"
+#include "../common/sampler.h"
+
+#define HF_PSI_LAMBERT0 0
+#define HF_PSI_LAMBERT1 1
+#define HF_PSI_LAMBERT2 2
+#define HF_PSI_ISOTROPIC 3
+#define HF_PSI_POLY 4
+
+#define HF_NCOEF 4
+#define HF_T_SERIES R(0.5)
+#define HF_H_FINE R(0.25)
+#define HF_SERIES_TERMS 40
+
+typedef struct {
+    int kind;
+    REAL c;
+    REAL a[HF_NCOEF]; /* Psi = sum a_k mu^(2k) */
+    REAL k0;          /* a = K(0) = 1 - 2 m_0 */
+    REAL b;           /* 2 m_1 */
+} hf_psi;
+
+/* Psi as an even polynomial (eqs. 13-15 expanded). */
+BT_INLINE hf_psi hf_make_psi(int kind, REAL c, const REAL* poly)
+{
+    hf_psi P;
+    P.kind = kind;
+    P.c = c;
+    for (int k = 0; k < HF_NCOEF; ++k) P.a[k] = R(0.0);
+    if (kind == HF_PSI_LAMBERT0) { /* eq. 13 */
+        P.a[0] = R(207.0) * c / R(384.0);
+        P.a[1] = c * (c * (R(20.0) * c + R(281.0)) - R(346.0)) / R(384.0);
+        P.a[2] = -R(15.0) * c * (c - R(1.0)) * (R(4.0) * c + R(9.0)) / R(384.0);
+    } else if (kind == HF_PSI_LAMBERT1) { /* eq. 14 */
+        REAL q = R(5.0) * (R(4.0) * c + R(9.0));
+        P.a[0] = -R(64.0) * c / R(192.0);
+        P.a[1] = c * (q + R(64.0)) / R(192.0);
+        P.a[2] = -c * q / R(192.0);
+    } else if (kind == HF_PSI_LAMBERT2) { /* eq. 15 */
+        P.a[0] = R(15.0) * c / R(256.0);
+        P.a[1] = -R(30.0) * c / R(256.0);
+        P.a[2] = R(15.0) * c / R(256.0);
+    } else if (kind == HF_PSI_ISOTROPIC) {
+        P.a[0] = R(0.5) * c;
+    } else {
+        for (int k = 0; k < HF_NCOEF; ++k) P.a[k] = poly[k];
+    }
+    REAL m0 = R(0.0), m1 = R(0.0);
+    for (int k = 0; k < HF_NCOEF; ++k) {
+        m0 += P.a[k] / (REAL)(2 * k + 1);
+        m1 += P.a[k] / (REAL)(2 * k + 3);
+    }
+    /* K(0) in factored form where it vanishes at c = 1, so that a is exactly
+     * 0 there (rounding of 1 - 2 m_0 would leave ~1e-16 and an error of
+     * ~mu 1e-8 in the factor of note 2). */
+    if (kind == HF_PSI_LAMBERT0)
+        P.k0 = (c - R(16.0)) * (c - R(1.0)) * (R(4.0) * c + R(9.0)) / R(144.0); /* eq. 32 */
+    else if (kind == HF_PSI_ISOTROPIC)
+        P.k0 = R(1.0) - c;
+    else
+        P.k0 = R(1.0) - R(2.0) * m0;
+    P.b = R(2.0) * m1;
+    return P;
+}
+
+/* m_j = int_0^1 Psi(x) x^(2j) dx. */
+BT_INLINE REAL hf_moment_psi(const hf_psi* P, int j)
+{
+    REAL m = R(0.0);
+    for (int k = 0; k < HF_NCOEF; ++k) m += P->a[k] / (REAL)(2 * k + 2 * j + 1);
+    return m;
+}
+
+/* K(t) - a - b t^2 for t < HF_T_SERIES (alternating series, note 1). */
+BT_INLINE REAL hf_k_series_rest(const hf_psi* P, REAL t)
+{
+    REAL t2 = t * t;
+    REAL tp = t2 * t2; /* t^(2j), j = 2 */
+    REAL sum = R(0.0);
+    REAL sign = -R(1.0);
+    for (int j = 2; j < HF_SERIES_TERMS; ++j) {
+        sum += sign * tp * hf_moment_psi(P, j);
+        tp *= t2;
+        sign = -sign;
+    }
+    return R(2.0) * sum;
+}
+
+/* K(t) for t >= HF_T_SERIES: closed forms eqs. 18-20 for the Lambert Psi's,
+ * otherwise 1 - 2 sum a_k I_k(t) with I_0 = atan(t)/t and the upward
+ * recurrence I_k = (1/(2k-1) - I_(k-1))/t^2 (stable enough for t >= 0.5:
+ * at most a factor 4 per step). */
+BT_INLINE REAL hf_k_direct(const hf_psi* P, REAL t)
+{
+    REAL c = P->c;
+    REAL at = atan(t);
+    REAL t2 = t * t;
+    REAL t3 = t2 * t;
+    REAL t5 = t3 * t2;
+    if (P->kind == HF_PSI_LAMBERT0) { /* eq. 18 */
+        REAL q = R(15.0) * (c - R(1.0)) * (R(4.0) * c + R(9.0));
+        REAL num = (R(256.0) * c - R(301.0)) * t3 +
+                   ((R(346.0) - c * (R(20.0) * c + R(281.0))) * t2 - q + R(207.0) * t2 * t2) * at +
+                   q * t;
+        return R(1.0) - c * num / (R(192.0) * t5);
+    }
+    if (P->kind == HF_PSI_LAMBERT1) { /* eq. 19 */
+        REAL num = (R(40.0) * c + R(282.0)) * t3 -
+                   R(3.0) * (t2 + R(1.0)) * (R(20.0) * c + R(64.0) * t2 + R(45.0)) * at +
+                   R(15.0) * (R(4.0) * c + R(9.0)) * t;
+        return R(1.0) - c * num / (R(288.0) * t5);
+    }
+    if (P->kind == HF_PSI_LAMBERT2) { /* eq. 20 */
+        REAL u = t2 + R(1.0);
+        REAL num = R(3.0) * u * u * at - t * (R(5.0) * t2 + R(3.0));
+        return R(1.0) - R(5.0) * c * num / (R(128.0) * t5);
+    }
+    REAL I = at / t;
+    REAL s = P->a[0] * I;
+    for (int k = 1; k < HF_NCOEF; ++k) {
+        I = (R(1.0) / (REAL)(2 * k - 1) - I) / t2;
+        s += P->a[k] * I;
+    }
+    return R(1.0) - R(2.0) * s;
+}
+
+/* Width of Q (note 2): b when positive, else 1 (any beta > 0 makes
+ * log(K/Q) vanish at t = 0; the analytic factor holds for every beta). */
+BT_INLINE REAL hf_beta(const hf_psi* P) { return P->b > R(0.0) ? P->b : R(1.0); }
+
+/* L(t) = log(K(t)/Q(t)), note 2. */
+BT_INLINE REAL hf_log_k_over_q(const hf_psi* P, REAL t)
+{
+    REAL a = P->k0, beta = hf_beta(P);
+    REAL t2 = t * t;
+    REAL bt2 = beta * t2;
+    if (t < HF_T_SERIES) {
+        REAL rest = (P->b - beta) * t2 + hf_k_series_rest(P, t);
+        REAL aq = a + bt2;
+        if (!(aq > R(0.0))) return R(0.0); /* t = 0 with a = 0 */
+        return log1p(rest / aq) + log1p(bt2);
+    }
+    return log(hf_k_direct(P, t)) - log(a + bt2) + log1p(bt2);
+}
+
+/* H(mu) for mu >= 0 (eq. 16 with notes 2-3).  `coarse` != 0 uses every
+ * second trapezoid node (error estimate of BT_METHOD_QUADRATURE). */
+BT_INLINE REAL hf_h(const hf_psi* P, REAL mu, int coarse)
+{
+    if (!(mu > R(0.0))) return R(1.0);
+    REAL a = P->k0;
+    if (a < R(0.0)) return R(0.0) / R(0.0); /* no H-function: K has a real zero */
+    REAL sb = sqrt(hf_beta(P));
+    REAL factor = (mu + sb) / (mu * sqrt(a) + sb); /* note 2 */
+    /* Integration limits in s = log t (note 3): the integrand is ~ mu b t^3
+     * below t ~ 1/mu and ~ 1/(mu t^2) above max(1, 1/mu). */
+    REAL lmu = log(mu);
+    REAL s_lo = -R(13.0) - (lmu > R(0.0) ? lmu / R(3.0) : R(0.0));
+    REAL s_hi = R(18.0) + (lmu < R(0.0) ? -lmu : R(0.0));
+    REAL h = HF_H_FINE;
+    int n = (int)((s_hi - s_lo) / h) + 1;
+    if (coarse) n = n / 2 + 1; /* same grid origin, twice the step */
+    REAL step = coarse ? R(2.0) * h : h;
+    REAL sum = R(0.0);
+    for (int k = 0; k < n; ++k) {
+        REAL t = exp(s_lo + step * (REAL)k);
+        REAL mt = mu * t;
+        sum += hf_log_k_over_q(P, t) * mt / (R(1.0) + mt * mt);
+    }
+    return factor * exp(-step * sum * BT_INV_PI);
+}
+
+/* Gauss-Legendre node k (0-based) of n on [-1, 1], by Newton iteration on
+ * P_n from the Tricomi-type initial guess. */
+BT_INLINE void hf_gauss_legendre(int n, int k, REAL* x, REAL* w)
+{
+    REAL z = cos(BT_PI * ((REAL)k + R(0.75)) / ((REAL)n + R(0.5)));
+    REAL dp = R(1.0);
+    for (int it = 0; it < 100; ++it) {
+        REAL p0 = R(1.0), p1 = z;
+        for (int j = 2; j <= n; ++j) {
+            REAL p2 = ((R(2.0) * (REAL)j - R(1.0)) * z * p1 - ((REAL)j - R(1.0)) * p0) / (REAL)j;
+            p0 = p1;
+            p1 = p2;
+        }
+        dp = (REAL)n * (z * p1 - p0) / (z * z - R(1.0));
+        REAL dz = p1 / dp;
+        z -= dz;
+        if (fabs(dz) < R(1e-15)) break;
+    }
+    /* recompute P_n' at the converged node for the weight */
+    {
+        REAL p0 = R(1.0), p1 = z;
+        for (int j = 2; j <= n; ++j) {
+            REAL p2 = ((R(2.0) * (REAL)j - R(1.0)) * z * p1 - ((REAL)j - R(1.0)) * p0) / (REAL)j;
+            p0 = p1;
+            p1 = p2;
+        }
+        dp = (REAL)n * (z * p1 - p0) / (z * z - R(1.0));
+    }
+    *x = z;
+    *w = R(2.0) / ((R(1.0) - z * z) * dp * dp);
+}
+
+/* alpha_n = int_0^1 mu^n H(mu) dmu with mu = u^2 (note 4). */
+BT_INLINE REAL hf_alpha(const hf_psi* P, int n, int coarse)
+{
+    int nodes = coarse ? 12 : 24;
+    REAL sum = R(0.0);
+    for (int k = 0; k < nodes; ++k) {
+        REAL x, w;
+        hf_gauss_legendre(nodes, k, &x, &w);
+        REAL u = R(0.5) * (x + R(1.0));
+        REAL mu = u * u;
+        REAL mun = R(1.0);
+        for (int j = 0; j < n; ++j) mun *= mu;
+        sum += w * mun * hf_h(P, mu, coarse) * u; /* dmu = 2u du, du = dx/2 */
+    }
+    return sum;
+}
+
+/* ------------------------------------------------------------ sample fn */
+/* Point: p[4] mu, p[5] c, p[6] n, p[7..10] psi_0..psi_3.  Option o[0] psi. */
+#define HF_Q_H 0
+#define HF_Q_MOMENT 1
+#define HF_Q_HINF 2
+#define HF_Q_K 3
+
+BT_INLINE REAL hfunction_sample(const REAL* p, const int* o, int quantity, const bt_sampler* s)
+{
+    REAL poly[HF_NCOEF];
+    for (int k = 0; k < HF_NCOEF; ++k) poly[k] = p[7 + k];
+    hf_psi P = hf_make_psi(o[0], p[5], poly);
+    /* Deterministic: the same value under every method; only batch 1 of
+     * BT_METHOD_QUADRATURE uses the coarse rule. */
+    int coarse = (s->method == BT_METHOD_QUADRATURE && s->batch == 1u) ? 1 : 0;
+    if (quantity == HF_Q_H) return hf_h(&P, p[4], coarse);
+    if (quantity == HF_Q_MOMENT) return hf_alpha(&P, (int)floor(p[6] + R(0.5)), coarse);
+    if (quantity == HF_Q_HINF) /* eq. 32 (general form 1/sqrt(K(0))) */
+        return P.k0 > R(0.0) ? R(1.0) / sqrt(P.k0) : R(1.0) / R(0.0);
+    if (quantity == HF_Q_K) { /* K(t) at t = mu (diagnostic) */
+        REAL t = p[4];
+        if (t < HF_T_SERIES) return P.k0 + P.b * t * t + hf_k_series_rest(&P, t);
+        return hf_k_direct(&P, t);
+    }
+    return R(0.0);
+}
+
+#endif /* BRDFTAB_HFUNCTION_H */

@@ -1,0 +1,130 @@
+/*
+ * interfaced_lambertian_vcavity.h — multiple reflections between interfaced
+ * Lambertian microfacets inside V-cavities (Meneveaux et al. §3.3,
+ * eqs. 22-23), tallied per bounce order.  Included by
+ * interfaced_lambertian.h (uses its il_surface, il_t, il_ri, ...).
+ *
+ * Geometry (Torrance-Sparrow / Oren-Nayar V-cavities, "much longer than
+ * wide"): a facet of normal m forms a symmetric groove with its mirror
+ * m' = (-m.x, -m.y, m.z).  Work in the cross-section plane spanned by
+ * h = (m.x, m.y, 0)/|.| and z (coordinates u, z; the groove axis t does not
+ * affect visibility).  Facet m runs from the groove bottom (0, 0) to
+ * (-cos a, sin a), facet m' from (0, 0) to (cos a, sin a), a = theta_m,
+ * facet width 1; a point is located by s in [0, 1] from the bottom.  After
+ * each crossing the frame is mirrored (u -> -u) so the current facet is
+ * always "facet m" with normal e = (sin a, 0, cos a).
+ *
+ * Seen from direction v (v.e > 0), the top part s >= 1 - g(v) of the facet
+ * is unshadowed, g(v) = min(1, 2 v.z cos a / (v.e)) (the two branches of
+ * eq. 14); so G_TS = min(g(i), g(o)).
+ *
+ * Estimator (a point version of eq. 22).  Let E0 be the irradiance normal to
+ * i.  The macro BRDF is
+ *   f(i,o) = 1/(|i.n||o.n|) int D(m) (o.m_e) <V_o L(x,o)>_facet / E0 dw_m
+ * summed over the facets e the radiance leaves from; since D(m) = D(m'),
+ * the paths may be grouped by the facet the light FIRST hits (m), which is
+ * what we simulate.  Light flux E0 (i.m) g(i) (per unit facet width) lands
+ * uniformly on the lit part s in [1 - g(i), 1].  At every facet hit j
+ * (incident direction d_j, facet normal e_j, point s_j) the body radiance
+ * toward o is (eq. 8) T(d_j.e_j) T(o.e_j) A/pi times the incident flux
+ * density, A = Kd/(ni^2 (1 - Kd ri)); it is connected to o with the exact
+ * visibility [s_j >= 1 - g(o)] and the factor (o.e_j).  The path then
+ * continues: interreflection = full: with probability F(d_j.e_j) a
+ * specular reflection (throughput unchanged), else the body scatters a
+ * cosine-distributed direction (throughput x T(d'.e_j) A); interreflection
+ * = body: always the body (throughput x T_in T_out A).  The continued ray
+ * hits the other facet or leaves the groove (the path ends).  Cosine
+ * sampling is exact for the groove's strip-to-strip form factor
+ * cos cos / (2 r) (the kernel of Oren-Nayar eq. 14), so no form factor
+ * appears in the weights.
+ * With m ~ D|m.n| (pdf) the sample is (i.m) g(i) sum_j c_j / (|i.n||o.n| m.z);
+ * with m ~ visible normals from i, g(i) sum_j c_j / (G1s(i) |o.n|).
+ * Order k = number of facet interactions (specular or body) of the path up
+ * to and including the body event connected to o.  Paths whose last event
+ * is specular (a Dirac in o) are not part of this quantity: the single
+ * specular bounce is the `specular` quantity; two or more specular bounces
+ * in a row with no body event are not estimated.
+ * With ni = 1 (F = 0, A = Kd) order k is exactly Kd^k times its Kd = 1 value.
+ */
+#ifndef BRDFTAB_INTERFACED_LAMBERTIAN_VCAVITY_H
+#define BRDFTAB_INTERFACED_LAMBERTIAN_VCAVITY_H
+
+BT_INLINE REAL il_vcavity_sample(il_surface* s, int sampling, int mode, bt_vec3 i, bt_vec3 o,
+                                 REAL ni, REAL kd, int order, const bt_sampler* smp)
+{
+    if (order < 0) return R(0.0);
+    REAL A = kd / (ni * ni * (R(1.0) - kd * il_ri(ni)));
+    bt_vec3 m;
+    REAL wm;
+    if (il_uses_visible(s, sampling)) {
+        m = bt_mf_sample_visible(&s->mf, i, bt_uniform(smp, 0u), bt_uniform(smp, 1u));
+        REAL gs = bt_mf_g1_smith_nochi(&s->mf, i);
+        wm = gs > R(0.0) ? R(1.0) / (gs * o.z) : R(0.0);
+    } else {
+        m = il_sample_distribution(s, smp);
+        wm = m.z > R(0.0) ? bt_v3_dot(i, m) / (i.z * o.z * m.z) : R(0.0);
+    }
+    REAL im = bt_v3_dot(i, m);
+    if (!(im > R(0.0)) || !(m.z > R(0.0)) || !(wm > R(0.0))) return R(0.0);
+    REAL sn = sqrt(m.x * m.x + m.y * m.y), c = m.z;
+    if (!(sn > R(1e-12))) {
+        /* Flat facet: no groove, only the first bounce. */
+        if (order > 1) return R(0.0);
+        return wm * il_t(im, ni) * il_t(o.z, ni) * o.z * A * BT_INV_PI;
+    }
+    REAL hx = m.x / sn, hy = m.y / sn;
+    /* Directions in the groove frame (u along h, t along z x h, z). */
+    bt_vec3 di = bt_v3(i.x * hx + i.y * hy, -i.x * hy + i.y * hx, i.z);
+    REAL ou = o.x * hx + o.y * hy, ot = -o.x * hy + o.y * hx;
+    bt_vec3 e = bt_v3(sn, R(0.0), c);
+    bt_vec3 b1 = bt_v3(c, R(0.0), -sn); /* in-plane tangent of the facet */
+    REAL gi = fmin(R(1.0), R(2.0) * i.z * c / im);
+    REAL pos = R(1.0) - gi * bt_uniform(smp, 2u); /* uniform on the lit part */
+    bt_vec3 din = di;
+    int side = 0;
+    REAL tau = R(1.0), acc = R(0.0);
+    int last = order == 0 ? IL_MAX_BOUNCES : order;
+    for (int j = 0; j < last; ++j) {
+        REAL de = bt_v3_dot(din, e);
+        if (!(de > R(0.0))) break;
+        REAL tin = il_t(de, ni);
+        if (order == 0 || order == j + 1) {
+            bt_vec3 of = bt_v3(side ? -ou : ou, ot, o.z);
+            REAL oe = bt_v3_dot(of, e);
+            if (oe > R(0.0)) {
+                REAL go = fmin(R(1.0), R(2.0) * o.z * c / oe);
+                if (pos >= R(1.0) - go) acc += tau * tin * il_t(oe, ni) * oe * A * BT_INV_PI;
+            }
+        }
+        if (j + 1 >= last) break;
+        uint d = 3u + 3u * (uint)j;
+        bt_vec3 dout;
+        int specular = mode == IL_INTERREFLECTION_FULL && bt_uniform(smp, d) < R(1.0) - tin;
+        if (specular) {
+            dout = bt_reflect(din, e);
+        } else {
+            REAL r = sqrt(bt_uniform(smp, d + 1u)), ph = BT_TWO_PI * bt_uniform(smp, d + 2u);
+            REAL ct = bt_safe_sqrt(R(1.0) - r * r);
+            dout = bt_v3_add(bt_v3_add(bt_v3_scale(b1, r * cos(ph)),
+                                       bt_v3(R(0.0), r * sin(ph), R(0.0))),
+                             bt_v3_scale(e, ct));
+            tau *= il_t(ct, ni) * A;
+            if (mode != IL_INTERREFLECTION_FULL) tau *= tin;
+        }
+        if (!(tau > R(0.0))) break;
+        /* Ray (p + t d) from p = pos (-c, sn) to the other facet's line
+         * sigma (c, sn) (2-D cross products). */
+        REAL pu = -pos * c, pz = pos * sn;
+        REAL den = c * dout.z - sn * dout.x;
+        if (den == R(0.0)) break;
+        REAL sig = (pu * dout.z - pz * dout.x) / den;
+        REAL tt = (pu * sn - pz * c) / den;
+        if (!(tt > R(0.0)) || !(sig >= R(0.0)) || !(sig <= R(1.0))) break; /* left the groove */
+        pos = sig;
+        side ^= 1;
+        din = bt_v3(dout.x, -dout.y, -dout.z); /* -dout, mirrored u -> -u */
+    }
+    return wm * gi * acc;
+}
+
+#endif /* BRDFTAB_INTERFACED_LAMBERTIAN_VCAVITY_H */

@@ -1,0 +1,424 @@
+/*
+ * lambert_sphere.h — half space of Lambertian spheres (d'Eon).
+ *
+ * E. d'Eon, "An analytic BRDF for materials with spherical Lambertian
+ * scatterers", Computer Graphics Forum 40(4) (EGSR 2021).  Equation numbers
+ * are that paper's; symbols restored in /work/shared/MODELS.md §3.
+ *
+ * Geometry: a semi-infinite, optically thick, plane-parallel medium of
+ * sparse, independently placed Lambertian spheres of diffuse albedo c
+ * (= single-scattering albedo), no boundary reflection.  Depth tau in optical
+ * units (unit extinction).  Directions point away from the surface (n = +z),
+ * phi = phi_o - phi_i, phi = 0 is back-scattering (viewer on the light's side).
+ *
+ * Point p[]:  p[0..3] theta_i, phi_i, theta_o, phi_o (radians),
+ *             p[4] c, p[5] order, p[6] max_order, p[7] mode.
+ * Options o[]: o[0] phase_mc   0 exact (eq. 1, sampled with eq. 5),
+ *                              1 three-term (eqs. 2, 8: A0..A2 only; sampled
+ *                                uniformly with a signed weight 4 pi p3,
+ *                                because p3 < 0 near forward scattering)
+ *              o[1] cos_phi    analytic/fit: weight of the multiple-scattering
+ *                              cos(phi) mode fm1 (eq. 12): 0 "paper" (x1),
+ *                              1 "doubled" (x2) — see docs/models/lambert-sphere.md
+ *              o[2] fm1        brdf_fit: 0 eq. 22 - eq. 28 with fitted H1, l, m;
+ *                              1 the fast fit eq. 29
+ *              o[3] h1_fit     brdf_fit: 0 eqs. 23-25 as printed,
+ *                              1 normalised: H1(1) Hc1(mu)/Hc1(1)
+ *
+ * Quantities (ids):
+ *   0 phase          p(cos theta_o): theta_o is the SCATTERING angle
+ *                    (0 = forward), eq. 1.  1/sr.
+ *   1 brdf_mc        exact BRDF by random walk with next-event estimation
+ *                    (unbiased; truncated at max_order scatterings).
+ *   2 albedo_mc      directional albedo E(mu_i) by random walk.
+ *   3 brdf_analytic  eqs. 9-12, 22, 28, 30, 33, 38 with EXACT H0, H1
+ *                    (hfunction.h) and the paper's fitted l, m (26-27),
+ *                    B, C, D, F (34-37): the exact Horak-Chandrasekhar
+ *                    constants are not derived here.
+ *   4 brdf_fit       the same with fitted H0 (eq. 31) and H1 (eqs. 23-25).
+ *   5 brdf_fast      eq. 41 with kd from eq. 40.
+ *   6 brdf_single    eq. 10 (exact single scattering).
+ *   7 kd_fit         eq. 40 (spherical albedo from c).
+ *   8 kd_mc          spherical (bond) albedo 2 int E(mu) mu dmu by random walk.
+ *   9 c_fit          eq. 39 (c from kd; kd is read from the c slot p[4]).
+ *
+ * Scattering orders (brdf_mc, albedo_mc, kd_mc): order = 0 sums orders
+ * 1..max_order, order = -1 sums orders 2..max_order (multiple scattering
+ * only), order = k >= 1 gives order k alone.  The walk itself does not
+ * depend on c; order k carries the factor c^k exactly, so a table at c = 1
+ * per order gives every c by multiplying with c^k.
+ *
+ * Fourier modes (mode = p[7]): -1 the value at the given phi; m = 0, 1, 2 the
+ * coefficient f^(m)(mu_i, mu_o) of eq. 9 (f = sum_m f^(m) cos(m phi)):
+ * f^(0) = (1/pi) int_0^pi f dphi, f^(m) = (2/pi) int_0^pi f cos(m phi) dphi.
+ * brdf_mc samples phi uniformly (dimension 0); the closed forms integrate
+ * with the midpoint rule in phi (spectrally accurate for smooth periodic f).
+ *
+ * Random dimensions of the walk: 0 phi (modes) or mu_i (kd_mc), 1 first free
+ * path, then 5 per scattering (3 for eq. 5, 1 azimuth, 1 free path).
+ * Dimensions >= 8 come from Philox (sampler.h).
+ */
+#ifndef BRDFTAB_LAMBERT_SPHERE_H
+#define BRDFTAB_LAMBERT_SPHERE_H
+
+#include "../common/compat.h"
+#include "../common/sampler.h"
+#include "../common/vec3.h"
+#include "hfunction.h"
+
+#define LS_Q_PHASE 0
+#define LS_Q_BRDF_MC 1
+#define LS_Q_ALBEDO_MC 2
+#define LS_Q_BRDF_ANALYTIC 3
+#define LS_Q_BRDF_FIT 4
+#define LS_Q_BRDF_FAST 5
+#define LS_Q_BRDF_SINGLE 6
+#define LS_Q_KD_FIT 7
+#define LS_Q_KD_MC 8
+#define LS_Q_C_FIT 9
+
+/* Smallest mu_o used by the next-event estimator: exp(-tau/mu_o)/mu_o has
+ * unbounded variance as mu_o -> 0 (the mean stays finite). */
+#define LS_MIN_MU R(1e-6)
+/* Walks stop once c^k falls below this (the rest is < 1e-15 relative). */
+#define LS_MIN_WEIGHT R(1e-16)
+
+/* ------------------------------------------------------- phase function */
+
+/* eq. 1; mu = cosine of the scattering angle (1 = forward). */
+BT_INLINE REAL ls_phase(REAL mu)
+{
+    mu = bt_clamp(mu, -R(1.0), R(1.0));
+    return R(2.0) * (bt_safe_sqrt(R(1.0) - mu * mu) - mu * acos(mu)) / (R(3.0) * BT_PI * BT_PI);
+}
+
+/* Three-term Legendre truncation (eqs. 2, 4, 8 with A_k = 0 for k >= 3). */
+BT_INLINE REAL ls_phase3(REAL mu)
+{
+    REAL p2 = R(0.5) * (R(3.0) * mu * mu - R(1.0));
+    return (R(1.0) - R(4.0) / R(3.0) * mu + R(5.0) / R(16.0) * p2) * R(0.25) * BT_INV_PI;
+}
+
+/* eq. 5: exact sample of the scattering cosine. */
+BT_INLINE REAL ls_sample_exact(REAL u1, REAL u2, REAL u3)
+{
+    return sqrt((R(1.0) - u1) * (R(1.0) - u2)) * sin(BT_TWO_PI * u3) - sqrt(u1 * u2);
+}
+
+/* eq. 6: approximate inverse CDF (|error| < 5e-4 per the paper). */
+BT_INLINE REAL ls_sample_approx(REAL u)
+{
+    if (!(u > R(0.0))) return -R(1.0);
+    REAL e = R(0.0401885) * u + R(1.01938);
+    REAL inner = R(1.0) - exp(e * log(u));
+    if (!(inner > R(0.0))) return R(1.0);
+    return R(1.0) - R(2.0) * exp(R(0.397225) * log(inner));
+}
+
+/* Direction with cosine mu to d and azimuth 2 pi u about it. */
+BT_INLINE bt_vec3 ls_rotate(bt_vec3 d, REAL mu, REAL u)
+{
+    /* orthonormal basis (Frisvad-style, with the sign trick for d.z < 0) */
+    REAL sgn = d.z >= R(0.0) ? R(1.0) : -R(1.0);
+    REAL a = -R(1.0) / (sgn + d.z);
+    REAL b = d.x * d.y * a;
+    bt_vec3 t1 = bt_v3(R(1.0) + sgn * d.x * d.x * a, sgn * b, -sgn * d.x);
+    bt_vec3 t2 = bt_v3(b, sgn + d.y * d.y * a, -d.y);
+    REAL st = bt_safe_sqrt(R(1.0) - mu * mu);
+    REAL ph = BT_TWO_PI * u;
+    return bt_v3_normalize(bt_v3_add(bt_v3_scale(d, mu),
+                                     bt_v3_add(bt_v3_scale(t1, st * cos(ph)),
+                                               bt_v3_scale(t2, st * sin(ph)))));
+}
+
+BT_INLINE int ls_tally(int order, int k)
+{
+    if (order == 0) return 1;
+    if (order < 0) return k >= 2;
+    return k == order;
+}
+
+/* ---------------------------------------------------------- random walk */
+
+/* One walk from direction i (light arrives along -i).
+ * want_brdf != 0: next-event estimate of f(i, o) summed over the tallied
+ * orders; else the escape tally (albedo).  Returns the sample. */
+BT_INLINE REAL ls_walk(bt_vec3 i, bt_vec3 o, REAL c, int order, int max_order, int phase3,
+                       int want_brdf, const bt_sampler* s)
+{
+    REAL mu_o = fmax(o.z, LS_MIN_MU);
+    bt_vec3 d = bt_v3_neg(i);
+    REAL w = R(1.0); /* product of the signed 3-term weights (phase3 only) */
+    REAL ck = R(1.0);
+    REAL tau = -log(R(1.0) - bt_uniform(s, 1u)) * (-d.z);
+    REAL total = R(0.0);
+    int last = order > 0 ? order : max_order;
+    for (int k = 1; k <= last; ++k) {
+        ck *= c;
+        if (ck < LS_MIN_WEIGHT) break;
+        if (want_brdf && ls_tally(order, k)) {
+            REAL mu = bt_v3_dot(d, o);
+            REAL p = phase3 ? ls_phase3(mu) : ls_phase(mu);
+            total += w * ck * p * exp(-tau / mu_o) / mu_o;
+        }
+        if (k == last) break;
+        uint dim = 2u + 5u * (uint)(k - 1);
+        REAL mu_s;
+        if (phase3) {
+            mu_s = R(1.0) - R(2.0) * bt_uniform(s, dim);
+            w *= R(4.0) * BT_PI * ls_phase3(mu_s);
+        } else {
+            mu_s = ls_sample_exact(bt_uniform(s, dim), bt_uniform(s, dim + 1u),
+                                   bt_uniform(s, dim + 2u)); /* eq. 5 */
+        }
+        d = ls_rotate(d, mu_s, bt_uniform(s, dim + 3u));
+        tau -= -log(R(1.0) - bt_uniform(s, dim + 4u)) * d.z;
+        if (tau < R(0.0)) { /* escaped after scattering k */
+            if (!want_brdf && ls_tally(order, k)) total += w * ck;
+            break;
+        }
+    }
+    return total;
+}
+
+/* ------------------------------------------------------ analytic model */
+
+/* eq. 10 */
+BT_INLINE REAL ls_single(bt_vec3 i, bt_vec3 o, REAL c)
+{
+    /* both directions grazing: f1 diverges; the floor keeps tables finite */
+    return c * ls_phase(-bt_v3_dot(i, o)) / fmax(i.z + o.z, R(1e-12));
+}
+
+/* eq. 26 */
+BT_INLINE REAL ls_l_fit(REAL c) { return -R(0.00473696) * c * c - R(0.0589037) * c; }
+/* eq. 27 */
+BT_INLINE REAL ls_m_fit(REAL c) { return R(0.44038) * c + R(1.0); }
+
+/* eqs. 33-37: A..F in k[0..5] */
+BT_INLINE void ls_constants(REAL c, REAL* k)
+{
+    REAL s = bt_safe_sqrt(R(1.0) - c);
+    REAL s2 = s * s, s3 = s2 * s;
+    k[0] = R(69.0) * c / R(128.0);                                               /* A eq. 33 */
+    k[1] = (R(0.346689) * s3 - R(0.777574) * s2 + R(0.515357) * s - R(0.084463)) /
+           (R(0.182602) * s2 - R(0.665502) * s + R(0.964893));                  /* B eq. 34 */
+    k[2] = (-R(5602.45) * s3 + R(7487.99) * s2 - R(2567.74) * s + R(682.848)) /
+           (R(1480.25) * s2 - R(4008.33) * s + R(5850.6));                      /* C eq. 35 */
+    k[3] = (R(166.883) * s3 - R(327.428) * s2 + R(160.397) * s + R(0.285529)) /
+           (R(596.423) * s2 - R(412.984) * s + R(674.191));                     /* D eq. 36 */
+    k[4] = R(15.0) / R(128.0) * (R(1.0) - c) * c * (R(4.0) * c / R(3.0) + R(3.0)); /* E eq. 33 */
+    k[5] = (R(266.063) * s3 - R(21.9141) * s2 - R(242.16) * s - R(1.9209)) /
+           (R(215.773) * s2 + R(457.42) * s + R(1499.9));                       /* F eq. 37 */
+}
+
+/* eq. 31 (a, d as printed; 1/H0(inf) = sqrt(K0(0)) from eq. 32). */
+BT_INLINE REAL ls_h0_fit(REAL mu, REAL c)
+{
+    REAL s = bt_safe_sqrt(R(1.0) - c);
+    REAL s6 = s > R(0.0) ? exp(R(6.05435) * log(s)) : R(0.0);
+    REAL s96 = s > R(0.0) ? exp(R(0.961546) * log(s)) : R(0.0);
+    REAL s7 = s * s * s * s * s * s * s;
+    REAL a = (R(1.50112) * s6 + R(8.21644)) / (R(4.17593) - R(1.21222) * s);
+    REAL d = (R(7.7731) - R(0.565811) * s96) / (R(8.65912) - R(0.159974) * s7);
+    REAL inv_hinf = bt_safe_sqrt((c - R(16.0)) * (c - R(1.0)) * (R(4.0) * c + R(9.0))) / R(12.0);
+    REAL amd = mu > R(0.0) ? a * exp(d * log(mu)) : R(0.0);
+    return (R(1.0) + amd) / (R(1.0) + amd * inv_hinf);
+}
+
+/* eqs. 23-25.  normalised != 0 divides by Hc1(1) (eq. 24 as printed has
+ * Hc1(1) = 0.914, not 1; see the doc). */
+BT_INLINE REAL ls_h1_fit(REAL mu, REAL c, int normalised)
+{
+    REAL e = ((-R(1.12831) * mu + R(1.85728)) * mu - R(1.07879)) * mu + R(0.459442);
+    REAL hc1 = mu > R(0.0) ? exp(-R(0.0894878) * exp(e * log(mu))) : R(1.0); /* eq. 24 */
+    REAL h11 = exp(R(0.0242851) * c * c - R(0.144839) * c);                    /* eq. 25 */
+    REAL norm = normalised ? exp(R(0.0894878)) : R(1.0); /* 1/Hc1(1), e(1) exponent -> mu^e = 1 */
+    return h11 * hc1 * norm;                                                   /* eq. 23 */
+}
+
+/* eq. 22 */
+BT_INLINE REAL ls_f1_mode(REAL mi, REAL mo, REAL c, REAL h1i, REAL h1o)
+{
+    REAL l = ls_l_fit(c), m = ls_m_fit(c);
+    REAL S = bt_safe_sqrt((R(1.0) - mi * mi) * (R(1.0) - mo * mo));
+    return c * h1i * h1o * S *
+           (R(1.0) + (l * l + R(45.0) * m / R(64.0)) * mi * mo + l * (mi + mo)) /
+           (R(6.0) * BT_PI * (mi + mo));
+}
+
+/* eq. 28: single-scattering part subtracted from f^(1). */
+BT_INLINE REAL ls_ss1(REAL mi, REAL mo, REAL c)
+{
+    REAL S = bt_safe_sqrt((R(1.0) - mi * mi) * (R(1.0) - mo * mo));
+    return c * (R(45.0) * mi * mo + R(64.0)) * S / (R(384.0) * BT_PI * (mi + mo));
+}
+
+/* eq. 30 */
+BT_INLINE REAL ls_f0_mode(REAL mi, REAL mo, REAL c, REAL h0i, REAL h0o)
+{
+    REAL k[6];
+    ls_constants(c, k);
+    REAL sum = mi + mo, prod = mi * mo;
+    REAL poly = k[0] + k[1] * sum + k[2] * prod + k[3] * prod * sum + k[4] * prod * prod +
+                k[5] * (mi * mi + mo * mo);
+    return h0i * h0o * poly / (R(2.0) * BT_PI * sum);
+}
+
+/* eq. 38: single-scattering part subtracted from f^(0). */
+BT_INLINE REAL ls_ss0(REAL mi, REAL mo, REAL c)
+{
+    return c * (R(45.0) * mi * mi * (R(3.0) * mo * mo - R(1.0)) + R(256.0) * mi * mo -
+                R(45.0) * mo * mo + R(207.0)) /
+           (R(768.0) * BT_PI * (mi + mo));
+}
+
+/* eq. 29: fast fit of fm1. */
+BT_INLINE REAL ls_fm1_fast(REAL mi, REAL mo, REAL c)
+{
+    REAL S = bt_safe_sqrt((R(1.0) - mi * mi) * (R(1.0) - mo * mo));
+    return -R(0.0117) * c * atan(c) * S * sqrt(tanh(mi + mi * mo + mo)) / (mi + mo);
+}
+
+/* eq. 40 */
+BT_INLINE REAL ls_kd_fit(REAL c)
+{
+    REAL s = bt_safe_sqrt(R(1.0) - c);
+    return (-R(0.453029) * (R(1.0) - c) - R(0.544162) * s + R(1.0)) / (R(1.42931) * s + R(1.0));
+}
+
+/* eq. 39 */
+BT_INLINE REAL ls_c_fit(REAL kd)
+{
+    REAL x = R(1.0) - kd;
+    REAL a = x > R(0.0) ? exp(R(2.67103) * log(x)) : R(0.0);
+    REAL b = x > R(0.0) ? exp(R(2.44559) * log(x)) : R(0.0);
+    return (R(1.0) - R(1.00425) * a) / (R(1.0) - R(0.219924) * b);
+}
+
+/* eq. 41 (phi in [-pi, pi]). */
+BT_INLINE REAL ls_fast(bt_vec3 i, bt_vec3 o, REAL c, REAL phi)
+{
+    REAL mi = i.z, mo = o.z;
+    REAL S = bt_safe_sqrt(R(1.0) - mi * mi) * bt_safe_sqrt(R(1.0) - mo * mo);
+    REAL kd = ls_kd_fit(c);
+    REAL term = R(0.0);
+    if (S > R(1e-12)) /* acos(S)/S -> inf as S -> 0: the term vanishes */
+        term = R(0.0151829) * (c - R(0.249978)) * (fabs(phi) + sqrt(mi * mo)) /
+               (acos(fmin(S, R(1.0))) / S + R(0.113706));
+    REAL kdp = kd > R(0.0) ? exp(R(1.85432) * log(kd)) : R(0.0);
+    return fmax(R(0.0), ls_single(i, o, c) + term + R(0.234459) * kdp);
+}
+
+/* Multiple-scattering modes fm0 (eq. 30 - eq. 38) and fm1 (eq. 22 - eq. 28),
+ * with H-functions exact (variant 0) or fitted (variant 1). */
+BT_INLINE void ls_ms_modes(REAL mi, REAL mo, REAL c, int fitted, int fm1_choice, int h1_norm,
+                           int coarse, REAL* fm0, REAL* fm1)
+{
+    REAL h0i, h0o, h1i, h1o;
+    if (fitted) {
+        h0i = ls_h0_fit(mi, c);
+        h0o = ls_h0_fit(mo, c);
+        h1i = ls_h1_fit(mi, c, h1_norm);
+        h1o = ls_h1_fit(mo, c, h1_norm);
+    } else {
+        REAL none[HF_NCOEF] = {R(0.0), R(0.0), R(0.0), R(0.0)};
+        hf_psi P0 = hf_make_psi(HF_PSI_LAMBERT0, c, none);
+        hf_psi P1 = hf_make_psi(HF_PSI_LAMBERT1, c, none);
+        h0i = hf_h(&P0, mi, coarse);
+        h0o = hf_h(&P0, mo, coarse);
+        h1i = hf_h(&P1, mi, coarse);
+        h1o = hf_h(&P1, mo, coarse);
+    }
+    *fm0 = ls_f0_mode(mi, mo, c, h0i, h0o) - ls_ss0(mi, mo, c);
+    if (fitted && fm1_choice == 1)
+        *fm1 = ls_fm1_fast(mi, mo, c);
+    else
+        *fm1 = ls_f1_mode(mi, mo, c, h1i, h1o) - ls_ss1(mi, mo, c);
+}
+
+/* Fourier mode m of f1 (eq. 10) by the midpoint rule over phi in [0, pi]. */
+BT_INLINE REAL ls_single_mode(REAL ti, REAL to, REAL c, int m)
+{
+    const int n = 96;
+    REAL sum = R(0.0);
+    bt_vec3 i = bt_from_spherical(ti, R(0.0));
+    for (int k = 0; k < n; ++k) {
+        REAL ph = BT_PI * ((REAL)k + R(0.5)) / (REAL)n;
+        bt_vec3 o = bt_from_spherical(to, ph);
+        sum += ls_single(i, o, c) * cos((REAL)m * ph);
+    }
+    return sum / (REAL)n * (m == 0 ? R(1.0) : R(2.0));
+}
+
+BT_INLINE REAL ls_wrap_phi(REAL phi)
+{
+    phi = phi - BT_TWO_PI * floor(phi / BT_TWO_PI); /* [0, 2 pi) */
+    return phi > BT_PI ? phi - BT_TWO_PI : phi;
+}
+
+/* ------------------------------------------------------------ sample fn */
+BT_INLINE REAL lambert_sphere_sample(const REAL* p, const int* o, int quantity,
+                                     const bt_sampler* s)
+{
+    REAL c = p[4];
+    int order = (int)floor(p[5] + R(0.5));
+    int max_order = (int)floor(p[6] + R(0.5));
+    int mode = (int)floor(p[7] + R(0.5));
+    if (quantity == LS_Q_PHASE) return ls_phase(cos(p[2]));
+    if (quantity == LS_Q_KD_FIT) return ls_kd_fit(c);
+    if (quantity == LS_Q_C_FIT) return ls_c_fit(c);
+    if (quantity == LS_Q_KD_MC) {
+        REAL mi = sqrt(R(1.0) - bt_uniform(s, 0u)); /* cosine-weighted mu_i */
+        bt_vec3 i = bt_v3(bt_safe_sqrt(R(1.0) - mi * mi), R(0.0), mi);
+        return ls_walk(i, i, c, order, max_order, o[0], 0, s);
+    }
+    /* Reflection only: directions below the horizon give 0. */
+    if (p[0] > BT_HALF_PI) return R(0.0);
+    bt_vec3 i = bt_from_spherical(p[0], p[1]);
+    if (quantity == LS_Q_ALBEDO_MC) return ls_walk(i, i, c, order, max_order, o[0], 0, s);
+    if (p[2] > BT_HALF_PI) return R(0.0);
+    REAL phi = ls_wrap_phi(p[3] - p[1]);
+    if (quantity == LS_Q_BRDF_MC) {
+        REAL weight = R(1.0);
+        if (mode >= 0) { /* Fourier coefficient: phi uniform on [0, pi] */
+            phi = BT_PI * bt_uniform(s, 0u);
+            weight = mode == 0 ? R(1.0) : R(2.0) * cos((REAL)mode * phi);
+        }
+        bt_vec3 i0 = bt_from_spherical(p[0], R(0.0));
+        bt_vec3 oo = bt_from_spherical(p[2], phi);
+        return weight * ls_walk(i0, oo, c, order, max_order, o[0], 1, s);
+    }
+    REAL mi = cos(p[0]), mo = cos(p[2]);
+    if (quantity == LS_Q_BRDF_SINGLE) {
+        if (mode >= 0) return ls_single_mode(p[0], p[2], c, mode);
+        return ls_single(i, bt_from_spherical(p[2], p[3]), c);
+    }
+    if (quantity == LS_Q_BRDF_FAST) {
+        if (mode >= 0) { /* eq. 41 has no mode structure: integrate over phi */
+            const int n = 96;
+            REAL sum = R(0.0);
+            bt_vec3 i0 = bt_from_spherical(p[0], R(0.0));
+            for (int k = 0; k < n; ++k) {
+                REAL ph = BT_PI * ((REAL)k + R(0.5)) / (REAL)n;
+                sum += ls_fast(i0, bt_from_spherical(p[2], ph), c, ph) * cos((REAL)mode * ph);
+            }
+            return sum / (REAL)n * (mode == 0 ? R(1.0) : R(2.0));
+        }
+        return ls_fast(i, bt_from_spherical(p[2], p[3]), c, phi);
+    }
+    if (quantity == LS_Q_BRDF_ANALYTIC || quantity == LS_Q_BRDF_FIT) {
+        int coarse = (s->method == BT_METHOD_QUADRATURE && s->batch == 1u) ? 1 : 0;
+        REAL fm0, fm1;
+        ls_ms_modes(mi, mo, c, quantity == LS_Q_BRDF_FIT, o[2], o[3], coarse, &fm0, &fm1);
+        REAL w1 = o[1] == 1 ? R(2.0) : R(1.0);
+        if (mode >= 0) {
+            REAL ms = mode == 0 ? fm0 : mode == 1 ? w1 * fm1 : R(0.0); /* eq. 21 */
+            return ls_single_mode(p[0], p[2], c, mode) + ms;
+        }
+        return ls_single(i, bt_from_spherical(p[2], p[3]), c) + fm0 + w1 * fm1 * cos(phi); /* eqs. 11-12 */
+    }
+    return R(0.0);
+}
+
+#endif /* BRDFTAB_LAMBERT_SPHERE_H */

@@ -1,0 +1,571 @@
+/*
+ * micrograin.h — fully-correlated anisotropic micrograin BSDF.
+ *
+ * S. Lucas, M. Ribardiere, R. Pacanowski, P. Barla, "A Fully-correlated
+ * Anisotropic Micrograin BSDF Model", ACM Transactions on Graphics 43(4),
+ * article 111, 2024.  doi:10.1145/3658224
+ * (Restated in /work/shared/MODELS.md §4; equation and appendix numbers are
+ * the paper's.)
+ *
+ * Microstructure: a Boolean (Poisson) model of identical opaque half-
+ * ellipsoid grains on a base plane z = 0; a grain is the unit half-sphere
+ * stretched laterally by 1/beta_x, 1/beta_y (Fig. 2c), so its surface is
+ * (beta_x x)^2 + (beta_y y)^2 + z^2 = 1, z >= 0.  tau0 is the fraction of the
+ * base plane covered (eq. 8); the grain density is eq. 9 with r_s = 1.
+ *
+ * Working space.  Every projected area is computed for the unit sphere in the
+ * space scaled by E = diag(beta_x, beta_y, 1) (§4.2 "Anisotropic GAF"):
+ * i' = E i / |E i|, m' = E^-1 m / |E^-1 m|.  Heights are not scaled, so the
+ * height of the point of normal m is h = n.m' on the ellipsoid as on the
+ * sphere, and the user parameter `h` is that common height.
+ *
+ * Point p[] (kernels/common/estimator.h layout):
+ *   p[0..3]  theta_i, phi_i, theta_o, phi_o  (radians)
+ *   p[4]  tau0          filling factor, 0 < tau0 < 1 (eq. 8)
+ *   p[5]  beta_x        lateral stretch factors (grain semi-axes 1/beta)
+ *   p[6]  beta_y
+ *   p[7]  h             height in [0, 1] (shadow/overlap/GAF quantities)
+ *   p[8]  kd            grain diffuse albedo (eq. 21)
+ *   p[9]  eta           grain index (dielectric) or real part (conductor)
+ *   p[10] k             grain extinction coefficient (conductor)
+ *   p[11] base_albedo   Lambertian base albedo
+ *   p[12] base_alpha    GGX width of the rough-conductor base
+ *   p[13] base_eta      rough-conductor base index, real part
+ *   p[14] base_k        rough-conductor base extinction
+ * Options o[]:
+ *   o[0] grain        0 diffuse (F = 0), 1 dielectric (F from eta, plus the
+ *                     kd lobe weighted by T = (1-F)(1-F)), 2 conductor
+ *                     (F from eta + i k; kd lobe also weighted by T)
+ *   o[1] base         0 absorbing, 1 lambertian, 2 rough conductor (GGX,
+ *                     height-correlated Smith, kernels/common/microfacet.h)
+ *   o[2] correlation  0 direction-correlated G_dist (eqs. 18-19),
+ *                     1 uncorrelated product (eq. 17)
+ *   o[3] weighting    0 this paper, f = tau0 f^S + Vp f^B (eqs. 20, 23)
+ *                     1 Lucas 2023 weights, f = w+ f^S + (1 - w+) f^B with
+ *                       1 - w+ = (1 - tau0) G1(i,0) G1(o,0) (eqs. 1, 4, 25);
+ *                       only the weights are swapped, f^S is still eq. 22.
+ * Quantities: see the MG_Q_* list below.  Directions with theta > 90 deg
+ * (below the surface) give 0 for the reflection quantities: the model is a
+ * BRDF (no transmission into the base is modelled here).
+ *
+ * Departures from the paper (all flagged where they occur):
+ *  - sigma_cap (Appendix B) is computed by an equivalent exact decomposition:
+ *    each shadow is star-shaped about the grain axis, so the overlap is the
+ *    polar integral of (min(R_i, R_o)^2 - rho^2)/2 over the common angular
+ *    arc, split where the two ellipse boundaries cross (on the paper's line
+ *    L_h) and evaluated per piece with Green's theorem on the ellipse.  The
+ *    paper's three cases appear as: empty common arc (case 1), one ellipse
+ *    inner over the whole arc (case 2), a split at p_+ (case 3).
+ *  - eq. 28 prints sqrt(tau0 / ln(1 - tau0)), whose argument is negative;
+ *    we use sqrt(-tau0 / ln(1 - tau0)), the value that matches D(n) with a
+ *    GGX of that width (the evident intent).
+ *  - eq. 21 is estimated by sampling m from a defensive mixture (NDF sampling
+ *    eqs. 14-15 with probability MG_P_NDF, uniform hemisphere otherwise)
+ *    instead of the NDF alone: the integrand carries 1/(m.n) against the
+ *    pdf D(m)(m.n), whose variance diverges logarithmically at the grain
+ *    equator; the mixture keeps the weights bounded.  Same integral.
+ *  - explicit simulator: grains are generated on the fly on an infinite plane
+ *    (hashed uniform grid, one Philox stream per cell and realization)
+ *    instead of a stored periodic tile: no periodicity artefacts, no memory.
+ */
+#ifndef BRDFTAB_MICROGRAIN_H
+#define BRDFTAB_MICROGRAIN_H
+
+#include "../common/compat.h"
+#include "../common/fresnel.h"
+#include "../common/microfacet.h"
+#include "../common/sampler.h"
+#include "../common/vec3.h"
+
+#if !BT_DEVICE
+using std::log1p;
+#endif
+
+#define MG_Q_NDF 0
+#define MG_Q_ALPHA_X 1
+#define MG_Q_ALPHA_Y 2
+#define MG_Q_SHADOW_AREA 3
+#define MG_Q_OVERLAP_AREA 4
+#define MG_Q_G1_DIST 5
+#define MG_Q_G_DIST 6
+#define MG_Q_PORE_VISIBILITY 7
+#define MG_Q_BRDF 8
+#define MG_Q_ALBEDO 9
+#define MG_Q_EXPLICIT_G1 10
+#define MG_Q_EXPLICIT_G 11
+#define MG_Q_EXPLICIT_BRDF 12
+#define MG_Q_P_BULK 13
+#define MG_Q_P_DIFFUSE 14
+#define MG_Q_COVERAGE 15
+
+#define MG_GRAIN_DIFFUSE 0
+#define MG_GRAIN_DIELECTRIC 1
+#define MG_GRAIN_CONDUCTOR 2
+#define MG_BASE_ABSORBING 0
+#define MG_BASE_LAMBERTIAN 1
+#define MG_BASE_CONDUCTOR 2
+#define MG_CORR_DIRECTION 0
+#define MG_CORR_NONE 1
+
+/* Floor on cos(theta) of i and o: theta = 90 deg gives the finite grazing
+ * limit (G_dist -> 0) instead of 0/0. */
+#define MG_MIN_COS R(1e-9)
+/* Probability of NDF sampling in the defensive mixture (header comment). */
+#define MG_P_NDF R(0.75)
+
+/* ------------------------------------------------------------ helpers */
+
+BT_INLINE REAL mg_log1m(REAL tau0) { return log1p(-tau0); } /* ln(1 - tau0) */
+
+/* Direction above the surface, |z| floored; *ok = 0 when below. */
+BT_INLINE bt_vec3 mg_direction(REAL theta, REAL phi, int* ok)
+{
+    *ok = theta <= BT_HALF_PI;
+    REAL st = sin(theta);
+    REAL z = fmax(fabs(cos(theta)), MG_MIN_COS);
+    return bt_v3(st * cos(phi), st * sin(phi), z);
+}
+
+/* i' = E i / |E i| (§4.2). */
+BT_INLINE bt_vec3 mg_to_sphere_dir(bt_vec3 v, REAL bx, REAL by)
+{
+    return bt_v3_normalize(bt_v3(bx * v.x, by * v.y, v.z));
+}
+
+/* h' = n.m', m' = E^-1 m / |E^-1 m| (§4.2). */
+BT_INLINE REAL mg_height_of_normal(bt_vec3 m, REAL bx, REAL by)
+{
+    bt_vec3 mp = bt_v3_normalize(bt_v3(m.x / bx, m.y / by, m.z));
+    return bt_clamp(mp.z, R(0.0), R(1.0));
+}
+
+/* ------------------------------------------------------- NDF, eqs. 10-15 */
+
+/* t(m)^2 = tan^2 theta_m (cos^2 phi_m / bx^2 + sin^2 phi_m / by^2), written
+ * with the components of m (eq. 10 and the anisotropic t below eq. 11). */
+BT_INLINE REAL mg_t2(bt_vec3 m, REAL bx, REAL by)
+{
+    REAL sx = m.x / bx, sy = m.y / by;
+    return (sx * sx + sy * sy) / (m.z * m.z);
+}
+
+/* D(m), eqs. 10-12: -ln(1-tau0) (1-tau0)^(t^2/(1+t^2)) / tau0 * D_ggx^aniso,
+ * D_ggx^aniso = 1 / (pi bx by cos^4 theta_m (1 + t^2)^2).  m.z <= 0 gives 0.
+ * -ln(1-tau0)/tau0 uses log1p so tau0 -> 0 tends to 1 without cancellation. */
+BT_INLINE REAL mg_ndf(bt_vec3 m, REAL tau0, REAL bx, REAL by)
+{
+    if (!(m.z > R(0.0))) return R(0.0);
+    REAL L = mg_log1m(tau0);
+    REAL t2 = mg_t2(m, bx, by);
+    REAL s = t2 / (R(1.0) + t2);
+    REAL c2 = m.z * m.z;
+    REAL ggx_den = c2 * (R(1.0) + t2); /* cos^2 (1 + t^2), finite at grazing */
+    REAL dggx = R(1.0) / (BT_PI * bx * by * ggx_den * ggx_den);  /* eq. 12 */
+    return -L / tau0 * exp(s * L) * dggx;                       /* eqs. 11-12 */
+}
+
+/* m with pdf D(m) m.z: eqs. 13-15.  Inverting eq. 13 for s = t^2/(1+t^2):
+ * (1-tau0)^s = 1 - u0 tau0, so s = ln(1 - u0 tau0) / ln(1 - tau0) and
+ * t^2 = s/(1-s) (eq. 14).  The azimuth of eq. 15 is taken with its quadrant
+ * (atan2), which is the same as drawing the stretched slope
+ * (bx t cos 2 pi u1, by t sin 2 pi u1): tan theta_m = t / sqrt(g(phi_m)). */
+BT_INLINE bt_vec3 mg_sample_ndf(REAL u0, REAL u1, REAL tau0, REAL bx, REAL by)
+{
+    REAL L = mg_log1m(tau0);
+    REAL s = log1p(-u0 * tau0) / L;                   /* eq. 14 */
+    s = bt_clamp(s, R(0.0), R(1.0) - R(1e-7));
+    REAL t = sqrt(s / (R(1.0) - s));
+    REAL ph = BT_TWO_PI * u1;                          /* eq. 15 via slopes */
+    REAL sx = bx * t * cos(ph), sy = by * t * sin(ph);
+    REAL inv = R(1.0) / sqrt(R(1.0) + sx * sx + sy * sy);
+    return bt_v3(sx * inv, sy * inv, inv);
+}
+
+/* Defensive mixture used by the Monte Carlo estimators (header comment):
+ * pdf = MG_P_NDF D(m) m.z + (1 - MG_P_NDF) / (2 pi). */
+BT_INLINE bt_vec3 mg_sample_m(REAL u0, REAL u1, REAL tau0, REAL bx, REAL by, REAL* pdf)
+{
+    bt_vec3 m;
+    if (u0 < MG_P_NDF) {
+        m = mg_sample_ndf(u0 / MG_P_NDF, u1, tau0, bx, by);
+    } else {
+        REAL z = (u0 - MG_P_NDF) / (R(1.0) - MG_P_NDF);
+        REAL r = bt_safe_sqrt(R(1.0) - z * z), ph = BT_TWO_PI * u1;
+        m = bt_v3(r * cos(ph), r * sin(ph), fmax(z, R(1e-12)));
+    }
+    *pdf = MG_P_NDF * mg_ndf(m, tau0, bx, by) * m.z + (R(1.0) - MG_P_NDF) * R(0.5) * BT_INV_PI;
+    return m;
+}
+
+/* Equivalent GGX width, eq. 28 (sign corrected, header comment):
+ * alpha = beta sqrt(-tau0 / ln(1 - tau0)). */
+BT_INLINE REAL mg_alpha_equivalent(REAL beta, REAL tau0)
+{
+    return beta * sqrt(-tau0 / mg_log1m(tau0));
+}
+
+/* ------------------------------------------- shadow area, Appendix A */
+
+/* Area of the part u < u0 of the unit disc: acos(-u0) + u0 sqrt(1 - u0^2). */
+BT_INLINE REAL mg_disc_left(REAL u0)
+{
+    u0 = bt_clamp(u0, R(-1.0), R(1.0));
+    return bt_safe_acos(-u0) + u0 * bt_safe_sqrt(R(1.0) - u0 * u0);
+}
+
+/* sigma_s(v, h) for the unit sphere, v a unit direction with v.z > 0.
+ * Appendix A: sigma_s = sigma_e - sigma_c - sigma_t.  With the chord through
+ * the tangent points q_+- (x = q_x in the frame where v lies in the xz plane)
+ * this is [ellipse segment x < q_x] - [circle segment x < q_x]; the ellipse
+ * segment is sigma_e minus the triangle (e, q+, q-) and the circle segment is
+ * sigma_c minus the triangle (0, q+, q-), whose difference is sigma_t.
+ * In the unit-circle coordinates of the ellipse, u0 = (q_x - e_x) cos theta_v
+ * simplifies exactly to -h / sin theta_v (no cancellation at grazing), and
+ * the circle chord sits at cos phi_q = -1/(tan theta_m tan theta_v).
+ * No shadow when cos theta_m = h >= sin theta_v (Appendix A). */
+BT_INLINE REAL mg_shadow_area_sphere(bt_vec3 v, REAL h)
+{
+    REAL ct = fmax(v.z, MG_MIN_COS);
+    REAL st = sqrt(v.x * v.x + v.y * v.y);
+    if (!(h < st) || !(h < R(1.0))) return R(0.0);
+    REAL rho = sqrt(fmax(R(1.0) - h * h, R(0.0)));
+    REAL ell = mg_disc_left(-h / st) / ct;               /* sigma_e - |e_x q_y| - ... */
+    REAL cphi = -(h / rho) * (ct / st);                  /* cos phi_q */
+    REAL circ = rho * rho * mg_disc_left(cphi);          /* sigma_c - triangle */
+    return fmax(ell - circ, R(0.0));
+}
+
+/* ----------------------------------------- overlap area, Appendix B */
+
+/* Distance from the grain axis (origin of the plane H at height h) to the
+ * boundary of the ellipse E_h(v) along the horizontal unit direction
+ * (ux, uy): the positive root r of |p|^2 - (p.v)^2 = 1, p = (r u, h). */
+BT_INLINE REAL mg_ellipse_radius(bt_vec3 v, REAL h, REAL ux, REAL uy)
+{
+    REAL a = ux * v.x + uy * v.y;
+    REAL A = fmax(R(1.0) - a * a, R(1e-30));
+    REAL B = -R(2.0) * a * h * v.z;
+    REAL C = h * h * (R(1.0) - v.z * v.z) - R(1.0); /* < 0 for h < 1 */
+    REAL D = bt_safe_sqrt(B * B - R(4.0) * A * C);
+    if (B <= R(0.0)) return (-B + D) / (R(2.0) * A);
+    return R(2.0) * (-C) / (B + D);
+}
+
+/* Area swept from the origin to the boundary of E_h(v) between the polar
+ * angles psa < psb (psb - psa <= pi), by Green's theorem on the ellipse
+ * p(t) = e + M (cos t, sin t): (1/2) int p x dp = det M dt / 2
+ * + (e x p(tb) - e x p(ta)) / 2, with e = h (v.x, v.y) / v.z the centre,
+ * det M = 1 / v.z (semi-axes 1/v.z along v's azimuth, 1 across). */
+BT_INLINE REAL mg_ellipse_sweep(bt_vec3 v, REAL h, REAL psa, REAL psb)
+{
+    if (!(psb > psa)) return R(0.0);
+    REAL ct = fmax(v.z, MG_MIN_COS);
+    REAL st = sqrt(v.x * v.x + v.y * v.y);
+    REAL cx = st > R(0.0) ? v.x / st : R(1.0), cy = st > R(0.0) ? v.y / st : R(0.0);
+    REAL ex = h * v.x / ct, ey = h * v.y / ct;
+    REAL ua_x = cos(psa), ua_y = sin(psa), ub_x = cos(psb), ub_y = sin(psb);
+    REAL ra = mg_ellipse_radius(v, h, ua_x, ua_y), rb = mg_ellipse_radius(v, h, ub_x, ub_y);
+    REAL pax = ra * ua_x, pay = ra * ua_y, pbx = rb * ub_x, pby = rb * ub_y;
+    /* Parameters t: unit-circle coordinates of p - e. */
+    REAL a1 = ((pax - ex) * cx + (pay - ey) * cy) * ct, b1 = -(pax - ex) * cy + (pay - ey) * cx;
+    REAL a2 = ((pbx - ex) * cx + (pby - ey) * cy) * ct, b2 = -(pbx - ex) * cy + (pby - ey) * cx;
+    REAL dt = atan2(a1 * b2 - b1 * a2, a1 * a2 + b1 * b2);
+    /* t increases with psi (the origin is inside the convex ellipse); a
+     * rounding-negative dt for a tiny arc must not become 2 pi. */
+    if (dt < R(0.0)) dt = (psb - psa < R(1e-3)) ? R(0.0) : dt + BT_TWO_PI;
+    return R(0.5) * (dt / ct + (ex * pby - ey * pbx) - (ex * pay - ey * pax));
+}
+
+BT_INLINE REAL mg_wrap_pi(REAL a)
+{
+    while (a > BT_PI) a -= BT_TWO_PI;
+    while (a <= -BT_PI) a += BT_TWO_PI;
+    return a;
+}
+
+/* sigma_cap(i, o, h) for the unit sphere (Appendix B; see the header comment
+ * for the decomposition).  The shadow of v at height h occupies, in polar
+ * coordinates about the axis, the arc of half-width w = pi - phi_q centred on
+ * phi_v + pi and radii rho < r < R_v(psi) (the chord of Appendix A never
+ * crosses the crescent, so each ray from the axis is all shadow or none). */
+BT_INLINE REAL mg_overlap_area_sphere(bt_vec3 vi, bt_vec3 vo, REAL h)
+{
+    REAL ci_ = fmax(vi.z, MG_MIN_COS), co_ = fmax(vo.z, MG_MIN_COS);
+    REAL si = sqrt(vi.x * vi.x + vi.y * vi.y), so = sqrt(vo.x * vo.x + vo.y * vo.y);
+    if (!(h < si) || !(h < so) || !(h < R(1.0))) return R(0.0); /* case 1: a shadow absent */
+    REAL rho = sqrt(fmax(R(1.0) - h * h, R(0.0)));
+    REAL wi = bt_safe_acos((h / rho) * (ci_ / si)); /* pi - phi_q */
+    REAL wo = bt_safe_acos((h / rho) * (co_ / so));
+    REAL cen_i = atan2(vi.y, vi.x) + BT_PI;
+    REAL d = mg_wrap_pi(atan2(vo.y, vo.x) + BT_PI - cen_i);
+    REAL lo = fmax(-wi, d - wo), hi = fmin(wi, d + wo);
+    if (!(hi > lo)) return R(0.0); /* case 1: disjoint arcs, no overlap */
+    /* Split angles: where L_h = {p : p.(i - o) = 0} meets E_h(i) (on L_h
+     * both ellipses have the same radius).  Line: g . p_xy = c. */
+    REAL cuts[4];
+    int ncut = 0;
+    cuts[ncut++] = lo;
+    REAL gx = vi.x - vo.x, gy = vi.y - vo.y, g2 = gx * gx + gy * gy;
+    if (g2 > R(1e-24)) {
+        REAL c = -h * (vi.z - vo.z);
+        REAL px = gx * c / g2, py = gy * c / g2;  /* foot of the line */
+        REAL dx = -gy / sqrt(g2), dy = gx / sqrt(g2);
+        /* |p|^2 - (p.vi)^2 = 1 with p = (px + s dx, py + s dy, h). */
+        REAL pv = px * vi.x + py * vi.y + h * vi.z, dv = dx * vi.x + dy * vi.y;
+        REAL qa = R(1.0) - dv * dv;
+        REAL qb = R(2.0) * ((px * dx + py * dy) - pv * dv);
+        REAL qc = px * px + py * py + h * h - pv * pv - R(1.0);
+        REAL disc = qb * qb - R(4.0) * qa * qc;
+        if (disc > R(0.0) && qa > R(1e-30)) {
+            REAL sq = sqrt(disc);
+            for (int k = 0; k < 2; ++k) {
+                REAL s = (-qb + (k ? sq : -sq)) / (R(2.0) * qa);
+                REAL ang = mg_wrap_pi(atan2(py + s * dy, px + s * dx) - cen_i);
+                if (ang > lo && ang < hi) cuts[ncut++] = ang;
+            }
+        }
+    }
+    if (ncut == 3 && cuts[2] < cuts[1]) {
+        REAL tmp = cuts[1];
+        cuts[1] = cuts[2];
+        cuts[2] = tmp;
+    }
+    cuts[ncut++] = hi;
+    REAL area = R(0.0);
+    for (int k = 0; k + 1 < ncut; ++k) {
+        REAL a = cuts[k], b = cuts[k + 1];
+        if (!(b > a)) continue;
+        REAL mid = cen_i + R(0.5) * (a + b);
+        REAL ri = mg_ellipse_radius(vi, h, cos(mid), sin(mid));
+        REAL ro = mg_ellipse_radius(vo, h, cos(mid), sin(mid));
+        bt_vec3 inner = ri <= ro ? vi : vo; /* case 2 when one wins the whole arc */
+        area += mg_ellipse_sweep(inner, h, cen_i + a, cen_i + b) - R(0.5) * rho * rho * (b - a);
+    }
+    return fmax(area, R(0.0));
+}
+
+/* -------------------------------------------- GAF terms, eqs. 16-19, 23 */
+
+/* Physical (unscaled-space) areas: sphere areas times det E^-1 (§4.2). */
+BT_INLINE REAL mg_shadow_area(bt_vec3 i, REAL h, REAL bx, REAL by)
+{
+    return mg_shadow_area_sphere(mg_to_sphere_dir(i, bx, by), h) / (bx * by);
+}
+
+BT_INLINE REAL mg_overlap_area(bt_vec3 i, bt_vec3 o, REAL h, REAL bx, REAL by)
+{
+    return mg_overlap_area_sphere(mg_to_sphere_dir(i, bx, by), mg_to_sphere_dir(o, bx, by), h) /
+           (bx * by);
+}
+
+/* G1_dist(i, h) = exp(ln(1-tau0)/pi sigma_s(i', h))  (eq. 16 with eq. 9). */
+BT_INLINE REAL mg_g1_dist(bt_vec3 i, REAL h, REAL tau0, REAL bx, REAL by)
+{
+    REAL ss = mg_shadow_area_sphere(mg_to_sphere_dir(i, bx, by), h);
+    return exp(mg_log1m(tau0) * BT_INV_PI * ss);
+}
+
+/* G_dist(i, o, h): eq. 19 (direction-correlated) or eq. 17 (product). */
+BT_INLINE REAL mg_g_dist(bt_vec3 i, bt_vec3 o, REAL h, REAL tau0, REAL bx, REAL by, int corr)
+{
+    bt_vec3 ip = mg_to_sphere_dir(i, bx, by), op = mg_to_sphere_dir(o, bx, by);
+    REAL a = mg_shadow_area_sphere(ip, h) + mg_shadow_area_sphere(op, h);
+    if (corr == MG_CORR_DIRECTION) a -= mg_overlap_area_sphere(ip, op, h); /* eq. 18 */
+    return exp(mg_log1m(tau0) * BT_INV_PI * fmax(a, R(0.0)));
+}
+
+/* V_p(i, o) = (1 - tau0) G_dist(i, o, 0), eq. 23. */
+BT_INLINE REAL mg_pore_visibility(bt_vec3 i, bt_vec3 o, REAL tau0, REAL bx, REAL by, int corr)
+{
+    return (R(1.0) - tau0) * mg_g_dist(i, o, R(0.0), tau0, bx, by, corr);
+}
+
+/* -------------------------------------------------------------- Fresnel */
+
+/* Unpolarised reflectance of a conductor of complex index eta + i k (k >= 0;
+ * k = 0 is the dielectric case).  Textbook form with
+ * a^2 + b^2 = sqrt((eta^2 - k^2 - s^2)^2 + 4 eta^2 k^2):
+ *   Rs = (a2b2 + c^2 - 2 a c) / (a2b2 + c^2 + 2 a c)
+ *   Rp = Rs (a2b2 c^2 + s^4 - 2 a c s^2) / (a2b2 c^2 + s^4 + 2 a c s^2). */
+BT_INLINE REAL mg_fresnel_conductor(REAL cos_i, REAL eta, REAL k)
+{
+    REAL c = bt_clamp(fabs(cos_i), R(0.0), R(1.0));
+    REAL c2 = c * c, s2 = R(1.0) - c2;
+    REAL t0 = eta * eta - k * k - s2;
+    REAL a2b2 = sqrt(t0 * t0 + R(4.0) * eta * eta * k * k);
+    REAL a = bt_safe_sqrt(R(0.5) * (a2b2 + t0));
+    REAL t1 = a2b2 + c2, t2 = R(2.0) * a * c;
+    REAL rs = (t1 - t2) / fmax(t1 + t2, R(1e-30));
+    REAL t3 = a2b2 * c2 + s2 * s2, t4 = t2 * s2;
+    REAL rp = rs * (t3 - t4) / fmax(t3 + t4, R(1e-30));
+    return bt_clamp(R(0.5) * (rs + rp), R(0.0), R(1.0));
+}
+
+BT_INLINE REAL mg_grain_fresnel(REAL cos_i, const REAL* p, int grain)
+{
+    if (grain == MG_GRAIN_DIELECTRIC) return bt_fresnel_dielectric(cos_i, p[9]);
+    if (grain == MG_GRAIN_CONDUCTOR) return mg_fresnel_conductor(cos_i, p[9], p[10]);
+    return R(0.0);
+}
+
+/* ---------------------------------------------------------- BSDF terms */
+
+/* Specular micrograin term of eq. 22: D(h) G(i,o,h) F(i.h) / (4 i.n o.n),
+ * G = chi+(i.h) chi+(o.h) G_dist(i, o, h'(h)). */
+BT_INLINE REAL mg_f_specular(bt_vec3 i, bt_vec3 o, const REAL* p, const int* opt)
+{
+    if (opt[0] == MG_GRAIN_DIFFUSE) return R(0.0);
+    bt_vec3 m = bt_v3_normalize(bt_v3_add(i, o));
+    REAL im = bt_v3_dot(i, m), om = bt_v3_dot(o, m);
+    if (!(im > R(0.0)) || !(om > R(0.0)) || !(m.z > R(0.0))) return R(0.0);
+    REAL tau0 = p[4], bx = p[5], by = p[6];
+    REAL D = mg_ndf(m, tau0, bx, by);
+    REAL G = mg_g_dist(i, o, mg_height_of_normal(m, bx, by), tau0, bx, by, opt[2]);
+    REAL F = mg_grain_fresnel(im, p, opt[0]);
+    return D * G * F / (R(4.0) * i.z * o.z);
+}
+
+/* Integrand of eq. 21 at m, divided by the sampling pdf:
+ * kd/pi |i.m||o.m| / (|i.n||o.n|) D(m) G(i,o,m) T(i,o,m), with
+ * T = (1 - F(i.m))(1 - F(o.m)). */
+BT_INLINE REAL mg_f_diffuse_sample(bt_vec3 i, bt_vec3 o, const REAL* p, const int* opt, REAL u0,
+                                   REAL u1)
+{
+    REAL kd = p[8];
+    if (!(kd > R(0.0))) return R(0.0);
+    REAL tau0 = p[4], bx = p[5], by = p[6];
+    REAL pdf;
+    bt_vec3 m = mg_sample_m(u0, u1, tau0, bx, by, &pdf);
+    REAL im = bt_v3_dot(i, m), om = bt_v3_dot(o, m);
+    if (!(im > R(0.0)) || !(om > R(0.0)) || !(pdf > R(0.0))) return R(0.0); /* G_local */
+    REAL D = mg_ndf(m, tau0, bx, by);
+    REAL G = mg_g_dist(i, o, mg_height_of_normal(m, bx, by), tau0, bx, by, opt[2]);
+    REAL T = (R(1.0) - mg_grain_fresnel(im, p, opt[0])) * (R(1.0) - mg_grain_fresnel(om, p, opt[0]));
+    return kd * BT_INV_PI * im * om / (i.z * o.z) * D * G * T / pdf;
+}
+
+/* Base (bulk) BRDF f^B. */
+BT_INLINE REAL mg_f_base(bt_vec3 i, bt_vec3 o, const REAL* p, const int* opt)
+{
+    if (opt[1] == MG_BASE_LAMBERTIAN) return p[11] * BT_INV_PI;
+    if (opt[1] == MG_BASE_CONDUCTOR) {
+        bt_microfacet mf =
+            bt_microfacet_make(BT_MF_GGX, BT_G1_EXACT, BT_SHADOW_HEIGHT_CORRELATED, p[12], p[12]);
+        bt_vec3 m = bt_v3_normalize(bt_v3_add(i, o));
+        REAL F = mg_fresnel_conductor(bt_v3_dot(i, m), p[13], p[14]);
+        return F * bt_mf_d(&mf, m) * bt_mf_g(&mf, i, o, m) / (R(4.0) * i.z * o.z);
+    }
+    return R(0.0);
+}
+
+/* Weights of f^S and f^B: eqs. 20, 23 or eqs. 1, 25 (option weighting). */
+BT_INLINE void mg_weights(bt_vec3 i, bt_vec3 o, const REAL* p, const int* opt, REAL* ws, REAL* wb)
+{
+    REAL tau0 = p[4], bx = p[5], by = p[6];
+    if (opt[3] == 1) {
+        REAL b = (R(1.0) - tau0) * mg_g1_dist(i, R(0.0), tau0, bx, by) *
+                 mg_g1_dist(o, R(0.0), tau0, bx, by);            /* eq. 25 */
+        *wb = b;
+        *ws = R(1.0) - b;                                        /* eq. 1 */
+    } else {
+        *ws = tau0;                                              /* eq. 20 */
+        *wb = mg_pore_visibility(i, o, tau0, bx, by, opt[2]);    /* eq. 23 */
+    }
+}
+
+/* One sample of f(i, o), eqs. 20-22 (the diffuse part eq. 21 is the only
+ * random one: dims 0, 1). */
+BT_INLINE REAL mg_brdf_sample(bt_vec3 i, bt_vec3 o, const REAL* p, const int* opt, REAL u0,
+                              REAL u1)
+{
+    REAL ws, wb;
+    mg_weights(i, o, p, opt, &ws, &wb);
+    REAL fs = mg_f_specular(i, o, p, opt) + mg_f_diffuse_sample(i, o, p, opt, u0, u1);
+    REAL fb = opt[1] == MG_BASE_ABSORBING ? R(0.0) : mg_f_base(i, o, p, opt);
+    return ws * fs + wb * fb;
+}
+
+/* One sample of the directional albedo int f(i,o) o.n do: the specular term
+ * by sampling m (dims 0, 1) and reflecting i; the rest (eq. 21 part and
+ * base) by cosine sampling o (dims 2, 3) with the eq. 21 sample on dims 4, 5.
+ * The sum of two unbiased estimators of the two parts. */
+BT_INLINE REAL mg_albedo_sample(bt_vec3 i, const REAL* p, const int* opt, const bt_sampler* s)
+{
+    REAL tau0 = p[4], bx = p[5], by = p[6];
+    REAL total = R(0.0);
+    if (opt[0] != MG_GRAIN_DIFFUSE) {
+        REAL pdf_m;
+        bt_vec3 m = mg_sample_m(bt_uniform(s, 0), bt_uniform(s, 1), tau0, bx, by, &pdf_m);
+        REAL im = bt_v3_dot(i, m);
+        if (im > R(0.0) && pdf_m > R(0.0)) {
+            bt_vec3 o = bt_reflect(i, m);
+            if (o.z > MG_MIN_COS) {
+                REAL ws, wb;
+                mg_weights(i, o, p, opt, &ws, &wb);
+                REAL pdf_o = pdf_m / (R(4.0) * im); /* reflection Jacobian */
+                total += ws * mg_f_specular(i, o, p, opt) * o.z / pdf_o;
+            }
+        }
+    }
+    REAL u2 = bt_uniform(s, 2), u3 = bt_uniform(s, 3);
+    REAL r = sqrt(u2), ph = BT_TWO_PI * u3;
+    bt_vec3 o = bt_v3(r * cos(ph), r * sin(ph), fmax(sqrt(fmax(R(1.0) - u2, R(0.0))), MG_MIN_COS));
+    REAL ws, wb;
+    mg_weights(i, o, p, opt, &ws, &wb);
+    REAL fd = mg_f_diffuse_sample(i, o, p, opt, bt_uniform(s, 4), bt_uniform(s, 5));
+    REAL fb = opt[1] == MG_BASE_ABSORBING ? R(0.0) : mg_f_base(i, o, p, opt);
+    total += (ws * fd + wb * fb) * BT_PI; /* f o.z / (o.z / pi) */
+    return total;
+}
+
+/* Sampling probabilities, eqs. 26-27. */
+BT_INLINE REAL mg_p_bulk(bt_vec3 i, REAL tau0, REAL bx, REAL by)
+{
+    REAL v = (R(1.0) - tau0) * mg_g1_dist(i, R(0.0), tau0, bx, by);
+    return v / (tau0 + v);                                     /* eq. 26 */
+}
+
+BT_INLINE REAL mg_p_diffuse(bt_vec3 i, const REAL* p, const int* opt)
+{
+    REAL kd = p[8];
+    REAL F = mg_grain_fresnel(i.z, p, opt[0]); /* F(i.n, n), eq. 27 */
+    return kd + F > R(0.0) ? kd / (kd + F) : R(0.0);
+}
+
+#include "micrograin_explicit.h"
+
+/* ------------------------------------------------------ sample function */
+
+BT_INLINE REAL micrograin_sample(const REAL* p, const int* o, int quantity, const bt_sampler* s)
+{
+    int ok_i, ok_o;
+    bt_vec3 vi = mg_direction(p[0], p[1], &ok_i);
+    bt_vec3 vo = mg_direction(p[2], p[3], &ok_o);
+    REAL tau0 = p[4], bx = p[5], by = p[6], h = p[7];
+    switch (quantity) {
+    case MG_Q_NDF:
+        /* m is the direction (theta_i, phi_i); D(m) = 0 below the horizon. */
+        return ok_i ? mg_ndf(bt_from_spherical(p[0], p[1]), tau0, bx, by) : R(0.0);
+    case MG_Q_ALPHA_X: return mg_alpha_equivalent(bx, tau0);
+    case MG_Q_ALPHA_Y: return mg_alpha_equivalent(by, tau0);
+    case MG_Q_SHADOW_AREA: return ok_i ? mg_shadow_area(vi, h, bx, by) : R(0.0);
+    case MG_Q_OVERLAP_AREA: return ok_i && ok_o ? mg_overlap_area(vi, vo, h, bx, by) : R(0.0);
+    case MG_Q_G1_DIST: return ok_i ? mg_g1_dist(vi, h, tau0, bx, by) : R(0.0);
+    case MG_Q_G_DIST: return ok_i && ok_o ? mg_g_dist(vi, vo, h, tau0, bx, by, o[2]) : R(0.0);
+    case MG_Q_PORE_VISIBILITY:
+        return ok_i && ok_o ? mg_pore_visibility(vi, vo, tau0, bx, by, o[2]) : R(0.0);
+    case MG_Q_BRDF:
+        return ok_i && ok_o ? mg_brdf_sample(vi, vo, p, o, bt_uniform(s, 0), bt_uniform(s, 1))
+                            : R(0.0);
+    case MG_Q_ALBEDO: return ok_i ? mg_albedo_sample(vi, p, o, s) : R(0.0);
+    case MG_Q_EXPLICIT_G1: return ok_i ? mgx_g_sample(vi, vi, 1, p, s) : R(0.0);
+    case MG_Q_EXPLICIT_G: return ok_i && ok_o ? mgx_g_sample(vi, vo, 0, p, s) : R(0.0);
+    case MG_Q_EXPLICIT_BRDF: return ok_i && ok_o ? mgx_brdf_sample(vi, vo, p, o, s) : R(0.0);
+    case MG_Q_P_BULK: return ok_i ? mg_p_bulk(vi, tau0, bx, by) : R(0.0);
+    case MG_Q_P_DIFFUSE: return ok_i ? mg_p_diffuse(vi, p, o) : R(0.0);
+    case MG_Q_COVERAGE: return mgx_coverage_sample(p, s);
+    default: return R(0.0);
+    }
+}
+
+#endif /* BRDFTAB_MICROGRAIN_H */

@@ -1,0 +1,625 @@
+/*
+ * oren_nayar.h — Oren–Nayar V-cavity body reflection: the exact facet
+ * integral (eq. 25) with the two-bounce interreflection term, the
+ * single-slope surfaces, and the paper's approximations.
+ *
+ * M. Oren, S. K. Nayar, "Generalization of Lambert's Reflectance Model",
+ * Proc. SIGGRAPH '94, pp. 239-246, 1994.  doi:10.1145/192161.192213
+ * (Restated in /work/shared/MODELS.md §1; equation numbers are the paper's.)
+ *
+ * Point p[] (kernels/common/estimator.h layout):
+ *   p[0] theta_i, p[1] phi_i, p[2] theta_o, p[3] phi_o   radians
+ *        (theta > pi/2, below the surface: every BRDF quantity is 0)
+ *   p[4] sigma    std. deviation of the facet slope theta_a (radians), eq. 26
+ *   p[5] rho      facet albedo (brdf, uni_slope, functional, qualitative,
+ *                 approx_error, albedo, albedo_avg)
+ *   p[6] theta_a  facet slope of the single-slope surfaces (radians)
+ *   p[7] phi_a    cavity orientation of the uni-directional surface (radians)
+ *   p[8] nodes    Gauss-Legendre nodes per sub-interval (quadrature method)
+ * Options o[]:
+ *   o[0] qualitative_a   0: A = 1 - 0.5 s2/(s2 + 0.33) (eq. 30),
+ *                        1: 0.57 instead of 0.33 (footnote 7)
+ *   o[1] approximation   approx_error: 0 functional (eqs. 27-29),
+ *                        1 qualitative (eq. 30 with o[0]), 2 lambert (rho/pi)
+ *   o[2] error           approx_error: 0 relative, 1 absolute
+ * Quantities: see the ON_Q_* list below.
+ *
+ * Notation.  s = i (toward the light), v = o (toward the viewer), n = +z,
+ * facet normal a = (theta_a, phi_a), the opposite facet of its cavity
+ * a' = (theta_a, phi_a + pi).  All BRDF quantities are L_r / (E0 cos theta_i).
+ * Per facet a (Table 1, eqs. 10-11; eqs. 15-20), divided by E0 cos theta_i:
+ *   direct  F1(a) = <s,a><v,a> GAF / (pi <a,n><v,n><s,n>)   (per unit rho)
+ *           if <s,a> > 0 and <v,a> > 0, else 0;
+ *           GAF = max(0, min(1, X, Y)), X = 2<s,n><a,n>/<s,a>,
+ *           Y = 2<v,n><a,n>/<v,a>.
+ *     DEPARTURE (typo fix): eqs. 11/38 as printed read Min[1, Max[0, X, Y]];
+ *     the visible-and-lit fraction is min(1 - m_s/w, 1 - m_v/w) (eq. 33),
+ *     i.e. the smaller of X and Y (MODELS.md §1).
+ *     F1 is evaluated as min(<s,a><v,a>/<a,n>, 2<s,n><v,a>, 2<v,n><s,a>)
+ *     / (pi <v,n><s,n>), the three Table 1 rows, which stays finite as
+ *     <a,n> -> 0.
+ *   two-bounce  F2(a) = <a',s><a,v> IF / (pi^2 <a,n><v,n><s,n>)  (per rho^2)
+ *           if <v,a> > 0 and <a',s> > 0; IF of eqs. 19-20 with
+ *           m_v/w = clamp(-<a',v>/<a,v>, 0, 1) (eq. 15),
+ *           m_s/w = clamp(-<a,s>/<a',s>, 0, 1) (eq. 16).
+ * Gaussian surface (eqs. 25-26):
+ *   f = int_0^{pi/2} p(theta_a) (1/2pi) int_0^{2pi} (rho F1 + rho^2 F2)
+ *       dphi_a dtheta_a,   p = exp(-theta_a^2 / 2 sigma^2) sin theta_a / Z.
+ *
+ * Estimators (the same quantity id serves both; s->method picks):
+ *   quadrature (BT_METHOD_QUADRATURE): tensor Gauss-Legendre.  phi_a is split
+ *     at every analytically known kink, for the current theta_a: the zeros of
+ *     <s,a>, <v,a> (facet turns away), <s,a'>, <v,a'> (start of shadowing /
+ *     masking; also where X or Y crosses 1) and the X = Y line
+ *     <a, <s,n> v - <v,n> s> = 0 (a fixed azimuth, since that vector is
+ *     horizontal).  m_v, m_s reach 1 only where <v,a>, <s,a'> vanish, so IF
+ *     adds no further kink.  theta_a in [0, T], T = min(pi/2, 8 sigma)
+ *     (the truncated mass is < 1e-13), split at 3 sigma and at the slopes
+ *     pi/2 - theta_i, pi/2 - theta_o where the phi_a kinks are born; the
+ *     phi_a-integral grows there like (theta_a - theta_c)^{3/2}, so those
+ *     sub-intervals use theta = theta_c + L t^2, which makes the leading
+ *     singular term polynomial in t.  The normalisation Z is summed on the
+ *     same theta_a nodes (self-normalised rule: exact for sigma -> 0).
+ *     Batch 0 uses p[8] nodes per sub-interval, batch 1 half of them; the
+ *     engine reports the difference as the error.
+ *   rqmc / mc: theta_a from the Rayleigh density sigma^-2 theta
+ *     exp(-theta^2/2sigma^2) truncated to [0, pi/2] (inverse CDF, dim 0),
+ *     phi_a uniform (dim 1), weight (sin theta/theta) Z_R / Z with Z_R, Z in
+ *     closed form (on_norm_ratio: Z by the sine series and regularised lower
+ *     incomplete gamma functions of integer order).
+ *   albedo (dims 0-3) and albedo_avg (dims 0-4): facet as above, outgoing
+ *     direction cosine-weighted (dims 2, 3), theta_i with pdf 2 mu dmu (dim 4).
+ *
+ * Grazing.  cos theta of i and o is floored at ON_MIN_COS: the BRDF itself
+ * grows like 1/cos when both directions graze (the backscatter ridge), so at
+ * exactly 90 deg it returns the large-but-finite value at the floor.
+ */
+#ifndef BRDFTAB_OREN_NAYAR_H
+#define BRDFTAB_OREN_NAYAR_H
+
+#include "../common/compat.h"
+#include "../common/sampler.h"
+#include "../common/vec3.h"
+
+/* Quantity ids (the registry's `id`). */
+#define ON_Q_BRDF 0          /* rho F1 + rho^2 F2 integrated, eq. 25 */
+#define ON_Q_BRDF_DIRECT 1   /* per unit rho */
+#define ON_Q_BRDF_INTER 2    /* per unit rho^2 */
+#define ON_Q_UNI_SLOPE 3     /* eq. 22 at rho, theta_a, phi_a (closed) */
+#define ON_Q_SS_DIRECT 4     /* eq. 23 numerically, per unit rho */
+#define ON_Q_SS_INTER 5      /* eq. 46 numerically, per unit rho^2 */
+#define ON_Q_SS_DIRECT_CF 6  /* eq. 45 (eqs. 39-44), per unit rho */
+#define ON_Q_SS_INTER_CF 7   /* eq. 49, per unit rho^2 */
+#define ON_Q_FUNCTIONAL 8    /* eqs. 27-29 at rho */
+#define ON_Q_QUALITATIVE 9   /* eq. 30 at rho */
+#define ON_Q_APPROX_ERROR 10 /* approximation vs eq. 25 at rho */
+#define ON_Q_ALBEDO 11       /* int f cos theta_o dw_o at rho */
+#define ON_Q_ALBEDO_AVG 12   /* 2 int E(mu) mu dmu at rho */
+
+#define ON_WANT_DIRECT 1
+#define ON_WANT_INTER 2
+
+#define ON_MIN_COS R(1e-6)
+#define ON_MAX_NODES 64
+#define ON_MAX_BREAKS 12
+
+/* ------------------------------------------------------------ geometry */
+
+typedef struct {
+    bt_vec3 s, v;        /* unit directions, z floored at ON_MIN_COS */
+    REAL phi_s, phi_v;   /* azimuths */
+    REAL tan_s, tan_v;   /* tan theta (horizontal length / z) */
+    REAL phi_x;          /* azimuth of the X = Y line's normal; valid if has_x */
+    int has_x;
+} on_geom;
+
+BT_INLINE bt_vec3 on_direction(REAL theta, REAL phi)
+{
+    REAL st = sin(theta);
+    REAL z = fmax(cos(theta), ON_MIN_COS);
+    return bt_v3(st * cos(phi), st * sin(phi), z);
+}
+
+BT_INLINE on_geom on_make_geom(const REAL* p)
+{
+    on_geom g;
+    g.s = on_direction(p[0], p[1]);
+    g.v = on_direction(p[2], p[3]);
+    g.phi_s = p[1];
+    g.phi_v = p[3];
+    g.tan_s = sqrt(g.s.x * g.s.x + g.s.y * g.s.y) / g.s.z;
+    g.tan_v = sqrt(g.v.x * g.v.x + g.v.y * g.v.y) / g.v.z;
+    /* X = Y  <=>  <a, w> = 0 with w = <s,n> v - <v,n> s (horizontal). */
+    REAL wx = g.s.z * g.v.x - g.v.z * g.s.x;
+    REAL wy = g.s.z * g.v.y - g.v.z * g.s.y;
+    g.has_x = wx * wx + wy * wy > R(1e-20);
+    g.phi_x = g.has_x ? atan2(wy, wx) + BT_HALF_PI : R(0.0);
+    return g;
+}
+
+BT_INLINE bt_vec3 on_facet_normal(REAL theta_a, REAL phi_a)
+{
+    REAL st = sin(theta_a);
+    return bt_v3(st * cos(phi_a), st * sin(phi_a), cos(theta_a));
+}
+
+/* d(x, y) of eq. 20 with c2 = cos 2 theta_a. */
+BT_INLINE REAL on_d(REAL x, REAL y, REAL c2)
+{
+    return bt_safe_sqrt(x * x + R(2.0) * x * y * c2 + y * y);
+}
+
+/* Interreflection factor, eq. 19: int_{mv}^1 int_{ms}^1 K'(t, r) dr dt. */
+BT_INLINE REAL on_if(REAL mv, REAL ms, REAL c2)
+{
+    REAL r = BT_HALF_PI * (on_d(R(1.0), mv, c2) + on_d(R(1.0), ms, c2) - on_d(ms, mv, c2) -
+                           on_d(R(1.0), R(1.0), c2));
+    return fmax(r, R(0.0)); /* rounding only: the integrand K' is >= 0 */
+}
+
+/* Per-facet BRDF contributions F1 (per unit rho) and F2 (per unit rho^2), see
+ * the header comment.  `want` selects which are computed. */
+BT_INLINE void on_facet(const on_geom* g, bt_vec3 a, int want, REAL* f1, REAL* f2)
+{
+    *f1 = R(0.0);
+    *f2 = R(0.0);
+    REAL az = a.z;
+    if (!(az > R(0.0))) return; /* theta_a = pi/2 in float rounding */
+    REAL sa = bt_v3_dot(g->s, a), va = bt_v3_dot(g->v, a);
+    REAL sz = g->s.z, vz = g->v.z;
+    if ((want & ON_WANT_DIRECT) && sa > R(0.0) && va > R(0.0)) {
+        /* Table 1: GAF = 1, masking (Y), shadowing (X) rows, smallest wins. */
+        REAL t = fmin(sa * va / az, fmin(R(2.0) * sz * va, R(2.0) * vz * sa));
+        *f1 = t * BT_INV_PI / (sz * vz);
+    }
+    if (want & ON_WANT_INTER) {
+        /* a' = (-a.x, -a.y, a.z):  <a',d> = 2 a_z d_z - <a,d>. */
+        REAL sa2 = R(2.0) * az * sz - sa, va2 = R(2.0) * az * vz - va;
+        if (va > R(0.0) && sa2 > R(0.0)) {
+            REAL mv = bt_clamp(-va2 / va, R(0.0), R(1.0));  /* eq. 15 */
+            REAL ms = bt_clamp(-sa / sa2, R(0.0), R(1.0));  /* eq. 16 */
+            REAL c2 = R(2.0) * az * az - R(1.0);             /* cos 2 theta_a */
+            REAL itf = on_if(mv, ms, c2);                    /* eq. 19 */
+            *f2 = sa2 * va * itf * (BT_INV_PI * BT_INV_PI) / (az * vz * sz); /* eq. 18 */
+        }
+    }
+}
+
+/* --------------------------------------------------------- quadrature */
+
+/* Gauss-Legendre nodes/weights on [-1, 1] by Newton iteration on P_n. */
+BT_INLINE void on_gauss_legendre(int n, REAL* x, REAL* w)
+{
+#if defined(BT_REAL_IS_FLOAT) && BT_REAL_IS_FLOAT && BT_DEVICE
+    const REAL eps = R(1e-6);
+#else
+    const REAL eps = R(1e-14);
+#endif
+    for (int i = 0; i < (n + 1) / 2; ++i) {
+        REAL z = cos(BT_PI * ((REAL)i + R(0.75)) / ((REAL)n + R(0.5)));
+        REAL pp = R(1.0);
+        for (int it = 0; it < 12; ++it) {
+            REAL p1 = R(1.0), p2 = R(0.0);
+            for (int j = 1; j <= n; ++j) {
+                REAL p3 = p2;
+                p2 = p1;
+                p1 = ((R(2.0) * j - R(1.0)) * z * p2 - (R(1.0) * j - R(1.0)) * p3) / (REAL)j;
+            }
+            pp = (REAL)n * (z * p1 - p2) / (z * z - R(1.0));
+            REAL dz = p1 / pp;
+            z -= dz;
+            if (fabs(dz) < eps) break;
+        }
+        x[i] = -z;
+        x[n - 1 - i] = z;
+        w[i] = R(2.0) / ((R(1.0) - z * z) * pp * pp);
+        w[n - 1 - i] = w[i];
+    }
+}
+
+BT_INLINE REAL on_wrap(REAL phi)
+{
+    return phi - BT_TWO_PI * floor(phi / BT_TWO_PI);
+}
+
+/* Kinks in phi_a of direction d (azimuth phi_d, tan theta_d) at slope
+ * tan theta_a: <d,a'> = 0 at cos(phi_a - phi_d) = 1/(ta td) and <d,a> = 0
+ * at cos(phi_a - phi_d) = -1/(ta td) (eq. 39's critical angle phi_c). */
+BT_INLINE int on_add_dir_breaks(REAL phi_d, REAL td, REAL ta, REAL* b, int nb)
+{
+    REAL k = ta * td;
+    if (!(k > R(1.0))) return nb;
+    REAL c = acos(R(1.0) / k);
+    b[nb++] = on_wrap(phi_d + c);
+    b[nb++] = on_wrap(phi_d - c);
+    b[nb++] = on_wrap(phi_d + BT_PI + c);
+    b[nb++] = on_wrap(phi_d + BT_PI - c);
+    return nb;
+}
+
+/* (1/2pi) int_0^{2pi} F1, F2 dphi_a at slope theta_a, GL rule (x, w, n) on
+ * every sub-interval between kinks. */
+BT_INLINE void on_phi_integral(const on_geom* g, REAL theta_a, int want, int n, const REAL* gx,
+                               const REAL* gw, REAL* d1, REAL* d2)
+{
+    REAL b[ON_MAX_BREAKS + 1];
+    int nb = 0;
+    REAL ta = tan(theta_a);
+    nb = on_add_dir_breaks(g->phi_s, g->tan_s, ta, b, nb);
+    nb = on_add_dir_breaks(g->phi_v, g->tan_v, ta, b, nb);
+    if (g->has_x) {
+        b[nb++] = on_wrap(g->phi_x);
+        b[nb++] = on_wrap(g->phi_x + BT_PI);
+    }
+    if (nb == 0) b[nb++] = R(0.0);
+    /* insertion sort */
+    for (int i = 1; i < nb; ++i) {
+        REAL key = b[i];
+        int j = i - 1;
+        while (j >= 0 && b[j] > key) {
+            b[j + 1] = b[j];
+            --j;
+        }
+        b[j + 1] = key;
+    }
+    b[nb] = b[0] + BT_TWO_PI;
+    /* A lone interval covering the whole period: split it in two so the rule
+     * sees half a period (the integrand is then a low-order trig polynomial). */
+    REAL s1 = R(0.0), s2 = R(0.0);
+    for (int k = 0; k < nb; ++k) {
+        REAL lo = b[k], hi = b[k + 1];
+        int parts = nb == 1 ? 2 : 1;
+        REAL step = (hi - lo) / (REAL)parts;
+        for (int q = 0; q < parts; ++q) {
+            REAL l = lo + step * (REAL)q;
+            REAL half = R(0.5) * step, mid = l + half;
+            if (!(half > R(0.0))) continue;
+            for (int j = 0; j < n; ++j) {
+                REAL phi = mid + half * gx[j];
+                REAL f1, f2;
+                on_facet(g, on_facet_normal(theta_a, phi), want, &f1, &f2);
+                s1 += gw[j] * half * f1;
+                s2 += gw[j] * half * f2;
+            }
+        }
+    }
+    *d1 = s1 / BT_TWO_PI;
+    *d2 = s2 / BT_TWO_PI;
+}
+
+/* Gaussian slope integral (eq. 25 with eq. 26) by the tensor rule. */
+BT_INLINE void on_gauss_quadrature(const on_geom* g, REAL sigma, int want, int n, REAL* r1,
+                                   REAL* r2)
+{
+    REAL gx[ON_MAX_NODES], gw[ON_MAX_NODES];
+    on_gauss_legendre(n, gx, gw);
+    REAL T = fmin(BT_HALF_PI, R(8.0) * sigma);
+    /* theta_a breakpoints: 0, 3 sigma, the two critical slopes, T. */
+    REAL e[5];
+    int kind[5]; /* 1: left end is a critical slope (t^2 substitution) */
+    int ne = 0;
+    e[ne] = R(0.0);
+    kind[ne++] = 0;
+    REAL cand[3];
+    int ckind[3];
+    cand[0] = R(3.0) * sigma;
+    ckind[0] = 0;
+    cand[1] = BT_HALF_PI - atan(g->tan_s);
+    ckind[1] = 1;
+    cand[2] = BT_HALF_PI - atan(g->tan_v);
+    ckind[2] = 1;
+    for (int c = 0; c < 3; ++c) {
+        if (!(cand[c] > R(0.0) && cand[c] < T)) continue;
+        int j = ne - 1;
+        while (j >= 0 && e[j] > cand[c]) {
+            e[j + 1] = e[j];
+            kind[j + 1] = kind[j];
+            --j;
+        }
+        e[j + 1] = cand[c];
+        kind[j + 1] = ckind[c];
+        ++ne;
+    }
+    e[ne] = T;
+    REAL inv2s2 = R(0.5) / (sigma * sigma);
+    REAL z = R(0.0), s1 = R(0.0), s2 = R(0.0);
+    for (int k = 0; k < ne; ++k) {
+        REAL lo = e[k], L = e[k + 1] - lo;
+        if (!(L > R(0.0))) continue;
+        for (int j = 0; j < n; ++j) {
+            REAL t = R(0.5) * (gx[j] + R(1.0)), wt = R(0.5) * gw[j];
+            REAL th, jac;
+            if (kind[k]) {
+                th = lo + L * t * t;
+                jac = R(2.0) * L * t;
+            } else {
+                th = lo + L * t;
+                jac = L;
+            }
+            REAL wp = wt * jac * exp(-th * th * inv2s2) * sin(th);
+            REAL d1, d2;
+            on_phi_integral(g, th, want, n, gx, gw, &d1, &d2);
+            z += wp;
+            s1 += wp * d1;
+            s2 += wp * d2;
+        }
+    }
+    *r1 = z > R(0.0) ? s1 / z : R(0.0);
+    *r2 = z > R(0.0) ? s2 / z : R(0.0);
+}
+
+/* ------------------------------------------------------------ sampling */
+
+/* Z_R / Z with Z_R = int_0^{pi/2} theta e^{-theta^2/2s^2} dtheta
+ * = s^2 (1 - e^{-X}), X = (pi/2)^2 / 2s^2, and
+ * Z = int_0^{pi/2} sin(theta) e^{-theta^2/2s^2} dtheta
+ *   = s^2 sum_k (-1)^k (2s^2)^k k!/(2k+1)! P(k+1, X)
+ * (sine series; P = regularised lower incomplete gamma, integer order:
+ * P(k+1, X) = 1 - e^{-X} sum_{j<=k} X^j/j!).  The terms fall like
+ * (pi/2)^{2k}/(2k+1)!, so 12 terms reach double precision. */
+BT_INLINE REAL on_norm_ratio(REAL sigma)
+{
+    REAL s2 = sigma * sigma;
+    REAL X = BT_HALF_PI * BT_HALF_PI / (R(2.0) * s2);
+    REAL ex = exp(-X);
+    REAL zr = R(1.0) - ex;
+    REAL sum = R(0.0);
+    REAL coef = R(1.0);   /* (2s^2)^k k! / (2k+1)! with sign */
+    REAL part = R(1.0);   /* sum_{j<=k} X^j/j! */
+    REAL term = R(1.0);   /* X^k / k! */
+    for (int k = 0; k < 14; ++k) {
+        if (k > 0) {
+            term *= X / (REAL)k;
+            part += term;
+            coef *= -R(2.0) * s2 * (REAL)k / ((R(2.0) * k) * (R(2.0) * k + R(1.0)));
+        }
+        sum += coef * (R(1.0) - ex * part);
+    }
+    return sum > R(0.0) ? zr / sum : R(1.0);
+}
+
+/* One facet sample: slope by the truncated Rayleigh inverse CDF from u0,
+ * azimuth from u1.  Returns the weight (sin th / th) Z_R/Z; *a the normal. */
+BT_INLINE REAL on_sample_facet(REAL sigma, REAL ratio, REAL u0, REAL u1, bt_vec3* a)
+{
+    REAL s2 = sigma * sigma;
+    REAL X = BT_HALF_PI * BT_HALF_PI / (R(2.0) * s2);
+    REAL q = R(1.0) - u0 * (R(1.0) - exp(-X));
+    REAL th = fmin(sigma * sqrt(fmax(-R(2.0) * log(q), R(0.0))), BT_HALF_PI);
+    *a = on_facet_normal(th, BT_TWO_PI * u1);
+    REAL sinc = th > R(1e-4) ? sin(th) / th : R(1.0) - th * th / R(6.0);
+    return sinc * ratio;
+}
+
+/* ------------------------------------------------------------ closed forms */
+
+/* Critical angle, eq. 39. */
+BT_INLINE REAL on_phi_c(REAL ta, REAL td)
+{
+    REAL k = ta * td;
+    return k > R(1.0) ? acos(R(1.0) / k) : R(0.0);
+}
+
+BT_INLINE REAL on_tan_clamped(REAL theta)
+{
+    return sin(theta) / fmax(cos(theta), ON_MIN_COS);
+}
+
+/* Isotropic single-slope direct term, eq. 45 (with eqs. 39-44), per unit
+ * rho, divided by E0 cos theta_i. */
+BT_INLINE REAL on_single_slope_direct_cf(REAL ti, REAL tr, REAL phi, REAL theta_a)
+{
+    REAL ta = tan(theta_a);
+    REAL tan_i = on_tan_clamped(ti), tan_r = on_tan_clamped(tr);
+    REAL pci = on_phi_c(ta, tan_i), pcr = on_phi_c(ta, tan_r);
+    int i_is_alpha = ti >= tr;
+    REAL tan_a = i_is_alpha ? tan_i : tan_r, tan_b = i_is_alpha ? tan_r : tan_i;
+    REAL pca = i_is_alpha ? pci : pcr, pcb = i_is_alpha ? pcr : pci;
+    REAL cphi = cos(phi);
+    REAL A1 = ta * R(2.0) * sin(pca) * BT_INV_PI +
+              R(0.5) * ta * ta * tan_a * (R(1.0) - (R(2.0) * pca + sin(R(2.0) * pca)) * BT_INV_PI);
+    REAL A2 = cphi < R(0.0) ? R(2.0) * pcb * BT_INV_PI - ta * tan_b * R(2.0) * sin(pcb) * BT_INV_PI
+                            : R(0.0);
+    REAL A3 = R(0.0);
+    if (pci + pcr > BT_HALF_PI)
+        A3 = R(0.5) - (pci + pcr) * BT_INV_PI + bt_safe_sqrt(tan_r * tan_r * ta * ta - R(1.0)) * BT_INV_PI +
+             bt_safe_sqrt(tan_i * tan_i * ta * ta - R(1.0)) * BT_INV_PI -
+             ta * sqrt(tan_i * tan_i + tan_r * tan_r) * BT_INV_PI;
+    return BT_INV_PI * cos(theta_a) *
+           (R(1.0) + cphi * (A1 * tan_b + A2) + (R(1.0) - fabs(cphi)) * A3);
+}
+
+/* Isotropic single-slope interreflection, eq. 49 (built on the IF
+ * approximation eq. 48), per unit rho^2, divided by E0 cos theta_i. */
+BT_INLINE REAL on_single_slope_inter_cf(REAL ti, REAL tr, REAL phi, REAL theta_a)
+{
+    REAL ta = tan(theta_a), ca = cos(theta_a);
+    REAL tan_i = on_tan_clamped(ti), tan_r = on_tan_clamped(tr);
+    int i_is_alpha = ti >= tr;
+    REAL tan_a = i_is_alpha ? tan_i : tan_r, tan_b = i_is_alpha ? tan_r : tan_i;
+    REAL pca = on_phi_c(ta, tan_a), pcb = on_phi_c(ta, tan_b);
+    REAL br = R(2.0) * pcb * BT_INV_PI + R(2.0) * ta * tan_b * (sin(pca) - sin(pcb)) * BT_INV_PI +
+              R(0.5) * ta * ta * tan_a * tan_b *
+                  (R(1.0) - (R(2.0) * pca + sin(R(2.0) * pca)) * BT_INV_PI);
+    return BT_INV_PI * ca * (R(1.0) - ca) * (R(1.0) - cos(phi) * br);
+}
+
+/* Functional approximation, eqs. 27-29, as a BRDF at rho. */
+BT_INLINE REAL on_functional(REAL ti, REAL tr, REAL phi, REAL sigma, REAL rho)
+{
+    REAL s2 = sigma * sigma;
+    REAL al = fmax(ti, tr), be = fmin(ti, tr);
+    REAL cphi = cos(phi);
+    REAL C1 = R(1.0) - R(0.5) * s2 / (s2 + R(0.33));
+    REAL k2 = R(0.45) * s2 / (s2 + R(0.09));
+    REAL tb = R(2.0) * be * BT_INV_PI;
+    REAL C2 = cphi >= R(0.0) ? k2 * sin(al) : k2 * (sin(al) - tb * tb * tb);
+    REAL q = R(4.0) * al * be * BT_INV_PI * BT_INV_PI;
+    REAL C3 = R(0.125) * (s2 / (s2 + R(0.09))) * q * q;
+    REAL L1 = C1 + cphi * C2 * on_tan_clamped(be) +
+              (R(1.0) - fabs(cphi)) * C3 * on_tan_clamped(R(0.5) * (al + be));  /* eq. 27 */
+    REAL L2 = R(0.17) * s2 / (s2 + R(0.13)) * (R(1.0) - cphi * tb * tb);   /* eq. 28 */
+    return rho * BT_INV_PI * L1 + rho * rho * BT_INV_PI * L2;                /* eq. 29 */
+}
+
+/* Qualitative model, eq. 30 (a_const = 0.33, or 0.57 per footnote 7). */
+BT_INLINE REAL on_qualitative(REAL ti, REAL tr, REAL phi, REAL sigma, REAL rho, int variant)
+{
+    REAL s2 = sigma * sigma;
+    REAL al = fmax(ti, tr), be = fmin(ti, tr);
+    REAL A = R(1.0) - R(0.5) * s2 / (s2 + (variant ? R(0.57) : R(0.33)));
+    REAL B = R(0.45) * s2 / (s2 + R(0.09));
+    return rho * BT_INV_PI * (A + B * fmax(R(0.0), cos(phi)) * sin(al) * on_tan_clamped(be));
+}
+
+/* --------------------------------------------------------- quantities */
+
+BT_INLINE int on_quad_nodes(const REAL* p, const bt_sampler* s)
+{
+    int n = (int)(p[8] + R(0.5));
+    n = n < 2 ? 2 : (n > ON_MAX_NODES ? ON_MAX_NODES : n);
+    if (s->batch != 0u) n = (n + 1) / 2; /* the coarse rule */
+    return n;
+}
+
+/* Exact Gaussian-surface integral (eq. 25): direct (per rho) and two-bounce
+ * (per rho^2) parts; one quadrature evaluation, or one sample. */
+BT_INLINE void on_gaussian(const REAL* p, const bt_sampler* s, int want, REAL* r1, REAL* r2)
+{
+    on_geom g = on_make_geom(p);
+    REAL sigma = p[4];
+    if (!(sigma > R(1e-6))) {
+        /* sigma -> 0: every facet is the macro surface (a = n). */
+        on_facet(&g, bt_v3(R(0.0), R(0.0), R(1.0)), want, r1, r2);
+        return;
+    }
+    if (s->method == BT_METHOD_QUADRATURE) {
+        on_gauss_quadrature(&g, sigma, want, on_quad_nodes(p, s), r1, r2);
+        return;
+    }
+    bt_vec3 a;
+    REAL w = on_sample_facet(sigma, on_norm_ratio(sigma), bt_uniform(s, 0u), bt_uniform(s, 1u), &a);
+    on_facet(&g, a, want, r1, r2);
+    *r1 *= w;
+    *r2 *= w;
+}
+
+/* Isotropic single slope theta_a (eqs. 23, 46): quadrature or one sample. */
+BT_INLINE void on_single_slope(const REAL* p, const bt_sampler* s, int want, REAL* r1, REAL* r2)
+{
+    on_geom g = on_make_geom(p);
+    REAL theta_a = p[6];
+    if (s->method == BT_METHOD_QUADRATURE) {
+        REAL gx[ON_MAX_NODES], gw[ON_MAX_NODES];
+        int n = on_quad_nodes(p, s);
+        on_gauss_legendre(n, gx, gw);
+        on_phi_integral(&g, theta_a, want, n, gx, gw, r1, r2);
+        return;
+    }
+    on_facet(&g, on_facet_normal(theta_a, BT_TWO_PI * bt_uniform(s, 0u)), want, r1, r2);
+}
+
+/* The approximation chosen by option o[1]. */
+BT_INLINE REAL on_approximation(const REAL* p, const int* o)
+{
+    REAL phi = p[3] - p[1];
+    if (o[1] == 0) return on_functional(p[0], p[2], phi, p[4], p[5]);
+    if (o[1] == 1) return on_qualitative(p[0], p[2], phi, p[4], p[5], o[0]);
+    return p[5] * BT_INV_PI;
+}
+
+/* Directional albedo sample at light direction (theta_i, phi_i = 0). */
+BT_INLINE REAL on_albedo_sample(REAL theta_i, REAL sigma, REAL rho, const bt_sampler* s)
+{
+    REAL pt[4];
+    REAL mu = sqrt(bt_uniform(s, 2u)); /* cos theta_o, pdf mu / pi */
+    pt[0] = theta_i;
+    pt[1] = R(0.0);
+    pt[2] = acos(fmin(mu, R(1.0)));
+    pt[3] = BT_TWO_PI * bt_uniform(s, 3u);
+    on_geom g = on_make_geom(pt);
+    REAL f1, f2, w = R(1.0);
+    bt_vec3 a = bt_v3(R(0.0), R(0.0), R(1.0));
+    if (sigma > R(1e-6))
+        w = on_sample_facet(sigma, on_norm_ratio(sigma), bt_uniform(s, 0u), bt_uniform(s, 1u), &a);
+    on_facet(&g, a, ON_WANT_DIRECT | ON_WANT_INTER, &f1, &f2);
+    /* f cos / (cos / pi) */
+    return BT_PI * w * (rho * f1 + rho * rho * f2);
+}
+
+/* The model's sample function (estimator.h signature). */
+BT_INLINE REAL oren_nayar_sample(const REAL* p, const int* o, int quantity, const bt_sampler* s)
+{
+    int below = p[0] > BT_HALF_PI || p[2] > BT_HALF_PI;
+    REAL rho = p[5];
+    REAL r1 = R(0.0), r2 = R(0.0);
+    REAL phi = p[3] - p[1];
+    switch (quantity) {
+    case ON_Q_BRDF:
+        if (below) return R(0.0);
+        on_gaussian(p, s, ON_WANT_DIRECT | ON_WANT_INTER, &r1, &r2);
+        return rho * r1 + rho * rho * r2;
+    case ON_Q_BRDF_DIRECT:
+        if (below) return R(0.0);
+        on_gaussian(p, s, ON_WANT_DIRECT, &r1, &r2);
+        return r1;
+    case ON_Q_BRDF_INTER:
+        if (below) return R(0.0);
+        on_gaussian(p, s, ON_WANT_INTER, &r1, &r2);
+        return r2;
+    case ON_Q_UNI_SLOPE: {
+        /* eq. 22: mean of the two facet types of the aligned cavities */
+        if (below) return R(0.0);
+        on_geom g = on_make_geom(p);
+        REAL a1, a2, b1, b2;
+        on_facet(&g, on_facet_normal(p[6], p[7]), ON_WANT_DIRECT | ON_WANT_INTER, &a1, &a2);
+        on_facet(&g, on_facet_normal(p[6], p[7] + BT_PI), ON_WANT_DIRECT | ON_WANT_INTER, &b1, &b2);
+        return R(0.5) * (rho * (a1 + b1) + rho * rho * (a2 + b2));
+    }
+    case ON_Q_SS_DIRECT:
+        if (below) return R(0.0);
+        on_single_slope(p, s, ON_WANT_DIRECT, &r1, &r2);
+        return r1;
+    case ON_Q_SS_INTER:
+        if (below) return R(0.0);
+        on_single_slope(p, s, ON_WANT_INTER, &r1, &r2);
+        return r2;
+    case ON_Q_SS_DIRECT_CF:
+        if (below) return R(0.0);
+        return on_single_slope_direct_cf(p[0], p[2], phi, p[6]);
+    case ON_Q_SS_INTER_CF:
+        if (below) return R(0.0);
+        return on_single_slope_inter_cf(p[0], p[2], phi, p[6]);
+    case ON_Q_FUNCTIONAL:
+        if (below) return R(0.0);
+        return on_functional(p[0], p[2], phi, p[4], rho);
+    case ON_Q_QUALITATIVE:
+        if (below) return R(0.0);
+        return on_qualitative(p[0], p[2], phi, p[4], rho, o[0]);
+    case ON_Q_APPROX_ERROR: {
+        if (below) return R(0.0);
+        on_gaussian(p, s, ON_WANT_DIRECT | ON_WANT_INTER, &r1, &r2);
+        REAL exact = rho * r1 + rho * rho * r2;
+        REAL approx = on_approximation(p, o);
+        if (o[2] == 1) return approx - exact;
+        /* Relative error.  Under quadrature `exact` is the rule's value; under
+         * sampling methods the ratio would be biased, so the estimator is
+         * linearised around the approximation: (approx - exact)/approx
+         * (documented in docs/models/oren-nayar.md). */
+        if (s->method == BT_METHOD_QUADRATURE)
+            return exact > R(0.0) ? approx / exact - R(1.0) : R(0.0);
+        return approx > R(0.0) ? (approx - exact) / approx : R(0.0);
+    }
+    case ON_Q_ALBEDO:
+        if (p[0] > BT_HALF_PI) return R(0.0);
+        return on_albedo_sample(p[0], p[4], rho, s);
+    case ON_Q_ALBEDO_AVG: {
+        REAL mu = sqrt(bt_uniform(s, 4u)); /* pdf 2 mu */
+        return on_albedo_sample(acos(fmin(mu, R(1.0))), p[4], rho, s);
+    }
+    default:
+        return R(0.0);
+    }
+}
+
+#endif /* BRDFTAB_OREN_NAYAR_H */
