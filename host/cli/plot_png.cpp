@@ -233,7 +233,7 @@ void Canvas::write_png(const std::string& path) const {
     std::vector<png_bytep> rows(h_);
     for (int y = 0; y < h_; ++y)
         rows[y] = const_cast<png_bytep>(&rgb_[static_cast<std::size_t>(y) * w_ * 3]);
-    bool failed = false;
+    volatile bool failed = false;  // survives the longjmp
     if (setjmp(png_jmpbuf(png))) {
         failed = true;
     } else {

@@ -1,11 +1,197 @@
-// Registry entry and host compilation of the lambert_sphere model(s).
-// (Not yet implemented: registers nothing.)
+// Registry entries and host compilation of the `hfunction` and
+// `lambert-sphere` models (kernels/models/hfunction.h,
+// kernels/models/lambert_sphere.h; docs/models/lambert-sphere.md).
+#include <string>
 #include <vector>
 
+#include "../../kernels/common/compat.h"
+#include "../../kernels/common/sampler.h"
+#include "../../kernels/models/lambert_sphere.h"
 #include "model_registry.h"
 
 namespace brdftab::detail {
 
-void register_lambert_sphere(std::vector<ModelInfo>& models) { (void)models; }
+// External linkage: the --device host reference path (same source as the kernels).
+REAL host_hfunction_sample(const REAL* point, const int* options, int quantity,
+                           const bt_sampler* sampler) {
+    return hfunction_sample(point, options, quantity, sampler);
+}
+
+REAL host_lambert_sphere_sample(const REAL* point, const int* options, int quantity,
+                                const bt_sampler* sampler) {
+    return lambert_sphere_sample(point, options, quantity, sampler);
+}
+
+namespace {
+
+const char* kCitation =
+    "E. d'Eon. An analytic BRDF for materials with spherical Lambertian scatterers. "
+    "Computer Graphics Forum 40(4) (EGSR 2021).";
+
+ParameterInfo param(const char* name, const char* desc, double lo, double hi,
+                    std::optional<double> def) {
+    ParameterInfo p;
+    p.name = name;
+    p.unit = "1";
+    p.description = desc;
+    p.min = lo;
+    p.max = hi;
+    p.default_value = def;
+    return p;
+}
+
+QuantityInfo quantity(const char* name, int id, const char* desc, const char* units,
+                      QuantityKind kind, std::vector<std::string> dirs,
+                      std::vector<std::string> opts, const char* eqs, const char* method,
+                      unsigned dims) {
+    QuantityInfo q;
+    q.name = name;
+    q.id = id;
+    q.description = desc;
+    q.units = units;
+    q.kind = kind;
+    q.directions = std::move(dirs);
+    q.uses_options = std::move(opts);
+    q.equations = eqs;
+    q.default_method = method;
+    q.dimensions = dims;
+    return q;
+}
+
+ModelInfo hfunction_model() {
+    ModelInfo m;
+    m.name = "hfunction";
+    m.citation = std::string(kCitation) +
+                 " S. Chandrasekhar, Radiative Transfer (1960), ch. V.";
+    m.description =
+        "Chandrasekhar H-functions H(mu) for even polynomial characteristic functions "
+        "(the Lambert-sphere Psi0, Psi1, Psi2 of d'Eon eqs. 13-15, isotropic scattering "
+        "Psi = c/2, or user coefficients), from the Fock integral (eq. 16) by a trapezoidal "
+        "rule in log t; exact at c = 1 (the log K singularity is integrated analytically).";
+    m.kernel_file = "hfunction.cl";
+    m.kernel_name = "hfunction_estimate";
+    m.parameters = {
+        param("mu", "argument of H (cosine; values > 1 give the analytic continuation, "
+                    "large values approach H(inf))",
+              0, 1e12, std::nullopt),
+        param("c", "single-scattering albedo (lambert0/1/2, isotropic; ignored by poly)", 0, 1,
+              1.0),
+        param("n", "moment order of alpha_n (integer)", 0, 16, 0.0),
+        param("psi_0", "poly: coefficient of mu^0 in Psi", -10, 10, 0.0),
+        param("psi_1", "poly: coefficient of mu^2 in Psi", -10, 10, 0.0),
+        param("psi_2", "poly: coefficient of mu^4 in Psi", -10, 10, 0.0),
+        param("psi_3", "poly: coefficient of mu^6 in Psi", -10, 10, 0.0),
+    };
+    m.options = {{"psi",
+                  "characteristic function: d'Eon eqs. 13-15 (lambert0/1/2), isotropic "
+                  "scattering c/2, or the polynomial psi_0 + psi_1 mu^2 + psi_2 mu^4 + "
+                  "psi_3 mu^6 (needs 1 - 2 int Psi >= 0; NaN otherwise)",
+                  {"lambert0", "lambert1", "lambert2", "isotropic", "poly"},
+                  "lambert0"}};
+    const std::vector<std::string> none;
+    const std::vector<std::string> psi = {"psi"};
+    m.quantities = {
+        quantity("H", HF_Q_H, "H(mu) from eq. 16 (trapezoid in log t, error from the "
+                              "half-resolution rule)",
+                 "1", QuantityKind::Quadrature, none, psi, "eqs. 13-20 (d'Eon)", "quadrature", 0),
+        quantity("moment", HF_Q_MOMENT,
+                 "alpha_n = int_0^1 mu^n H(mu) dmu (24-point Gauss-Legendre in sqrt(mu))", "1",
+                 QuantityKind::Quadrature, none, psi, "eqs. 13-20 (d'Eon)", "quadrature", 0),
+        quantity("H_inf", HF_Q_HINF, "H(inf) = 1/sqrt(K(0)) (inf when K(0) = 0)", "1",
+                 QuantityKind::ClosedForm, none, psi, "eq. 32 (d'Eon)", "closed-form", 0),
+        quantity("K", HF_Q_K, "K(t) at t = mu (diagnostic; closed forms or series)", "1",
+                 QuantityKind::ClosedForm, none, psi, "eqs. 17-20 (d'Eon)", "closed-form", 0),
+    };
+    m.host_fn = &host_hfunction_sample;
+    return m;
+}
+
+ModelInfo lambert_sphere_model() {
+    ModelInfo m;
+    m.name = "lambert-sphere";
+    m.citation = kCitation;
+    m.description =
+        "Semi-infinite medium of sparse Lambertian spheres of albedo c (dusty / porous "
+        "materials): the exact BRDF by random walks per scattering order, and d'Eon's "
+        "analytic model with exact or fitted H-functions, its fast variant and albedo maps.";
+    m.kernel_file = "lambert_sphere.cl";
+    m.kernel_name = "lambert_sphere_estimate";
+    m.parameters = {
+        param("c", "particle (single-scattering) albedo; kd for c_fit", 0, 1, std::nullopt),
+        param("order",
+              "random walks: 0 all orders 1..max_order, -1 orders >= 2 only, k >= 1 order k only "
+              "(order k scales exactly as c^k)",
+              -1, 100000, 0.0),
+        param("max_order", "random walks: truncation order (c = 1 converges slowly)", 1, 100000,
+              1000.0),
+        param("mode",
+              "-1: value at phi; 0, 1, 2: Fourier coefficient f^(m) of eq. 9 "
+              "(f = sum_m f^(m) cos(m phi))",
+              -1, 8, -1.0),
+    };
+    m.options = {
+        {"phase_mc",
+         "random walks: exact Lambert-sphere phase function (eqs. 1, 5), or its 3-term "
+         "Legendre truncation (eqs. 2, 8; signed weights, noisy for c near 1)",
+         {"exact", "three-term"},
+         "exact"},
+        {"cos_phi",
+         "analytic/fit: weight of the multiple-scattering cos(phi) mode eq. 22 - eq. 28: "
+         "'corrected' (x2, what the Monte Carlo reference shows) or 'paper' (x1, as printed)",
+         {"corrected", "paper"},
+         "corrected"},
+        {"fm1", "brdf_fit: cos(phi) mode from eqs. 22, 28 with fitted H1, l, m, or the fast fit eq. 29",
+         {"eq22", "eq29"},
+         "eq22"},
+        {"h1_fit",
+         "brdf_fit: H1 fit eqs. 23-25 as printed, or normalised by Hc1(1) so that H1(1) = eq. 25",
+         {"printed", "normalised"},
+         "printed"},
+    };
+    const std::vector<std::string> dirs = {"theta_i", "phi_i", "theta_o", "phi_o"};
+    const std::vector<std::string> walk_opts = {"phase_mc"};
+    const std::vector<std::string> an_opts = {"cos_phi"};
+    const std::vector<std::string> fit_opts = {"cos_phi", "fm1", "h1_fit"};
+    m.quantities = {
+        quantity("phase", LS_Q_PHASE,
+                 "phase function p(cos theta_o); theta_o is the scattering angle (0 = forward)",
+                 "1/sr", QuantityKind::ClosedForm, {"theta_o"}, {}, "eq. 1", "closed-form", 0),
+        quantity("brdf_mc", LS_Q_BRDF_MC,
+                 "exact BRDF: random walks with the exact phase function and next-event "
+                 "estimation, per scattering order (parameters order, max_order, mode)",
+                 "1/sr", QuantityKind::Integral, dirs, walk_opts, "eqs. 1, 5, 10 (order 1)", "mc",
+                 8),
+        quantity("albedo_mc", LS_Q_ALBEDO_MC,
+                 "directional albedo E(mu_i) by random walks, per scattering order", "1",
+                 QuantityKind::Integral, {"theta_i"}, walk_opts, "eqs. 1, 5", "mc", 8),
+        quantity("brdf_analytic", LS_Q_BRDF_ANALYTIC,
+                 "d'Eon's model with exact H0, H1 (eq. 16) and fitted l, m, B-F",
+                 "1/sr", QuantityKind::Quadrature, dirs, an_opts,
+                 "eqs. 9-12, 16, 18-19, 22, 26-28, 30, 33-38", "quadrature", 0),
+        quantity("brdf_fit", LS_Q_BRDF_FIT, "d'Eon's model entirely with fitted functions",
+                 "1/sr", QuantityKind::ClosedForm, dirs, fit_opts,
+                 "eqs. 9-12, 22-31, 33-38 (29 with fm1=eq29)", "closed-form", 0),
+        quantity("brdf_fast", LS_Q_BRDF_FAST, "fast variant", "1/sr", QuantityKind::ClosedForm,
+                 dirs, {}, "eqs. 40, 41", "closed-form", 0),
+        quantity("brdf_single", LS_Q_BRDF_SINGLE, "exact single scattering", "1/sr",
+                 QuantityKind::ClosedForm, dirs, {}, "eq. 10", "closed-form", 0),
+        quantity("kd_fit", LS_Q_KD_FIT, "spherical albedo kd from c (fit)", "1",
+                 QuantityKind::ClosedForm, {}, {}, "eq. 40", "closed-form", 0),
+        quantity("kd_mc", LS_Q_KD_MC,
+                 "spherical (bond) albedo 2 int E(mu) mu dmu by random walks", "1",
+                 QuantityKind::Integral, {}, walk_opts, "eqs. 1, 5", "mc", 8),
+        quantity("c_fit", LS_Q_C_FIT, "particle albedo c from kd (fit); kd is given as c", "1",
+                 QuantityKind::ClosedForm, {}, {}, "eq. 39", "closed-form", 0),
+    };
+    m.host_fn = &host_lambert_sphere_sample;
+    return m;
+}
+
+}  // namespace
+
+void register_lambert_sphere(std::vector<ModelInfo>& models) {
+    models.push_back(hfunction_model());
+    models.push_back(lambert_sphere_model());
+}
 
 }  // namespace brdftab::detail

