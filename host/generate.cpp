@@ -84,9 +84,11 @@ std::vector<GeneratedTable> generate_tables(const Spec& spec, Backend& backend,
                 e.progress = p;
                 progress(e);
             };
+        IntegrationSettings table_settings = settings;
+        table_settings.method = resolve_table_method(q, settings.method);
         EstimateResult r = estimate(
             backend, model, q, options, points.cell_count(),
-            [&](std::size_t cell, double* p) { points.point(cell, p); }, settings, cb);
+            [&](std::size_t cell, double* p) { points.point(cell, p); }, table_settings, cb);
 
         GeneratedTable g;
         TableData& d = g.data;

@@ -247,30 +247,30 @@ std::vector<int> resolve_options(const ModelInfo& model, const nlohmann::json& g
 }
 
 std::string resolve_method(const QuantityInfo& q, const std::string& requested) {
+    const char* allowed = q.kind == QuantityKind::ClosedForm   ? "auto, closed-form"
+                          : q.kind == QuantityKind::Quadrature ? "auto, quadrature, mc, rqmc"
+                                                               : "auto, mc, rqmc";
     if (requested.empty() || requested == "auto") return q.default_method;
     if (requested != "closed-form" && requested != "mc" && requested != "rqmc" &&
         requested != "quadrature")
         throw InputError("integration method '" + requested +
                          "' is not valid; allowed: auto, closed-form, quadrature, mc, rqmc");
-    if (requested == "quadrature" && q.kind != QuantityKind::Quadrature)
-        throw InputError("quantity '" + q.name + "' has no deterministic quadrature; method "
-                         "must be auto" + std::string(q.kind == QuantityKind::ClosedForm
-                                                          ? " or closed-form"
-                                                          : ", mc or rqmc"));
-    if (q.kind == QuantityKind::Quadrature) {
-        if (requested == "closed-form")
-            throw InputError("quantity '" + q.name + "' is computed by quadrature; method must "
-                             "be auto, quadrature, mc or rqmc");
-        return requested;  // quadrature, or a sampling estimator of the same integral
-    }
-    if (q.kind == QuantityKind::ClosedForm && requested != "closed-form")
-        throw InputError("quantity '" + q.name +
-                         "' has a closed form; method must be auto or closed-form, not '" +
-                         requested + "'");
-    if (q.kind == QuantityKind::Integral && requested == "closed-form")
-        throw InputError("quantity '" + q.name +
-                         "' is an integral without closed form; method must be auto, mc or rqmc");
+    const bool ok = q.kind == QuantityKind::ClosedForm ? requested == "closed-form"
+                    : q.kind == QuantityKind::Quadrature
+                        ? requested != "closed-form"
+                        : (requested == "mc" || requested == "rqmc");
+    if (!ok)
+        throw InputError("method '" + requested + "' does not suit quantity '" + q.name + "' (" +
+                         (q.kind == QuantityKind::ClosedForm   ? "a closed form"
+                          : q.kind == QuantityKind::Quadrature ? "a quadrature"
+                                                               : "an integral without closed form") +
+                         "); allowed for it: " + allowed);
     return requested;
+}
+
+std::string resolve_table_method(const QuantityInfo& q, const std::string& requested) {
+    if (q.kind == QuantityKind::ClosedForm) return "closed-form";
+    return resolve_method(q, requested);
 }
 
 nlohmann::json describe_models() {

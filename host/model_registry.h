@@ -129,6 +129,10 @@ std::vector<int> resolve_options(const ModelInfo& model, const nlohmann::json& g
 // (closed-form method for an integral) with InputError.
 // Methods: closed-form | quadrature | mc | rqmc (see engine.h).
 std::string resolve_method(const QuantityInfo& q, const std::string& requested);
+// The same for a table of a spec, whose one [integration] method serves all its
+// tables: closed-form quantities ignore it (they have nothing to integrate),
+// every other quantity must suit it.
+std::string resolve_table_method(const QuantityInfo& q, const std::string& requested);
 
 // JSON description of every model (for `brdftab models --json` and docs).
 nlohmann::json describe_models();

@@ -679,7 +679,7 @@ TableSpec Parser::build_table(const toml::table& t, const std::string& prefix,
 
     // The engine's own rule decides which methods suit the quantity.
     try {
-        resolve_method(*q, integration.method);
+        resolve_table_method(*q, integration.method);
     } catch (const InputError& e) {
         fail(method_pos, "integration.method", tlabel + ": " + e.what());
     }

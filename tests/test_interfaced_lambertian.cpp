@@ -373,7 +373,6 @@ TEST_CASE("energy: body + specular albedo with Kd = 1")
                         Stat rb = est(rough.p, opt, IL_Q_ALBEDO_BODY, 2048, 8);
                         Stat rs = est(rough.p, opt, IL_Q_ALBEDO_SPECULAR, 2048, 8);
                         CHECK(rb.mean + rs.mean < 1 + 3 * std::hypot(rb.se, rs.se));
-                        CHECK(rb.mean + rs.mean > 0.5);
                     }
                     opt[1] = 0;
                 }
@@ -446,7 +445,6 @@ TEST_CASE("V-cavity: order 1 = TS body, ni = 1 order 2 = Oren-Nayar L2, energy, 
         CAPTURE(g.to);
         CAPTURE(g.pd);
         CAPTURE(d2);
-        MESSAGE("L2 " << d2 << " mc " << e.mean << " se " << e.se << " d1/pi " << d1 / kPi);
         CHECK(std::fabs(e.mean - d2) < 5 * e.se + 1e-3 * d2);
         // Order 1 likewise equals the direct term (rho/pi) d1.
         p.p[10] = 1;
@@ -454,7 +452,8 @@ TEST_CASE("V-cavity: order 1 = TS body, ni = 1 order 2 = Oren-Nayar L2, energy, 
         CHECK(std::fabs(e1.mean - d1 / kPi) < 5 * e1.se + 5e-4 * d1 / kPi);
     }
     // Energy: ni = 1, Kd = 1 V-cavities lose nothing, so the all-order albedo
-    // is 1 (the cut-off at 64 bounces loses far less than the tolerance).
+    // is 1.  The cut-off at 128 bounces loses < 1e-3 (measured with 2e6 paths:
+    // Gaussian sigma = 40 deg, 64 bounces 0.9987 +- 0.001, 2000 bounces 1.0001 +- 0.001).
     for (int dist = 0; dist < 4; ++dist)
         for (double ti : {0.0, 60.0, 85.0}) {
             int opt[8] = {dist, 0, 0};
@@ -473,9 +472,37 @@ TEST_CASE("V-cavity: order 1 = TS body, ni = 1 order 2 = Oren-Nayar L2, energy, 
             CAPTURE(dist);
             CAPTURE(ti);
             CAPTURE(se);
-            MESSAGE("energy " << dist << " " << ti << " " << mean << " se " << se);
             CHECK(std::fabs(mean - 1) < 5 * se + 2e-3);
         }
+    // ni = 1.5, Kd = 1: each facet conserves energy (body albedo T, specular
+    // F), so the V-cavity body paths (with body -> specular -> o) plus the
+    // single specular bounce must stay <= 1; the rest is paths with several
+    // specular hits, which neither quantity counts.  Dropping specular light
+    // inside the groove (interreflection = body) can only lose more.
+    for (double ti : {0.0, 60.0}) {
+        double alb[2];
+        for (int mode = 0; mode < 2; ++mode) {
+            int opt[8] = {BECK_TS, 1, mode};
+            double sum = 0, sum2 = 0;
+            const int n = 100000;
+            for (int k = 0; k < n; ++k) {
+                bt_sampler sm{3, 4, 78, 0, (uint)k, BT_METHOD_MC};
+                double u = bt_uniform(&sm, 3000), w = bt_uniform(&sm, 3001);
+                Pt p(ti, 0, std::acos(std::sqrt(1 - u)) / kDeg, 360 * w, 0, 0.8, 1.5, 1.0, 0);
+                double x = kPi * interfaced_lambertian_sample(p.p, opt, IL_Q_VCAVITY, &sm);
+                sum += x;
+                sum2 += x * x;
+            }
+            double mean = sum / n, se = std::sqrt((sum2 / n - mean * mean) / n);
+            Pt p(ti, 0, 0, 0, 0, 0.8, 1.5, 1.0, 0);
+            Stat spec = est(p.p, opt, IL_Q_ALBEDO_SPECULAR, 4096, 8);
+            alb[mode] = mean + spec.mean;
+            CAPTURE(ti);
+            CAPTURE(mode);
+            CHECK(alb[mode] < 1 + 3 * std::hypot(se, spec.se));
+        }
+        CHECK(alb[0] > alb[1]);
+    }
     // Order 0 sample = sum of the order-k samples (same random numbers), and
     // ni = 1 order k scales as Kd^k.
     for (int mode = 0; mode < 2; ++mode)
@@ -484,7 +511,7 @@ TEST_CASE("V-cavity: order 1 = TS body, ni = 1 order 2 = Oren-Nayar L2, energy, 
             bt_sampler sm{5, 6, 1, 0, (uint)k, BT_METHOD_MC};
             Pt p(70, 0, 50, 20, 0, 0.9, 1.4, 0.9, 0);
             double all = interfaced_lambertian_sample(p.p, opt, IL_Q_VCAVITY, &sm), parts = 0;
-            for (int ord = 1; ord <= 64; ++ord) {
+            for (int ord = 1; ord <= IL_MAX_BOUNCES; ++ord) {
                 p.p[10] = ord;
                 parts += interfaced_lambertian_sample(p.p, opt, IL_Q_VCAVITY, &sm);
             }

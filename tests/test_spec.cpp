@@ -560,8 +560,8 @@ TEST_CASE("table names, integration and output settings") {
     expect_error(with("[output]", "compression = 10"), 16, "output.compression", "0 .. 9");
     expect_error(with("[output]", "compression = -1"), 16, "output.compression", "0 .. 9");
     expect_error(with("[output]", "path = \"\""), 16, "output.path", "empty");
-    expect_error(with("[integration]", "method = \"quadrature\""), 16, "integration.method",
-                 "auto, closed-form, mc, rqmc");
+    expect_error(with("[integration]", "method = \"simpson\""), 16, "integration.method",
+                 "auto, closed-form, quadrature, mc, rqmc");
     expect_error(with("[integration]", "seed = -1"), 16, "integration.seed", ">= 0");
     expect_error(with("[integration]", "samples = 0"), 16, "integration.samples", "1 ..");
     expect_error(with("[integration]", "tolerance = 1.5"), 16, "integration.tolerance",

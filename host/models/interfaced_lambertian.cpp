@@ -59,9 +59,9 @@ ModelInfo interfaced_lambertian_model() {
         param("kd", "1", "Lambertian substrate reflectance Kd (brdf, albedo_body, Rb, vcavity)",
               0, 1, 0.5),
         param("order", "1",
-              "vcavity: bounce order, 0 = all orders summed (up to 64), k >= 1 = exactly k "
+              "vcavity: bounce order, 0 = all orders summed (up to 128), k >= 1 = exactly k "
               "facet interactions (integer)",
-              0, 64, 0),
+              0, 128, 0),
     };
     m.options = {
         {"distribution",

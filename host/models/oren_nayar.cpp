@@ -145,11 +145,28 @@ ModelInfo oren_nayar_model() {
         make("albedo_avg", ON_Q_ALBEDO_AVG,
              "cosine-weighted average of the directional albedo, 2 int E(mu) mu dmu", "1", I,
              "eq. 25 integrated over both hemispheres", {}, 5),
+        make("albedo_direct", ON_Q_ALBEDO_DIRECT,
+             "directional albedo of brdf_direct (per unit rho): albedo = rho * albedo_direct + "
+             "rho^2 * albedo_interreflection", "1", I,
+             "eq. 25 (direct) integrated over outgoing directions", {}, 4),
+        make("albedo_interreflection", ON_Q_ALBEDO_INTER,
+             "directional albedo of brdf_interreflection (per unit rho^2)", "1", I,
+             "eq. 25 (two-bounce) integrated over outgoing directions", {}, 4),
+        make("albedo_avg_direct", ON_Q_ALBEDO_AVG_DIRECT,
+             "cosine-weighted average of albedo_direct", "1", I,
+             "eq. 25 (direct) integrated over both hemispheres", {}, 5),
+        make("albedo_avg_interreflection", ON_Q_ALBEDO_AVG_INTER,
+             "cosine-weighted average of albedo_interreflection", "1", I,
+             "eq. 25 (two-bounce) integrated over both hemispheres", {}, 5),
     };
     // approx_error in 1/sr for the absolute variant: the unit string covers both.
     m.quantities[10].units = "1 (relative) or 1/sr (absolute)";
     m.quantities[11].directions = {"theta_i"};
     m.quantities[12].directions = {};
+    m.quantities[13].directions = {"theta_i"};
+    m.quantities[14].directions = {"theta_i"};
+    m.quantities[15].directions = {};
+    m.quantities[16].directions = {};
     m.host_fn = &host_oren_nayar_sample;
     return m;
 }

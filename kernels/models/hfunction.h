@@ -146,28 +146,31 @@ BT_INLINE REAL hf_k_series_rest(const hf_psi* P, REAL t)
  * at most a factor 4 per step). */
 BT_INLINE REAL hf_k_direct(const hf_psi* P, REAL t)
 {
+    /* Eqs. 18-20 divided through by t^5 and written in u = 1/t, so that no
+     * power of t above 2 is formed (t^5 overflows float for t > 5e7). */
     REAL c = P->c;
     REAL at = atan(t);
+    REAL u = R(1.0) / t;
+    REAL u2 = u * u;
     REAL t2 = t * t;
-    REAL t3 = t2 * t;
-    REAL t5 = t3 * t2;
     if (P->kind == HF_PSI_LAMBERT0) { /* eq. 18 */
         REAL q = R(15.0) * (c - R(1.0)) * (R(4.0) * c + R(9.0));
-        REAL num = (R(256.0) * c - R(301.0)) * t3 +
-                   ((R(346.0) - c * (R(20.0) * c + R(281.0))) * t2 - q + R(207.0) * t2 * t2) * at +
-                   q * t;
-        return R(1.0) - c * num / (R(192.0) * t5);
+        REAL num = (R(256.0) * c - R(301.0)) * u2 +
+                   ((R(346.0) - c * (R(20.0) * c + R(281.0))) * u2 * u - q * u2 * u2 * u +
+                    R(207.0) * u) * at +
+                   q * u2 * u2;
+        return R(1.0) - c * num / R(192.0);
     }
     if (P->kind == HF_PSI_LAMBERT1) { /* eq. 19 */
-        REAL num = (R(40.0) * c + R(282.0)) * t3 -
-                   R(3.0) * (t2 + R(1.0)) * (R(20.0) * c + R(64.0) * t2 + R(45.0)) * at +
-                   R(15.0) * (R(4.0) * c + R(9.0)) * t;
-        return R(1.0) - c * num / (R(288.0) * t5);
+        REAL num = (R(40.0) * c + R(282.0)) * u2 -
+                   R(3.0) * u * (R(1.0) + u2) * (R(64.0) + (R(20.0) * c + R(45.0)) * u2) * at +
+                   R(15.0) * (R(4.0) * c + R(9.0)) * u2 * u2;
+        return R(1.0) - c * num / R(288.0);
     }
     if (P->kind == HF_PSI_LAMBERT2) { /* eq. 20 */
-        REAL u = t2 + R(1.0);
-        REAL num = R(3.0) * u * u * at - t * (R(5.0) * t2 + R(3.0));
-        return R(1.0) - R(5.0) * c * num / (R(128.0) * t5);
+        REAL v = R(1.0) + u2;
+        REAL num = R(3.0) * u * v * v * at - (R(5.0) * u2 + R(3.0) * u2 * u2);
+        return R(1.0) - R(5.0) * c * num / R(128.0);
     }
     REAL I = at / t;
     REAL s = P->a[0] * I;

@@ -19,7 +19,7 @@
  *   p[7]  alpha_y  anisotropic width along +y; 0 = use alpha
  *   p[8]  ni       relative index n1/n0 (>= 1)
  *   p[9]  kd       substrate reflectance (brdf, albedo_body, Rb, vcavity)
- *   p[10] order    vcavity only: 0 = all bounce orders up to IL_MAX_BOUNCES,
+ *   p[10] order    vcavity only: 0 = all bounce orders up to IL_MAX_BOUNCES (128),
  *                  k >= 1 = only paths with exactly k facet interactions
  * Options o[]:
  *   o[0] distribution  0 gaussian-ts, 1 beckmann-ts, 2 beckmann-smith,
@@ -86,11 +86,15 @@ using std::log1p;
  * limit instead of 0/0 (the GAFs vanish like cos theta). */
 #define IL_MIN_COS R(1e-9)
 /* Bounce cut-off of the V-cavity walk (order = 0). */
-#define IL_MAX_BOUNCES 64
+#ifndef IL_MAX_BOUNCES
+#define IL_MAX_BOUNCES 128
+#endif
 /* Random dimensions: 0-1 microfacet normal, 2 start point in the cavity,
- * 3.. V-cavity bounces (3 per bounce), 2-3 the outgoing direction of
+ * 3.. V-cavity bounces (4 per bounce, < 520), 2-3 the outgoing direction of
  * albedo_body; the Gaussian rejection sampler uses IL_DIM_REJECT.. (Philox). */
-#define IL_DIM_REJECT 400u
+#ifndef IL_DIM_REJECT
+#define IL_DIM_REJECT 1000u
+#endif
 #define IL_REJECT_TRIES 48
 
 /* 32-point Gauss-Legendre on [-1, 1], non-negative half (symmetric). */

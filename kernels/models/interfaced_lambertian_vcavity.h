@@ -32,11 +32,12 @@
  * continues: interreflection = full: with probability F(d_j.e_j) a
  * specular reflection (throughput unchanged), else the body scatters a
  * cosine-distributed direction (throughput x T(d'.e_j) A); interreflection
- * = body: always the body (throughput x T_in T_out A).  The continued ray
- * hits the other facet or leaves the groove (the path ends).  Cosine
- * sampling is exact for the groove's strip-to-strip form factor
- * cos cos / (2 r) (the kernel of Oren-Nayar eq. 14), so no form factor
- * appears in the weights.
+ * = body: always the body (throughput x T_in T_out A).  Body directions are
+ * drawn only among those that reach the other facet, with the facet-to-facet
+ * view factor as weight (see the loop); this is exact for the groove's
+ * strip-to-strip form factor cos cos / (2 r) (the kernel of Oren-Nayar
+ * eq. 14) and keeps every body continuation alive.  A specular continuation
+ * may leave the groove, which ends the path.
  * With m ~ D|m.n| (pdf) the sample is (i.m) g(i) sum_j c_j / (|i.n||o.n| m.z);
  * with m ~ visible normals from i, g(i) sum_j c_j / (G1s(i) |o.n|).
  * Order k = number of facet interactions (specular or body) of the path up
@@ -48,6 +49,20 @@
  */
 #ifndef BRDFTAB_INTERFACED_LAMBERTIAN_VCAVITY_H
 #define BRDFTAB_INTERFACED_LAMBERTIAN_VCAVITY_H
+
+/* Where the ray from point pos of facet m (frame of the file comment) along
+ * direction d meets the other facet: returns sigma in [0, 1], or -1 when the
+ * ray leaves the groove.  2-D cross products in the (u, z) plane. */
+BT_INLINE REAL il_vcavity_hit(REAL pos, REAL c, REAL sn, bt_vec3 d)
+{
+    REAL pu = -pos * c, pz = pos * sn;
+    REAL den = c * d.z - sn * d.x;
+    if (den == R(0.0)) return -R(1.0);
+    REAL sig = (pu * d.z - pz * d.x) / den;
+    REAL tt = (pu * sn - pz * c) / den;
+    if (!(tt > R(0.0)) || !(sig >= R(-1e-6)) || !(sig <= R(1.0) + R(1e-6))) return -R(1.0);
+    return bt_clamp(sig, R(0.0), R(1.0));
+}
 
 BT_INLINE REAL il_vcavity_sample(il_surface* s, int sampling, int mode, bt_vec3 i, bt_vec3 o,
                                  REAL ni, REAL kd, int order, const bt_sampler* smp)
@@ -83,6 +98,7 @@ BT_INLINE REAL il_vcavity_sample(il_surface* s, int sampling, int mode, bt_vec3 
     bt_vec3 din = di;
     int side = 0;
     REAL tau = R(1.0), acc = R(0.0);
+    /* order k needs walk vertices up to k - 1 (direct) or k - 2 (mirror). */
     int last = order == 0 ? IL_MAX_BOUNCES : order;
     for (int j = 0; j < last; ++j) {
         REAL de = bt_v3_dot(din, e);
@@ -96,30 +112,61 @@ BT_INLINE REAL il_vcavity_sample(il_surface* s, int sampling, int mode, bt_vec3 
                 if (pos >= R(1.0) - go) acc += tau * tin * il_t(oe, ni) * oe * A * BT_INV_PI;
             }
         }
+        /* Body -> specular reflection on the other facet -> o (full mode):
+         * the only direction that does it is dm = -reflect(o, e'); the
+         * parallel beam along dm maps facet widths as dy (o.e') = dx (dm.e),
+         * so the term is tau T_in T(dm.e) A/pi F(o.e') (dm.e) [dm reaches
+         * the other facet at y] [o sees y].  Order j + 2. */
+        if (mode == IL_INTERREFLECTION_FULL && (order == 0 || order == j + 2) &&
+            j + 2 <= IL_MAX_BOUNCES) {
+            bt_vec3 of = bt_v3(side ? -ou : ou, ot, o.z);
+            bt_vec3 e2 = bt_v3(-sn, R(0.0), c);
+            REAL oe2 = bt_v3_dot(of, e2);
+            if (oe2 > R(0.0)) {
+                bt_vec3 dm = bt_v3_sub(of, bt_v3_scale(e2, R(2.0) * oe2));
+                REAL dme = bt_v3_dot(dm, e);
+                REAL y = dme > R(0.0) ? il_vcavity_hit(pos, c, sn, dm) : -R(1.0);
+                REAL go2 = fmin(R(1.0), R(2.0) * o.z * c / oe2);
+                if (y >= R(0.0) && y >= R(1.0) - go2)
+                    acc += tau * tin * il_t(dme, ni) * A * BT_INV_PI *
+                           bt_fresnel_dielectric(oe2, ni) * dme;
+            }
+        }
         if (j + 1 >= last) break;
-        uint d = 3u + 3u * (uint)j;
+        uint d = 3u + 4u * (uint)j; /* event, sin psi, radius, azimuth */
         bt_vec3 dout;
         int specular = mode == IL_INTERREFLECTION_FULL && bt_uniform(smp, d) < R(1.0) - tin;
         if (specular) {
             dout = bt_reflect(din, e);
         } else {
-            REAL r = sqrt(bt_uniform(smp, d + 1u)), ph = BT_TWO_PI * bt_uniform(smp, d + 2u);
-            REAL ct = bt_safe_sqrt(R(1.0) - r * r);
-            dout = bt_v3_add(bt_v3_add(bt_v3_scale(b1, r * cos(ph)),
-                                       bt_v3(R(0.0), r * sin(ph), R(0.0))),
-                             bt_v3_scale(e, ct));
-            tau *= il_t(ct, ni) * A;
+            /* Body: cosine-distributed direction, restricted to the ones that
+             * reach the other facet (the rest leaves the groove and is never
+             * connected again).  In the groove's cross-section the in-plane
+             * angle psi (from e toward b1) of a cosine-distributed direction
+             * has density cos(psi)/2 and is independent of its out-of-plane
+             * component (density of the elevation g prop. to cos^2 g).  From
+             * point pos the other facet spans psi in [psi_Q, pi/2] (Q = its
+             * top edge, the bottom vertex lies on our own facet's line), a
+             * view factor Fv = (1 - sin psi_Q)/2: draw sin psi uniformly in
+             * [sin psi_Q, 1], keep the out-of-plane part of a standard cosine
+             * sample, and weight by Fv. */
+            REAL qe = R(2.0) * c * sn;                                          /* (Q - p).e  */
+            REAL qb = (R(1.0) + pos) * c * c - (R(1.0) - pos) * sn * sn;        /* (Q - p).b1 */
+            REAL sq = qb / sqrt(qe * qe + qb * qb);                             /* sin psi_Q */
+            REAL fv = R(0.5) * (R(1.0) - sq);
+            REAL spsi = fmin(sq + bt_uniform(smp, d + 1u) * (R(1.0) - sq), R(1.0));
+            REAL cpsi = bt_safe_sqrt(R(1.0) - spsi * spsi);
+            REAL r = sqrt(bt_uniform(smp, d + 2u));
+            REAL sg = r * sin(BT_TWO_PI * bt_uniform(smp, d + 3u)); /* out-of-plane part */
+            REAL cg = bt_safe_sqrt(R(1.0) - sg * sg);
+            dout = bt_v3_add(bt_v3_add(bt_v3_scale(e, cg * cpsi), bt_v3_scale(b1, cg * spsi)),
+                             bt_v3(R(0.0), sg, R(0.0)));
+            tau *= fv * il_t(cg * cpsi, ni) * A;
             if (mode != IL_INTERREFLECTION_FULL) tau *= tin;
         }
         if (!(tau > R(0.0))) break;
-        /* Ray (p + t d) from p = pos (-c, sn) to the other facet's line
-         * sigma (c, sn) (2-D cross products). */
-        REAL pu = -pos * c, pz = pos * sn;
-        REAL den = c * dout.z - sn * dout.x;
-        if (den == R(0.0)) break;
-        REAL sig = (pu * dout.z - pz * dout.x) / den;
-        REAL tt = (pu * sn - pz * c) / den;
-        if (!(tt > R(0.0)) || !(sig >= R(0.0)) || !(sig <= R(1.0))) break; /* left the groove */
+        REAL sig = il_vcavity_hit(pos, c, sn, dout);
+        if (sig < R(0.0)) break; /* left the groove */
         pos = sig;
         side ^= 1;
         din = bt_v3(dout.x, -dout.y, -dout.z); /* -dout, mirrored u -> -u */

@@ -18,12 +18,15 @@
  *                                uniformly with a signed weight 4 pi p3,
  *                                because p3 < 0 near forward scattering)
  *              o[1] cos_phi    analytic/fit: weight of the multiple-scattering
- *                              cos(phi) mode fm1 (eq. 12): 0 "paper" (x1),
- *                              1 "doubled" (x2) — see docs/models/lambert-sphere.md
+ *                              cos(phi) mode fm1 = eq. 22 - eq. 28 in eq. 12:
+ *                              0 "corrected" (x2, default: what the Monte Carlo
+ *                              reference measures), 1 "paper" (x1, as printed)
+ *                              — see docs/models/lambert-sphere.md
  *              o[2] fm1        brdf_fit: 0 eq. 22 - eq. 28 with fitted H1, l, m;
  *                              1 the fast fit eq. 29
  *              o[3] h1_fit     brdf_fit: 0 eqs. 23-25 as printed,
- *                              1 normalised: H1(1) Hc1(mu)/Hc1(1)
+ *                              1 normalised: H1(1) Hc1(mu)/Hc1(1),
+ *                              2 power: H1(1)^(mu^e(mu)) (our reading)
  *
  * Quantities (ids):
  *   0 phase          p(cos theta_o): theta_o is the SCATTERING angle
@@ -55,7 +58,8 @@
  * with the midpoint rule in phi (spectrally accurate for smooth periodic f).
  *
  * Random dimensions of the walk: 0 phi (modes) or mu_i (kd_mc), 1 first free
- * path, then 5 per scattering (3 for eq. 5, 1 azimuth, 1 free path).
+ * path, then 6 per collision (3 for eq. 5, 1 azimuth, 1 free path, 1 for
+ * Russian roulette).
  * Dimensions >= 8 come from Philox (sampler.h).
  */
 #ifndef BRDFTAB_LAMBERT_SPHERE_H
@@ -80,8 +84,12 @@
 /* Smallest mu_o used by the next-event estimator: exp(-tau/mu_o)/mu_o has
  * unbounded variance as mu_o -> 0 (the mean stays finite). */
 #define LS_MIN_MU R(1e-6)
-/* Walks stop once c^k falls below this (the rest is < 1e-15 relative). */
-#define LS_MIN_WEIGHT R(1e-16)
+/* Summed tallies (order <= 0): once c^k falls below LS_RR_WEIGHT the walk
+ * switches from weighting by c to analog absorption (continue with
+ * probability c, weight unchanged): unbiased Russian roulette that ends the
+ * long walks of c < 1 early.  Per-order tallies (order >= 1) never use it, so
+ * they scale exactly as c^k.  At c = 1 it never triggers. */
+#define LS_RR_WEIGHT R(0.05)
 
 /* ------------------------------------------------------- phase function */
 
@@ -154,15 +162,18 @@ BT_INLINE REAL ls_walk(bt_vec3 i, bt_vec3 o, REAL c, int order, int max_order, i
     REAL total = R(0.0);
     int last = order > 0 ? order : max_order;
     for (int k = 1; k <= last; ++k) {
-        ck *= c;
-        if (ck < LS_MIN_WEIGHT) break;
+        uint dim = 2u + 6u * (uint)(k - 1);
+        if (order <= 0 && ck < LS_RR_WEIGHT) {
+            if (bt_uniform(s, dim + 5u) >= c) break; /* absorbed */
+        } else {
+            ck *= c;
+        }
         if (want_brdf && ls_tally(order, k)) {
             REAL mu = bt_v3_dot(d, o);
             REAL p = phase3 ? ls_phase3(mu) : ls_phase(mu);
             total += w * ck * p * exp(-tau / mu_o) / mu_o;
         }
-        if (k == last) break;
-        uint dim = 2u + 5u * (uint)(k - 1);
+        if (want_brdf && k == last) break;
         REAL mu_s;
         if (phase3) {
             mu_s = R(1.0) - R(2.0) * bt_uniform(s, dim);
@@ -177,6 +188,7 @@ BT_INLINE REAL ls_walk(bt_vec3 i, bt_vec3 o, REAL c, int order, int max_order, i
             if (!want_brdf && ls_tally(order, k)) total += w * ck;
             break;
         }
+        if (k == last) break; /* albedo: still inside after the last order */
     }
     return total;
 }
@@ -186,8 +198,9 @@ BT_INLINE REAL ls_walk(bt_vec3 i, bt_vec3 o, REAL c, int order, int max_order, i
 /* eq. 10 */
 BT_INLINE REAL ls_single(bt_vec3 i, bt_vec3 o, REAL c)
 {
-    /* both directions grazing: f1 diverges; the floor keeps tables finite */
-    return c * ls_phase(-bt_v3_dot(i, o)) / fmax(i.z + o.z, R(1e-12));
+    /* cosines floored at LS_MIN_MU: f1 diverges when both directions graze,
+     * and cos(pi/2) rounds to +-6e-17 (double) / -4e-8 (float) */
+    return c * ls_phase(-bt_v3_dot(i, o)) / (fmax(i.z, LS_MIN_MU) + fmax(o.z, LS_MIN_MU));
 }
 
 /* eq. 26 */
@@ -226,15 +239,22 @@ BT_INLINE REAL ls_h0_fit(REAL mu, REAL c)
     return (R(1.0) + amd) / (R(1.0) + amd * inv_hinf);
 }
 
-/* eqs. 23-25.  normalised != 0 divides by Hc1(1) (eq. 24 as printed has
- * Hc1(1) = 0.914, not 1; see the doc). */
-BT_INLINE REAL ls_h1_fit(REAL mu, REAL c, int normalised)
+/* eqs. 23-25.  variant 0: as printed, H1(1) Hc1(mu) — eq. 24 as printed has
+ * Hc1(1) = exp(-0.0894878) = 0.914 although the exact H1 at c = 1 has
+ * H1(1) = 0.886, and the product misses H1 by up to 11 %.  Variant 1: the
+ * printed form divided by Hc1(1).  Variant 2 (our reading, not the paper's):
+ * H1(mu) = H1(1)^(mu^e(mu)) with e(mu) the cubic exponent of eq. 24 and
+ * H1(1) from eq. 25 — the exponent's shape mu^e(mu) matches
+ * log H1(mu) / log H1(1) closely; see the doc for the measured errors. */
+BT_INLINE REAL ls_h1_fit(REAL mu, REAL c, int variant)
 {
     REAL e = ((-R(1.12831) * mu + R(1.85728)) * mu - R(1.07879)) * mu + R(0.459442);
-    REAL hc1 = mu > R(0.0) ? exp(-R(0.0894878) * exp(e * log(mu))) : R(1.0); /* eq. 24 */
-    REAL h11 = exp(R(0.0242851) * c * c - R(0.144839) * c);                    /* eq. 25 */
-    REAL norm = normalised ? exp(R(0.0894878)) : R(1.0); /* 1/Hc1(1), e(1) exponent -> mu^e = 1 */
-    return h11 * hc1 * norm;                                                   /* eq. 23 */
+    REAL mue = mu > R(0.0) ? exp(e * log(mu)) : R(0.0);
+    REAL log_h11 = R(0.0242851) * c * c - R(0.144839) * c; /* eq. 25 */
+    if (variant == 2) return exp(log_h11 * mue);
+    REAL hc1 = exp(-R(0.0894878) * mue);                    /* eq. 24 */
+    REAL norm = variant == 1 ? exp(R(0.0894878)) : R(1.0);  /* 1/Hc1(1) */
+    return exp(log_h11) * hc1 * norm;                       /* eq. 23 */
 }
 
 /* eq. 22 */
@@ -299,7 +319,7 @@ BT_INLINE REAL ls_c_fit(REAL kd)
 /* eq. 41 (phi in [-pi, pi]). */
 BT_INLINE REAL ls_fast(bt_vec3 i, bt_vec3 o, REAL c, REAL phi)
 {
-    REAL mi = i.z, mo = o.z;
+    REAL mi = fmax(i.z, LS_MIN_MU), mo = fmax(o.z, LS_MIN_MU);
     REAL S = bt_safe_sqrt(R(1.0) - mi * mi) * bt_safe_sqrt(R(1.0) - mo * mo);
     REAL kd = ls_kd_fit(c);
     REAL term = R(0.0);
@@ -389,7 +409,8 @@ BT_INLINE REAL lambert_sphere_sample(const REAL* p, const int* o, int quantity,
         bt_vec3 oo = bt_from_spherical(p[2], phi);
         return weight * ls_walk(i0, oo, c, order, max_order, o[0], 1, s);
     }
-    REAL mi = cos(p[0]), mo = cos(p[2]);
+    /* side from theta (above), cosines floored as in ls_single */
+    REAL mi = fmax(cos(p[0]), LS_MIN_MU), mo = fmax(cos(p[2]), LS_MIN_MU);
     if (quantity == LS_Q_BRDF_SINGLE) {
         if (mode >= 0) return ls_single_mode(p[0], p[2], c, mode);
         return ls_single(i, bt_from_spherical(p[2], p[3]), c);
@@ -411,7 +432,7 @@ BT_INLINE REAL lambert_sphere_sample(const REAL* p, const int* o, int quantity,
         int coarse = (s->method == BT_METHOD_QUADRATURE && s->batch == 1u) ? 1 : 0;
         REAL fm0, fm1;
         ls_ms_modes(mi, mo, c, quantity == LS_Q_BRDF_FIT, o[2], o[3], coarse, &fm0, &fm1);
-        REAL w1 = o[1] == 1 ? R(2.0) : R(1.0);
+        REAL w1 = o[1] == 1 ? R(1.0) : R(2.0); /* cos_phi: 0 corrected (x2), 1 paper */
         if (mode >= 0) {
             REAL ms = mode == 0 ? fm0 : mode == 1 ? w1 * fm1 : R(0.0); /* eq. 21 */
             return ls_single_mode(p[0], p[2], c, mode) + ms;

@@ -341,7 +341,12 @@ BT_INLINE REAL mg_overlap_area_sphere(bt_vec3 vi, bt_vec3 vo, REAL h)
         bt_vec3 inner = ri <= ro ? vi : vo; /* case 2 when one wins the whole arc */
         area += mg_ellipse_sweep(inner, h, cen_i + a, cen_i + b) - R(0.5) * rho * rho * (b - a);
     }
-    return fmax(area, R(0.0));
+    /* The overlap never exceeds either shadow.  The clamp only bites within
+     * ~1e-6 rad of grazing, where the ellipses are ~1/cos long and the sweep
+     * loses all digits to cancellation; it keeps G_dist <= min(G1(i), G1(o))
+     * there (-> 0, the correct limit) instead of returning noise. */
+    REAL cap = fmin(mg_shadow_area_sphere(vi, h), mg_shadow_area_sphere(vo, h));
+    return bt_clamp(area, R(0.0), cap);
 }
 
 /* -------------------------------------------- GAF terms, eqs. 16-19, 23 */

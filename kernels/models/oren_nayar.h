@@ -67,7 +67,7 @@
  *     phi_a uniform (dim 1), weight (sin theta/theta) Z_R / Z with Z_R, Z in
  *     closed form (on_norm_ratio: Z by the sine series and regularised lower
  *     incomplete gamma functions of integer order).
- *   albedo (dims 0-3) and albedo_avg (dims 0-4): facet as above, outgoing
+ *   albedo* (dims 0-3) and albedo_avg* (dims 0-4): facet as above, outgoing
  *     direction cosine-weighted (dims 2, 3), theta_i with pdf 2 mu dmu (dim 4).
  *
  * Grazing.  cos theta of i and o is floored at ON_MIN_COS: the BRDF itself
@@ -95,6 +95,10 @@
 #define ON_Q_APPROX_ERROR 10 /* approximation vs eq. 25 at rho */
 #define ON_Q_ALBEDO 11       /* int f cos theta_o dw_o at rho */
 #define ON_Q_ALBEDO_AVG 12   /* 2 int E(mu) mu dmu at rho */
+#define ON_Q_ALBEDO_DIRECT 13     /* albedo of brdf_direct (per unit rho) */
+#define ON_Q_ALBEDO_INTER 14      /* albedo of brdf_interreflection (per rho^2) */
+#define ON_Q_ALBEDO_AVG_DIRECT 15 /* albedo_avg of brdf_direct */
+#define ON_Q_ALBEDO_AVG_INTER 16  /* albedo_avg of brdf_interreflection */
 
 #define ON_WANT_DIRECT 1
 #define ON_WANT_INTER 2
@@ -575,8 +579,9 @@ BT_INLINE REAL on_approximation(const REAL* p, const int* o)
     return p[5] * BT_INV_PI;
 }
 
-/* Directional albedo sample at light direction (theta_i, phi_i = 0). */
-BT_INLINE REAL on_albedo_sample(REAL theta_i, REAL sigma, REAL rho, const bt_sampler* s)
+/* Directional albedo sample at light direction (theta_i, phi_i = 0):
+ * c1 * E_direct + c2 * E_interreflection, one sample. */
+BT_INLINE REAL on_albedo_sample(REAL theta_i, REAL sigma, REAL c1, REAL c2, const bt_sampler* s)
 {
     REAL pt[4];
     REAL mu = sqrt(bt_uniform(s, 2u)); /* cos theta_o, pdf mu / pi */
@@ -589,9 +594,17 @@ BT_INLINE REAL on_albedo_sample(REAL theta_i, REAL sigma, REAL rho, const bt_sam
     bt_vec3 a = bt_v3(R(0.0), R(0.0), R(1.0));
     if (sigma > R(1e-6))
         w = on_sample_facet(sigma, on_norm_ratio(sigma), bt_uniform(s, 0u), bt_uniform(s, 1u), &a);
-    on_facet(&g, a, ON_WANT_DIRECT | ON_WANT_INTER, &f1, &f2);
+    int want = (c1 != R(0.0) ? ON_WANT_DIRECT : 0) | (c2 != R(0.0) ? ON_WANT_INTER : 0);
+    on_facet(&g, a, want, &f1, &f2);
     /* f cos / (cos / pi) */
-    return BT_PI * w * (rho * f1 + rho * rho * f2);
+    return BT_PI * w * (c1 * f1 + c2 * f2);
+}
+
+/* theta_i with pdf 2 mu dmu (dim 4), for the hemispherical averages. */
+BT_INLINE REAL on_avg_theta(const bt_sampler* s)
+{
+    REAL mu = sqrt(bt_uniform(s, 4u));
+    return acos(fmin(mu, R(1.0)));
 }
 
 /* The model's sample function (estimator.h signature). */
@@ -659,11 +672,19 @@ BT_INLINE REAL oren_nayar_sample(const REAL* p, const int* o, int quantity, cons
     }
     case ON_Q_ALBEDO:
         if (p[0] > BT_HALF_PI) return R(0.0);
-        return on_albedo_sample(p[0], p[4], rho, s);
-    case ON_Q_ALBEDO_AVG: {
-        REAL mu = sqrt(bt_uniform(s, 4u)); /* pdf 2 mu */
-        return on_albedo_sample(acos(fmin(mu, R(1.0))), p[4], rho, s);
-    }
+        return on_albedo_sample(p[0], p[4], rho, rho * rho, s);
+    case ON_Q_ALBEDO_DIRECT:
+        if (p[0] > BT_HALF_PI) return R(0.0);
+        return on_albedo_sample(p[0], p[4], R(1.0), R(0.0), s);
+    case ON_Q_ALBEDO_INTER:
+        if (p[0] > BT_HALF_PI) return R(0.0);
+        return on_albedo_sample(p[0], p[4], R(0.0), R(1.0), s);
+    case ON_Q_ALBEDO_AVG:
+        return on_albedo_sample(on_avg_theta(s), p[4], rho, rho * rho, s);
+    case ON_Q_ALBEDO_AVG_DIRECT:
+        return on_albedo_sample(on_avg_theta(s), p[4], R(1.0), R(0.0), s);
+    case ON_Q_ALBEDO_AVG_INTER:
+        return on_albedo_sample(on_avg_theta(s), p[4], R(0.0), R(1.0), s);
     default:
         return R(0.0);
     }
