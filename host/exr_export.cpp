@@ -4,6 +4,8 @@
 // loader reads (tinyexr included); DWA/B44 would be lossy and are not used.
 #include "exr_export.h"
 
+#include "atomic_file.h"
+
 #include <ImfChannelList.h>
 #include <ImfFrameBuffer.h>
 #include <ImfHeader.h>
@@ -72,20 +74,6 @@ std::string join_names(const std::vector<std::size_t>& idx, const std::vector<Ax
     for (std::size_t i : idx) s += (s.empty() ? "" : ", ") + axes[i].name;
     return s.empty() ? "none" : s;
 }
-
-class TempFile {
-public:
-    explicit TempFile(std::string path) : path_(std::move(path)) {}
-    ~TempFile() {
-        if (!committed_) std::remove(path_.c_str());
-    }
-    const std::string& path() const { return path_; }
-    void commit() { committed_ = true; }
-
-private:
-    std::string path_;
-    bool committed_ = false;
-};
 
 }  // namespace
 
@@ -205,7 +193,7 @@ void export_exr_slice(const TableData& table, const std::string& out_path,
         add("A", reinterpret_cast<char*>(fa.data()), sizeof(float));
     }
 
-    TempFile tmp(out_path + ".tmp-" + std::to_string(static_cast<long>(::getpid())));
+    AtomicOutput tmp(out_path);
     try {
         Imf::OutputFile file(tmp.path().c_str(), header);
         file.setFrameBuffer(fbuf);
@@ -213,9 +201,6 @@ void export_exr_slice(const TableData& table, const std::string& out_path,
     } catch (const std::exception& e) {
         throw Error("cannot write EXR '" + out_path + "': " + e.what());
     }
-    if (std::rename(tmp.path().c_str(), out_path.c_str()) != 0)
-        throw Error("cannot rename '" + tmp.path() + "' to '" + out_path +
-                    "': " + std::strerror(errno));
     tmp.commit();
 }
 

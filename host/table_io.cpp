@@ -7,6 +7,8 @@
 // of that stack is switched off because the library never prints.
 #include "table_io.h"
 
+#include "atomic_file.h"
+
 #include <hdf5.h>
 #include <hdf5_hl.h>
 
@@ -489,31 +491,6 @@ void write_table(hid_t file, const TableData& t) {
     write_string_attr(group, "stored_type", stored_type_name(t.stored_type));
 }
 
-// Removes the temporary file unless the write was committed.
-class TempFile {
-public:
-    explicit TempFile(std::string path) : path_(std::move(path)) {}
-    ~TempFile() {
-        if (!committed_) std::remove(path_.c_str());
-    }
-    const std::string& path() const { return path_; }
-    void commit() { committed_ = true; }
-
-private:
-    std::string path_;
-    bool committed_ = false;
-};
-
-void sync_file(const std::string& path) {
-    // The rename must not overtake the data on a crash: flush it first.
-    int fd = ::open(path.c_str(), O_RDONLY);
-    if (fd < 0) throw Error("cannot reopen '" + path + "' to sync it: " + std::strerror(errno));
-    int rc = ::fsync(fd);
-    int err = errno;
-    ::close(fd);
-    if (rc != 0) throw Error("fsync of '" + path + "' failed: " + std::strerror(err));
-}
-
 // ---------------------------------------------------------------- reading ---
 
 Handle open_brdftab_file(const std::string& path) {
@@ -630,7 +607,7 @@ void write_tables(const std::string& path, const std::vector<TableData>& tables)
     if (H5Zfilter_avail(H5Z_FILTER_DEFLATE) <= 0 || H5Zfilter_avail(H5Z_FILTER_SHUFFLE) <= 0)
         throw Error("this HDF5 library lacks the deflate or shuffle filter");
 
-    TempFile tmp(path + ".tmp-" + std::to_string(static_cast<long>(::getpid())));
+    AtomicOutput tmp(path);
     {
         Handle fapl = make_plist(H5P_FILE_ACCESS, "file access");
         // Oldest object formats that still hold everything we write, so
@@ -652,10 +629,6 @@ void write_tables(const std::string& path, const std::vector<TableData>& tables)
         }
         file.close("H5Fclose", tmp.path());
     }
-    sync_file(tmp.path());
-    if (std::rename(tmp.path().c_str(), path.c_str()) != 0)
-        throw Error("cannot rename '" + tmp.path() + "' to '" + path +
-                    "': " + std::strerror(errno));
     tmp.commit();
 }
 

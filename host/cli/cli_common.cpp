@@ -114,6 +114,31 @@ double parse_number(const std::string& text, const std::string& what) {
     return v;
 }
 
+std::vector<std::string> split_csv(const std::string& line) {
+    std::vector<std::string> out;
+    std::string cell;
+    std::istringstream s(line);
+    while (std::getline(s, cell, ',')) {
+        const auto b = cell.find_first_not_of(" \t\r");
+        const auto e = cell.find_last_not_of(" \t\r");
+        out.push_back(b == std::string::npos ? "" : cell.substr(b, e - b + 1));
+    }
+    if (!line.empty() && line.back() == ',') out.push_back("");
+    return out;
+}
+
+std::string format_double(double v) {
+    char buf[40];
+    std::snprintf(buf, sizeof buf, "%.17g", v);
+    return buf;
+}
+
+std::string format_short(double v) {
+    char buf[40];
+    std::snprintf(buf, sizeof buf, "%.6g", v);
+    return buf;
+}
+
 std::string format_seconds(double s) {
     char buf[32];
     if (s < 60)

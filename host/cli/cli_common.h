@@ -54,6 +54,14 @@ private:
 std::pair<std::string, std::string> split_assignment(const std::string& arg);
 double parse_number(const std::string& text, const std::string& what);
 
+// One CSV line split on commas, cells trimmed (no quoting: our CSV files hold
+// names and numbers only).
+std::vector<std::string> split_csv(const std::string& line);
+
+// Full precision ("%.17g") and short ("%.6g") number formatting.
+std::string format_double(double v);
+std::string format_short(double v);
+
 // Human formatting.
 std::string format_seconds(double s);
 std::string format_count(double n);

@@ -8,6 +8,7 @@
 #include <iostream>
 #include <sstream>
 
+#include "atomic_file.h"
 #include "cli_common.h"
 #include "commands.h"
 #include "error.h"
@@ -16,43 +17,6 @@
 #include "table_io.h"
 
 namespace brdftab::cli {
-
-namespace {
-
-// Split a CSV line on commas (no quoting: our inputs are numbers and names).
-std::vector<std::string> split_csv(const std::string& line) {
-    std::vector<std::string> out;
-    std::string cell;
-    std::istringstream s(line);
-    while (std::getline(s, cell, ',')) {
-        const auto b = cell.find_first_not_of(" \t\r");
-        const auto e = cell.find_last_not_of(" \t\r");
-        out.push_back(b == std::string::npos ? "" : cell.substr(b, e - b + 1));
-    }
-    if (!line.empty() && line.back() == ',') out.push_back("");
-    return out;
-}
-
-std::string format_double(double v) {
-    char buf[40];
-    std::snprintf(buf, sizeof buf, "%.17g", v);
-    return buf;
-}
-
-// Fail early, before any computing, when the output cannot be written.
-void check_output_writable(const std::string& path) {
-    namespace fs = std::filesystem;
-    fs::path p(path);
-    fs::path dir = p.has_parent_path() ? p.parent_path() : fs::path(".");
-    std::error_code ec;
-    if (!fs::is_directory(dir, ec))
-        throw InputError("output '" + path + "': directory '" + dir.string() + "' does not exist");
-    if (access(dir.c_str(), W_OK) != 0)
-        throw InputError("output '" + path + "': directory '" + dir.string() + "' is not writable");
-    if (fs::is_directory(p, ec)) throw InputError("output '" + path + "' is a directory");
-}
-
-}  // namespace
 
 void register_eval(CLI::App& app) {
     auto* cmd = app.add_subcommand(
@@ -197,19 +161,7 @@ void register_eval(CLI::App& app) {
         if (st.output.empty()) {
             std::cout << csv.str();
         } else {
-            const std::string tmp = st.output + ".tmp-" + std::to_string(getpid());
-            {
-                std::ofstream out(tmp);
-                out << csv.str();
-                if (!out) {
-                    std::remove(tmp.c_str());
-                    throw Error("cannot write '" + tmp + "'");
-                }
-            }
-            if (std::rename(tmp.c_str(), st.output.c_str()) != 0) {
-                std::remove(tmp.c_str());
-                throw Error("cannot rename '" + tmp + "' to '" + st.output + "'");
-            }
+            write_text_atomically(st.output, csv.str());
             std::cerr << "wrote " << rows.size() << " rows to " << st.output << "\n";
         }
     });

@@ -12,6 +12,7 @@
 #include <set>
 #include <sstream>
 
+#include "atomic_file.h"
 #include "cli_common.h"
 #include "commands.h"
 #include "error.h"
@@ -28,55 +29,6 @@ std::string fmt17(double v) {
     return buf;
 }
 
-std::string fmt6(double v) {
-    char buf[40];
-    std::snprintf(buf, sizeof buf, "%.6g", v);
-    return buf;
-}
-
-std::vector<std::string> split_csv(const std::string& line) {
-    std::vector<std::string> out;
-    std::string cell;
-    std::istringstream s(line);
-    while (std::getline(s, cell, ',')) {
-        const auto b = cell.find_first_not_of(" \t\r");
-        const auto e = cell.find_last_not_of(" \t\r");
-        out.push_back(b == std::string::npos ? "" : cell.substr(b, e - b + 1));
-    }
-    if (!line.empty() && line.back() == ',') out.push_back("");
-    return out;
-}
-
-// Fail before any work when the output cannot be written.
-void check_output_writable(const std::string& path) {
-    namespace fs = std::filesystem;
-    fs::path p(path);
-    fs::path dir = p.has_parent_path() ? p.parent_path() : fs::path(".");
-    std::error_code ec;
-    if (!fs::is_directory(dir, ec))
-        throw InputError("output '" + path + "': directory '" + dir.string() + "' does not exist");
-    if (access(dir.c_str(), W_OK) != 0)
-        throw InputError("output '" + path + "': directory '" + dir.string() + "' is not writable");
-    if (fs::is_directory(p, ec)) throw InputError("output '" + path + "' is a directory");
-}
-
-// Text to a temporary file beside `path`, renamed over it when complete.
-void write_text_atomically(const std::string& path, const std::string& text) {
-    const std::string tmp = path + ".tmp-" + std::to_string(getpid());
-    {
-        std::ofstream out(tmp);
-        out << text;
-        out.flush();
-        if (!out) {
-            std::remove(tmp.c_str());
-            throw Error("cannot write '" + tmp + "'");
-        }
-    }
-    if (std::rename(tmp.c_str(), path.c_str()) != 0) {
-        std::remove(tmp.c_str());
-        throw Error("cannot rename '" + tmp + "' to '" + path + "'");
-    }
-}
 
 // name=value arguments -> map; a name given twice is an error.
 std::map<std::string, double> parse_assignments(const std::vector<std::string>& args,
@@ -182,7 +134,7 @@ void run_query(const std::string& file, const std::string& table,
         } else {
             std::cout << lt.table().name << " = " << fmt17(v);
             if (se_table)
-                std::cout << " ± " << fmt6(se_table->eval(c, Interpolation::Linear, mode))
+                std::cout << " ± " << format_short(se_table->eval(c, Interpolation::Linear, mode))
                           << " (stderr, interpolated)";
             std::cout << " [" << lt.units() << "] (" << interp_name << ")\n";
         }
@@ -300,7 +252,7 @@ struct ValidateArgs {
 void run_validate(const ValidateArgs& va) {
     if (va.points < 1) throw InputError("--points must be >= 1");
     if (!(va.rel_floor > 0 && va.rel_floor < 1))
-        throw InputError("--rel-floor must be in (0, 1), got " + fmt6(va.rel_floor));
+        throw InputError("--rel-floor must be in (0, 1), got " + format_short(va.rel_floor));
     const LookupTable full = LookupTable::open(va.file, va.table);
     // Validate the stored values: the recombination recipe (if any) is a
     // user-level formula applied on top of them.
@@ -440,7 +392,7 @@ void run_validate(const ValidateArgs& va) {
     auto coords_text = [&](std::size_t k) {
         std::string s;
         for (std::size_t a = 0; a < dims; ++a)
-            s += (a ? " " : "") + t.axes[a].name + "=" + fmt6(coords[k * dims + a]);
+            s += (a ? " " : "") + t.axes[a].name + "=" + format_short(coords[k * dims + a]);
         return s;
     };
 
@@ -503,9 +455,9 @@ void run_validate(const ValidateArgs& va) {
     if (full.has_recombination())
         std::cout << "  note: the stored table is validated; its recombination recipe is not "
                      "applied\n";
-    std::cout << "  relative error = |table - reference| / max(|reference|, " << fmt6(floor)
-              << ")   (floor = " << fmt6(va.rel_floor) << " x max|table| = " << fmt6(va.rel_floor)
-              << " x " << fmt6(scale) << ")\n\n";
+    std::cout << "  relative error = |table - reference| / max(|reference|, " << format_short(floor)
+              << ")   (floor = " << format_short(va.rel_floor) << " x max|table| = " << format_short(va.rel_floor)
+              << " x " << format_short(scale) << ")\n\n";
     char buf[256];
     std::snprintf(buf, sizeof buf, "  %-16s %11s %11s %11s %11s %11s\n", "", "max", "rms", "p50",
                   "p95", "p99");
@@ -519,24 +471,24 @@ void run_validate(const ValidateArgs& va) {
         }
     }
     if (noisy) {
-        std::cout << "\n  reference stderr per point: median " << fmt6(noise.p50) << ", max "
-                  << fmt6(noise.max) << " (" << q.units << ")\n";
+        std::cout << "\n  reference stderr per point: median " << format_short(noise.p50) << ", max "
+                  << format_short(noise.max) << " (" << q.units << ")\n";
         for (const Result& r : res)
             std::cout << "  " << r.name << ": rms with the reference noise removed: abs "
-                      << fmt6(r.rms_abs_corrected) << ", rel " << fmt6(r.rms_rel_corrected)
+                      << format_short(r.rms_abs_corrected) << ", rel " << format_short(r.rms_rel_corrected)
                       << "; |diff| > 3 reference stderr at " << r.significant << "/" << n
                       << " points\n";
     }
     if (se_table)
-        std::cout << "  table stderr (interpolated) at the points: median " << fmt6(tnoise.p50)
-                  << ", max " << fmt6(tnoise.max) << "\n";
+        std::cout << "  table stderr (interpolated) at the points: median " << format_short(tnoise.p50)
+                  << ", max " << format_short(tnoise.max) << "\n";
     for (const Result& r : res) {
         std::cout << "\n  worst " << r.worst.size() << " (" << r.name << ", by relative error):\n";
         for (std::size_t k : r.worst) {
-            std::cout << "    " << coords_text(k) << ": table " << fmt6(r.value[k])
-                      << ", reference " << fmt6(ref.value[k]);
-            if (noisy) std::cout << " ± " << fmt6(ref_se[k]);
-            std::cout << ", rel " << fmt6(r.rel[k]) << ", abs " << fmt6(r.abs[k]) << "\n";
+            std::cout << "    " << coords_text(k) << ": table " << format_short(r.value[k])
+                      << ", reference " << format_short(ref.value[k]);
+            if (noisy) std::cout << " ± " << format_short(ref_se[k]);
+            std::cout << ", rel " << format_short(r.rel[k]) << ", abs " << format_short(r.abs[k]) << "\n";
         }
     }
 }
@@ -605,7 +557,7 @@ void run_plot(const PlotArgs& pa) {
     };
 
     std::string slice_text;
-    for (const auto& kv : slice) slice_text += (slice_text.empty() ? "" : ", ") + kv.first + "=" + fmt6(kv.second);
+    for (const auto& kv : slice) slice_text += (slice_text.empty() ? "" : ", ") + kv.first + "=" + format_short(kv.second);
     const std::string title = lt.table().name + ": " + lt.model() + " / " + lt.quantity();
     const std::string subtitle = pa.file + (slice_text.empty() ? "" : "   slice " + slice_text) +
                                  "   " + (pa.cubic ? "cubic" : "linear") + " interpolation" +
@@ -656,7 +608,7 @@ void run_plot(const PlotArgs& pa) {
             std::vector<double> c = base;
             if (want_curves) {
                 c[ca] = axes[ca].values[node];
-                cv.label = fmt6(c[ca]);
+                cv.label = format_short(c[ca]);
             }
             for (int i = 0; i < samples; ++i) {
                 c[xa] = axes[xa].min + (axes[xa].max - axes[xa].min) * i / (samples - 1);

@@ -1,5 +1,7 @@
 #include "plot_png.h"
 
+#include "atomic_file.h"
+
 #include <png.h>
 #include <unistd.h>
 
@@ -217,7 +219,8 @@ int Canvas::text_width(const std::string& s, int scale) {
 int Canvas::text_height(int scale) { return kCellH * scale; }
 
 void Canvas::write_png(const std::string& path) const {
-    const std::string tmp = path + ".tmp-" + std::to_string(getpid());
+    AtomicOutput out(path);
+    const std::string& tmp = out.path();
     FILE* f = std::fopen(tmp.c_str(), "wb");
     if (!f) throw Error("cannot create '" + tmp + "'");
     png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
@@ -225,7 +228,6 @@ void Canvas::write_png(const std::string& path) const {
     if (!png || !info) {
         png_destroy_write_struct(&png, &info);
         std::fclose(f);
-        std::remove(tmp.c_str());
         throw Error("libpng: out of memory");
     }
     // libpng reports errors by longjmp; nothing with a destructor lives
@@ -246,14 +248,8 @@ void Canvas::write_png(const std::string& path) const {
     }
     png_destroy_write_struct(&png, &info);
     const bool close_failed = std::fclose(f) != 0;
-    if (failed || close_failed) {
-        std::remove(tmp.c_str());
-        throw Error("cannot write PNG '" + tmp + "'");
-    }
-    if (std::rename(tmp.c_str(), path.c_str()) != 0) {
-        std::remove(tmp.c_str());
-        throw Error("cannot rename '" + tmp + "' to '" + path + "'");
-    }
+    if (failed || close_failed) throw Error("cannot write PNG '" + tmp + "'");
+    out.commit();
 }
 
 Rgb colour_ramp(double t) {
