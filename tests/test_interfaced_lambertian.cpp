@@ -455,10 +455,10 @@ TEST_CASE("V-cavity: order 1 = TS body, ni = 1 order 2 = Oren-Nayar L2, energy, 
     // is 1.  The cut-off at 128 bounces loses < 1e-3 (measured with 2e6 paths:
     // Gaussian sigma = 40 deg, 64 bounces 0.9987 +- 0.001, 2000 bounces 1.0001 +- 0.001).
     for (int dist = 0; dist < 4; ++dist)
-        for (double ti : {0.0, 60.0, 85.0}) {
+        for (double ti : {dist % 2 ? 0.0 : 60.0, 85.0}) {
             int opt[8] = {dist, 0, 0};
             double sum = 0, sum2 = 0;
-            const int n = 100000;
+            const int n = 40000;
             for (int k = 0; k < n; ++k) {
                 bt_sampler sm{3, 4, 77, 0, (uint)k, BT_METHOD_MC};
                 double u = bt_uniform(&sm, 300), w = bt_uniform(&sm, 301);
@@ -472,7 +472,7 @@ TEST_CASE("V-cavity: order 1 = TS body, ni = 1 order 2 = Oren-Nayar L2, energy, 
             CAPTURE(dist);
             CAPTURE(ti);
             CAPTURE(se);
-            CHECK(std::fabs(mean - 1) < 5 * se + 2e-3);
+            CHECK(std::fabs(mean - 1) < 4 * se + 2e-3);
         }
     // ni = 1.5, Kd = 1: each facet conserves energy (body albedo T, specular
     // F), so the V-cavity body paths (with body -> specular -> o) plus the
@@ -484,7 +484,7 @@ TEST_CASE("V-cavity: order 1 = TS body, ni = 1 order 2 = Oren-Nayar L2, energy, 
         for (int mode = 0; mode < 2; ++mode) {
             int opt[8] = {BECK_TS, 1, mode};
             double sum = 0, sum2 = 0;
-            const int n = 100000;
+            const int n = 40000;
             for (int k = 0; k < n; ++k) {
                 bt_sampler sm{3, 4, 78, 0, (uint)k, BT_METHOD_MC};
                 double u = bt_uniform(&sm, 3000), w = bt_uniform(&sm, 3001);
@@ -494,7 +494,7 @@ TEST_CASE("V-cavity: order 1 = TS body, ni = 1 order 2 = Oren-Nayar L2, energy, 
                 sum2 += x * x;
             }
             double mean = sum / n, se = std::sqrt((sum2 / n - mean * mean) / n);
-            Pt p(ti, 0, 0, 0, 0, 0.8, 1.5, 1.0, 0);
+            Pt p(ti, 0, 0, 0, 0, 0.8, 1.5, 1.0, 0);  // (n = 40000 paths above)
             Stat spec = est(p.p, opt, IL_Q_ALBEDO_SPECULAR, 4096, 8);
             alb[mode] = mean + spec.mean;
             CAPTURE(ti);
@@ -506,7 +506,7 @@ TEST_CASE("V-cavity: order 1 = TS body, ni = 1 order 2 = Oren-Nayar L2, energy, 
     // Order 0 sample = sum of the order-k samples (same random numbers), and
     // ni = 1 order k scales as Kd^k.
     for (int mode = 0; mode < 2; ++mode)
-        for (int k = 0; k < 300; ++k) {
+        for (int k = 0; k < 100; ++k) {
             int opt[8] = {BECK_SMITH, 0, mode};
             bt_sampler sm{5, 6, 1, 0, (uint)k, BT_METHOD_MC};
             Pt p(70, 0, 50, 20, 0, 0.9, 1.4, 0.9, 0);

@@ -90,8 +90,9 @@ using std::log1p;
 #define IL_MAX_BOUNCES 128
 #endif
 /* Random dimensions: 0-1 microfacet normal, 2 start point in the cavity,
- * 3.. V-cavity bounces (4 per bounce, < 520), 2-3 the outgoing direction of
- * albedo_body; the Gaussian rejection sampler uses IL_DIM_REJECT.. (Philox). */
+ * 3.. V-cavity bounces (4 per bounce, < 520), 700.. V-cavity roulette,
+ * 2-3 the outgoing direction of albedo_body; the Gaussian rejection sampler
+ * uses IL_DIM_REJECT.. (all dims >= 8 are Philox). */
 #ifndef IL_DIM_REJECT
 #define IL_DIM_REJECT 1000u
 #endif

@@ -40,15 +40,24 @@
  * may leave the groove, which ends the path.
  * With m ~ D|m.n| (pdf) the sample is (i.m) g(i) sum_j c_j / (|i.n||o.n| m.z);
  * with m ~ visible normals from i, g(i) sum_j c_j / (G1s(i) |o.n|).
- * Order k = number of facet interactions (specular or body) of the path up
- * to and including the body event connected to o.  Paths whose last event
- * is specular (a Dirac in o) are not part of this quantity: the single
- * specular bounce is the `specular` quantity; two or more specular bounces
- * in a row with no body event are not estimated.
+ * interreflection = full adds, at every body event, the path body ->
+ * specular reflection on the opposite facet -> o, connected analytically
+ * (see the loop).
+ * Order k = number of facet interactions of the path up to and including
+ * the event seen from o (the connected body event, or the specular
+ * reflection of that second connection).  Not part of this quantity: light
+ * that leaves the groove right after specular reflections (a Dirac in o for
+ * a fixed facet; the single specular bounce is the `specular` quantity) and
+ * body -> two or more specular reflections -> o.
  * With ni = 1 (F = 0, A = Kd) order k is exactly Kd^k times its Kd = 1 value.
  */
 #ifndef BRDFTAB_INTERFACED_LAMBERTIAN_VCAVITY_H
 #define BRDFTAB_INTERFACED_LAMBERTIAN_VCAVITY_H
+
+/* Paths whose throughput falls below IL_ROULETTE continue with probability
+ * tau / IL_ROULETTE (Philox dimensions IL_DIM_ROULETTE + bounce). */
+#define IL_ROULETTE R(0.05)
+#define IL_DIM_ROULETTE 700u
 
 /* Where the ray from point pos of facet m (frame of the file comment) along
  * direction d meets the other facet: returns sigma in [0, 1], or -1 when the
@@ -97,7 +106,10 @@ BT_INLINE REAL il_vcavity_sample(il_surface* s, int sampling, int mode, bt_vec3 
     REAL pos = R(1.0) - gi * bt_uniform(smp, 2u); /* uniform on the lit part */
     bt_vec3 din = di;
     int side = 0;
-    REAL tau = R(1.0), acc = R(0.0);
+    /* Throughput = tau * amp: amp collects the Kd-dependent factors A, tau
+     * the geometric and Fresnel ones (roulette acts on tau only, so the
+     * sampled paths, and hence ni = 1 order k ~ Kd^k, do not depend on Kd). */
+    REAL tau = R(1.0), amp = R(1.0), acc = R(0.0);
     /* order k needs walk vertices up to k - 1 (direct) or k - 2 (mirror). */
     int last = order == 0 ? IL_MAX_BOUNCES : order;
     for (int j = 0; j < last; ++j) {
@@ -109,7 +121,7 @@ BT_INLINE REAL il_vcavity_sample(il_surface* s, int sampling, int mode, bt_vec3 
             REAL oe = bt_v3_dot(of, e);
             if (oe > R(0.0)) {
                 REAL go = fmin(R(1.0), R(2.0) * o.z * c / oe);
-                if (pos >= R(1.0) - go) acc += tau * tin * il_t(oe, ni) * oe * A * BT_INV_PI;
+                if (pos >= R(1.0) - go) acc += tau * amp * tin * il_t(oe, ni) * oe * A * BT_INV_PI;
             }
         }
         /* Body -> specular reflection on the other facet -> o (full mode):
@@ -128,7 +140,7 @@ BT_INLINE REAL il_vcavity_sample(il_surface* s, int sampling, int mode, bt_vec3 
                 REAL y = dme > R(0.0) ? il_vcavity_hit(pos, c, sn, dm) : -R(1.0);
                 REAL go2 = fmin(R(1.0), R(2.0) * o.z * c / oe2);
                 if (y >= R(0.0) && y >= R(1.0) - go2)
-                    acc += tau * tin * il_t(dme, ni) * A * BT_INV_PI *
+                    acc += tau * amp * tin * il_t(dme, ni) * A * BT_INV_PI *
                            bt_fresnel_dielectric(oe2, ni) * dme;
             }
         }
@@ -161,10 +173,17 @@ BT_INLINE REAL il_vcavity_sample(il_surface* s, int sampling, int mode, bt_vec3 
             REAL cg = bt_safe_sqrt(R(1.0) - sg * sg);
             dout = bt_v3_add(bt_v3_add(bt_v3_scale(e, cg * cpsi), bt_v3_scale(b1, cg * spsi)),
                              bt_v3(R(0.0), sg, R(0.0)));
-            tau *= fv * il_t(cg * cpsi, ni) * A;
+            tau *= fv * il_t(cg * cpsi, ni);
+            amp *= A;
             if (mode != IL_INTERREFLECTION_FULL) tau *= tin;
         }
-        if (!(tau > R(0.0))) break;
+        if (!(tau > R(0.0)) || !(amp > R(0.0))) break;
+        /* Russian roulette on weak paths (unbiased: survivors carry tau/q). */
+        if (tau < IL_ROULETTE) {
+            REAL q = tau / IL_ROULETTE;
+            if (bt_uniform(smp, IL_DIM_ROULETTE + (uint)j) >= q) break;
+            tau = IL_ROULETTE;
+        }
         REAL sig = il_vcavity_hit(pos, c, sn, dout);
         if (sig < R(0.0)) break; /* left the groove */
         pos = sig;
