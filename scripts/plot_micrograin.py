@@ -88,7 +88,8 @@ def main(argv):
     a = ax[1, 1]
     ratio = np.where(cu[2] > 0, cc[2] / np.maximum(cu[2], 1e-30), 1.0)
     P, T = np.meshgrid(ph, th)
-    m = a.pcolormesh(P, T, ratio, shading="nearest", cmap="magma")
+    m = a.pcolormesh(P, T, ratio, shading="nearest", cmap="magma",
+                     norm=matplotlib.colors.LogNorm(vmin=1, vmax=max(ratio.max(), 1.01)))
     a.set_xscale("symlog", linthresh=10)
     fig.colorbar(m, ax=a, label="f correlated / f uncorrelated")
     a.set_xlabel("φd (deg)")
