@@ -32,7 +32,8 @@ def plot_slices(path, out):
     with h5py.File(path, "r") as f:
         mc, mc_se, labels, ax = table(f, "brdf_mc")
         assert labels == ["theta_i", "theta_o", "phi_d", "c"], labels
-        curves = {k: table(f, k)[0] for k in ("brdf_analytic", "brdf_fit", "brdf_fast", "brdf_single")}
+        curves = {k: table(f, k)[0] for k in ("brdf_analytic", "brdf_fit", "brdf_paper", "brdf_fast",
+                                                "brdf_single") if k in f}
     ti, to, phid, cs = ax["theta_i"], ax["theta_o"], ax["phi_d"], ax["c"]
     back = int(np.argmin(np.abs(phid - 0)))
     fwd = int(np.argmin(np.abs(phid - 180)))
@@ -45,7 +46,8 @@ def plot_slices(path, out):
     fig, axs = plt.subplots(len(cs), len(ti), figsize=(3.2 * len(ti), 2.7 * len(cs)), squeeze=False)
     styles = {
         "brdf_analytic": dict(color="C0", lw=1.6, label="analytic (exact H, eqs. 9-38)"),
-        "brdf_fit": dict(color="C1", lw=1.3, ls="--", label="fit (eqs. 23-37)"),
+        "brdf_fit": dict(color="C1", lw=1.3, ls="--", label="all fitted (cos φ ×2, H1 'power')"),
+        "brdf_paper": dict(color="C3", lw=1.0, ls="-.", label="paper as printed (cos φ ×1)"),
         "brdf_fast": dict(color="C2", lw=1.2, ls=":", label="fast (eq. 41)"),
         "brdf_single": dict(color="0.6", lw=1.0, label="single scattering (eq. 10)"),
     }
@@ -53,7 +55,8 @@ def plot_slices(path, out):
         for i, t in enumerate(ti):
             a = axs[k][i]
             for name, st in styles.items():
-                a.plot(x, signed(curves[name], i, k), **st)
+                if name in curves:
+                    a.plot(x, signed(curves[name], i, k), **st)
             a.errorbar(x, signed(mc, i, k), yerr=2 * signed(mc_se, i, k), fmt="k.", ms=3,
                        elinewidth=0.8, label="exact (Monte Carlo, 2 s.e.)")
             a.axvline(-t, color="0.85", lw=0.8, zorder=0)
@@ -63,9 +66,10 @@ def plot_slices(path, out):
                 a.set_xlabel("θo (deg); < 0: light's side (φd = 0)", fontsize=8)
             if i == 0:
                 a.set_ylabel("f (1/sr)", fontsize=8)
-    axs[0][0].legend(fontsize=6, loc="upper left")
+    handles, names = axs[0][0].get_legend_handles_labels()
+    fig.legend(handles, names, loc="lower center", ncol=len(names), fontsize=8, frameon=False)
     fig.suptitle("Lambert-sphere half space: in-plane BRDF, exact vs d'Eon's analytic model", fontsize=11)
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0.035, 1, 1))
     fig.savefig(out, dpi=110)
     print(f"wrote {out}")
 
@@ -73,12 +77,13 @@ def plot_slices(path, out):
 def error_table(path):
     with h5py.File(path, "r") as f:
         mc, mc_se, labels, ax = table(f, "brdf_mc")
-        names = [n for n in ("brdf_analytic", "brdf_fit", "brdf_fit_paper", "brdf_fast") if n in f]
+        names = [n for n in ("brdf_analytic", "brdf_analytic_paper", "brdf_fit", "brdf_fit_paper",
+                              "brdf_fast") if n in f]
         variants = {n: table(f, n)[0] for n in names}
     cs = ax["c"]
     print("\nRelative error vs Monte Carlo (|f - f_mc| / f_mc), grid of", labels,
           [len(ax[lab]) for lab in labels])
-    print(f"median MC relative standard error: {np.median(mc_se / mc):.2%}\n")
+    print(f"MC relative standard error: median {np.median(mc_se / mc):.2%}, max {np.max(mc_se / mc):.2%}\n")
     head = "| variant | " + " | ".join(f"c = {c:g}" for c in cs) + " | all |"
     print(head)
     print("|" + "---|" * (len(cs) + 2))
@@ -110,18 +115,22 @@ def plot_modes(path, out):
     fig, axs = plt.subplots(1, 2, figsize=(9, 3.6))
     for m in (0, 1):
         a = axs[m]
+        # mode 1: x = eq. 22 - eq. 28 as printed (the file's analytic table applies x2)
+        xs = an[m] if m == 0 else an[m] / 2
         for k, c in enumerate(ax["c"]):
-            a.errorbar(an[m, ..., k].ravel(), ms[m, ..., k].ravel(), yerr=2 * ms_se[m, ..., k].ravel(),
+            a.errorbar(xs[..., k].ravel(), ms[m, ..., k].ravel(), yerr=2 * ms_se[m, ..., k].ravel(),
                        fmt="o", ms=3, label=f"c = {c:g}")
-        lim = np.array([min(an[m].min(), ms[m].min()), max(an[m].max(), ms[m].max())])
-        a.plot(lim, lim, "k-", lw=0.8, label="MC = analytic")
+        lim = np.array([min(xs.min(), ms[m].min()), max(xs.max(), ms[m].max())])
         if m == 1:
-            a.plot(lim, 2 * lim, "k--", lw=0.8, label="MC = 2 x analytic")
-            a.set_title("cos φ mode, multiple scattering (2 × (eq. 22 − eq. 28))", fontsize=9)
+            a.plot(lim, lim, "k:", lw=0.8, label="MC = printed (x1)")
+            a.plot(lim, 2 * lim, "k-", lw=0.8, label="MC = 2 x printed")
+            a.set_title("cos φ mode of multiple scattering vs eq. 22 − eq. 28", fontsize=9)
+            a.set_xlabel("eq. 22 − eq. 28 (exact H1)", fontsize=8)
         else:
-            a.set_title("φ-average, multiple scattering (eq. 30 − eq. 38)", fontsize=9)
-        a.set_xlabel("analytic (exact H)", fontsize=8)
-        a.set_ylabel("Monte Carlo (orders ≥ 2)", fontsize=8)
+            a.plot(lim, lim, "k-", lw=0.8, label="MC = analytic")
+            a.set_title("φ-average of multiple scattering vs eq. 30 − eq. 38", fontsize=9)
+            a.set_xlabel("eq. 30 − eq. 38 (exact H0)", fontsize=8)
+        a.set_ylabel("Monte Carlo, orders ≥ 2 (1/sr)", fontsize=8)
         a.legend(fontsize=7)
     fig.tight_layout()
     fig.savefig(out, dpi=110)

@@ -368,6 +368,11 @@ TEST_CASE("fits: H1/H0 fits against exact H within their claims; kd map round tr
     }
     CHECK(worst_printed > 0.05);
     CHECK(worst_power < 0.005);
+    // eq. 40 against the random-walk spherical albedo (fit good to ~0.003)
+    for (double c : {0.5, 0.9}) {
+        Stat st = run_mc(point(0, 0, 0, c, 0, 1000), LS_Q_KD_MC, 40000, 800);
+        CHECK(std::fabs(st.mean - ls_kd_fit(c)) < 0.004 + 4 * st.se());
+    }
     // eq. 39 inverts eq. 40 approximately
     for (double c : {0.1, 0.5, 0.9, 0.99})
         CHECK(ls_c_fit(ls_kd_fit(c)) == doctest::Approx(c).epsilon(0.01));

@@ -40,7 +40,7 @@
  *     the strip |Im s| < pi/2 (every singularity of K, of atan and of the
  *     kernel lies on purely imaginary t).  The trapezoidal rule converges
  *     like exp(-pi^2/h): h = HF_H_FINE gives ~1e-15, and the coarse rule
- *     (every second node, batch 1 of BT_METHOD_QUADRATURE) ~1e-7 — the
+ *     (every second node, batch 1 of BT_METHOD_QUADRATURE) ~1e-8 — the
  *     reported error estimate is therefore very conservative.
  *  4. Moments alpha_n = int_0^1 mu^n H(mu) dmu by Gauss-Legendre in u with
  *     mu = u^2 (H has a mu log mu term at 0 that plain Gauss-Legendre in mu
