@@ -40,24 +40,6 @@ ParameterInfo param(const char* name, const char* desc, double lo, double hi,
     return p;
 }
 
-QuantityInfo quantity(const char* name, int id, const char* desc, const char* units,
-                      QuantityKind kind, std::vector<std::string> dirs,
-                      std::vector<std::string> opts, const char* eqs, const char* method,
-                      unsigned dims) {
-    QuantityInfo q;
-    q.name = name;
-    q.id = id;
-    q.description = desc;
-    q.units = units;
-    q.kind = kind;
-    q.directions = std::move(dirs);
-    q.uses_options = std::move(opts);
-    q.equations = eqs;
-    q.default_method = method;
-    q.dimensions = dims;
-    return q;
-}
-
 ModelInfo hfunction_model() {
     ModelInfo m;
     m.name = "hfunction";
@@ -91,16 +73,16 @@ ModelInfo hfunction_model() {
     const std::vector<std::string> none;
     const std::vector<std::string> psi = {"psi"};
     m.quantities = {
-        quantity("H", HF_Q_H, "H(mu) from eq. 16 (trapezoid in log t, error from the "
+        QuantityInfo{"H", HF_Q_H, "H(mu) from eq. 16 (trapezoid in log t, error from the "
                               "half-resolution rule)",
-                 "1", QuantityKind::Quadrature, none, psi, "eqs. 13-20 (d'Eon)", "quadrature", 0),
-        quantity("moment", HF_Q_MOMENT,
+                 "1", QuantityKind::Quadrature, none, psi, "eqs. 13-20 (d'Eon)", "quadrature", 0},
+        QuantityInfo{"moment", HF_Q_MOMENT,
                  "alpha_n = int_0^1 mu^n H(mu) dmu (24-point Gauss-Legendre in sqrt(mu))", "1",
-                 QuantityKind::Quadrature, none, psi, "eqs. 13-20 (d'Eon)", "quadrature", 0),
-        quantity("H_inf", HF_Q_HINF, "H(inf) = 1/sqrt(K(0)) (inf when K(0) = 0)", "1",
-                 QuantityKind::ClosedForm, none, psi, "eq. 32 (d'Eon)", "closed-form", 0),
-        quantity("K", HF_Q_K, "K(t) at t = mu (diagnostic; closed forms or series)", "1",
-                 QuantityKind::ClosedForm, none, psi, "eqs. 17-20 (d'Eon)", "closed-form", 0),
+                 QuantityKind::Quadrature, none, psi, "eqs. 13-20 (d'Eon)", "quadrature", 0},
+        QuantityInfo{"H_inf", HF_Q_HINF, "H(inf) = 1/sqrt(K(0)) (inf when K(0) = 0)", "1",
+                 QuantityKind::ClosedForm, none, psi, "eq. 32 (d'Eon)", "closed-form", 0},
+        QuantityInfo{"K", HF_Q_K, "K(t) at t = mu (diagnostic; closed forms or series)", "1",
+                 QuantityKind::ClosedForm, none, psi, "eqs. 17-20 (d'Eon)", "closed-form", 0},
     };
     m.host_fn = &host_hfunction_sample;
     return m;
@@ -155,35 +137,35 @@ ModelInfo lambert_sphere_model() {
     const std::vector<std::string> an_opts = {"cos_phi"};
     const std::vector<std::string> fit_opts = {"cos_phi", "fm1", "h1_fit"};
     m.quantities = {
-        quantity("phase", LS_Q_PHASE,
+        QuantityInfo{"phase", LS_Q_PHASE,
                  "phase function p(cos theta_o); theta_o is the scattering angle (0 = forward)",
-                 "1/sr", QuantityKind::ClosedForm, {"theta_o"}, {}, "eq. 1", "closed-form", 0),
-        quantity("brdf_mc", LS_Q_BRDF_MC,
+                 "1/sr", QuantityKind::ClosedForm, {"theta_o"}, {}, "eq. 1", "closed-form", 0},
+        QuantityInfo{"brdf_mc", LS_Q_BRDF_MC,
                  "exact BRDF: random walks with the exact phase function and next-event "
                  "estimation, per scattering order (parameters order, max_order, mode)",
                  "1/sr", QuantityKind::Integral, dirs, walk_opts, "eqs. 1, 5, 10 (order 1)", "mc",
-                 8),
-        quantity("albedo_mc", LS_Q_ALBEDO_MC,
+                 8},
+        QuantityInfo{"albedo_mc", LS_Q_ALBEDO_MC,
                  "directional albedo E(mu_i) by random walks, per scattering order", "1",
-                 QuantityKind::Integral, {"theta_i"}, walk_opts, "eqs. 1, 5", "mc", 8),
-        quantity("brdf_analytic", LS_Q_BRDF_ANALYTIC,
+                 QuantityKind::Integral, {"theta_i"}, walk_opts, "eqs. 1, 5", "mc", 8},
+        QuantityInfo{"brdf_analytic", LS_Q_BRDF_ANALYTIC,
                  "d'Eon's model with exact H0, H1 (eq. 16) and fitted l, m, B-F",
                  "1/sr", QuantityKind::Quadrature, dirs, an_opts,
-                 "eqs. 9-12, 16, 18-19, 22, 26-28, 30, 33-38", "quadrature", 0),
-        quantity("brdf_fit", LS_Q_BRDF_FIT, "d'Eon's model entirely with fitted functions",
+                 "eqs. 9-12, 16, 18-19, 22, 26-28, 30, 33-38", "quadrature", 0},
+        QuantityInfo{"brdf_fit", LS_Q_BRDF_FIT, "d'Eon's model entirely with fitted functions",
                  "1/sr", QuantityKind::ClosedForm, dirs, fit_opts,
-                 "eqs. 9-12, 22-31, 33-38 (29 with fm1=eq29)", "closed-form", 0),
-        quantity("brdf_fast", LS_Q_BRDF_FAST, "fast variant", "1/sr", QuantityKind::ClosedForm,
-                 dirs, {}, "eqs. 40, 41", "closed-form", 0),
-        quantity("brdf_single", LS_Q_BRDF_SINGLE, "exact single scattering", "1/sr",
-                 QuantityKind::ClosedForm, dirs, {}, "eq. 10", "closed-form", 0),
-        quantity("kd_fit", LS_Q_KD_FIT, "spherical albedo kd from c (fit)", "1",
-                 QuantityKind::ClosedForm, {}, {}, "eq. 40", "closed-form", 0),
-        quantity("kd_mc", LS_Q_KD_MC,
+                 "eqs. 9-12, 22-31, 33-38 (29 with fm1=eq29)", "closed-form", 0},
+        QuantityInfo{"brdf_fast", LS_Q_BRDF_FAST, "fast variant", "1/sr", QuantityKind::ClosedForm,
+                 dirs, {}, "eqs. 40, 41", "closed-form", 0},
+        QuantityInfo{"brdf_single", LS_Q_BRDF_SINGLE, "exact single scattering", "1/sr",
+                 QuantityKind::ClosedForm, dirs, {}, "eq. 10", "closed-form", 0},
+        QuantityInfo{"kd_fit", LS_Q_KD_FIT, "spherical albedo kd from c (fit)", "1",
+                 QuantityKind::ClosedForm, {}, {}, "eq. 40", "closed-form", 0},
+        QuantityInfo{"kd_mc", LS_Q_KD_MC,
                  "spherical (bond) albedo 2 int E(mu) mu dmu by random walks", "1",
-                 QuantityKind::Integral, {}, walk_opts, "eqs. 1, 5", "mc", 8),
-        quantity("c_fit", LS_Q_C_FIT, "particle albedo c from kd (fit); kd is given as c", "1",
-                 QuantityKind::ClosedForm, {}, {}, "eq. 39", "closed-form", 0),
+                 QuantityKind::Integral, {}, walk_opts, "eqs. 1, 5", "mc", 8},
+        QuantityInfo{"c_fit", LS_Q_C_FIT, "particle albedo c from kd (fit); kd is given as c", "1",
+                 QuantityKind::ClosedForm, {}, {}, "eq. 39", "closed-form", 0},
     };
     m.host_fn = &host_lambert_sphere_sample;
     return m;

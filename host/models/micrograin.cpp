@@ -94,75 +94,59 @@ void register_micrograin(std::vector<ModelInfo>& models) {
     const std::vector<std::string> dir_i = {"theta_i", "phi_i"};
     const std::vector<std::string> dir_io = {"theta_i", "phi_i", "theta_o", "phi_o"};
     const std::vector<std::string> all_opts = {"grain", "base", "correlation", "weighting"};
-    auto q = [](const char* name, int id, const char* desc, const char* units, QuantityKind kind,
-                std::vector<std::string> dirs, std::vector<std::string> opts, const char* eqs,
-                const char* method, unsigned dims) {
-        QuantityInfo x;
-        x.name = name;
-        x.id = id;
-        x.description = desc;
-        x.units = units;
-        x.kind = kind;
-        x.directions = std::move(dirs);
-        x.uses_options = std::move(opts);
-        x.equations = eqs;
-        x.default_method = method;
-        x.dimensions = dims;
-        return x;
-    };
     const auto C = QuantityKind::ClosedForm;
     const auto I = QuantityKind::Integral;
     // ids: MG_Q_* in kernels/models/micrograin.h
     m.quantities = {
-        q("ndf", 0,
+        QuantityInfo{"ndf", 0,
           "normal distribution D(m) with m = (theta_i, phi_i); int D(m) m.n dm = 1", "1/sr", C,
-          dir_i, {}, "eqs. 10-12", "closed-form", 0),
-        q("alpha_x", 1, "equivalent GGX width along x (eq. 28, sign corrected)", "1", C, {}, {},
-          "eq. 28", "closed-form", 0),
-        q("alpha_y", 2, "equivalent GGX width along y (eq. 28, sign corrected)", "1", C, {}, {},
-          "eq. 28", "closed-form", 0),
-        q("shadow_area", 3,
+          dir_i, {}, "eqs. 10-12", "closed-form", 0},
+        QuantityInfo{"alpha_x", 1, "equivalent GGX width along x (eq. 28, sign corrected)", "1", C, {}, {},
+          "eq. 28", "closed-form", 0},
+        QuantityInfo{"alpha_y", 2, "equivalent GGX width along y (eq. 28, sign corrected)", "1", C, {}, {},
+          "eq. 28", "closed-form", 0},
+        QuantityInfo{"shadow_area", 3,
           "area of the shadow cast from direction i by one grain (unit radius before "
           "stretching) on the plane at height h, outside the grain: sigma_s(i', h)/(beta_x "
           "beta_y)",
-          "1", C, dir_i, {}, "Appendix A, §4.2 (det E^-1)", "closed-form", 0),
-        q("overlap_area", 4,
+          "1", C, dir_i, {}, "Appendix A, §4.2 (det E^-1)", "closed-form", 0},
+        QuantityInfo{"overlap_area", 4,
           "area of the overlap of the shadows from i and o at height h: sigma_cap(i', o', "
           "h)/(beta_x beta_y)",
           "1", C, dir_io, {}, "Appendix B (equivalent polar decomposition, see docs)",
-          "closed-form", 0),
-        q("g1_dist", 5, "distant masking term G1_dist(i, h)", "1", C, dir_i, {},
-          "eqs. 16, 9; anisotropic via E (§4.2)", "closed-form", 0),
-        q("g_dist", 6, "distant bidirectional GAF G_dist(i, o, h)", "1", C, dir_io,
-          {"correlation"}, "eq. 19 (correlation=direction) or eq. 17 (none)", "closed-form", 0),
-        q("pore_visibility", 7, "pore (base) visibility Vp(i, o) = (1 - tau0) G_dist(i, o, 0)",
-          "1", C, dir_io, {"correlation"}, "eq. 23, Appendix C", "closed-form", 0),
-        q("brdf", 8,
+          "closed-form", 0},
+        QuantityInfo{"g1_dist", 5, "distant masking term G1_dist(i, h)", "1", C, dir_i, {},
+          "eqs. 16, 9; anisotropic via E (§4.2)", "closed-form", 0},
+        QuantityInfo{"g_dist", 6, "distant bidirectional GAF G_dist(i, o, h)", "1", C, dir_io,
+          {"correlation"}, "eq. 19 (correlation=direction) or eq. 17 (none)", "closed-form", 0},
+        QuantityInfo{"pore_visibility", 7, "pore (base) visibility Vp(i, o) = (1 - tau0) G_dist(i, o, 0)",
+          "1", C, dir_io, {"correlation"}, "eq. 23, Appendix C", "closed-form", 0},
+        QuantityInfo{"brdf", 8,
           "full BRDF tau0 f^S + Vp f^B; the diffuse-grain part (eq. 21) is a Monte Carlo "
           "integral over microfacet normals (constant samples when kd = 0 or grains are "
           "diffuse-free)",
           "1/sr", I, dir_io, all_opts, "eqs. 20-23 (weighting=lucas2023: eqs. 1, 25)", "rqmc",
-          2),
-        q("albedo", 9, "directional albedo: integral of brdf cos(theta_o) over outgoing directions",
-          "1", I, dir_i, all_opts, "eqs. 20-23 integrated over o", "rqmc", 6),
-        q("explicit_g1", 10,
+          2},
+        QuantityInfo{"albedo", 9, "directional albedo: integral of brdf cos(theta_o) over outgoing directions",
+          "1", I, dir_i, all_opts, "eqs. 20-23 integrated over o", "rqmc", 6},
+        QuantityInfo{"explicit_g1", 10,
           "reference: G1_dist(i, h) ray-traced on explicit random grains (fraction of pore "
           "points at height h that see i)",
-          "1", I, dir_i, {}, "§5.1 simulation; compare eq. 16", "mc", 2),
-        q("explicit_g", 11, "reference: G_dist(i, o, h) ray-traced on explicit random grains",
-          "1", I, dir_io, {}, "§5.1 simulation; compare eqs. 17-19", "mc", 2),
-        q("explicit_brdf", 12,
+          "1", I, dir_i, {}, "§5.1 simulation; compare eq. 16", "mc", 2},
+        QuantityInfo{"explicit_g", 11, "reference: G_dist(i, o, h) ray-traced on explicit random grains",
+          "1", I, dir_io, {}, "§5.1 simulation; compare eqs. 17-19", "mc", 2},
+        QuantityInfo{"explicit_brdf", 12,
           "reference: single-scattering BRDF ray-traced on explicit random grains; non-Dirac "
           "lobes only (grain kd lobe and base), the grain specular lobe is not simulated",
-          "1/sr", I, dir_io, {"grain", "base"}, "§5.1 simulation; compare eqs. 20-23", "mc", 2),
-        q("p_bulk", 13, "probability of sampling the base, eq. 26", "1", C, dir_i, {}, "eq. 26",
-          "closed-form", 0),
-        q("p_diffuse", 14, "probability of sampling the grain diffuse lobe, eq. 27", "1", C,
-          dir_i, {"grain"}, "eq. 27", "closed-form", 0),
-        q("explicit_coverage", 15,
+          "1/sr", I, dir_io, {"grain", "base"}, "§5.1 simulation; compare eqs. 20-23", "mc", 2},
+        QuantityInfo{"p_bulk", 13, "probability of sampling the base, eq. 26", "1", C, dir_i, {}, "eq. 26",
+          "closed-form", 0},
+        QuantityInfo{"p_diffuse", 14, "probability of sampling the grain diffuse lobe, eq. 27", "1", C,
+          dir_i, {"grain"}, "eq. 27", "closed-form", 0},
+        QuantityInfo{"explicit_coverage", 15,
           "reference: fraction of the plane at height h inside grains, ray-free check of the "
           "simulator's density (exact: 1 - (1 - tau0)^(1 - h^2))",
-          "1", I, {}, {}, "eqs. 7-9", "mc", 2),
+          "1", I, {}, {}, "eqs. 7-9", "mc", 2},
     };
     m.host_fn = &host_micrograin_sample;
     models.push_back(std::move(m));
