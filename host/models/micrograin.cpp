@@ -64,8 +64,8 @@ void register_micrograin(std::vector<ModelInfo>& models) {
               false, 10, true, 1.5),
         param("k", "grain extinction coefficient (conductor grains)", 0, true, 20, true, 0),
         param("base_albedo", "Lambertian base albedo", 0, true, 1, true, 0.5),
-        param("base_alpha", "GGX width of the rough-conductor base", 0, false, 2, true, 0.2),
-        param("base_eta", "rough-conductor base index, real part", 0, false, 10, true, 0.2),
+        param("base_alpha", "GGX width of the rough conductor/dielectric base", 0, false, 2, true, 0.2),
+        param("base_eta", "index of the rough base: conductor real part, or dielectric relative index", 0, false, 10, true, 0.2),
         param("base_k", "rough-conductor base extinction coefficient", 0, true, 20, true, 3.0),
     };
     m.options = {
@@ -75,9 +75,11 @@ void register_micrograin(std::vector<ModelInfo>& models) {
          {"diffuse", "dielectric", "conductor"},
          "diffuse"},
         {"base",
-         "base (bulk) BRDF: absorbing, Lambertian (base_albedo), or rough conductor (GGX "
-         "base_alpha, height-correlated Smith, Fresnel base_eta + i base_k)",
-         {"absorbing", "lambertian", "conductor"},
+         "base (bulk) BRDF: absorbing, Lambertian (base_albedo), rough conductor (GGX "
+         "base_alpha, height-correlated Smith, Fresnel base_eta + i base_k), or rough "
+         "dielectric (same surface, dielectric Fresnel with relative index base_eta; "
+         "reflection only)",
+         {"absorbing", "lambertian", "conductor", "dielectric"},
          "absorbing"},
         {"correlation",
          "distant GAF: direction-correlated with the shadow overlap (eqs. 18-19) or the "

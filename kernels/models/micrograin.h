@@ -37,7 +37,10 @@
  *                     kd lobe weighted by T = (1-F)(1-F)), 2 conductor
  *                     (F from eta + i k; kd lobe also weighted by T)
  *   o[1] base         0 absorbing, 1 lambertian, 2 rough conductor (GGX,
- *                     height-correlated Smith, kernels/common/microfacet.h)
+ *                     height-correlated Smith, kernels/common/microfacet.h),
+ *                     3 rough dielectric (same GGX surface, dielectric
+ *                     Fresnel with relative index base_eta; its reflection
+ *                     only: light refracted into the bulk is not returned)
  *   o[2] correlation  0 direction-correlated G_dist (eqs. 18-19),
  *                     1 uncorrelated product (eq. 17)
  *   o[3] weighting    0 this paper, f = tau0 f^S + Vp f^B (eqs. 20, 23)
@@ -104,6 +107,7 @@ using std::log1p;
 #define MG_BASE_ABSORBING 0
 #define MG_BASE_LAMBERTIAN 1
 #define MG_BASE_CONDUCTOR 2
+#define MG_BASE_DIELECTRIC 3
 #define MG_CORR_DIRECTION 0
 #define MG_CORR_NONE 1
 
@@ -453,11 +457,15 @@ BT_INLINE REAL mg_f_diffuse_sample(bt_vec3 i, bt_vec3 o, const REAL* p, const in
 BT_INLINE REAL mg_f_base(bt_vec3 i, bt_vec3 o, const REAL* p, const int* opt)
 {
     if (opt[1] == MG_BASE_LAMBERTIAN) return p[11] * BT_INV_PI;
-    if (opt[1] == MG_BASE_CONDUCTOR) {
+    if (opt[1] == MG_BASE_CONDUCTOR || opt[1] == MG_BASE_DIELECTRIC) {
+        /* Microfacet reflection (Walter 2007 eq. 20) of a GGX surface; only
+         * the Fresnel term tells a conductor from a dielectric. */
         bt_microfacet mf =
             bt_microfacet_make(BT_MF_GGX, BT_G1_EXACT, BT_SHADOW_HEIGHT_CORRELATED, p[12], p[12]);
         bt_vec3 m = bt_v3_normalize(bt_v3_add(i, o));
-        REAL F = mg_fresnel_conductor(bt_v3_dot(i, m), p[13], p[14]);
+        REAL cos_im = bt_v3_dot(i, m);
+        REAL F = opt[1] == MG_BASE_CONDUCTOR ? mg_fresnel_conductor(cos_im, p[13], p[14])
+                                             : bt_fresnel_dielectric(cos_im, p[13]);
         return F * bt_mf_d(&mf, m) * bt_mf_g(&mf, i, o, m) / (R(4.0) * i.z * o.z);
     }
     return R(0.0);
