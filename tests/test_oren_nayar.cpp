@@ -445,4 +445,18 @@ TEST_CASE("engine: albedo <= 1 at rho = 1, Lambert limit, device agrees with hos
     for (std::size_t c = 0; c < bp.size(); ++c)
         CHECK(std::fabs(rr.value[c] - rh.value[c]) <=
               4 * rr.stderr_[c] + 1e-5 * std::fabs(rh.value[c]) + 1e-9);
+
+    // Float sampling path, including small sigma (the normalisation series
+    // must not overflow in float).
+    std::vector<std::map<std::string, double>> sp;
+    for (double sg : {0.3, 1.0, 3.0, 20.0, 60.0})
+        sp.push_back({{"theta_i", 60}, {"theta_o", 30}, {"phi_d", 30}, {"sigma", sg},
+                      {"rho", 0.9}, {"nodes", 12}});
+    auto spf = [&](std::size_t c, double* out) { bb.build(sp[c], out); };
+    auto sh = estimate(*host, m, qb, opts, sp.size(), spf, sq);
+    auto sf = estimate(*ff, m, qb, opts, sp.size(), spf, sr);
+    for (std::size_t c = 0; c < sp.size(); ++c) {
+        CHECK(std::isfinite(sf.value[c]));
+        CHECK(std::fabs(sf.value[c] - sh.value[c]) <= 4 * sf.stderr_[c] + 2e-6);
+    }
 }

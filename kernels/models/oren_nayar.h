@@ -58,8 +58,11 @@
  *     pi/2 - theta_i, pi/2 - theta_o where the phi_a kinks are born; the
  *     phi_a-integral grows there like (theta_a - theta_c)^{3/2}, so those
  *     sub-intervals use theta = theta_c + L t^2, which makes the leading
- *     singular term polynomial in t.  The normalisation Z is summed on the
- *     same theta_a nodes (self-normalised rule: exact for sigma -> 0).
+ *     singular term polynomial in t; also split where those kinks cross the
+ *     X = Y azimuth (see on_gauss_quadrature).  The two-bounce term's thin
+ *     boundary layers at grazing get a geometric phi_a mesh (on_add_graded).
+ *     The normalisation Z is summed on the same theta_a nodes
+ *     (self-normalised rule: exact for sigma -> 0).
  *     Batch 0 uses p[8] nodes per sub-interval, batch 1 half of them; the
  *     engine reports the difference as the error.
  *   rqmc / mc: theta_a from the Rayleigh density sigma^-2 theta
@@ -418,13 +421,18 @@ BT_INLINE REAL on_norm_ratio(REAL sigma)
     REAL coef = R(1.0);   /* (2s^2)^k k! / (2k+1)! with sign */
     REAL part = R(1.0);   /* sum_{j<=k} X^j/j! */
     REAL term = R(1.0);   /* X^k / k! */
+    /* For X > 60, P(k+1, X) = 1 to double precision for k < 14; skipping the
+     * partial sums also keeps X^k/k! from overflowing in float (sigma < 2 deg). */
+    int full = X > R(60.0);
     for (int k = 0; k < 14; ++k) {
         if (k > 0) {
-            term *= X / (REAL)k;
-            part += term;
+            if (!full) {
+                term *= X / (REAL)k;
+                part += term;
+            }
             coef *= -R(2.0) * s2 * (REAL)k / ((R(2.0) * k) * (R(2.0) * k + R(1.0)));
         }
-        sum += coef * (R(1.0) - ex * part);
+        sum += coef * (full ? R(1.0) : R(1.0) - ex * part);
     }
     return sum > R(0.0) ? zr / sum : R(1.0);
 }
