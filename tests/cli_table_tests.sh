@@ -12,20 +12,8 @@ cd "$WORK"
 export POCL_CACHE_DIR="${POCL_CACHE_DIR:-$WORK/pocl-cache}"
 PY=/usr/bin/python3
 
-passed=0
-failed=0
-ok() { passed=$((passed + 1)); }
-bad() { failed=$((failed + 1)); echo "FAIL: $*"; }
-expect_exit() {  # expect_exit CODE DESCRIPTION -- command...
-  local code=$1 what=$2
-  shift 3
-  "$@" >out.txt 2>err.txt
-  local got=$?
-  if [ "$got" -eq "$code" ]; then ok; else bad "$what: exit $got, expected $code"; cat err.txt; fi
-}
-expect_grep() {  # expect_grep PATTERN FILE DESCRIPTION
-  if grep -qE -- "$1" "$2"; then ok; else bad "$3: '$1' not in $2:"; cat "$2"; fi
-}
+# shellcheck source=cli_lib.sh
+source "$(dirname "${BASH_SOURCE[0]}")/cli_lib.sh"
 json_field() {  # json_field FILE KEY -> prints the number
   "$PY" -c 'import json,sys; print(repr(float(json.load(open(sys.argv[1]))[sys.argv[2]])))' "$1" "$2"
 }
@@ -249,5 +237,4 @@ expect_exit 2 "plot into a missing directory" -- "$BT" plot coarse.h5 --table br
 ls e*.png >/dev/null 2>&1 && bad "a PNG was written by a failed plot" || ok
 ls ./*.tmp* >/dev/null 2>&1 && bad "temporary files left behind" || ok
 
-echo "$passed passed, $failed failed"
-[ "$failed" -eq 0 ]
+cli_summary

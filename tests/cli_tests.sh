@@ -10,22 +10,8 @@ trap 'rm -rf "$WORK"' EXIT
 cd "$WORK"
 export POCL_CACHE_DIR="${POCL_CACHE_DIR:-$WORK/pocl-cache}"
 
-passed=0
-failed=0
-ok() { passed=$((passed + 1)); }
-bad() { failed=$((failed + 1)); echo "FAIL: $*"; }
-
-# expect_exit CODE DESCRIPTION -- command...
-expect_exit() {
-  local code=$1 what=$2
-  shift 3
-  "$@" >out.txt 2>err.txt
-  local got=$?
-  if [ "$got" -eq "$code" ]; then ok; else bad "$what: exit $got, expected $code"; cat err.txt; fi
-}
-expect_grep() {  # expect_grep PATTERN FILE DESCRIPTION
-  if grep -qE -- "$1" "$2"; then ok; else bad "$3: '$1' not in $2:"; cat "$2"; fi
-}
+# shellcheck source=cli_lib.sh
+source "$(dirname "${BASH_SOURCE[0]}")/cli_lib.sh"
 
 PY=/usr/bin/python3
 have_h5py() { [ -x "$PY" ] && "$PY" -c "import h5py" 2>/dev/null; }
@@ -183,5 +169,4 @@ expect_grep "albedo_r" err.txt "available tables listed"
 [ ! -e x.exr ] && ok || bad "no EXR after an error"
 expect_exit 2 "info on a non-HDF5 file" -- "$BT" info small.toml
 
-echo "$passed passed, $failed failed"
-[ "$failed" -eq 0 ]
+cli_summary
