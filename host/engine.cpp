@@ -394,7 +394,12 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
                                        : cell_stderr(s, rqmc);
         result.samples[c] = quadrature ? 1u : static_cast<std::uint32_t>(std::min<std::uint64_t>(s.samples, 0xFFFFFFFFu));
         result.total_samples += s.samples;
-        const double rel = result.stderr_[c] / std::max(std::fabs(result.value[c]), settings.abs_floor);
+        // Relative error with the absolute floor folded in: under a tolerance
+        // a cell whose stderr met abs_floor scores at most `tolerance`, so the
+        // figure is comparable with the requested tolerance.
+        const double floor_value =
+            adaptive ? settings.abs_floor / settings.tolerance : settings.abs_floor;
+        const double rel = result.stderr_[c] / std::max(std::fabs(result.value[c]), floor_value);
         worst = std::max(worst, rel);
         if (adaptive &&
             result.stderr_[c] > std::max(settings.tolerance * std::fabs(result.value[c]), settings.abs_floor))

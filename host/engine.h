@@ -85,7 +85,9 @@ struct EstimateResult {
     std::vector<std::uint32_t> samples;
     std::string method;
     std::uint64_t total_samples = 0;
-    // max over cells of stderr / max(|value|, abs_floor)
+    // max over cells of stderr / max(|value|, F), F = abs_floor / tolerance
+    // under a tolerance (so a cell that met its target scores <= tolerance),
+    // F = abs_floor for fixed budgets
     double tolerance_achieved = 0;
     // cells that hit max_samples before meeting the tolerance (adaptive runs)
     std::size_t cells_unconverged = 0;

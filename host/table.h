@@ -39,7 +39,7 @@ struct TableData {
     std::uint64_t samples_requested = 0;  // --samples budget, or max budget under --tolerance
     double tolerance_requested = 0;  // 0 when a fixed budget was used
     double abs_floor = 0;
-    double tolerance_achieved = 0;   // max over cells of stderr / max(|value|, abs_floor)
+    double tolerance_achieved = 0;   // see EstimateResult::tolerance_achieved (engine.h)
     std::uint64_t seed = 0;
     std::string precision;  // "double" | "float"
     std::string device;     // device name or "host"
