@@ -621,7 +621,14 @@ TEST_CASE("spec files: missing file, and every preset in tables/ parses") {
     const Spec alb = parse_spec_file((dir / "rough-dielectric-albedo.toml").string());
     std::vector<std::string> qs;
     for (const TableSpec& t : alb.tables) qs.push_back(t.quantity);
-    CHECK(qs == std::vector<std::string>{"albedo_r", "albedo_t", "albedo_avg"});
+    CHECK(qs == std::vector<std::string>{"albedo_r", "albedo_t", "albedo_r", "albedo_t",
+                                         "albedo_avg", "albedo_avg"});
+    // Light from inside: the *_inside tables take mu_i < 0 (theta_i > 90 deg).
+    REQUIRE(alb.tables.size() == 6);
+    CHECK(alb.tables[2].name == "albedo_r_inside");
+    CHECK(alb.tables[2].axes.at(0).name == "mu_i");
+    CHECK(alb.tables[2].axes.at(0).max < 0);
+    CHECK(alb.tables[5].options["side"] == "inside");
 }
 
 TEST_CASE("the annotated example in docs/spec.md parses as documented") {
