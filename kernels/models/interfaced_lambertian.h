@@ -379,6 +379,24 @@ BT_INLINE REAL il_specular(il_surface* s, bt_vec3 i, bt_vec3 o, REAL ni)
 
 /* ------------------------------------------------------ directional albedos */
 
+/* Microfacet normal for the albedo estimators (dims 0-1) and the part of the
+ * weight that depends on how it was drawn: 1/G1s(i) for visible normals
+ * (pdf G1s(i) (i.m) D / |i.n|), (i.m)/(|i.n| m.z) for m ~ D|m.n|. */
+BT_INLINE bt_vec3 il_albedo_normal(il_surface* s, int sampling, bt_vec3 i, const bt_sampler* smp,
+                                   REAL* base)
+{
+    bt_vec3 m;
+    if (il_uses_visible(s, sampling)) {
+        m = bt_mf_sample_visible(&s->mf, i, bt_uniform(smp, 0u), bt_uniform(smp, 1u));
+        REAL gs = bt_mf_g1_smith_nochi(&s->mf, i);
+        *base = gs > R(0.0) ? R(1.0) / gs : R(0.0);
+    } else {
+        m = il_sample_distribution(s, smp);
+        *base = m.z > R(0.0) ? bt_v3_dot(i, m) / (i.z * m.z) : R(0.0);
+    }
+    return m;
+}
+
 /* Body: E_b(i) = P int int T_i T_o D G (i.m)(o.m)/|i.n| dw_m dw_o, with P the
  * prefactor of eq. 12; m as in il_body_sample (from i), o ~ (o.m)/pi
  * (cosine about m, dims 2-3), weight P pi T_i T_o G / G1s(i) (visible) or
@@ -386,16 +404,8 @@ BT_INLINE REAL il_specular(il_surface* s, bt_vec3 i, bt_vec3 o, REAL ni)
 BT_INLINE REAL il_albedo_body_sample(il_surface* s, int sampling, bt_vec3 i, REAL ni, REAL kd,
                                      const bt_sampler* smp)
 {
-    bt_vec3 m;
     REAL base;
-    if (il_uses_visible(s, sampling)) {
-        m = bt_mf_sample_visible(&s->mf, i, bt_uniform(smp, 0u), bt_uniform(smp, 1u));
-        REAL gs = bt_mf_g1_smith_nochi(&s->mf, i);
-        base = gs > R(0.0) ? R(1.0) / gs : R(0.0);
-    } else {
-        m = il_sample_distribution(s, smp);
-        base = m.z > R(0.0) ? bt_v3_dot(i, m) / (i.z * m.z) : R(0.0);
-    }
+    bt_vec3 m = il_albedo_normal(s, sampling, i, smp, &base);
     REAL im = bt_v3_dot(i, m);
     if (!(im > R(0.0)) || !(m.z > R(0.0)) || !(base > R(0.0))) return R(0.0);
     /* cosine-weighted o about m */
@@ -417,16 +427,8 @@ BT_INLINE REAL il_albedo_body_sample(il_surface* s, int sampling, bt_vec3 i, REA
 BT_INLINE REAL il_albedo_specular_sample(il_surface* s, int sampling, bt_vec3 i, REAL ni,
                                          const bt_sampler* smp)
 {
-    bt_vec3 m;
     REAL base;
-    if (il_uses_visible(s, sampling)) {
-        m = bt_mf_sample_visible(&s->mf, i, bt_uniform(smp, 0u), bt_uniform(smp, 1u));
-        REAL gs = bt_mf_g1_smith_nochi(&s->mf, i);
-        base = gs > R(0.0) ? R(1.0) / gs : R(0.0);
-    } else {
-        m = il_sample_distribution(s, smp);
-        base = m.z > R(0.0) ? bt_v3_dot(i, m) / (i.z * m.z) : R(0.0);
-    }
+    bt_vec3 m = il_albedo_normal(s, sampling, i, smp, &base);
     REAL im = bt_v3_dot(i, m);
     if (!(im > R(0.0)) || !(m.z > R(0.0)) || !(base > R(0.0))) return R(0.0);
     bt_vec3 o = bt_reflect(i, m);
