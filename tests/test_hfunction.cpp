@@ -15,6 +15,8 @@
 //  * K(t): closed forms (eqs. 18-20) against brute-force quadrature of eq. 17.
 #include <doctest/doctest.h>
 
+#include "test_support.h"
+
 #include <cmath>
 #include <map>
 #include <vector>
@@ -27,30 +29,7 @@ using namespace brdftab;
 
 namespace {
 
-// Gauss-Legendre on [-1, 1], written independently of the kernel's version
-// (Golub-Welsch would be overkill: Newton on the three-term recurrence in
-// long double).
-void gauss_legendre(int n, std::vector<double>& x, std::vector<double>& w) {
-    x.resize(n);
-    w.resize(n);
-    for (int k = 0; k < n; ++k) {
-        long double z = std::cos(M_PI * (k + 0.75) / (n + 0.5)), dp = 0;
-        for (int it = 0; it < 200; ++it) {
-            long double p0 = 1, p1 = z;
-            for (int j = 2; j <= n; ++j) {
-                long double p2 = ((2 * j - 1) * z * p1 - (j - 1) * p0) / j;
-                p0 = p1;
-                p1 = p2;
-            }
-            dp = n * (z * p1 - p0) / (z * z - 1);
-            long double dz = p1 / dp;
-            z -= dz;
-            if (std::fabs((double)dz) < 1e-19) break;
-        }
-        x[k] = (double)z;
-        w[k] = (double)(2 / ((1 - z * z) * dp * dp));
-    }
-}
+using brdftab::test::gauss_legendre;
 
 // Psi as polynomial coefficients, written from eqs. 13-15 directly.
 double psi_eval(int kind, double c, const double* poly, double mu) {

@@ -20,6 +20,8 @@
 //    extremes.
 #include <doctest/doctest.h>
 
+#include "test_support.h"
+
 #include <cmath>
 #include <map>
 #include <vector>
@@ -32,29 +34,10 @@ using namespace brdftab;
 
 namespace {
 
+using brdftab::test::gauss_legendre;
+
 const double kPi = 3.14159265358979323846;
 
-void gauss_legendre(int n, std::vector<double>& x, std::vector<double>& w) {
-    x.resize(n);
-    w.resize(n);
-    for (int k = 0; k < n; ++k) {
-        long double z = std::cos(kPi * (k + 0.75) / (n + 0.5)), dp = 0;
-        for (int it = 0; it < 200; ++it) {
-            long double p0 = 1, p1 = z;
-            for (int j = 2; j <= n; ++j) {
-                long double p2 = ((2 * j - 1) * z * p1 - (j - 1) * p0) / j;
-                p0 = p1;
-                p1 = p2;
-            }
-            dp = n * (z * p1 - p0) / (z * z - 1);
-            long double dz = p1 / dp;
-            z -= dz;
-            if (std::fabs((double)dz) < 1e-19) break;
-        }
-        x[k] = (double)z;
-        w[k] = (double)(2 / ((1 - z * z) * dp * dp));
-    }
-}
 
 // eq. 1 written in the scattering angle: p = 2(sin th - th cos th)/(3 pi^2).
 double phase_theta(double th) { return 2 * (std::sin(th) - th * std::cos(th)) / (3 * kPi * kPi); }

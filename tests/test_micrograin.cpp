@@ -8,6 +8,8 @@
 // the Boolean-model coverage 1 - (1 - tau0)^(1 - h^2)).
 #include <doctest/doctest.h>
 
+#include "test_support.h"
+
 #include <algorithm>
 #include <cmath>
 #include <complex>
@@ -69,27 +71,13 @@ RasterAreas raster(bt_vec3 i, bt_vec3 o, double h, double bx, double by, double 
     return r;
 }
 
-// Gauss-Legendre nodes on [0, 1] (Golub-Welsch by Newton on P_n).
+// Gauss-Legendre nodes on [0, 1], from the shared rule on [-1, 1].
 void gauss_legendre(int n, std::vector<double>& x, std::vector<double>& w)
 {
-    x.resize(n);
-    w.resize(n);
+    brdftab::test::gauss_legendre(n, x, w);
     for (int k = 0; k < n; ++k) {
-        double z = std::cos(kPi * (k + 0.75) / (n + 0.5)), dp = 0;
-        for (int it = 0; it < 100; ++it) {
-            double p0 = 1, p1 = z;
-            for (int j = 2; j <= n; ++j) {
-                double p2 = ((2 * j - 1) * z * p1 - (j - 1) * p0) / j;
-                p0 = p1;
-                p1 = p2;
-            }
-            dp = n * (z * p1 - p0) / (z * z - 1);
-            double dz = p1 / dp;
-            z -= dz;
-            if (std::fabs(dz) < 1e-15) break;
-        }
-        x[k] = 0.5 * (1 - z);
-        w[k] = 1.0 / ((1 - z * z) * dp * dp);  // 2/((1-z^2)P'^2) scaled by 1/2
+        x[k] = 0.5 * (1 - x[k]);
+        w[k] *= 0.5;
     }
 }
 
