@@ -28,7 +28,8 @@ int main(int argc, char** argv) {
         "  brdftab eval rough-dielectric bsdf theta_i=30 theta_o=150 phi_d=180 alpha=0.3 eta=1.5\n"
         "  brdftab generate tables/rough-dielectric-albedo.toml -o albedo.h5\n"
         "  brdftab info albedo.h5\n"
-        "  brdftab export albedo.h5 --table albedo_r --exr albedo_r.exr --slice eta=1.5\n",
+        "  brdftab export albedo.h5 --table albedo_r --exr albedo_r.exr --slice eta=3\n"
+        "  brdftab validate albedo.h5 --table albedo_r   how accurate is the table between nodes\n",
         "brdftab"};
     app.set_version_flag("--version", BRDFTAB_VERSION);
     app.require_subcommand(1);
