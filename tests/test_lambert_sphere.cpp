@@ -249,6 +249,34 @@ TEST_CASE("random walk: Russian roulette of the summed tally is unbiased") {
     CHECK(std::fabs(ref.mean - rr.mean) < 4.5 * std::hypot(ref.se(), rr.se()));
 }
 
+TEST_CASE("random walk: truncation remainder (order -2) closes the energy balance") {
+    int o[8] = {0, 0, 0, 0};
+    // c = 1: nothing is absorbed, so every walk has either escaped by
+    // max_order (albedo tally 1) or is still inside (remainder tally 1).
+    for (double ti : {0.0, 1.0, 1.45})
+        for (int max_order : {1, 3, 20}) {
+            for (uint k = 0; k < 2000; ++k) {
+                bt_sampler s = mc_sampler(91, k);
+                const double a = lambert_sphere_sample(point(ti, 0, 0, 1.0, 0, max_order).data(),
+                                                       o, LS_Q_ALBEDO_MC, &s);
+                const double r = lambert_sphere_sample(point(ti, 0, 0, 1.0, -2, max_order).data(),
+                                                       o, LS_Q_ALBEDO_MC, &s);
+                REQUIRE(a + r == doctest::Approx(1.0).epsilon(1e-12));
+            }
+        }
+    // c < 1: the remainder bounds what the truncated albedo misses, and
+    // vanishes for a long enough walk.
+    const double c = 0.8, ti = 0.7;
+    Stat a5 = run_mc(point(ti, 0, 0, c, 0, 5), LS_Q_ALBEDO_MC, 200000, 92);
+    Stat r5 = run_mc(point(ti, 0, 0, c, -2, 5), LS_Q_ALBEDO_MC, 200000, 93);
+    Stat a_all = run_mc(point(ti, 0, 0, c, 0, 1000), LS_Q_ALBEDO_MC, 200000, 94);
+    const double se = std::sqrt(a5.se() * a5.se() + r5.se() * r5.se() + a_all.se() * a_all.se());
+    CHECK(a_all.mean > a5.mean);
+    CHECK(a_all.mean - a5.mean <= r5.mean + 5 * se);
+    Stat r_long = run_mc(point(ti, 0, 0, c, -2, 1000), LS_Q_ALBEDO_MC, 20000, 95);
+    CHECK(r_long.mean < 1e-6);
+}
+
 TEST_CASE("random walk: reciprocity and order-1 albedo against quadrature of eq. 10") {
     // Multiple scattering is reciprocal: f(i, o) = f(o, i) (independent runs).
     for (auto dirs : std::vector<std::pair<double, double>>{{0.2, 1.2}, {0.9, 1.45}}) {

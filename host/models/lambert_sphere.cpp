@@ -102,8 +102,9 @@ ModelInfo lambert_sphere_model() {
         param("c", "particle (single-scattering) albedo; kd for c_fit", 0, 1, 1.0),
         param("order",
               "random walks: 0 all orders 1..max_order, -1 orders >= 2 only, k >= 1 order k only "
-              "(order k scales exactly as c^k)",
-              -1, 100000, 0.0),
+              "(order k scales exactly as c^k); albedo_mc/kd_mc: -2 = truncation remainder, the "
+              "weight still inside the medium after max_order scatterings",
+              -2, 100000, 0.0),
         param("max_order", "random walks: truncation order (c = 1 converges slowly)", 1, 100000,
               1000.0),
         param("mode",

@@ -50,6 +50,11 @@
  * only), order = k >= 1 gives order k alone.  The walk itself does not
  * depend on c; order k carries the factor c^k exactly, so a table at c = 1
  * per order gives every c by multiplying with c^k.
+ * Truncation remainder (albedo_mc, kd_mc with order = -2): the weight of the
+ * walks still inside the medium after max_order scatterings.  It bounds the
+ * energy the truncated tallies miss (part of it would later be absorbed);
+ * at c = 1 nothing is absorbed, so albedo(order 0) + remainder = 1 walk by
+ * walk.
  *
  * Fourier modes (mode = p[7]): -1 the value at the given phi; m = 0, 1, 2 the
  * coefficient f^(m)(mu_i, mu_o) of eq. 9 (f = sum_m f^(m) cos(m phi)):
@@ -139,9 +144,12 @@ BT_INLINE bt_vec3 ls_rotate(bt_vec3 d, REAL mu, REAL u)
                                                bt_v3_scale(t2, st * sin(ph)))));
 }
 
+#define LS_ORDER_REMAINDER (-2)
+
 BT_INLINE int ls_tally(int order, int k)
 {
     if (order == 0) return 1;
+    if (order == LS_ORDER_REMAINDER) return 0; /* tallied only at truncation */
     if (order < 0) return k >= 2;
     return k == order;
 }
@@ -188,7 +196,10 @@ BT_INLINE REAL ls_walk(bt_vec3 i, bt_vec3 o, REAL c, int order, int max_order, i
             if (!want_brdf && ls_tally(order, k)) total += w * ck;
             break;
         }
-        if (k == last) break; /* albedo: still inside after the last order */
+        if (k == last) { /* albedo: still inside after the last order */
+            if (!want_brdf && order == LS_ORDER_REMAINDER) total += w * ck;
+            break;
+        }
     }
     return total;
 }
