@@ -63,6 +63,69 @@ void CellPoints::point(std::size_t cell, double* out) const {
     if (phi_o_from_phi_d_) out[3] = out[1] + phi_d;
 }
 
+namespace {
+
+double polynomial(const std::vector<double>& coeffs, double x) {
+    double v = 0;
+    for (std::size_t k = coeffs.size(); k-- > 0;) v = v * x + coeffs[k];
+    return v;
+}
+
+// A [[recombined]] table: the recipe for brdftab::LookupTable, and as values the
+// recombination at p = stored_at with its standard error (terms independent).
+GeneratedTable recombine(const RecombinedSpec& rs, const std::vector<GeneratedTable>& done,
+                         const Spec& spec) {
+    GeneratedTable g;
+    TableData& d = g.data;
+    nlohmann::json recipe = {{"parameter", rs.parameter}, {"terms", nlohmann::json::array()}};
+    if (rs.range) recipe["range"] = {rs.range->first, rs.range->second};
+    bool have_stderr = true;
+    for (std::size_t k = 0; k < rs.terms.size(); ++k) {
+        const auto& [name, coeffs] = rs.terms[k];
+        const TableData* term = nullptr;
+        for (const GeneratedTable& t : done)
+            if (t.data.name == name) term = &t.data;
+        if (!term) throw Error("recombined table '" + rs.name + "': term '" + name + "' missing");
+        recipe["terms"].push_back({{"table", name}, {"coeffs", coeffs}});
+        if (k == 0) {
+            d = TableData{};
+            d.axes = term->axes;
+            d.value.assign(term->value.size(), 0.0);
+            d.stderr_.assign(term->value.size(), 0.0);
+            d.units = term->units;
+            d.model = term->model;
+            d.seed = term->seed;
+            d.precision = term->precision;
+            d.device = term->device;
+            d.version = term->version;
+            d.spec_file = term->spec_file;
+            d.stored_type = term->stored_type;
+            d.compression = term->compression;
+            d.parameters = term->parameters;
+        }
+        have_stderr = have_stderr && term->stderr_.size() == term->value.size();
+        const double c = polynomial(coeffs, rs.stored_at);
+        for (std::size_t i = 0; i < d.value.size(); ++i) {
+            d.value[i] += c * term->value[i];
+            if (have_stderr) d.stderr_[i] += c * c * term->stderr_[i] * term->stderr_[i];
+        }
+        d.elapsed_seconds += term->elapsed_seconds;
+    }
+    for (double& v : d.stderr_) v = std::sqrt(v);
+    if (!have_stderr) d.stderr_.clear();
+    d.name = rs.name;
+    d.quantity = rs.name;
+    d.method = "recombined";
+    d.description = (rs.description.empty() ? "recombined table" : rs.description) +
+                    "; stored values at " + rs.parameter + " = " + std::to_string(rs.stored_at);
+    d.parameters["recombine"] = recipe;
+    d.parameters[rs.parameter] = rs.stored_at;
+    d.keep_stderr = spec.output.keep_stderr && have_stderr;
+    return g;
+}
+
+}  // namespace
+
 std::vector<GeneratedTable> generate_tables(const Spec& spec, Backend& backend,
                                             const IntegrationSettings& settings,
                                             const GenerateProgressFn& progress) {
@@ -128,6 +191,7 @@ std::vector<GeneratedTable> generate_tables(const Spec& spec, Backend& backend,
         g.cells_unconverged = r.cells_unconverged;
         out.push_back(std::move(g));
     }
+    for (const RecombinedSpec& rs : spec.recombined) out.push_back(recombine(rs, out, spec));
     return out;
 }
 

@@ -174,6 +174,8 @@ private:
     AxisSrc parse_axis(const toml::table& t, const std::string& prefix) const;
     void parse_integration(const toml::table& t, IntegrationSettings& s) const;
     void parse_output(const toml::table& t, OutputSettings& o) const;
+    RecombinedSpec parse_recombined(const toml::table& t, const std::string& prefix,
+                                    const Spec& spec, std::map<std::string, Pos>& names) const;
     TableSpec build_table(const toml::table& t, const std::string& prefix,
                           const Block& global_params, const std::vector<AxisSrc>& global_axes,
                           const IntegrationSettings& integration, Pos method_pos) const;
@@ -722,8 +724,8 @@ Spec Parser::run() {
                          ": TOML syntax error: " + std::string(e.description()));
     }
 
-    check_keys(root, "",
-               {"model", "description", "parameters", "axes", "tables", "integration", "output"});
+    check_keys(root, "", {"model", "description", "parameters", "axes", "tables", "recombined",
+                          "integration", "output"});
 
     std::vector<std::string> model_names;
     for (const auto& m : all_models()) model_names.push_back(m.name);
@@ -786,7 +788,103 @@ Spec Parser::run() {
         names.emplace(ts.name, pos_of(t));
         spec.tables.push_back(std::move(ts));
     }
+    if (const toml::array* rs = get_table_array(root, "", "recombined"))
+        for (std::size_t k = 0; k < rs->size(); ++k)
+            spec.recombined.push_back(
+                parse_recombined(*(*rs)[k].as_table(), indexed("recombined", k), spec, names));
     return spec;
+}
+
+RecombinedSpec Parser::parse_recombined(const toml::table& t, const std::string& prefix,
+                                        const Spec& spec,
+                                        std::map<std::string, Pos>& names) const {
+    check_keys(t, prefix, {"name", "description", "parameter", "range", "stored_at", "terms"});
+    const Pos tpos = pos_of(t);
+    RecombinedSpec r;
+    auto name = get_string(t, prefix, "name");
+    if (!name || name->empty())
+        fail(tpos, sub(prefix, "name"), "missing; give the recombined table a name");
+    for (char c : *name)
+        if (!((c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
+              c == '_' || c == '-'))
+            fail(pos_of(*t.get("name")), sub(prefix, "name"),
+                 "invalid table name '" + *name + "'; allowed: letters, digits, '_' and '-'");
+    if (names.count(*name))
+        fail(pos_of(*t.get("name")), sub(prefix, "name"),
+             "duplicate table name '" + *name + "' (used at line " +
+                 std::to_string(names.at(*name).line) + ")");
+    names.emplace(*name, tpos);
+    r.name = *name;
+    if (auto d = get_string(t, prefix, "description")) r.description = *d;
+    auto param = get_string(t, prefix, "parameter");
+    if (!param || param->empty())
+        fail(tpos, sub(prefix, "parameter"), "missing; name the user parameter, e.g. \"rho\"");
+    r.parameter = *param;
+
+    auto number = [&](const toml::node& e, const std::string& key) {
+        if (e.is_integer()) return double(e.as_integer()->get());
+        if (e.is_floating_point()) return e.as_floating_point()->get();
+        fail(pos_of(e), key, "must be a number");
+    };
+    if (const toml::node* rn = t.get("range")) {
+        const toml::array* ra = rn->as_array();
+        const std::string rkey = sub(prefix, "range");
+        if (!ra || ra->size() != 2) fail(pos_of(*rn), rkey, "must be [min, max]");
+        const double lo = number((*ra)[0], indexed(rkey, 0)), hi = number((*ra)[1], indexed(rkey, 1));
+        if (!(lo < hi)) fail(pos_of(*rn), rkey, "min must be less than max");
+        r.range = std::make_pair(lo, hi);
+    }
+    r.stored_at = r.range ? r.range->second : 1.0;
+    if (auto at = get_number(t, prefix, "stored_at")) {
+        if (r.range && (*at < r.range->first || *at > r.range->second))
+            fail(pos_of(*t.get("stored_at")), sub(prefix, "stored_at"),
+                 "value " + num(*at) + " is outside range [" + num(r.range->first) + ", " +
+                     num(r.range->second) + "]");
+        r.stored_at = *at;
+    }
+
+    const toml::array* terms = get_table_array(t, prefix, "terms");
+    if (!terms || terms->empty())
+        fail(tpos, sub(prefix, "terms"),
+             "missing; give [[recombined.terms]] entries with table and coeffs");
+    const TableSpec* first = nullptr;
+    for (std::size_t k = 0; k < terms->size(); ++k) {
+        const std::string tp = indexed(sub(prefix, "terms"), k);
+        const toml::table& term = *(*terms)[k].as_table();
+        check_keys(term, tp, {"table", "coeffs"});
+        auto tname = get_string(term, tp, "table");
+        if (!tname) fail(pos_of(term), sub(tp, "table"), "missing; name a table of this spec");
+        const TableSpec* ts = nullptr;
+        std::vector<std::string> table_names;
+        for (const TableSpec& x : spec.tables) {
+            table_names.push_back(x.name);
+            if (x.name == *tname) ts = &x;
+        }
+        if (!ts)
+            fail(pos_of(*term.get("table")), sub(tp, "table"),
+                 "no table '" + *tname + "' in this spec; allowed: " + join(table_names));
+        if (!first) {
+            first = ts;
+        } else {
+            bool same = first->axes.size() == ts->axes.size();
+            for (std::size_t a = 0; same && a < ts->axes.size(); ++a)
+                same = first->axes[a].name == ts->axes[a].name &&
+                       first->axes[a].values == ts->axes[a].values;
+            if (!same)
+                fail(pos_of(*term.get("table")), sub(tp, "table"),
+                     "table '" + *tname + "' has other axes than '" + first->name +
+                         "'; recombined terms must share every axis and node");
+        }
+        const toml::node* cn = term.get("coeffs");
+        if (!cn || !cn->as_array() || cn->as_array()->empty())
+            fail(cn ? pos_of(*cn) : pos_of(term), sub(tp, "coeffs"),
+                 "must be a non-empty array of numbers: coefficients of p^0, p^1, ...");
+        std::vector<double> coeffs;
+        for (std::size_t j = 0; j < cn->as_array()->size(); ++j)
+            coeffs.push_back(number((*cn->as_array())[j], indexed(sub(tp, "coeffs"), j)));
+        r.terms.emplace_back(*tname, coeffs);
+    }
+    return r;
 }
 
 }  // namespace

@@ -5,7 +5,9 @@
 // or range, so the CLI can print it as is and exit with code 2.
 #pragma once
 
+#include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -34,12 +36,26 @@ struct TableSpec {
     std::vector<Axis> axes;
 };
 
+// A table formed from other tables of the same spec, with no computing of its
+// own: value = sum_k C_k(p) * table_k, C_k polynomials in one user parameter p
+// (e.g. Oren-Nayar's rho * direct + rho^2 * interreflection).  The file stores
+// the recipe (parameters["recombine"], the format brdftab::LookupTable reads)
+// and, as `value`, the recombination at p = stored_at.
+struct RecombinedSpec {
+    std::string name, description;
+    std::string parameter;
+    std::optional<std::pair<double, double>> range;
+    double stored_at = 1;
+    std::vector<std::pair<std::string, std::vector<double>>> terms;  // table, coeffs of p^0, p^1, ...
+};
+
 struct Spec {
     std::string file;  // path as given (for messages); "<string>" when parsed from text
     std::string text;  // the spec's full text (stored in the output file)
     std::string model;
     std::string description;
     std::vector<TableSpec> tables;
+    std::vector<RecombinedSpec> recombined;
     IntegrationSettings integration;
     OutputSettings output;
 };

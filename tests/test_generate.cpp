@@ -131,3 +131,50 @@ samples = 2000
     }
     CHECK(d.total_samples >= 6 * 2000);
 }
+
+TEST_CASE("recombined tables: values at stored_at and the recipe for the lookup") {
+    Spec spec = parse_spec_string(R"(
+model = "rough-dielectric"
+[parameters]
+alpha = 0.4
+eta = 1.5
+[[axes]]
+name = "theta_i"
+range = [0.0, 60.0]
+count = 3
+[[axes]]
+name = "theta_o"
+range = [0.0, 170.0]
+count = 4
+[[tables]]
+quantity = "brdf"
+[[tables]]
+quantity = "btdf"
+[[recombined]]
+name = "mix"
+parameter = "w"
+stored_at = 0.5
+[[recombined.terms]]
+table = "brdf"
+coeffs = [1.0, 2.0]
+[[recombined.terms]]
+table = "btdf"
+coeffs = [0.0, 0.0, 4.0]
+)",
+                                  "mem.toml");
+    auto device = make_backend("", Precision::Double);
+    auto tables = generate_tables(spec, *device, spec.integration);
+    REQUIRE(tables.size() == 3);
+    const TableData& r = tables[0].data;
+    const TableData& t = tables[1].data;
+    const TableData& m = tables[2].data;
+    CHECK(m.name == "mix");
+    CHECK(m.method == "recombined");
+    // At w = 0.5: (1 + 2 w) brdf + 4 w^2 btdf = 2 brdf + btdf.
+    for (std::size_t c = 0; c < m.value.size(); ++c)
+        CHECK(m.value[c] == doctest::Approx(2 * r.value[c] + t.value[c]).epsilon(1e-14));
+    const auto& recipe = m.parameters.at("recombine");
+    CHECK(recipe.at("parameter") == "w");
+    CHECK(recipe.at("terms").size() == 2);
+    CHECK(recipe.at("terms")[1].at("table") == "btdf");
+}

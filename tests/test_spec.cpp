@@ -654,3 +654,70 @@ TEST_CASE("the annotated example in docs/spec.md parses as documented") {
     CHECK(s.output.path == "glass.h5");
     CHECK(s.integration.tolerance == 1e-3);
 }
+
+TEST_CASE("[[recombined]]: recipe parsed; terms must exist and share their axes") {
+    const std::string base = R"(model = "rough-dielectric"
+[parameters]
+alpha = 0.3
+eta = 1.5
+[[axes]]
+name = "theta_i"
+range = [0.0, 80.0]
+count = 3
+[[axes]]
+name = "theta_o"
+range = [0.0, 80.0]
+count = 3
+[[tables]]
+quantity = "brdf"
+[[tables]]
+quantity = "btdf"
+)";
+    const Spec s = parse_spec_string(base + R"([[recombined]]
+name = "sum"
+parameter = "w"
+range = [0.0, 2.0]
+[[recombined.terms]]
+table = "brdf"
+coeffs = [1.0]
+[[recombined.terms]]
+table = "btdf"
+coeffs = [0.0, 1]
+)",
+                                     "spec.toml");
+    REQUIRE(s.recombined.size() == 1);
+    const RecombinedSpec& r = s.recombined[0];
+    CHECK(r.name == "sum");
+    CHECK(r.parameter == "w");
+    REQUIRE(r.range.has_value());
+    CHECK(r.range->second == 2.0);
+    CHECK(r.stored_at == 2.0);  // default: the range's max
+    REQUIRE(r.terms.size() == 2);
+    CHECK(r.terms[1].first == "btdf");
+    CHECK(r.terms[1].second == std::vector<double>{0.0, 1.0});
+
+    // Line numbers: base has 16 lines, the [[recombined]] header is line 17.
+    expect_error(base + "[[recombined]]\nname = \"x\"\nparameter = \"w\"\n[[recombined.terms]]\n"
+                        "table = \"nope\"\ncoeffs = [1.0]\n",
+                 21, "recombined[0].terms[0].table", "allowed: brdf, btdf");
+    expect_error(base + "[[recombined]]\nname = \"brdf\"\nparameter = \"w\"\n", 18,
+                 "recombined[0].name", "duplicate");
+    expect_error(base + "[[recombined]]\nname = \"x\"\n", 17, "recombined[0].parameter",
+                 "missing");
+    expect_error(base + "[[recombined]]\nname = \"x\"\nparameter = \"w\"\nrange = [0.0, 1.0]\n"
+                        "stored_at = 3.0\n[[recombined.terms]]\ntable = \"brdf\"\ncoeffs = [1.0]\n",
+                 21, "recombined[0].stored_at", "outside range");
+    expect_error(base + "[[recombined]]\nname = \"x\"\nparameter = \"w\"\n[[recombined.terms]]\n"
+                        "table = \"brdf\"\ncoeffs = []\n",
+                 22, "recombined[0].terms[0].coeffs", "non-empty");
+    expect_error(base + "[[recombined]]\nname = \"x\"\nparameter = \"w\"\nbogus = 1\n", 20,
+                 "recombined[0].bogus");
+    // Terms on different axes cannot be added cell by cell.
+    expect_error(base + "[[tables]]\nname = \"b2\"\nquantity = \"brdf\"\n[[tables.axes]]\n"
+                        "name = \"theta_i\"\nrange = [0.0, 80.0]\ncount = 4\n[[tables.axes]]\n"
+                        "name = \"theta_o\"\nrange = [0.0, 80.0]\ncount = 3\n"
+                        "[[recombined]]\nname = \"x\"\nparameter = \"w\"\n[[recombined.terms]]\n"
+                        "table = \"brdf\"\ncoeffs = [1.0]\n[[recombined.terms]]\n"
+                        "table = \"b2\"\ncoeffs = [1.0]\n",
+                 35, "recombined[0].terms[1].table", "share every axis");
+}

@@ -218,7 +218,7 @@ void register_generate(CLI::App& app) {
             for (std::size_t a = 0; a < d.axes.size(); ++a)
                 std::cout << (a ? " x " : "") << d.axes[a].name << " " << d.axes[a].count;
             std::cout << "] = " << d.cell_count() << " cells, " << d.method;
-            if (d.method != "closed-form")
+            if (d.method != "closed-form" && d.method != "recombined")
                 std::cout << ", " << format_count(static_cast<double>(d.total_samples))
                           << " samples, max rel. stderr " << d.tolerance_achieved;
             std::cout << ", values in [" << lo << ", " << hi << "], "
