@@ -6,6 +6,8 @@
 // header as OpenEXR parses it, and the file system (nothing written on error).
 #include <doctest/doctest.h>
 
+#include "test_support.h"
+
 #include <ImfChannelList.h>
 #include <ImfFrameBuffer.h>
 #include <ImfHeader.h>
@@ -29,25 +31,9 @@ using namespace brdftab;
 
 namespace {
 
-fs::path scratch_dir(const std::string& sub) {
-    fs::path d = fs::path(BT_BINARY_DIR) / "tmp-test_exr_export" / sub;
-    fs::remove_all(d);
-    fs::create_directories(d);
-    return d;
-}
-
-Axis axis(const std::string& name, const std::string& unit, double lo, double hi,
-          std::size_t n) {
-    Axis a;
-    a.name = name;
-    a.unit = unit;
-    a.min = lo;
-    a.max = hi;
-    a.count = n;
-    a.spacing = Spacing::Linear;
-    for (std::size_t k = 0; k < n; ++k)
-        a.values.push_back(n == 1 ? lo : lo + (hi - lo) * double(k) / double(n - 1));
-    return a;
+fs::path scratch_dir(const std::string& sub) { return test::scratch_dir(BT_BINARY_DIR, "test_exr_export", sub); }
+Axis axis(const std::string& name, const std::string& unit, double lo, double hi, std::size_t n) {
+    return test::linear_axis(name, unit, lo, hi, n);
 }
 
 double f_value(double a, double th, double ph) {

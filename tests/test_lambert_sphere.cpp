@@ -20,6 +20,7 @@
 //    extremes.
 #include <doctest/doctest.h>
 
+#include "test_sampling.h"
 #include "test_support.h"
 
 #include <cmath>
@@ -35,9 +36,13 @@ using namespace brdftab;
 namespace {
 
 using brdftab::test::gauss_legendre;
+using Stat = brdftab::test::RunningStat;
+
+bt_sampler mc_sampler(uint cell, uint sample) {
+    return brdftab::test::mc_sampler(0xABCDu, 0x1234u, cell, sample);
+}
 
 const double kPi = 3.14159265358979323846;
-
 
 // eq. 1 written in the scattering angle: p = 2(sin th - th cos th)/(3 pi^2).
 double phase_theta(double th) { return 2 * (std::sin(th) - th * std::cos(th)) / (3 * kPi * kPi); }
@@ -64,29 +69,6 @@ double legendre(int n, double x) {
     }
     return p1;
 }
-
-bt_sampler mc_sampler(uint cell, uint sample) {
-    bt_sampler s;
-    s.key0 = 0xABCDu;
-    s.key1 = 0x1234u;
-    s.cell = cell;
-    s.batch = 0;
-    s.sample = sample;
-    s.method = BT_METHOD_MC;
-    return s;
-}
-
-struct Stat {
-    double mean = 0, m2 = 0;
-    long n = 0;
-    void add(double x) {
-        ++n;
-        double d = x - mean;
-        mean += d / n;
-        m2 += d * (x - mean);
-    }
-    double se() const { return std::sqrt(m2 / (n - 1) / n); }
-};
 
 // p[] for lambert_sphere_sample (radians).
 std::vector<REAL> point(double ti, double to, double phi, double c, int order = 0,

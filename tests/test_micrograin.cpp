@@ -8,6 +8,7 @@
 // the Boolean-model coverage 1 - (1 - tau0)^(1 - h^2)).
 #include <doctest/doctest.h>
 
+#include "test_sampling.h"
 #include "test_support.h"
 
 #include <algorithm>
@@ -71,6 +72,8 @@ RasterAreas raster(bt_vec3 i, bt_vec3 o, double h, double bx, double by, double 
     return r;
 }
 
+bt_sampler mc(uint cell, uint sample) { return brdftab::test::mc_sampler(0x1234u, 0x9876u, cell, sample); }
+
 // Gauss-Legendre nodes on [0, 1], from the shared rule on [-1, 1].
 void gauss_legendre(int n, std::vector<double>& x, std::vector<double>& w)
 {
@@ -119,18 +122,6 @@ struct Pt {
         return *this;
     }
 };
-
-bt_sampler mc(uint cell, uint sample)
-{
-    bt_sampler s;
-    s.key0 = 0x1234u;
-    s.key1 = 0x9876u;
-    s.cell = cell;
-    s.batch = 0;
-    s.sample = sample;
-    s.method = BT_METHOD_MC;
-    return s;
-}
 
 }  // namespace
 

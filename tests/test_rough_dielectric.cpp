@@ -7,12 +7,19 @@
 // against the importance-sampled albedo estimator.
 #include <doctest/doctest.h>
 
+#include "test_sampling.h"
+#include "test_support.h"
+
 #include <cmath>
 #include <vector>
 
 #include "models/rough_dielectric.h"
 
 namespace {
+
+using Stat = brdftab::test::RunningStat;
+
+bt_sampler mc(uint cell, uint sample) { return brdftab::test::mc_sampler(0xC0FFEEu, 0x5EEDu, cell, sample); }
 
 const double kPi = 3.14159265358979323846;
 const double kDeg = kPi / 180;
@@ -26,31 +33,6 @@ double fresnel_sp(double ci, double eta)
     double rp = (eta * ci - ct) / (eta * ci + ct);
     return 0.5 * (rs * rs + rp * rp);
 }
-
-bt_sampler mc(uint cell, uint sample)
-{
-    bt_sampler s;
-    s.key0 = 0xC0FFEEu;
-    s.key1 = 0x5EEDu;
-    s.cell = cell;
-    s.batch = 0;
-    s.sample = sample;
-    s.method = BT_METHOD_MC;
-    return s;
-}
-
-struct Stat {
-    double mean = 0, m2 = 0;
-    long n = 0;
-    void add(double x)
-    {
-        ++n;
-        double d = x - mean;
-        mean += d / n;
-        m2 += d * (x - mean);
-    }
-    double stderr_() const { return n > 1 ? std::sqrt(m2 / (n - 1) / n) : 0; }
-};
 
 // Mean of quantity q over n MC samples.
 Stat estimate(const double* p, const int* o, int q, int n, uint cell)
@@ -153,10 +135,10 @@ TEST_CASE("albedo estimators (visible and Walter sampling) agree with brute-forc
                 Stat et = estimate(p, o, RD_Q_ALBEDO_T, 40000, 7 + c.dist);
                 INFO("dist " << c.dist << " g1 " << c.g1 << " sh " << c.sh << " sampling "
                              << sampling << " theta_i " << ti_deg << " quad R " << R << " T " << T
-                             << " est R " << er.mean << " +- " << er.stderr_() << " T " << et.mean
-                             << " +- " << et.stderr_());
-                CHECK(std::fabs(er.mean - R) < 5 * er.stderr_() + 3e-4);
-                CHECK(std::fabs(et.mean - T) < 5 * et.stderr_() + 3e-4);
+                             << " est R " << er.mean << " +- " << er.se() << " T " << et.mean
+                             << " +- " << et.se());
+                CHECK(std::fabs(er.mean - R) < 5 * er.se() + 3e-4);
+                CHECK(std::fabs(et.mean - T) < 5 * et.se() + 3e-4);
             }
         }
 }
@@ -189,7 +171,7 @@ TEST_CASE("energy: albedo_r + albedo_t <= 1")
                         }
                         INFO("dist " << dist << " alpha " << alpha << " eta " << eta << " theta "
                                      << ti_deg << " R+T " << st.mean);
-                        CHECK(st.mean <= 1 + 4 * st.stderr_());
+                        CHECK(st.mean <= 1 + 4 * st.se());
                         CHECK(st.mean > 0);
                     }
 }
@@ -257,10 +239,10 @@ TEST_CASE("visible and Walter sampling estimate the same albedos")
                     uint cell = (uint)(dist * 1000 + alpha * 10 + ti_deg);
                     Stat v = estimate(p, ov, q, 10000, cell);
                     Stat w = estimate(p, ow, q, 40000, cell + 50000);
-                    double tol = 5 * std::sqrt(v.stderr_() * v.stderr_() + w.stderr_() * w.stderr_());
+                    double tol = 5 * std::sqrt(v.se() * v.se() + w.se() * w.se());
                     INFO("dist " << dist << " alpha " << alpha << " theta " << ti_deg << " q " << q
-                                 << " visible " << v.mean << " +- " << v.stderr_() << " walter "
-                                 << w.mean << " +- " << w.stderr_());
+                                 << " visible " << v.mean << " +- " << v.se() << " walter "
+                                 << w.mean << " +- " << w.se());
                     CHECK(std::fabs(v.mean - w.mean) < tol + 1e-3);
                     // (No check that visible sampling has the smaller spread: it
                     // is not a theorem; measured, it loses slightly for reflection
@@ -309,9 +291,9 @@ TEST_CASE("GGX alpha = 1, normal incidence, F = 1: albedo = 1 - ln 2")
             CHECK(wt == 0.0);
             st.add(wr);
         }
-        INFO("sampling " << sampling << " estimate " << st.mean << " +- " << st.stderr_());
-        CHECK(std::fabs(st.mean - (1 - std::log(2.0))) < 4.5 * st.stderr_());
-        CHECK(st.stderr_() < 2e-3);
+        INFO("sampling " << sampling << " estimate " << st.mean << " +- " << st.se());
+        CHECK(std::fabs(st.mean - (1 - std::log(2.0))) < 4.5 * st.se());
+        CHECK(st.se() < 2e-3);
     }
 }
 
@@ -337,7 +319,7 @@ TEST_CASE("eta = 1: no reflection, transmission straight through")
                     double expect = sh == BT_SHADOW_SEPARABLE ? g1 : (1 + lam) / (1 + 2 * lam);
                     INFO("dist " << dist << " sh " << sh << " alpha " << alpha << " theta "
                                  << ti_deg << " T " << t.mean << " expect " << expect);
-                    CHECK(std::fabs(t.mean - expect) < 5 * t.stderr_() + 1e-9);
+                    CHECK(std::fabs(t.mean - expect) < 5 * t.se() + 1e-9);
                     if (alpha < 0.01) CHECK(t.mean == doctest::Approx(1.0).epsilon(1e-3));
                     // The BTDF of eta = 1 is a Dirac delta: documented as 0 everywhere.
                     double q[6] = {ti_deg * kDeg, 0.2, kPi - ti_deg * kDeg, 0.2 + kPi, alpha, 1.0};
@@ -368,8 +350,8 @@ TEST_CASE("albedo_avg: smooth-limit hemispherical reflectances and their identit
         Stat b = estimate(p, in_r, RD_Q_ALBEDO_AVG, 100000, 22);
         Stat c = estimate(p, out_both, RD_Q_ALBEDO_AVG, 20000, 23);
         INFO("re " << re << " est " << a.mean << "; ri " << ri << " est " << b.mean);
-        CHECK(std::fabs(a.mean - re) < 5 * a.stderr_() + 1e-3);
-        CHECK(std::fabs(b.mean - ri) < 5 * b.stderr_() + 1e-3);
+        CHECK(std::fabs(a.mean - re) < 5 * a.se() + 1e-3);
+        CHECK(std::fabs(b.mean - ri) < 5 * b.se() + 1e-3);
         CHECK(c.mean == doctest::Approx(1.0).epsilon(2e-3));
     }
 }

@@ -7,6 +7,8 @@
 // and h5py through scripts/read_table.py (a reader that shares no code).
 #include <doctest/doctest.h>
 
+#include "test_support.h"
+
 #include <hdf5.h>
 #include <hdf5_hl.h>
 
@@ -33,27 +35,8 @@ using namespace brdftab;
 
 namespace {
 
-fs::path scratch_dir(const std::string& sub) {
-    fs::path d = fs::path(BT_BINARY_DIR) / "tmp-test_table_io" / sub;
-    fs::remove_all(d);
-    fs::create_directories(d);
-    return d;
-}
-
-// Axis filled by hand (make_axis belongs to the grid module under test elsewhere).
-Axis lin_axis(const std::string& name, const std::string& unit, double lo, double hi,
-              std::size_t n) {
-    Axis a;
-    a.name = name;
-    a.unit = unit;
-    a.min = lo;
-    a.max = hi;
-    a.count = n;
-    a.spacing = Spacing::Linear;
-    for (std::size_t k = 0; k < n; ++k)
-        a.values.push_back(n == 1 ? lo : lo + (hi - lo) * double(k) / double(n - 1));
-    return a;
-}
+fs::path scratch_dir(const std::string& sub) { return test::scratch_dir(BT_BINARY_DIR, "test_table_io", sub); }
+using test::linear_axis;
 
 // A smooth analytic 3-D table with stderr and samples.
 TableData smooth_table(std::size_t n0, std::size_t n1, std::size_t n2, StoredType st) {
@@ -65,11 +48,11 @@ TableData smooth_table(std::size_t n0, std::size_t n1, std::size_t n2, StoredTyp
     t.description = "test table \u00b5 \u03b8";  // non-ASCII: UTF-8 must survive
     t.parameters = {{"eta", 1.5}, {"alpha", 0.25}, {"distribution", "ggx"},
                     {"nested", {{"list", {1, 2, 3}}}}};
-    t.axes.push_back(lin_axis("alpha", "1", 0.05, 1.0, n0));
-    Axis th = lin_axis("theta_i", "deg", 0.0, 89.0, n1);
+    t.axes.push_back(linear_axis("alpha", "1", 0.05, 1.0, n0));
+    Axis th = linear_axis("theta_i", "deg", 0.0, 89.0, n1);
     th.spacing = Spacing::Cos;  // values need not follow the spacing for storage
     t.axes.push_back(th);
-    t.axes.push_back(lin_axis("phi_d", "deg", 0.0, 180.0, n2));
+    t.axes.push_back(linear_axis("phi_d", "deg", 0.0, 180.0, n2));
     const std::size_t n = n0 * n1 * n2;
     t.value.resize(n);
     t.stderr_.resize(n);
