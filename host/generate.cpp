@@ -1,6 +1,9 @@
 #include "generate.h"
 
+#include <algorithm>
 #include <cmath>
+#include <optional>
+#include <sstream>
 
 #include "error.h"
 
@@ -124,6 +127,162 @@ GeneratedTable recombine(const RecombinedSpec& rs, const std::vector<GeneratedTa
     return g;
 }
 
+const TableData& find_done(const std::vector<GeneratedTable>& done, const std::string& name,
+                           const std::string& user) {
+    for (const GeneratedTable& t : done)
+        if (t.data.name == name) return t.data;
+    throw Error(user + ": table '" + name + "' missing");
+}
+
+std::string format_cell(const std::vector<Axis>& axes, const std::vector<double>& at) {
+    std::ostringstream s;
+    s.precision(6);
+    for (std::size_t a = 0; a < axes.size(); ++a) s << (a ? ", " : "") << axes[a].name << " = " << at[a];
+    return s.str();
+}
+
+// An [[errors]] table: (table - reference) / max(|reference|, floor) or
+// table - reference, cell by cell.  Standard error by first-order propagation
+// with the two tables independent: for e = t/r - 1,
+//   var(e) = var(t)/r^2 + t^2 var(r)/r^4.
+GeneratedTable compare(const ErrorTableSpec& es, const std::vector<GeneratedTable>& done,
+                       const Spec& spec) {
+    const std::string user = spec.file + ": errors table '" + es.name + "'";
+    const TableData& t = find_done(done, es.table, user);
+    const TableData& r = find_done(done, es.reference, user);
+    if (t.value.size() != r.value.size()) throw Error(user + ": tables differ in size");
+    GeneratedTable g;
+    TableData& d = g.data;
+    d.name = es.name;
+    d.model = t.model;
+    d.quantity = "error";
+    d.method = "error";
+    d.units = es.relative ? "1" : t.units;
+    d.description = !es.description.empty()
+                        ? es.description
+                        : std::string(es.relative ? "relative" : "absolute") + " error of '" +
+                              es.table + "' against '" + es.reference + "'";
+    d.axes = t.axes;
+    d.seed = r.seed;
+    d.precision = r.precision;
+    d.device = r.device;
+    d.version = r.version;
+    d.spec_file = r.spec_file;
+    d.stored_type = spec.output.stored_type;
+    d.compression = spec.output.compression;
+    const bool t_err = t.stderr_.size() == t.value.size();
+    const bool r_err = r.stderr_.size() == r.value.size();
+    const std::size_t n = t.value.size();
+    d.value.resize(n);
+    d.stderr_.resize(n);
+    const Grid grid(d.axes);
+    auto cell_values = [&](std::size_t cell) { return grid.coordinates(cell); };
+    for (std::size_t c = 0; c < n; ++c) {
+        const double tv = t.value[c], rv = r.value[c];
+        const double st = t_err ? t.stderr_[c] : 0.0, sr = r_err ? r.stderr_[c] : 0.0;
+        if (!es.relative) {
+            d.value[c] = tv - rv;
+            d.stderr_[c] = std::sqrt(st * st + sr * sr);
+            continue;
+        }
+        const double den = std::max(std::fabs(rv), es.floor);
+        if (den == 0) {
+            if (tv != 0)
+                throw InputError(user + ": the reference '" + es.reference + "' is 0 at " +
+                                 format_cell(d.axes, cell_values(c)) + " where '" + es.table +
+                                 "' is " + std::to_string(tv) +
+                                 "; a relative error is undefined there: give floor = (a "
+                                 "value > 0; the denominator is max(|reference|, floor)) or "
+                                 "measure = \"absolute\"");
+            d.value[c] = 0;
+            d.stderr_[c] = 0;
+            continue;
+        }
+        d.value[c] = (tv - rv) / den;
+        // d e / d r = -t/r^2 while |r| > floor; 1/floor below it.
+        const double dr = std::fabs(rv) > es.floor ? std::fabs(tv) / (rv * rv) : 1.0 / den;
+        d.stderr_[c] = std::sqrt(st * st / (den * den) + dr * dr * sr * sr);
+    }
+    d.keep_stderr = spec.output.keep_stderr && (t_err || r_err);
+    d.elapsed_seconds = 0;
+
+    // Summary.
+    ErrorSummary sum;
+    sum.table = es.table;
+    sum.reference = es.reference;
+    sum.measure = es.relative ? "relative" : "absolute";
+    sum.cells = n;
+    std::size_t by_axis = d.axes.size();
+    for (std::size_t a = 0; a < d.axes.size(); ++a)
+        if (d.axes[a].name == es.by) by_axis = a;
+    std::vector<double> by_sq, by_max;
+    std::vector<std::size_t> by_count;
+    if (by_axis < d.axes.size()) {
+        sum.by = es.by;
+        by_sq.assign(d.axes[by_axis].count, 0.0);
+        by_max.assign(d.axes[by_axis].count, 0.0);
+        by_count.assign(d.axes[by_axis].count, 0);
+    }
+    double sq = 0, total = 0;
+    std::size_t used = 0, worst = n;
+    std::vector<double> noise;
+    for (std::size_t c = 0; c < n; ++c) {
+        const double e = d.value[c];
+        if (!std::isfinite(e)) {
+            ++sum.nonfinite;
+            continue;
+        }
+        ++used;
+        sq += e * e;
+        total += e;
+        if (worst == n || std::fabs(e) > sum.max_abs) sum.max_abs = std::fabs(e), worst = c;
+        noise.push_back(d.stderr_[c]);
+        if (std::fabs(e) > 2 * d.stderr_[c]) ++sum.beyond_2sigma;
+        if (by_axis < d.axes.size()) {
+            const std::size_t k = grid.index_of(c)[by_axis];
+            by_sq[k] += e * e;
+            by_max[k] = std::max(by_max[k], std::fabs(e));
+            ++by_count[k];
+        }
+    }
+    if (used) {
+        sum.rms = std::sqrt(sq / double(used));
+        sum.mean = total / double(used);
+        sum.worst = cell_values(worst);
+        std::nth_element(noise.begin(), noise.begin() + noise.size() / 2, noise.end());
+        sum.median_stderr = noise[noise.size() / 2];
+    }
+    for (std::size_t k = 0; k < by_sq.size(); ++k)
+        sum.by_nodes.push_back({d.axes[by_axis].values[k], by_max[k],
+                                by_count[k] ? std::sqrt(by_sq[k] / double(by_count[k])) : 0.0});
+
+    nlohmann::json j = {{"table", es.table},
+                        {"reference", es.reference},
+                        {"measure", sum.measure},
+                        {"cells", sum.cells},
+                        {"nonfinite", sum.nonfinite},
+                        {"max_abs", sum.max_abs},
+                        {"rms", sum.rms},
+                        {"mean", sum.mean},
+                        {"median_stderr", sum.median_stderr},
+                        {"beyond_2sigma", sum.beyond_2sigma}};
+    if (es.relative) j["floor"] = es.floor;
+    nlohmann::json w = nlohmann::json::object();
+    for (std::size_t a = 0; a < sum.worst.size(); ++a) w[d.axes[a].name] = sum.worst[a];
+    j["worst"] = w;
+    if (!sum.by.empty()) {
+        j["by"] = sum.by;
+        nlohmann::json nodes = nlohmann::json::array();
+        for (const auto& nd : sum.by_nodes)
+            nodes.push_back({{sum.by, nd.value}, {"max_abs", nd.max_abs}, {"rms", nd.rms}});
+        j["by_nodes"] = nodes;
+    }
+    d.parameters = nlohmann::json::object();
+    d.parameters["comparison"] = j;
+    g.error = std::move(sum);
+    return g;
+}
+
 }  // namespace
 
 std::vector<GeneratedTable> generate_tables(const Spec& spec, Backend& backend,
@@ -136,7 +295,13 @@ std::vector<GeneratedTable> generate_tables(const Spec& spec, Backend& backend,
         const QuantityInfo& q = model.quantity(ts.quantity);
         const std::vector<int> options =
             resolve_options(model, ts.options, spec.file + ": table '" + ts.name + "'");
-        CellPoints points(model, q, ts);
+        std::optional<CellPoints> built;
+        try {
+            built.emplace(model, q, ts);
+        } catch (const InputError& e) {
+            throw InputError(spec.file + ": table '" + ts.name + "': " + e.what());
+        }
+        const CellPoints& points = *built;
         ProgressFn cb;
         if (progress)
             cb = [&](const Progress& p) {
@@ -192,6 +357,7 @@ std::vector<GeneratedTable> generate_tables(const Spec& spec, Backend& backend,
         out.push_back(std::move(g));
     }
     for (const RecombinedSpec& rs : spec.recombined) out.push_back(recombine(rs, out, spec));
+    for (const ErrorTableSpec& es : spec.errors) out.push_back(compare(es, out, spec));
     return out;
 }
 

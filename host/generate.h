@@ -2,6 +2,7 @@
 #pragma once
 
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -18,12 +19,32 @@ struct GenerateEvent {
 };
 using GenerateProgressFn = std::function<void(const GenerateEvent&)>;
 
+// What an [[errors]] table found (also stored in its parameters["comparison"]).
+struct ErrorSummary {
+    std::string table, reference, measure;  // measure: "relative" | "absolute"
+    std::size_t cells = 0;
+    std::size_t nonfinite = 0;      // cells where either table is NaN/inf (left out below)
+    double max_abs = 0;             // largest |error|
+    double rms = 0;                 // root mean square error
+    double mean = 0;                // mean signed error (bias)
+    std::vector<double> worst;      // axis values of the cell with the largest |error|
+    double median_stderr = 0;       // median standard error of the error: the noise level
+    std::size_t beyond_2sigma = 0;  // cells whose |error| exceeds 2 standard errors
+    struct Node {
+        double value = 0, max_abs = 0, rms = 0;
+    };
+    std::string by;              // the spec's `by` axis, or empty
+    std::vector<Node> by_nodes;  // one per node of `by`
+};
+
 struct GeneratedTable {
     TableData data;
     std::size_t cells_unconverged = 0;
+    std::optional<ErrorSummary> error;  // set for [[errors]] tables
 };
 
-// Computes every table of `spec` with `settings` (the spec's integration
+// Computes every table of `spec` with `settings` (then its [[recombined]] and
+// [[errors]] tables, in that order) (the spec's integration
 // settings with any command-line overrides applied).
 std::vector<GeneratedTable> generate_tables(const Spec& spec, Backend& backend,
                                             const IntegrationSettings& settings,

@@ -205,6 +205,7 @@ void PointBuilder::build(const std::map<std::string, double>& values,
     out[1] = phi_i ? *phi_i * kDegToRad : 0.0;
     out[3] = phi_o ? *phi_o * kDegToRad : out[1] + (phi_d ? *phi_d * kDegToRad : 0.0);
 
+    std::map<std::string, double> params;  // every parameter, for model_.check_point
     for (std::size_t k = 0; k < model_.parameters.size(); ++k) {
         const ParameterInfo& p = model_.parameters[k];
         double v;
@@ -216,6 +217,11 @@ void PointBuilder::build(const std::map<std::string, double>& values,
             throw InputError("model '" + model_.name + "' needs parameter '" + p.name +
                              "' (allowed " + p.range_text() + ")");
         out[kDirectionSlots + k] = p.in_degrees ? v * kDegToRad : v;
+        params[p.name] = v;
+    }
+    if (model_.check_point) {
+        const std::string problem = model_.check_point(quantity_, params);
+        if (!problem.empty()) throw InputError(problem);
     }
 }
 

@@ -80,6 +80,12 @@ struct ModelInfo {
     std::vector<OptionInfo> options;
     std::vector<QuantityInfo> quantities;
     HostSampleFn host_fn = nullptr;
+    // Optional check across parameters that a per-parameter range cannot
+    // express (e.g. lambert-sphere's tail_order > max_order).  `params` holds
+    // every parameter's value (given or default, user units); returns an error
+    // text, or empty when the point is valid.  PointBuilder::build calls it.
+    std::string (*check_point)(const QuantityInfo& q,
+                               const std::map<std::string, double>& params) = nullptr;
 
     const QuantityInfo* find_quantity(const std::string& name) const;
     const ParameterInfo* find_parameter(const std::string& name) const;

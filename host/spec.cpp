@@ -121,6 +121,14 @@ std::string depends_text(const QuantityInfo& q) {
     return "it depends on " + join(q.directions);
 }
 
+// Tables combined cell by cell must have the same axes and nodes.
+bool same_axes(const TableSpec& a, const TableSpec& b) {
+    bool same = a.axes.size() == b.axes.size();
+    for (std::size_t k = 0; same && k < a.axes.size(); ++k)
+        same = a.axes[k].name == b.axes[k].name && a.axes[k].values == b.axes[k].values;
+    return same;
+}
+
 class Parser {
 public:
     Parser(std::string file, std::string text) : file_(std::move(file)), text_(std::move(text)) {}
@@ -176,6 +184,16 @@ private:
     void parse_output(const toml::table& t, OutputSettings& o) const;
     RecombinedSpec parse_recombined(const toml::table& t, const std::string& prefix,
                                     const Spec& spec, std::map<std::string, Pos>& names) const;
+    ErrorTableSpec parse_error_table(const toml::table& t, const std::string& prefix,
+                                     const Spec& spec, std::map<std::string, Pos>& names) const;
+    // The `name` of a table formed from others: present, valid, unique.
+    std::string derived_name(const toml::table& t, const std::string& prefix,
+                             std::map<std::string, Pos>& names, const char* what) const;
+    // The table a string key names: a [[tables]] entry (for recombined terms),
+    // or also a [[recombined]] one (then its first term's axes and quantity).
+    const TableSpec& source_table(const toml::table& t, const std::string& prefix,
+                                  const char* key, const Spec& spec, bool allow_recombined,
+                                  const std::string& hint) const;
     TableSpec build_table(const toml::table& t, const std::string& prefix,
                           const Block& global_params, const std::vector<AxisSrc>& global_axes,
                           const IntegrationSettings& integration, Pos method_pos) const;
@@ -725,7 +743,7 @@ Spec Parser::run() {
     }
 
     check_keys(root, "", {"model", "description", "parameters", "axes", "tables", "recombined",
-                          "integration", "output"});
+                          "errors", "integration", "output"});
 
     std::vector<std::string> model_names;
     for (const auto& m : all_models()) model_names.push_back(m.name);
@@ -792,18 +810,18 @@ Spec Parser::run() {
         for (std::size_t k = 0; k < rs->size(); ++k)
             spec.recombined.push_back(
                 parse_recombined(*(*rs)[k].as_table(), indexed("recombined", k), spec, names));
+    if (const toml::array* es = get_table_array(root, "", "errors"))
+        for (std::size_t k = 0; k < es->size(); ++k)
+            spec.errors.push_back(
+                parse_error_table(*(*es)[k].as_table(), indexed("errors", k), spec, names));
     return spec;
 }
 
-RecombinedSpec Parser::parse_recombined(const toml::table& t, const std::string& prefix,
-                                        const Spec& spec,
-                                        std::map<std::string, Pos>& names) const {
-    check_keys(t, prefix, {"name", "description", "parameter", "range", "stored_at", "terms"});
-    const Pos tpos = pos_of(t);
-    RecombinedSpec r;
+std::string Parser::derived_name(const toml::table& t, const std::string& prefix,
+                                 std::map<std::string, Pos>& names, const char* what) const {
     auto name = get_string(t, prefix, "name");
     if (!name || name->empty())
-        fail(tpos, sub(prefix, "name"), "missing; give the recombined table a name");
+        fail(pos_of(t), sub(prefix, "name"), std::string("missing; give the ") + what + " a name");
     for (char c : *name)
         if (!((c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
               c == '_' || c == '-'))
@@ -813,8 +831,92 @@ RecombinedSpec Parser::parse_recombined(const toml::table& t, const std::string&
         fail(pos_of(*t.get("name")), sub(prefix, "name"),
              "duplicate table name '" + *name + "' (used at line " +
                  std::to_string(names.at(*name).line) + ")");
-    names.emplace(*name, tpos);
-    r.name = *name;
+    names.emplace(*name, pos_of(t));
+    return *name;
+}
+
+const TableSpec& Parser::source_table(const toml::table& t, const std::string& prefix,
+                                      const char* key, const Spec& spec, bool allow_recombined,
+                                      const std::string& hint) const {
+    auto tname = get_string(t, prefix, key);
+    if (!tname) fail(pos_of(t), sub(prefix, key), "missing; " + hint);
+    std::vector<std::string> allowed;
+    for (const TableSpec& x : spec.tables) {
+        allowed.push_back(x.name);
+        if (x.name == *tname) return x;
+    }
+    if (allow_recombined)
+        for (const RecombinedSpec& r : spec.recombined) {
+            allowed.push_back(r.name);
+            if (r.name == *tname)
+                for (const TableSpec& x : spec.tables)  // terms were checked to exist
+                    if (x.name == r.terms.front().first) return x;
+        }
+    fail(pos_of(*t.get(key)), sub(prefix, key),
+         "no table '" + *tname + "' in this spec; allowed: " + join(allowed));
+}
+
+ErrorTableSpec Parser::parse_error_table(const toml::table& t, const std::string& prefix,
+                                         const Spec& spec,
+                                         std::map<std::string, Pos>& names) const {
+    check_keys(t, prefix, {"name", "description", "table", "reference", "measure", "floor", "by"});
+    ErrorTableSpec e;
+    e.name = derived_name(t, prefix, names, "error table");
+    if (auto d = get_string(t, prefix, "description")) e.description = *d;
+    const TableSpec& approx = source_table(t, prefix, "table", spec, true,
+                                           "name the table to measure, e.g. \"brdf_fit\"");
+    const TableSpec& ref = source_table(t, prefix, "reference", spec, true,
+                                        "name the reference table, e.g. \"brdf_mc\"");
+    e.table = *get_string(t, prefix, "table");
+    e.reference = *get_string(t, prefix, "reference");
+    const Pos rpos = pos_of(*t.get("reference"));
+    if (e.table == e.reference)
+        fail(rpos, sub(prefix, "reference"),
+             "'" + e.reference + "' is also the measured table; name a different reference");
+    if (!same_axes(approx, ref))
+        fail(rpos, sub(prefix, "reference"),
+             "table '" + e.reference + "' has other axes than '" + e.table +
+                 "'; compared tables must share every axis and node");
+    const std::string ua = model_->quantity(approx.quantity).units;
+    const std::string ur = model_->quantity(ref.quantity).units;
+    if (ua != ur)
+        fail(rpos, sub(prefix, "reference"),
+             "'" + e.table + "' is in " + ua + " but '" + e.reference + "' in " + ur +
+                 "; compared tables must have the same units");
+    if (auto m = get_string(t, prefix, "measure")) {
+        if (*m != "relative" && *m != "absolute")
+            fail(pos_of(*t.get("measure")), sub(prefix, "measure"),
+                 "unknown measure '" + *m + "'; allowed: relative, absolute");
+        e.relative = *m == "relative";
+    }
+    if (auto f = get_number(t, prefix, "floor")) {
+        if (!(*f >= 0) || !std::isfinite(*f))
+            fail(pos_of(*t.get("floor")), sub(prefix, "floor"),
+                 "value " + num(*f) + " is out of range; allowed: a number >= 0");
+        if (!e.relative)
+            fail(pos_of(*t.get("floor")), sub(prefix, "floor"),
+                 "applies to measure = \"relative\" only");
+        e.floor = *f;
+    }
+    if (auto by = get_string(t, prefix, "by")) {
+        std::vector<std::string> axis_names;
+        for (const Axis& a : approx.axes) axis_names.push_back(a.name);
+        if (std::find(axis_names.begin(), axis_names.end(), *by) == axis_names.end())
+            fail(pos_of(*t.get("by")), sub(prefix, "by"),
+                 "'" + *by + "' is not an axis of '" + e.table + "'; allowed: " +
+                     join(axis_names));
+        e.by = *by;
+    }
+    return e;
+}
+
+RecombinedSpec Parser::parse_recombined(const toml::table& t, const std::string& prefix,
+                                        const Spec& spec,
+                                        std::map<std::string, Pos>& names) const {
+    check_keys(t, prefix, {"name", "description", "parameter", "range", "stored_at", "terms"});
+    const Pos tpos = pos_of(t);
+    RecombinedSpec r;
+    r.name = derived_name(t, prefix, names, "recombined table");
     if (auto d = get_string(t, prefix, "description")) r.description = *d;
     auto param = get_string(t, prefix, "parameter");
     if (!param || param->empty())
@@ -852,28 +954,15 @@ RecombinedSpec Parser::parse_recombined(const toml::table& t, const std::string&
         const std::string tp = indexed(sub(prefix, "terms"), k);
         const toml::table& term = *(*terms)[k].as_table();
         check_keys(term, tp, {"table", "coeffs"});
-        auto tname = get_string(term, tp, "table");
-        if (!tname) fail(pos_of(term), sub(tp, "table"), "missing; name a table of this spec");
-        const TableSpec* ts = nullptr;
-        std::vector<std::string> table_names;
-        for (const TableSpec& x : spec.tables) {
-            table_names.push_back(x.name);
-            if (x.name == *tname) ts = &x;
-        }
-        if (!ts)
-            fail(pos_of(*term.get("table")), sub(tp, "table"),
-                 "no table '" + *tname + "' in this spec; allowed: " + join(table_names));
+        const TableSpec* ts =
+            &source_table(term, tp, "table", spec, false, "name a table of this spec");
+        const std::string* tname = &ts->name;
         if (!first) {
             first = ts;
-        } else {
-            bool same = first->axes.size() == ts->axes.size();
-            for (std::size_t a = 0; same && a < ts->axes.size(); ++a)
-                same = first->axes[a].name == ts->axes[a].name &&
-                       first->axes[a].values == ts->axes[a].values;
-            if (!same)
-                fail(pos_of(*term.get("table")), sub(tp, "table"),
-                     "table '" + *tname + "' has other axes than '" + first->name +
-                         "'; recombined terms must share every axis and node");
+        } else if (!same_axes(*first, *ts)) {
+            fail(pos_of(*term.get("table")), sub(tp, "table"),
+                 "table '" + *tname + "' has other axes than '" + first->name +
+                     "'; recombined terms must share every axis and node");
         }
         const toml::node* cn = term.get("coeffs");
         if (!cn || !cn->as_array() || cn->as_array()->empty())

@@ -49,6 +49,21 @@ struct RecombinedSpec {
     std::vector<std::pair<std::string, std::vector<double>>> terms;  // table, coeffs of p^0, p^1, ...
 };
 
+// A table comparing two tables of the same spec cell by cell, with no
+// computing of its own (e.g. an analytic model against its Monte Carlo
+// reference).  relative: (table - reference) / max(|reference|, floor);
+// absolute: table - reference.  The standard error is propagated from both
+// tables, treated as independent.  The file stores the recipe and a summary
+// (max |error|, RMS, worst cell, cells beyond 2 standard errors, and per node
+// of the `by` axis) in parameters["comparison"].
+struct ErrorTableSpec {
+    std::string name, description;
+    std::string table, reference;
+    bool relative = true;
+    double floor = 0;
+    std::string by;  // axis name for the per-node summary; empty: none
+};
+
 struct Spec {
     std::string file;  // path as given (for messages); "<string>" when parsed from text
     std::string text;  // the spec's full text (stored in the output file)
@@ -56,6 +71,7 @@ struct Spec {
     std::string description;
     std::vector<TableSpec> tables;
     std::vector<RecombinedSpec> recombined;
+    std::vector<ErrorTableSpec> errors;
     IntegrationSettings integration;
     OutputSettings output;
 };

@@ -3,7 +3,7 @@
 
 Inputs are files written by `brdftab generate`:
   --slices  tables/lambert-sphere-slices.toml  -> in-plane slices figure (like d'Eon's Fig. 5)
-  --brdf    tables/lambert-sphere-brdf.toml    -> Markdown table of max/RMS errors vs Monte Carlo
+  --brdf    tables/lambert-sphere-brdf.toml    -> Markdown table of its error tables' max/RMS
   --modes   tables/lambert-sphere-modes.toml   -> Fourier-mode comparison (eq. 28 factor)
   --hfunc   tables/hfunction-h.toml            -> H-function figure
 Any subset may be given.  Run with Debian's /usr/bin/python3 (h5py, numpy, matplotlib).
@@ -45,7 +45,7 @@ def plot_slices(path, out):
 
     fig, axs = plt.subplots(len(cs), len(ti), figsize=(3.2 * len(ti), 2.7 * len(cs)), squeeze=False)
     styles = {
-        "brdf_analytic": dict(color="C0", lw=1.6, label="analytic (exact H, eqs. 9-38)"),
+        "brdf_analytic": dict(color="C0", lw=1.6, label="analytic (exact H and constants, eqs. 9-38)"),
         "brdf_fit": dict(color="C1", lw=1.3, ls="--", label="all fitted (cos φ ×2, H1 'power')"),
         "brdf_paper": dict(color="C3", lw=1.0, ls="-.", label="paper as printed (cos φ ×1)"),
         "brdf_fast": dict(color="C2", lw=1.2, ls=":", label="fast (eq. 41)"),
@@ -75,53 +75,70 @@ def plot_slices(path, out):
 
 
 def error_table(path):
+    """Markdown table from the file's stored error tables ([[errors]] with by = "c")."""
+    import json
     with h5py.File(path, "r") as f:
         mc, mc_se, labels, ax = table(f, "brdf_mc")
-        names = [n for n in ("brdf_analytic", "brdf_analytic_paper", "brdf_fit", "brdf_fit_paper",
-                              "brdf_fast") if n in f]
-        variants = {n: table(f, n)[0] for n in names}
-    cs = ax["c"]
-    print("\nRelative error vs Monte Carlo (|f - f_mc| / f_mc), grid of", labels,
+        rows = []
+        for name in ("error_three_term", "error_analytic", "error_analytic_fitk",
+                     "error_analytic_paper", "error_fit", "error_fit_paper", "error_fast"):
+            if name in f:
+                cmp = json.loads(f[name].attrs["parameters"])["comparison"]
+                rows.append(cmp)
+    print("\nRelative error vs Monte Carlo ((f - f_mc) / f_mc), grid of", labels,
           [len(ax[lab]) for lab in labels])
     print(f"MC relative standard error: median {np.median(mc_se / mc):.2%}, max {np.max(mc_se / mc):.2%}\n")
-    head = "| variant | " + " | ".join(f"c = {c:g}" for c in cs) + " | all |"
-    print(head)
-    print("|" + "---|" * (len(cs) + 2))
-    for n, v in variants.items():
-        rel = (v - mc) / mc
-        cells = []
-        for k in range(len(cs)):
-            r = rel[..., k]
-            cells.append(f"{np.abs(r).max():.1%} / {np.sqrt(np.mean(r ** 2)):.1%}")
-        cells.append(f"{np.abs(rel).max():.1%} / {np.sqrt(np.mean(rel ** 2)):.1%}")
-        print(f"| {n} (max / RMS) | " + " | ".join(cells) + " |")
+    if not rows:
+        print("(no error tables in", path, ")")
+        return
+    cs = [n["c"] for n in rows[0]["by_nodes"]]
+    print("| variant (max / RMS) | " + " | ".join(f"c = {c:g}" for c in cs) +
+          " | all | cells beyond 2σ |")
+    print("|" + "---|" * (len(cs) + 3))
+    for r in rows:
+        cells = [f"{n['max_abs']:.1%} / {n['rms']:.1%}" for n in r["by_nodes"]]
+        cells.append(f"{r['max_abs']:.1%} / {r['rms']:.1%}")
+        cells.append(f"{r['beyond_2sigma'] / r['cells']:.1%}")
+        print(f"| `{r['table']}` | " + " | ".join(cells) + " |")
 
 
 def plot_modes(path, out):
     with h5py.File(path, "r") as f:
         ms, ms_se, labels, ax = table(f, "ms_mc")
         an = table(f, "analytic")[0] - table(f, "single")[0]
+        three = table(f, "three_term")[0] - table(f, "single")[0] if "three_term" in f else None
     assert labels == ["mode", "theta_i", "theta_o", "c"], labels
     print("\nMultiple-scattering Fourier modes, MC vs analytic (exact H), ratio MC/analytic:")
     for m in range(len(ax["mode"])):
         for k, c in enumerate(ax["c"]):
             if m == 2:
                 rel = np.abs(ms[m, ..., k]).max() / np.abs(ms[0, ..., k]).max()
-                print(f"  mode 2, c = {c:g}: max |f^(2)_ms| / max f^(0)_ms = {rel:.3f}")
+                line = f"  mode 2, c = {c:g}: max |f^(2)_ms| / max f^(0)_ms = {rel:.3f}"
+                if three is not None:
+                    z = (ms[m, ..., k] - three[m, ..., k]) / ms_se[m, ..., k]
+                    line += (f"; MC - exact three-term mode 2: max {np.abs(ms[m, ..., k] - three[m, ..., k]).max():.2e}"
+                             f" (max |z| {np.abs(z).max():.1f}), exact three-term max |f^(2)| {np.abs(three[m, ..., k]).max():.2e}")
+                print(line)
                 continue
             mask = np.abs(an[m, ..., k]) > 1e-4
             r = ms[m, ..., k][mask] / an[m, ..., k][mask]
             print(f"  mode {m}, c = {c:g}: median {np.median(r):.3f}, range [{r.min():.3f}, {r.max():.3f}]")
-    fig, axs = plt.subplots(1, 2, figsize=(9, 3.6))
-    for m in (0, 1):
+    panels = (0, 1, 2) if three is not None else (0, 1)
+    fig, axs = plt.subplots(1, len(panels), figsize=(4.5 * len(panels), 3.6))
+    for m in panels:
         a = axs[m]
-        # mode 1: x = eq. 22 - eq. 28 as printed (the file's analytic table applies x2)
-        xs = an[m] if m == 0 else an[m] / 2
+        # x axis: mode 0 the analytic model; mode 1 eq. 22 - eq. 28 as printed
+        # (the file's analytic table applies x2); mode 2 the exact three-term one
+        xs = an[0] if m == 0 else an[1] / 2 if m == 1 else three[2]
         for k, c in enumerate(ax["c"]):
             a.errorbar(xs[..., k].ravel(), ms[m, ..., k].ravel(), yerr=2 * ms_se[m, ..., k].ravel(),
                        fmt="o", ms=3, label=f"c = {c:g}")
         lim = np.array([min(xs.min(), ms[m].min()), max(xs.max(), ms[m].max())])
-        if m == 1:
+        if m == 2:
+            a.plot(lim, lim, "k-", lw=0.8, label="MC = exact three-term")
+            a.set_title("cos 2φ mode (dropped by eq. 21)", fontsize=9)
+            a.set_xlabel("exact three-term multiple scattering, mode 2", fontsize=8)
+        elif m == 1:
             a.plot(lim, lim, "k:", lw=0.8, label="MC = printed (x1)")
             a.plot(lim, 2 * lim, "k-", lw=0.8, label="MC = 2 x printed")
             a.set_title("cos φ mode of multiple scattering vs eq. 22 − eq. 28", fontsize=9)

@@ -217,6 +217,34 @@ expect_exit 2 "recombined term names an unknown table" -- "$BT" generate bad6.to
 expect_grep "bad6.toml:[0-9]+.*recombined" err.txt "error names the file, line and key"
 [ ! -e bad6.h5 ] && ok || bad "no output after a recombined-spec error"
 
+# --- error tables: the qualitative model against the exact integral -----------
+cat on.toml - >onerr.toml <<'EOF'
+[[tables]]
+name = "approx"
+quantity = "qualitative"
+[tables.parameters]
+rho = 1.0
+[[errors]]
+name = "approx_error"
+table = "approx"
+reference = "brdf"
+by = "theta_i"
+EOF
+sed -i -e 's/path = "on.h5"/path = "onerr.h5"/' onerr.toml
+expect_exit 0 "generate with an error table" -- "$BT" generate onerr.toml -q
+expect_grep "relative error of approx against brdf: max \|e\| [0-9.]+%" out.txt \
+  "generate prints the error summary"
+expect_grep "theta_i = 80: max \|e\|" out.txt "per-node summary along 'by'"
+expect_exit 0 "info on an error table" -- "$BT" info onerr.h5
+expect_grep "approx_error" out.txt "info lists the error table"
+expect_exit 2 "validate refuses an error table" -- "$BT" validate onerr.h5 --table approx_error
+expect_grep "validate the tables it compares: 'approx' and 'brdf'" err.txt \
+  "validate names the compared tables"
+sed -e 's/^by = .*/floor = -2.0/' onerr.toml >bad7.toml
+expect_exit 2 "error table with a negative floor" -- "$BT" generate bad7.toml -o bad7.h5
+expect_grep "bad7.toml:[0-9]+:[0-9]+: key 'errors\[0\]\.floor'" err.txt "error names the key"
+[ ! -e bad7.h5 ] && ok || bad "no output after an error-spec error"
+
 # --- export -------------------------------------------------------------------
 expect_exit 0 "export exr" -- "$BT" export small.h5 --table albedo_r --exr slice.exr
 [ -s slice.exr ] && ok || bad "slice.exr written"

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <filesystem>
 
+#include "error.h"
 #include "generate.h"
 #include "spec.h"
 #include "table_io.h"
@@ -132,8 +133,9 @@ samples = 2000
     CHECK(d.total_samples >= 6 * 2000);
 }
 
-TEST_CASE("recombined tables: values at stored_at and the recipe for the lookup") {
-    Spec spec = parse_spec_string(R"(
+// brdf and btdf of one rough dielectric on a 3 x 4 grid (theta_o crosses the
+// horizon): the sources of the derived-table cases.
+const char* const kBrdfBtdf = R"(
 model = "rough-dielectric"
 [parameters]
 alpha = 0.4
@@ -150,6 +152,10 @@ count = 4
 quantity = "brdf"
 [[tables]]
 quantity = "btdf"
+)";
+
+TEST_CASE("recombined tables: values at stored_at and the recipe for the lookup") {
+    Spec spec = parse_spec_string(std::string(kBrdfBtdf) + R"(
 [[recombined]]
 name = "mix"
 parameter = "w"
@@ -177,4 +183,171 @@ coeffs = [0.0, 0.0, 4.0]
     CHECK(recipe.at("parameter") == "w");
     CHECK(recipe.at("terms").size() == 2);
     CHECK(recipe.at("terms")[1].at("table") == "btdf");
+}
+
+TEST_CASE("error tables: known errors by construction; the reference 0 needs a floor") {
+    const std::string base = std::string(kBrdfBtdf) + R"(
+[[recombined]]
+name = "twice"
+parameter = "w"
+[[recombined.terms]]
+table = "brdf"
+coeffs = [2.0]
+[[recombined]]
+name = "sum"
+parameter = "w"
+[[recombined.terms]]
+table = "brdf"
+coeffs = [1.0]
+[[recombined.terms]]
+table = "btdf"
+coeffs = [1.0]
+)";
+    auto device = make_backend("", Precision::Double);
+    Spec spec = parse_spec_string(base + R"(
+[[errors]]
+name = "rel"
+table = "twice"
+reference = "brdf"
+by = "theta_i"
+[[errors]]
+name = "abs"
+table = "sum"
+reference = "brdf"
+measure = "absolute"
+)",
+                                  "mem.toml");
+    auto tables = generate_tables(spec, *device, spec.integration);
+    REQUIRE(tables.size() == 6);
+    const TableData& brdf = tables[0].data;
+    const TableData& btdf = tables[1].data;
+    const GeneratedTable& rel = tables[4];
+    const GeneratedTable& abs = tables[5];
+    REQUIRE(rel.error.has_value());
+    CHECK(rel.data.method == "error");
+    CHECK(rel.data.units == "1");
+    CHECK(abs.data.units == brdf.units);
+    // 2 f against f: relative error exactly 1 where f > 0 (theta_o < 90), and
+    // 0 where both are 0 (theta_o > 90: the brdf is zero below the horizon).
+    std::size_t positive = 0;
+    for (std::size_t c = 0; c < brdf.value.size(); ++c) {
+        CAPTURE(c);
+        if (brdf.value[c] > 0) {
+            ++positive;
+            CHECK(rel.data.value[c] == doctest::Approx(1.0).epsilon(1e-14));
+        } else {
+            CHECK(rel.data.value[c] == 0.0);
+        }
+        // (f + t) - f = t, the btdf.
+        CHECK(abs.data.value[c] == doctest::Approx(btdf.value[c]).epsilon(1e-12).scale(1e-300));
+    }
+    REQUIRE(positive > 0);
+    const ErrorSummary& s = *rel.error;
+    CHECK(s.max_abs == doctest::Approx(1.0));
+    CHECK(s.rms == doctest::Approx(std::sqrt(double(positive) / brdf.value.size())));
+    CHECK(s.beyond_2sigma == positive);  // closed forms: no noise, every error is significant
+    REQUIRE(s.worst.size() == 2);
+    CHECK(s.worst[1] < 90);  // the worst cell is one where the brdf is positive
+    REQUIRE(s.by_nodes.size() == 3);
+    for (const auto& n : s.by_nodes) CHECK(n.max_abs == doctest::Approx(1.0));
+    CHECK(rel.data.parameters.at("comparison").at("reference") == "brdf");
+    CHECK(rel.data.parameters.at("comparison").at("by_nodes").size() == 3);
+
+    // (f + t) / f - 1 is undefined where f = 0 < t: a clear error, no table.
+    Spec bad = parse_spec_string(base + R"(
+[[errors]]
+name = "rel_sum"
+table = "sum"
+reference = "brdf"
+)",
+                                 "bad.toml");
+    try {
+        generate_tables(bad, *device, bad.integration);
+        FAIL("no error for a zero reference");
+    } catch (const InputError& e) {
+        const std::string m = e.what();
+        CAPTURE(m);
+        CHECK(m.find("bad.toml: errors table 'rel_sum'") == 0);
+        CHECK(m.find("floor") != std::string::npos);
+        CHECK(m.find("theta_o = ") != std::string::npos);
+    }
+    // With a floor the denominator is max(|f|, floor).
+    Spec floored = parse_spec_string(base + R"(
+[[errors]]
+name = "rel_sum"
+table = "sum"
+reference = "brdf"
+floor = 0.5
+)",
+                                     "floor.toml");
+    auto ft = generate_tables(floored, *device, floored.integration);
+    const TableData& fe = ft.back().data;
+    for (std::size_t c = 0; c < brdf.value.size(); ++c)
+        CHECK(fe.value[c] == doctest::Approx(btdf.value[c] / std::max(brdf.value[c], 0.5)));
+}
+
+TEST_CASE("error tables: the propagated standard error covers Monte Carlo noise") {
+    // Lambert-sphere order 1: brdf_mc with order = 1 is an unbiased Monte Carlo
+    // estimate of eq. 10, which brdf_single gives in closed form.  The relative
+    // error must be consistent with zero within its propagated standard error,
+    // whichever of the two is the reference.
+    Spec spec = parse_spec_string(R"(
+model = "lambert-sphere"
+[parameters]
+c = 0.8
+[[axes]]
+name = "theta_i"
+range = [0.0, 80.0]
+count = 5
+[[axes]]
+name = "theta_o"
+range = [0.0, 80.0]
+count = 5
+[[axes]]
+name = "phi_d"
+range = [0.0, 180.0]
+count = 4
+[[tables]]
+name = "mc"
+quantity = "brdf_mc"
+[tables.parameters]
+order = 1
+[[tables]]
+name = "exact"
+quantity = "brdf_single"
+[[errors]]
+name = "mc_vs_exact"
+table = "mc"
+reference = "exact"
+[[errors]]
+name = "exact_vs_mc"
+table = "exact"
+reference = "mc"
+[integration]
+method = "mc"
+samples = 4096
+seed = 5
+)",
+                                  "ls.toml");
+    auto device = make_backend("", Precision::Double);
+    auto tables = generate_tables(spec, *device, spec.integration);
+    REQUIRE(tables.size() == 4);
+    for (std::size_t k : {2u, 3u}) {
+        const GeneratedTable& g = tables[k];
+        REQUIRE(g.error.has_value());
+        CAPTURE(g.data.name);
+        const std::size_t n = g.data.value.size();  // 100 cells
+        double chi2 = 0;
+        for (std::size_t c = 0; c < n; ++c) {
+            REQUIRE(g.data.stderr_[c] > 0);
+            const double z = g.data.value[c] / g.data.stderr_[c];
+            chi2 += z * z;
+        }
+        // chi^2 with 100 degrees of freedom: mean 100, sd 14; [55, 160] is
+        // beyond 3 sd on either side.
+        CHECK(chi2 > 55);
+        CHECK(chi2 < 160);
+        CHECK(g.error->beyond_2sigma <= 15);  // expected 5 of 100
+        CHECK(g.error->max_abs < 0.1);
+    }
 }

@@ -12,6 +12,10 @@
 //    c^k scaling and order decomposition sample by sample; reciprocity of the
 //    multiple-scattering BRDF; the order-1 albedo against 2-D quadrature of
 //    eq. 10;
+//  * truncation remainders (order -2): the escape tally closes the energy
+//    balance at c = 1; the BRDF remainder continues the same walk (sample by
+//    sample) and its cosine-weighted hemispherical integral equals the
+//    albedo that escapes after max_order (escape tallies of other walks);
 //  * the eq. 28 question: Fourier coefficients of the 3-term single
 //    scattering by quadrature (phi-average = eq. 38, cos(phi) coefficient =
 //    2 x eq. 28), and the Monte Carlo multiple-scattering cos(phi) mode
@@ -23,11 +27,14 @@
 #include "test_sampling.h"
 #include "test_support.h"
 
+#include <array>
 #include <cmath>
 #include <map>
+#include <random>
 #include <vector>
 
 #include "engine.h"
+#include "error.h"
 #include "model_registry.h"
 #include "models/lambert_sphere.h"
 
@@ -72,7 +79,7 @@ double legendre(int n, double x) {
 
 // p[] for lambert_sphere_sample (radians).
 std::vector<REAL> point(double ti, double to, double phi, double c, int order = 0,
-                        int max_order = 1000, int mode = -1) {
+                        int max_order = 1000, int mode = -1, int tail_order = 100000) {
     std::vector<REAL> p(16, 0.0);
     p[0] = ti;
     p[2] = to;
@@ -81,6 +88,7 @@ std::vector<REAL> point(double ti, double to, double phi, double c, int order = 
     p[5] = order;
     p[6] = max_order;
     p[7] = mode;
+    p[8] = tail_order;
     return p;
 }
 
@@ -259,6 +267,95 @@ TEST_CASE("random walk: truncation remainder (order -2) closes the energy balanc
     CHECK(r_long.mean < 1e-6);
 }
 
+TEST_CASE("random walk: BRDF truncation remainder (order -2) continues the same walk") {
+    int o[8] = {0, 0, 0, 0};
+    // Random numbers are indexed by dimension, so one sampler state is one
+    // walk: order 0 up to T = order 0 up to K + orders K+1..T (order -2).
+    for (double c : {1.0, 0.9})
+        for (auto d : std::vector<std::array<double, 3>>{
+                 {0.0, 0.3, 0.0}, {1.05, 0.9, 0.0}, {1.05, 0.9, 3.1}, {0.4, 1.45, 1.5}})
+            for (int K : {3, 40}) {
+                const int T = 400;
+                double worst = 0;
+                for (uint k = 0; k < 400; ++k) {
+                    bt_sampler s = mc_sampler(96, k);
+                    const double full = lambert_sphere_sample(
+                        point(d[0], d[1], d[2], c, 0, T).data(), o, LS_Q_BRDF_MC, &s);
+                    const double head = lambert_sphere_sample(
+                        point(d[0], d[1], d[2], c, 0, K).data(), o, LS_Q_BRDF_MC, &s);
+                    const double tail = lambert_sphere_sample(
+                        point(d[0], d[1], d[2], c, -2, K, -1, T).data(), o, LS_Q_BRDF_MC, &s);
+                    REQUIRE(tail >= 0.0);
+                    if (full > 0) worst = std::max(worst, std::fabs(head + tail - full) / full);
+                    else REQUIRE(head + tail == 0.0);
+                }
+                CAPTURE(c);
+                CAPTURE(d[0]);
+                CAPTURE(d[1]);
+                CAPTURE(K);
+                CHECK(worst < 1e-12);
+            }
+    // tail_order must exceed max_order: NaN otherwise.
+    bt_sampler s = mc_sampler(97, 0);
+    CHECK(std::isnan(lambert_sphere_sample(point(0.3, 0.3, 0, 1.0, -2, 50, -1, 50).data(), o,
+                                           LS_Q_BRDF_MC, &s)));
+    // The registry puts tail_order (default 1e5) in slot p[8], where the kernel reads it.
+    const ModelInfo& model = find_model("lambert-sphere");
+    PointBuilder builder(model, model.quantity("brdf_mc"));
+    std::vector<double> pt(model.point_stride(), -1.0);
+    REQUIRE(pt.size() == 9);
+    builder.build({{"theta_i", 10}, {"theta_o", 20}, {"c", 0.5}}, pt.data());
+    CHECK(pt[8] == 100000.0);
+    builder.build({{"theta_i", 10}, {"theta_o", 20}, {"order", -2}, {"max_order", 10},
+                   {"tail_order", 77}},
+                  pt.data());
+    CHECK(pt[5] == -2.0);
+    CHECK(pt[8] == 77.0);
+    // The host rejects an empty remainder range before any kernel runs.
+    CHECK_THROWS_WITH_AS(
+        builder.build({{"theta_i", 10}, {"theta_o", 20}, {"order", -2}, {"tail_order", 77}},
+                      pt.data()),
+        doctest::Contains("'tail_order' (77) must exceed 'max_order' (1000)"), InputError);
+    // ... but only where it is read: order 0 ignores tail_order.
+    CHECK_NOTHROW(builder.build({{"theta_i", 10}, {"theta_o", 20}, {"tail_order", 77}}, pt.data()));
+}
+
+TEST_CASE("random walk: BRDF remainder integrates to the albedo escaping after max_order (c = 1)") {
+    // Energy oracle: int f_tail(i, o) cos(theta_o) d omega_o over the upper
+    // hemisphere, f_tail = brdf_mc order -2 (orders K+1..T), by Monte Carlo
+    // over directions (mu_o and phi uniform: estimator 2 pi mu_o f, bounded),
+    // must equal the probability to escape after scattering K+1..T, i.e.
+    // remainder(K) - remainder(T) of the escape tally albedo_mc order -2.
+    // Independent walks and directions on both sides.
+    int o[8] = {0, 0, 0, 0};
+    const int K = 5, T = 2000;
+    const long n = 50000;
+    std::mt19937_64 rng(20210704);
+    std::uniform_real_distribution<double> uni(0.0, 1.0);
+    uint cell = 980;
+    for (double ti : {0.0, 1.0}) {
+        Stat tail;
+        for (long k = 0; k < n; ++k) {
+            const double mo = uni(rng), ph = 2 * kPi * uni(rng);
+            bt_sampler s = mc_sampler(cell, (uint)k);
+            const double f = lambert_sphere_sample(
+                point(ti, std::acos(mo), ph, 1.0, -2, K, -1, T).data(), o, LS_Q_BRDF_MC, &s);
+            tail.add(2 * kPi * mo * f);
+        }
+        Stat rK = run_mc(point(ti, 0, 0, 1.0, -2, K), LS_Q_ALBEDO_MC, n, cell + 1);
+        Stat rT = run_mc(point(ti, 0, 0, 1.0, -2, T), LS_Q_ALBEDO_MC, n, cell + 2);
+        cell += 3;
+        const double escaped = rK.mean - rT.mean;
+        const double se = std::sqrt(tail.se() * tail.se() + rK.se() * rK.se() + rT.se() * rT.se());
+        MESSAGE("theta_i " << ti << ": int f_tail cos = " << tail.mean << " +- " << tail.se()
+                           << ", escaped after orders " << K + 1 << ".." << T << " = " << escaped
+                           << " +- " << std::hypot(rK.se(), rT.se()));
+        CAPTURE(ti);
+        CHECK(escaped > 0.2);  // a sizeable share: the test has power
+        CHECK(std::fabs(tail.mean - escaped) < 4.5 * se);
+    }
+}
+
 TEST_CASE("random walk: reciprocity and order-1 albedo against quadrature of eq. 10") {
     // Multiple scattering is reciprocal: f(i, o) = f(o, i) (independent runs).
     for (auto dirs : std::vector<std::pair<double, double>>{{0.2, 1.2}, {0.9, 1.45}}) {
@@ -335,6 +432,37 @@ TEST_CASE("analytic model vs Monte Carlo: mode 0 within 1 % at c = 0.5") {
     }
 }
 
+TEST_CASE("brdf_three_term: exact three-term multiple scattering against three-term random walks") {
+    // The random walk with the three-term phase function (phase_mc =
+    // three-term, signed weights), orders >= 2 (order = -1), solves the same
+    // transport problem as the Horak-Chandrasekhar solution, independently:
+    // Fourier modes 0, 1, 2 of its multiple scattering must equal
+    // brdf_three_term - brdf_single mode by mode (mode 2, which eq. 21 drops,
+    // is ~1e-5 here, below this test's noise: it only has to be consistent).
+    int three[8] = {1, 0, 0, 0, 0, 0, 0, 0};
+    for (auto d : std::vector<std::pair<double, double>>{{0.3, 1.2}, {1.1, 0.6}})
+        for (int mode : {0, 1, 2}) {
+            auto p = point(d.first, d.second, 0, 0.5, -1, 1000, mode);
+            Stat st = run_mc(p, LS_Q_BRDF_MC, 200000, 900 + mode, three);
+            const double exact = closed(p, LS_Q_BRDF_THREE_TERM) - closed(p, LS_Q_BRDF_SINGLE);
+            CAPTURE(d.first);
+            CAPTURE(d.second);
+            CAPTURE(mode);
+            CAPTURE(st.mean);
+            CAPTURE(st.se());
+            CAPTURE(exact);
+            CHECK(std::fabs(st.mean - exact) < 4 * st.se() + 1e-6);
+        }
+    // With exact constants, brdf_analytic is brdf_three_term without mode 2.
+    for (double c : {0.3, 0.99, 1.0}) {
+        auto p = point(0.4, 1.0, 0.7, c);
+        auto p2 = point(0.4, 1.0, 0.7, c, 0, 1000, 2);
+        const double m2 = closed(p2, LS_Q_BRDF_THREE_TERM) - closed(p2, LS_Q_BRDF_SINGLE);
+        CHECK(closed(p, LS_Q_BRDF_THREE_TERM) - m2 * std::cos(2 * 0.7) ==
+              doctest::Approx(closed(p, LS_Q_BRDF_ANALYTIC)).epsilon(1e-9));
+    }
+}
+
 TEST_CASE("fits: H1/H0 fits against exact H within their claims; kd map round trip") {
     const double nop[4] = {0, 0, 0, 0};
     for (double c : {0.2, 0.6, 0.95}) {
@@ -381,7 +509,8 @@ TEST_CASE("device vs host (double), float sanity, finite values at extremes") {
         for (double to : {0.0, 60.0, 90.0})
             for (double c : {0.0, 0.5, 1.0})
                 pts.push_back({{"theta_i", ti}, {"theta_o", to}, {"phi_d", 30}, {"c", c}});
-    for (const char* qname : {"brdf_analytic", "brdf_fit", "brdf_fast", "brdf_single", "phase"}) {
+    for (const char* qname :
+         {"brdf_analytic", "brdf_three_term", "brdf_fit", "brdf_fast", "brdf_single", "phase"}) {
         const QuantityInfo& q = model.quantity(qname);
         PointBuilder builder(model, q);
         IntegrationSettings s;

@@ -655,8 +655,8 @@ TEST_CASE("the annotated example in docs/spec.md parses as documented") {
     CHECK(s.integration.tolerance == 1e-3);
 }
 
-TEST_CASE("[[recombined]]: recipe parsed; terms must exist and share their axes") {
-    const std::string base = R"(model = "rough-dielectric"
+// Two tables on one 3 x 3 grid (16 lines), the base of the derived-table cases.
+const char* const kTwoTables = R"(model = "rough-dielectric"
 [parameters]
 alpha = 0.3
 eta = 1.5
@@ -673,6 +673,9 @@ quantity = "brdf"
 [[tables]]
 quantity = "btdf"
 )";
+
+TEST_CASE("[[recombined]]: recipe parsed; terms must exist and share their axes") {
+    const std::string base = kTwoTables;
     const Spec s = parse_spec_string(base + R"([[recombined]]
 name = "sum"
 parameter = "w"
@@ -720,4 +723,62 @@ coeffs = [0.0, 1]
                         "table = \"brdf\"\ncoeffs = [1.0]\n[[recombined.terms]]\n"
                         "table = \"b2\"\ncoeffs = [1.0]\n",
                  35, "recombined[0].terms[1].table", "share every axis");
+}
+
+TEST_CASE("[[errors]]: recipe parsed; compared tables must exist, differ and share axes and units") {
+    const std::string base = kTwoTables;  // 16 lines: [[errors]] below starts at line 17
+    const Spec s = parse_spec_string(base + R"([[errors]]
+name = "e"
+table = "btdf"
+reference = "brdf"
+by = "theta_o"
+floor = 0.01
+[[errors]]
+name = "d"
+table = "brdf"
+reference = "btdf"
+measure = "absolute"
+)",
+                                     "spec.toml");
+    REQUIRE(s.errors.size() == 2);
+    CHECK(s.errors[0].name == "e");
+    CHECK(s.errors[0].table == "btdf");
+    CHECK(s.errors[0].reference == "brdf");
+    CHECK(s.errors[0].relative);  // the default measure
+    CHECK(s.errors[0].floor == 0.01);
+    CHECK(s.errors[0].by == "theta_o");
+    CHECK_FALSE(s.errors[1].relative);
+    CHECK(s.errors[1].by.empty());
+
+    const std::string head = base + "[[errors]]\nname = \"x\"\n";  // lines 17-18
+    expect_error(head + "reference = \"brdf\"\n", 17, "errors[0].table", "missing");
+    expect_error(head + "table = \"brdf\"\n", 17, "errors[0].reference", "missing");
+    expect_error(head + "table = \"nope\"\nreference = \"brdf\"\n", 19, "errors[0].table",
+                 "allowed: brdf, btdf");
+    expect_error(head + "table = \"brdf\"\nreference = \"brdf\"\n", 20, "errors[0].reference",
+                 "different reference");
+    expect_error(head + "table = \"brdf\"\nreference = \"btdf\"\nmeasure = \"ratio\"\n", 21,
+                 "errors[0].measure", "allowed: relative, absolute");
+    expect_error(head + "table = \"brdf\"\nreference = \"btdf\"\nfloor = -1.0\n", 21,
+                 "errors[0].floor", ">= 0");
+    expect_error(head + "table = \"brdf\"\nreference = \"btdf\"\nmeasure = \"absolute\"\n"
+                        "floor = 1.0\n",
+                 22, "errors[0].floor", "\"relative\" only");
+    expect_error(head + "table = \"brdf\"\nreference = \"btdf\"\nby = \"alpha\"\n", 21,
+                 "errors[0].by", "allowed: theta_i, theta_o");
+    expect_error(head + "table = \"brdf\"\nreference = \"btdf\"\nbogus = 1\n", 21,
+                 "errors[0].bogus", "unknown key");
+    expect_error(base + "[[errors]]\nname = \"brdf\"\ntable = \"brdf\"\nreference = \"btdf\"\n",
+                 18, "errors[0].name", "duplicate");
+    // Another grid, and another unit (an albedo is in 1, a BRDF in 1/sr).
+    expect_error(base + "[[tables]]\nname = \"b2\"\nquantity = \"brdf\"\n[[tables.axes]]\n"
+                        "name = \"theta_i\"\nrange = [0.0, 80.0]\ncount = 4\n[[tables.axes]]\n"
+                        "name = \"theta_o\"\nrange = [0.0, 80.0]\ncount = 3\n"
+                        "[[errors]]\nname = \"x\"\ntable = \"brdf\"\nreference = \"b2\"\n",
+                 31, "errors[0].reference", "share every axis");
+    expect_error("model = \"rough-dielectric\"\n[parameters]\nalpha = 0.3\neta = 1.5\n"
+                 "theta_o = 10.0\n[[axes]]\nname = \"theta_i\"\nrange = [0.0, 80.0]\ncount = 3\n"
+                 "[[tables]]\nquantity = \"brdf\"\n[[tables]]\nquantity = \"albedo_r\"\n"
+                 "[[errors]]\nname = \"x\"\ntable = \"brdf\"\nreference = \"albedo_r\"\n",
+                 17, "errors[0].reference", "same units");
 }

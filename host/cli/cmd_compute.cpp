@@ -167,6 +167,38 @@ void register_eval(CLI::App& app) {
     });
 }
 
+namespace {
+
+// "3.9%" for relative errors, "0.0012 1/sr" for absolute ones.
+std::string format_error(double e, const ErrorSummary& s, const std::string& units) {
+    if (s.measure == "relative") {
+        std::ostringstream o;
+        o.precision(3);
+        o << e * 100 << "%";
+        return o.str();
+    }
+    return units.empty() || units == "1" ? format_short(e) : format_short(e) + " " + units;
+}
+
+void print_error_summary(const ErrorSummary& s, const TableData& d) {
+    std::cout << "    " << s.measure << " error of " << s.table << " against " << s.reference
+              << ": max |e| " << format_error(s.max_abs, s, d.units) << " at ";
+    for (std::size_t a = 0; a < s.worst.size(); ++a)
+        std::cout << (a ? ", " : "") << d.axes[a].name << " " << format_short(s.worst[a]);
+    std::cout << "; RMS " << format_error(s.rms, s, d.units) << ", mean "
+              << format_error(s.mean, s, d.units) << "; noise (median stderr) "
+              << format_error(s.median_stderr, s, d.units) << "; " << s.beyond_2sigma << " of "
+              << s.cells << " cells beyond 2 stderr\n";
+    if (s.nonfinite)
+        std::cout << "    warning: " << s.nonfinite << " cell(s) are NaN or infinite\n";
+    for (const auto& n : s.by_nodes)
+        std::cout << "      " << s.by << " = " << format_short(n.value) << ": max |e| "
+                  << format_error(n.max_abs, s, d.units) << ", RMS "
+                  << format_error(n.rms, s, d.units) << "\n";
+}
+
+}  // namespace
+
 void register_generate(CLI::App& app) {
     auto* cmd = app.add_subcommand(
         "generate",
@@ -188,8 +220,10 @@ void register_generate(CLI::App& app) {
         check_output_writable(out_path);
         const IntegrationSettings settings = st.compute.apply(spec.integration);
         auto backend = st.compute.make_backend();
-        std::cerr << "brdftab: " << spec.model << ", " << spec.tables.size()
-                  << " table(s) from " << st.spec_path << " on " << backend->device_name()
+        std::cerr << "brdftab: " << spec.model << ", " << spec.tables.size() << " table(s)";
+        if (!spec.recombined.empty()) std::cerr << " + " << spec.recombined.size() << " recombined";
+        if (!spec.errors.empty()) std::cerr << " + " << spec.errors.size() << " error table(s)";
+        std::cerr << " from " << st.spec_path << " on " << backend->device_name()
                   << " (" << precision_name(backend->precision()) << ")\n";
         std::unique_ptr<ProgressPrinter> printer;
         std::size_t current = static_cast<std::size_t>(-1);
@@ -218,7 +252,7 @@ void register_generate(CLI::App& app) {
             for (std::size_t a = 0; a < d.axes.size(); ++a)
                 std::cout << (a ? " x " : "") << d.axes[a].name << " " << d.axes[a].count;
             std::cout << "] = " << d.cell_count() << " cells, " << d.method;
-            if (d.method != "closed-form" && d.method != "recombined")
+            if (d.method != "closed-form" && d.method != "recombined" && d.method != "error")
                 std::cout << ", " << format_count(static_cast<double>(d.total_samples))
                           << " samples, max rel. stderr " << d.tolerance_achieved;
             std::cout << ", values in [" << lo << ", " << hi << "], "
@@ -226,6 +260,7 @@ void register_generate(CLI::App& app) {
             if (t.cells_unconverged)
                 std::cout << "  warning: " << t.cells_unconverged
                           << " cell(s) reached max_samples before the tolerance\n";
+            if (t.error) print_error_summary(*t.error, d);
         }
     });
 }

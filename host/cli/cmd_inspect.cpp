@@ -86,7 +86,9 @@ void print_table_summary(const TableData& t, bool verbose) {
                   << spacing_name(a.spacing) << "\n";
     std::cout << "    parameters: " << t.parameters.dump() << "\n";
     std::cout << "    method: " << t.method;
-    if (t.method != "closed-form") {
+    if (t.method == "error" || t.method == "recombined") {
+        std::cout << " (formed from other tables of the file; see parameters)";
+    } else if (t.method != "closed-form") {
         std::cout << ", samples/cell requested " << t.samples_requested;
         if (t.tolerance_requested > 0) std::cout << ", tolerance " << t.tolerance_requested;
         std::cout << ", achieved max rel. stderr " << t.tolerance_achieved << ", total samples "

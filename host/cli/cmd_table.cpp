@@ -254,6 +254,13 @@ void run_validate(const ValidateArgs& va) {
     if (!(va.rel_floor > 0 && va.rel_floor < 1))
         throw InputError("--rel-floor must be in (0, 1), got " + format_short(va.rel_floor));
     const LookupTable full = LookupTable::open(va.file, va.table);
+    if (full.table().method == "error") {
+        const nlohmann::json& e = full.table().parameters.value("comparison", nlohmann::json::object());
+        throw InputError(va.file + ": table '" + full.table().name +
+                         "' is an error table (no model quantity of its own); validate the "
+                         "tables it compares: '" + e.value("table", std::string("?")) + "' and '" +
+                         e.value("reference", std::string("?")) + "'");
+    }
     // Validate the stored values: the recombination recipe (if any) is a
     // user-level formula applied on top of them.
     const LookupTable lt(stored_only(full.table()));

@@ -1,6 +1,7 @@
 // Registry entries and host compilation of the `hfunction` and
 // `lambert-sphere` models (kernels/models/hfunction.h,
 // kernels/models/lambert_sphere.h; docs/models/lambert-sphere.md).
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -88,6 +89,19 @@ ModelInfo hfunction_model() {
     return m;
 }
 
+// The remainder's order range must be non-empty (the kernel returns NaN
+// otherwise, as a last resort).
+std::string check_lambert_sphere_point(const QuantityInfo& q,
+                                       const std::map<std::string, double>& params) {
+    if (q.id != LS_Q_BRDF_MC || params.at("order") != -2) return "";
+    const double max_order = params.at("max_order"), tail_order = params.at("tail_order");
+    if (tail_order > max_order) return "";
+    std::ostringstream s;
+    s << "parameter 'tail_order' (" << tail_order << ") must exceed 'max_order' (" << max_order
+      << ") for brdf_mc with order = -2 (the remainder covers orders max_order+1..tail_order)";
+    return s.str();
+}
+
 ModelInfo lambert_sphere_model() {
     ModelInfo m;
     m.name = "lambert-sphere";
@@ -102,8 +116,9 @@ ModelInfo lambert_sphere_model() {
         param("c", "particle (single-scattering) albedo; kd for c_fit", 0, 1, 1.0),
         param("order",
               "random walks: 0 all orders 1..max_order, -1 orders >= 2 only, k >= 1 order k only "
-              "(order k scales exactly as c^k); albedo_mc/kd_mc: -2 = truncation remainder, the "
-              "weight still inside the medium after max_order scatterings",
+              "(order k scales exactly as c^k); -2 = truncation remainder: albedo_mc/kd_mc the "
+              "weight still inside the medium after max_order scatterings, brdf_mc the BRDF of "
+              "orders max_order+1..tail_order of the same walks",
               -2, 100000, 0.0),
         param("max_order", "random walks: truncation order (c = 1 converges slowly)", 1, 100000,
               1000.0),
@@ -111,6 +126,10 @@ ModelInfo lambert_sphere_model() {
               "-1: value at phi; 0, 1, 2: Fourier coefficient f^(m) of eq. 9 "
               "(f = sum_m f^(m) cos(m phi))",
               -1, 8, -1.0),
+        param("tail_order",
+              "brdf_mc with order = -2: last order of the truncation remainder (orders "
+              "max_order+1..tail_order); must exceed max_order",
+              2, 10000000, 100000.0),
     };
     m.options = {
         {"phase_mc",
@@ -132,10 +151,18 @@ ModelInfo lambert_sphere_model() {
          "(our reading, 0.24 %)",
          {"printed", "normalised", "power"},
          "printed"},
+        {"constants",
+         "brdf_analytic, constant: the constants l, m (eq. 22) and A..F (eq. 30) 'exact' "
+         "(Horak-Chandrasekhar psi-function system solved numerically, "
+         "kernels/models/horak_chandrasekhar.h) or the paper's 'fit' (eqs. 26-27, 33-37)",
+         {"exact", "fit"},
+         "exact"},
+        {"constant", "quantity constant: which constant", {"l", "m", "A", "B", "C", "D", "E", "F"},
+         "l"},
     };
     const std::vector<std::string> dirs = {"theta_i", "phi_i", "theta_o", "phi_o"};
     const std::vector<std::string> walk_opts = {"phase_mc"};
-    const std::vector<std::string> an_opts = {"cos_phi"};
+    const std::vector<std::string> an_opts = {"cos_phi", "constants"};
     const std::vector<std::string> fit_opts = {"cos_phi", "fm1", "h1_fit"};
     m.quantities = {
         QuantityInfo{"phase", LS_Q_PHASE,
@@ -150,7 +177,8 @@ ModelInfo lambert_sphere_model() {
                  "directional albedo E(mu_i) by random walks, per scattering order", "1",
                  QuantityKind::Integral, {"theta_i"}, walk_opts, "eqs. 1, 5", "mc", 8},
         QuantityInfo{"brdf_analytic", LS_Q_BRDF_ANALYTIC,
-                 "d'Eon's model with exact H0, H1 (eq. 16) and fitted l, m, B-F",
+                 "d'Eon's model with exact H0, H1 (eq. 16) and exact (default) or fitted "
+                 "constants l, m, A-F",
                  "1/sr", QuantityKind::Quadrature, dirs, an_opts,
                  "eqs. 9-12, 16, 18-19, 22, 26-28, 30, 33-38", "quadrature", 0},
         QuantityInfo{"brdf_fit", LS_Q_BRDF_FIT, "d'Eon's model entirely with fitted functions",
@@ -165,10 +193,22 @@ ModelInfo lambert_sphere_model() {
         QuantityInfo{"kd_mc", LS_Q_KD_MC,
                  "spherical (bond) albedo 2 int E(mu) mu dmu by random walks", "1",
                  QuantityKind::Integral, {}, walk_opts, "eqs. 1, 5", "mc", 8},
+        QuantityInfo{"brdf_three_term", LS_Q_BRDF_THREE_TERM,
+                 "exact single scattering + the exact multiple scattering of the three-term "
+                 "phase function (modes 0-2, exact H and constants): d'Eon's construction "
+                 "without approximations beyond the phase truncation",
+                 "1/sr", QuantityKind::Quadrature, dirs, {},
+                 "eqs. 8-12, 16, 22, 30 + Horak-Chandrasekhar mode 2", "quadrature", 0},
+        QuantityInfo{"constant", LS_Q_CONSTANT,
+                 "one of the constants l, m, A-F of eqs. 22, 30 (option constant), exact or "
+                 "fitted (option constants)",
+                 "1", QuantityKind::ClosedForm, {}, {"constants", "constant"},
+                 "eqs. 22, 26-27, 30, 33-37", "closed-form", 0},
         QuantityInfo{"c_fit", LS_Q_C_FIT, "particle albedo c from kd (fit); kd is given as c", "1",
                  QuantityKind::ClosedForm, {}, {}, "eq. 39", "closed-form", 0},
     };
     m.host_fn = &host_lambert_sphere_sample;
+    m.check_point = &check_lambert_sphere_point;
     return m;
 }
 

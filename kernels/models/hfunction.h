@@ -53,6 +53,7 @@
 #define BRDFTAB_HFUNCTION_H
 
 #include "../common/compat.h"
+#include "../common/gauss_legendre.h"
 #include "../common/sampler.h"
 
 #define HF_PSI_LAMBERT0 0
@@ -227,37 +228,6 @@ BT_INLINE REAL hf_h(const hf_psi* P, REAL mu, int coarse)
     return factor * exp(-step * sum * BT_INV_PI);
 }
 
-/* Gauss-Legendre node k (0-based) of n on [-1, 1], by Newton iteration on
- * P_n from the Tricomi-type initial guess. */
-BT_INLINE void hf_gauss_legendre(int n, int k, REAL* x, REAL* w)
-{
-    REAL z = cos(BT_PI * ((REAL)k + R(0.75)) / ((REAL)n + R(0.5)));
-    REAL dp = R(1.0);
-    for (int it = 0; it < 100; ++it) {
-        REAL p0 = R(1.0), p1 = z;
-        for (int j = 2; j <= n; ++j) {
-            REAL p2 = ((R(2.0) * (REAL)j - R(1.0)) * z * p1 - ((REAL)j - R(1.0)) * p0) / (REAL)j;
-            p0 = p1;
-            p1 = p2;
-        }
-        dp = (REAL)n * (z * p1 - p0) / (z * z - R(1.0));
-        REAL dz = p1 / dp;
-        z -= dz;
-        if (fabs(dz) < R(1e-15)) break;
-    }
-    /* recompute P_n' at the converged node for the weight */
-    {
-        REAL p0 = R(1.0), p1 = z;
-        for (int j = 2; j <= n; ++j) {
-            REAL p2 = ((R(2.0) * (REAL)j - R(1.0)) * z * p1 - ((REAL)j - R(1.0)) * p0) / (REAL)j;
-            p0 = p1;
-            p1 = p2;
-        }
-        dp = (REAL)n * (z * p1 - p0) / (z * z - R(1.0));
-    }
-    *x = z;
-    *w = R(2.0) / ((R(1.0) - z * z) * dp * dp);
-}
 
 /* alpha_n = int_0^1 mu^n H(mu) dmu with mu = u^2 (note 4). */
 BT_INLINE REAL hf_alpha(const hf_psi* P, int n, int coarse)
@@ -265,8 +235,11 @@ BT_INLINE REAL hf_alpha(const hf_psi* P, int n, int coarse)
     int nodes = coarse ? 12 : 24;
     REAL sum = R(0.0);
     for (int k = 0; k < nodes; ++k) {
+        ACCUM xa, wa;
         REAL x, w;
-        hf_gauss_legendre(nodes, k, &x, &w);
+        bt_gauss_legendre(nodes, k, &xa, &wa);
+        x = (REAL)xa;
+        w = (REAL)wa;
         REAL u = R(0.5) * (x + R(1.0));
         REAL mu = u * u;
         REAL mun = R(1.0);

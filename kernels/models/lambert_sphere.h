@@ -12,7 +12,7 @@
  * phi = phi_o - phi_i, phi = 0 is back-scattering (viewer on the light's side).
  *
  * Point p[]:  p[0..3] theta_i, phi_i, theta_o, phi_o (radians),
- *             p[4] c, p[5] order, p[6] max_order, p[7] mode.
+ *             p[4] c, p[5] order, p[6] max_order, p[7] mode, p[8] tail_order.
  * Options o[]: o[0] phase_mc   0 exact (eq. 1, sampled with eq. 5),
  *                              1 three-term (eqs. 2, 8: A0..A2 only; sampled
  *                                uniformly with a signed weight 4 pi p3,
@@ -27,6 +27,10 @@
  *              o[3] h1_fit     brdf_fit: 0 eqs. 23-25 as printed,
  *                              1 normalised: H1(1) Hc1(mu)/Hc1(1),
  *                              2 power: H1(1)^(mu^e(mu)) (our reading)
+ *              o[4] constants  brdf_analytic, constant: l, m, A..F
+ *                              0 exact (hc_constants, horak_chandrasekhar.h),
+ *                              1 the paper's fits (eqs. 26-27, 33-37)
+ *              o[5] constant   constant: which one, 0..7 = l, m, A, B, C, D, E, F
  *
  * Quantities (ids):
  *   0 phase          p(cos theta_o): theta_o is the SCATTERING angle
@@ -35,26 +39,41 @@
  *                    (unbiased; truncated at max_order scatterings).
  *   2 albedo_mc      directional albedo E(mu_i) by random walk.
  *   3 brdf_analytic  eqs. 9-12, 22, 28, 30, 33, 38 with EXACT H0, H1
- *                    (hfunction.h) and the paper's fitted l, m (26-27),
- *                    B, C, D, F (34-37): the exact Horak-Chandrasekhar
- *                    constants are not derived here.
- *   4 brdf_fit       the same with fitted H0 (eq. 31) and H1 (eqs. 23-25).
+ *                    (hfunction.h) and exact l, m, A..F (o[4] = 0, from the
+ *                    psi-function system in horak_chandrasekhar.h) or the
+ *                    paper's fits (o[4] = 1: eqs. 26-27, 33-37).
+ *   4 brdf_fit       eqs. 9-12 with fitted H0 (eq. 31), H1 (eqs. 23-25) and
+ *                    fitted constants: the paper's model as a formula.
  *   5 brdf_fast      eq. 41 with kd from eq. 40.
  *   6 brdf_single    eq. 10 (exact single scattering).
  *   7 kd_fit         eq. 40 (spherical albedo from c).
  *   8 kd_mc          spherical (bond) albedo 2 int E(mu) mu dmu by random walk.
  *   9 c_fit          eq. 39 (c from kd; kd is read from the c slot p[4]).
+ *  10 brdf_three_term  exact single scattering (eq. 10) + the EXACT multiple
+ *                    scattering of the three-term phase function (eq. 8):
+ *                    modes 0, 1 with exact H and constants (cos phi mode at
+ *                    its exact weight, 2 x eq. 22) and mode 2, which eq. 21
+ *                    drops.  Its distance to brdf_mc is the 3-term phase
+ *                    truncation alone.
+ *  11 constant       one of l, m, A..F (o[5]) at c, exact or fitted (o[4]).
  *
  * Scattering orders (brdf_mc, albedo_mc, kd_mc): order = 0 sums orders
  * 1..max_order, order = -1 sums orders 2..max_order (multiple scattering
  * only), order = k >= 1 gives order k alone.  The walk itself does not
  * depend on c; order k carries the factor c^k exactly, so a table at c = 1
  * per order gives every c by multiplying with c^k.
- * Truncation remainder (albedo_mc, kd_mc with order = -2): the weight of the
- * walks still inside the medium after max_order scatterings.  It bounds the
- * energy the truncated tallies miss (part of it would later be absorbed);
- * at c = 1 nothing is absorbed, so albedo(order 0) + remainder = 1 walk by
- * walk.
+ * Truncation remainder (order = -2):
+ *   albedo_mc, kd_mc: the weight of the walks still inside the medium after
+ *     max_order scatterings.  It bounds the energy the truncated tallies miss
+ *     (part of it would later be absorbed); at c = 1 nothing is absorbed, so
+ *     albedo(order 0) + remainder = 1 walk by walk.
+ *   brdf_mc: the next-event BRDF of orders max_order+1 .. tail_order of the
+ *     same walk (the walk continues past max_order), so sample by sample
+ *     order 0 up to tail_order = order 0 up to max_order + remainder.  The
+ *     Russian roulette of the summed tallies (LS_RR_WEIGHT) applies, so at
+ *     c < 1 the walks end early.  tail_order <= max_order is invalid: the
+ *     host rejects it (check_point), the kernel returns NaN.
+ *   tail_order (p[8]) is read by brdf_mc with order = -2 only.
  *
  * Fourier modes (mode = p[7]): -1 the value at the given phi; m = 0, 1, 2 the
  * coefficient f^(m)(mu_i, mu_o) of eq. 9 (f = sum_m f^(m) cos(m phi)):
@@ -74,6 +93,7 @@
 #include "../common/sampler.h"
 #include "../common/vec3.h"
 #include "hfunction.h"
+#include "horak_chandrasekhar.h"
 
 #define LS_Q_PHASE 0
 #define LS_Q_BRDF_MC 1
@@ -85,6 +105,8 @@
 #define LS_Q_KD_FIT 7
 #define LS_Q_KD_MC 8
 #define LS_Q_C_FIT 9
+#define LS_Q_BRDF_THREE_TERM 10
+#define LS_Q_CONSTANT 11
 
 /* Smallest mu_o used by the next-event estimator: exp(-tau/mu_o)/mu_o has
  * unbounded variance as mu_o -> 0 (the mean stays finite). */
@@ -146,10 +168,12 @@ BT_INLINE bt_vec3 ls_rotate(bt_vec3 d, REAL mu, REAL u)
 
 #define LS_ORDER_REMAINDER (-2)
 
-BT_INLINE int ls_tally(int order, int k)
+/* Whether collision k is tallied.  order = -2: albedo tallies only at the
+ * truncation (ls_walk); the BRDF tallies the orders after max_order. */
+BT_INLINE int ls_tally(int order, int k, int max_order, int want_brdf)
 {
     if (order == 0) return 1;
-    if (order == LS_ORDER_REMAINDER) return 0; /* tallied only at truncation */
+    if (order == LS_ORDER_REMAINDER) return want_brdf && k > max_order;
     if (order < 0) return k >= 2;
     return k == order;
 }
@@ -158,9 +182,11 @@ BT_INLINE int ls_tally(int order, int k)
 
 /* One walk from direction i (light arrives along -i).
  * want_brdf != 0: next-event estimate of f(i, o) summed over the tallied
- * orders; else the escape tally (albedo).  Returns the sample. */
-BT_INLINE REAL ls_walk(bt_vec3 i, bt_vec3 o, REAL c, int order, int max_order, int phase3,
-                       int want_brdf, const bt_sampler* s)
+ * orders; else the escape tally (albedo).  tail_order: last order of the
+ * BRDF remainder (want_brdf, order = -2; must exceed max_order).  Returns
+ * the sample. */
+BT_INLINE REAL ls_walk(bt_vec3 i, bt_vec3 o, REAL c, int order, int max_order, int tail_order,
+                       int phase3, int want_brdf, const bt_sampler* s)
 {
     REAL mu_o = fmax(o.z, LS_MIN_MU);
     bt_vec3 d = bt_v3_neg(i);
@@ -169,6 +195,7 @@ BT_INLINE REAL ls_walk(bt_vec3 i, bt_vec3 o, REAL c, int order, int max_order, i
     REAL tau = -log(R(1.0) - bt_uniform(s, 1u)) * (-d.z);
     REAL total = R(0.0);
     int last = order > 0 ? order : max_order;
+    if (want_brdf && order == LS_ORDER_REMAINDER) last = tail_order; /* continue the walk */
     for (int k = 1; k <= last; ++k) {
         uint dim = 2u + 6u * (uint)(k - 1);
         if (order <= 0 && ck < LS_RR_WEIGHT) {
@@ -176,7 +203,7 @@ BT_INLINE REAL ls_walk(bt_vec3 i, bt_vec3 o, REAL c, int order, int max_order, i
         } else {
             ck *= c;
         }
-        if (want_brdf && ls_tally(order, k)) {
+        if (want_brdf && ls_tally(order, k, max_order, 1)) {
             REAL mu = bt_v3_dot(d, o);
             REAL p = phase3 ? ls_phase3(mu) : ls_phase(mu);
             total += w * ck * p * exp(-tau / mu_o) / mu_o;
@@ -193,7 +220,7 @@ BT_INLINE REAL ls_walk(bt_vec3 i, bt_vec3 o, REAL c, int order, int max_order, i
         d = ls_rotate(d, mu_s, bt_uniform(s, dim + 3u));
         tau -= -log(R(1.0) - bt_uniform(s, dim + 4u)) * d.z;
         if (tau < R(0.0)) { /* escaped after scattering k */
-            if (!want_brdf && ls_tally(order, k)) total += w * ck;
+            if (!want_brdf && ls_tally(order, k, max_order, 0)) total += w * ck;
             break;
         }
         if (k == last) { /* albedo: still inside after the last order */
@@ -219,21 +246,39 @@ BT_INLINE REAL ls_l_fit(REAL c) { return -R(0.00473696) * c * c - R(0.0589037) *
 /* eq. 27 */
 BT_INLINE REAL ls_m_fit(REAL c) { return R(0.44038) * c + R(1.0); }
 
-/* eqs. 33-37: A..F in k[0..5] */
-BT_INLINE void ls_constants(REAL c, REAL* k)
+/* The paper's fitted constants in the layout of hc_constants():
+ * k[0..7] = l, m (eqs. 26-27), A (eq. 33), B, C, D (eqs. 34-36), E (eq. 33),
+ * F (eq. 37).  hc_constants() gives the exact values (horak_chandrasekhar.h). */
+BT_INLINE void ls_constants_fit(REAL c, REAL* k)
 {
     REAL s = bt_safe_sqrt(R(1.0) - c);
     REAL s2 = s * s, s3 = s2 * s;
-    k[0] = R(69.0) * c / R(128.0);                                               /* A eq. 33 */
-    k[1] = (R(0.346689) * s3 - R(0.777574) * s2 + R(0.515357) * s - R(0.084463)) /
-           (R(0.182602) * s2 - R(0.665502) * s + R(0.964893));                  /* B eq. 34 */
-    k[2] = (-R(5602.45) * s3 + R(7487.99) * s2 - R(2567.74) * s + R(682.848)) /
-           (R(1480.25) * s2 - R(4008.33) * s + R(5850.6));                      /* C eq. 35 */
-    k[3] = (R(166.883) * s3 - R(327.428) * s2 + R(160.397) * s + R(0.285529)) /
-           (R(596.423) * s2 - R(412.984) * s + R(674.191));                     /* D eq. 36 */
-    k[4] = R(15.0) / R(128.0) * (R(1.0) - c) * c * (R(4.0) * c / R(3.0) + R(3.0)); /* E eq. 33 */
-    k[5] = (R(266.063) * s3 - R(21.9141) * s2 - R(242.16) * s - R(1.9209)) /
-           (R(215.773) * s2 + R(457.42) * s + R(1499.9));                       /* F eq. 37 */
+    k[HC_L] = ls_l_fit(c);
+    k[HC_M] = ls_m_fit(c);
+    k[HC_A] = R(69.0) * c / R(128.0);                                             /* A eq. 33 */
+    k[HC_B] = (R(0.346689) * s3 - R(0.777574) * s2 + R(0.515357) * s - R(0.084463)) /
+              (R(0.182602) * s2 - R(0.665502) * s + R(0.964893));                 /* B eq. 34 */
+    k[HC_C] = (-R(5602.45) * s3 + R(7487.99) * s2 - R(2567.74) * s + R(682.848)) /
+              (R(1480.25) * s2 - R(4008.33) * s + R(5850.6));                     /* C eq. 35 */
+    k[HC_D] = (R(166.883) * s3 - R(327.428) * s2 + R(160.397) * s + R(0.285529)) /
+              (R(596.423) * s2 - R(412.984) * s + R(674.191));                    /* D eq. 36 */
+    k[HC_E] = R(15.0) / R(128.0) * (R(1.0) - c) * c * (R(4.0) * c / R(3.0) + R(3.0)); /* E eq. 33 */
+    k[HC_F] = (R(266.063) * s3 - R(21.9141) * s2 - R(242.16) * s - R(1.9209)) /
+              (R(215.773) * s2 + R(457.42) * s + R(1499.9));                      /* F eq. 37 */
+}
+
+/* The constants of eqs. 22 and 30: exact (hc_constants) or the paper's fits.
+ * A failed exact solve (it has not happened on [0, 1]) gives NaN constants,
+ * so that the cell shows it instead of a plausible wrong number. */
+BT_INLINE void ls_constants(REAL c, int exact, REAL* k)
+{
+    if (!exact) {
+        ls_constants_fit(c, k);
+        return;
+    }
+    HC_REAL exact_k[8];
+    int ok = hc_constants((HC_REAL)c, exact_k);
+    for (int j = 0; j < 8; ++j) k[j] = ok < 0 ? NAN : (REAL)exact_k[j];
 }
 
 /* eq. 31 (a, d as printed; 1/H0(inf) = sqrt(K0(0)) from eq. 32). */
@@ -268,14 +313,11 @@ BT_INLINE REAL ls_h1_fit(REAL mu, REAL c, int variant)
     return exp(log_h11) * hc1 * norm;                       /* eq. 23 */
 }
 
-/* eq. 22 */
-BT_INLINE REAL ls_f1_mode(REAL mi, REAL mo, REAL c, REAL h1i, REAL h1o)
+/* eq. 22 as printed (prefactor c/(6 pi)); the exact cos(phi) coefficient is
+ * twice this (hc_f1, derived in horak_chandrasekhar.h). */
+BT_INLINE REAL ls_f1_mode(REAL mi, REAL mo, REAL c, REAL h1i, REAL h1o, const REAL* k)
 {
-    REAL l = ls_l_fit(c), m = ls_m_fit(c);
-    REAL S = bt_safe_sqrt((R(1.0) - mi * mi) * (R(1.0) - mo * mo));
-    return c * h1i * h1o * S *
-           (R(1.0) + (l * l + R(45.0) * m / R(64.0)) * mi * mo + l * (mi + mo)) /
-           (R(6.0) * BT_PI * (mi + mo));
+    return R(0.5) * hc_f1(mi, mo, h1i, h1o, c, k);
 }
 
 /* eq. 28: single-scattering part subtracted from f^(1). */
@@ -283,17 +325,6 @@ BT_INLINE REAL ls_ss1(REAL mi, REAL mo, REAL c)
 {
     REAL S = bt_safe_sqrt((R(1.0) - mi * mi) * (R(1.0) - mo * mo));
     return c * (R(45.0) * mi * mo + R(64.0)) * S / (R(384.0) * BT_PI * (mi + mo));
-}
-
-/* eq. 30 */
-BT_INLINE REAL ls_f0_mode(REAL mi, REAL mo, REAL c, REAL h0i, REAL h0o)
-{
-    REAL k[6];
-    ls_constants(c, k);
-    REAL sum = mi + mo, prod = mi * mo;
-    REAL poly = k[0] + k[1] * sum + k[2] * prod + k[3] * prod * sum + k[4] * prod * prod +
-                k[5] * (mi * mi + mo * mo);
-    return h0i * h0o * poly / (R(2.0) * BT_PI * sum);
 }
 
 /* eq. 38: single-scattering part subtracted from f^(0). */
@@ -341,10 +372,12 @@ BT_INLINE REAL ls_fast(bt_vec3 i, bt_vec3 o, REAL c, REAL phi)
     return fmax(R(0.0), ls_single(i, o, c) + term + R(0.234459) * kdp);
 }
 
-/* Multiple-scattering modes fm0 (eq. 30 - eq. 38) and fm1 (eq. 22 - eq. 28),
- * with H-functions exact (variant 0) or fitted (variant 1). */
-BT_INLINE void ls_ms_modes(REAL mi, REAL mo, REAL c, int fitted, int fm1_choice, int h1_norm,
-                           int coarse, REAL* fm0, REAL* fm1)
+/* Multiple-scattering modes fm0 (eq. 30 - eq. 38) and fm1 (eq. 22 - eq. 28,
+ * the printed normalisation: callers double it for the exact mode), with
+ * H-functions exact (fitted = 0) or fitted (fitted = 1) and the constants l,
+ * m, A..F exact (exact_constants = 1) or fitted. */
+BT_INLINE void ls_ms_modes(REAL mi, REAL mo, REAL c, int fitted, int exact_constants,
+                           int fm1_choice, int h1_norm, int coarse, REAL* fm0, REAL* fm1)
 {
     REAL h0i, h0o, h1i, h1o;
     if (fitted) {
@@ -361,11 +394,31 @@ BT_INLINE void ls_ms_modes(REAL mi, REAL mo, REAL c, int fitted, int fm1_choice,
         h1i = hf_h(&P1, mi, coarse);
         h1o = hf_h(&P1, mo, coarse);
     }
-    *fm0 = ls_f0_mode(mi, mo, c, h0i, h0o) - ls_ss0(mi, mo, c);
+    REAL k[8];
+    ls_constants(c, exact_constants, k);
+    *fm0 = hc_f0(mi, mo, h0i, h0o, k) - ls_ss0(mi, mo, c); /* eqs. 30, 38 */
     if (fitted && fm1_choice == 1)
         *fm1 = ls_fm1_fast(mi, mo, c);
     else
-        *fm1 = ls_f1_mode(mi, mo, c, h1i, h1o) - ls_ss1(mi, mo, c);
+        *fm1 = ls_f1_mode(mi, mo, c, h1i, h1o, k) - ls_ss1(mi, mo, c); /* eqs. 22, 28 */
+}
+
+/* cos(2 phi) coefficient of the three-term single scattering: with the
+ * addition theorem P2(cos Theta) contains (3/4)(1 - mi^2)(1 - mo^2) cos 2phi,
+ * so c p3 / (mi + mo) has 15 c (1 - mi^2)(1 - mo^2) / (256 pi (mi + mo)) —
+ * the c -> 0 limit of hc_f2 (H2 -> 1). */
+BT_INLINE REAL ls_ss2(REAL mi, REAL mo, REAL c)
+{
+    return hc_f2(mi, mo, R(1.0), R(1.0), c);
+}
+
+/* Exact multiple scattering of the three-term phase function, mode 2
+ * (dropped by eq. 21): hc_f2 minus its single-scattering part. */
+BT_INLINE REAL ls_ms_mode2(REAL mi, REAL mo, REAL c, int coarse)
+{
+    REAL none[HF_NCOEF] = {R(0.0), R(0.0), R(0.0), R(0.0)};
+    hf_psi P2 = hf_make_psi(HF_PSI_LAMBERT2, c, none);
+    return hc_f2(mi, mo, hf_h(&P2, mi, coarse), hf_h(&P2, mo, coarse), c) - ls_ss2(mi, mo, c);
 }
 
 /* Fourier mode m of f1 (eq. 10) by the midpoint rule over phi in [0, pi]. */
@@ -396,21 +449,30 @@ BT_INLINE REAL lambert_sphere_sample(const REAL* p, const int* o, int quantity,
     int order = (int)floor(p[5] + R(0.5));
     int max_order = (int)floor(p[6] + R(0.5));
     int mode = (int)floor(p[7] + R(0.5));
+    int tail_order = (int)floor(p[8] + R(0.5));
     if (quantity == LS_Q_PHASE) return ls_phase(cos(p[2]));
     if (quantity == LS_Q_KD_FIT) return ls_kd_fit(c);
     if (quantity == LS_Q_C_FIT) return ls_c_fit(c);
+    if (quantity == LS_Q_CONSTANT) { /* o[4] constants, o[5] which (l, m, A..F) */
+        REAL k[8];
+        ls_constants(c, o[4] == 0, k);
+        return k[o[5]];
+    }
     if (quantity == LS_Q_KD_MC) {
         REAL mi = sqrt(R(1.0) - bt_uniform(s, 0u)); /* cosine-weighted mu_i */
         bt_vec3 i = bt_v3(bt_safe_sqrt(R(1.0) - mi * mi), R(0.0), mi);
-        return ls_walk(i, i, c, order, max_order, o[0], 0, s);
+        return ls_walk(i, i, c, order, max_order, tail_order, o[0], 0, s);
     }
     /* Reflection only: directions below the horizon give 0. */
     if (p[0] > BT_HALF_PI) return R(0.0);
     bt_vec3 i = bt_from_spherical(p[0], p[1]);
-    if (quantity == LS_Q_ALBEDO_MC) return ls_walk(i, i, c, order, max_order, o[0], 0, s);
+    if (quantity == LS_Q_ALBEDO_MC)
+        return ls_walk(i, i, c, order, max_order, tail_order, o[0], 0, s);
     if (p[2] > BT_HALF_PI) return R(0.0);
     REAL phi = ls_wrap_phi(p[3] - p[1]);
     if (quantity == LS_Q_BRDF_MC) {
+        if (order == LS_ORDER_REMAINDER && tail_order <= max_order)
+            return R(0.0) / R(0.0); /* invalid remainder range: NaN */
         REAL weight = R(1.0);
         if (mode >= 0) { /* Fourier coefficient: phi uniform on [0, pi] */
             phi = BT_PI * bt_uniform(s, 0u);
@@ -418,7 +480,7 @@ BT_INLINE REAL lambert_sphere_sample(const REAL* p, const int* o, int quantity,
         }
         bt_vec3 i0 = bt_from_spherical(p[0], R(0.0));
         bt_vec3 oo = bt_from_spherical(p[2], phi);
-        return weight * ls_walk(i0, oo, c, order, max_order, o[0], 1, s);
+        return weight * ls_walk(i0, oo, c, order, max_order, tail_order, o[0], 1, s);
     }
     /* side from theta (above), cosines floored as in ls_single */
     REAL mi = fmax(cos(p[0]), LS_MIN_MU), mo = fmax(cos(p[2]), LS_MIN_MU);
@@ -439,16 +501,24 @@ BT_INLINE REAL lambert_sphere_sample(const REAL* p, const int* o, int quantity,
         }
         return ls_fast(i, bt_from_spherical(p[2], p[3]), c, phi);
     }
-    if (quantity == LS_Q_BRDF_ANALYTIC || quantity == LS_Q_BRDF_FIT) {
+    if (quantity == LS_Q_BRDF_ANALYTIC || quantity == LS_Q_BRDF_FIT ||
+        quantity == LS_Q_BRDF_THREE_TERM) {
         int coarse = (s->method == BT_METHOD_QUADRATURE && s->batch == 1u) ? 1 : 0;
+        int fitted = quantity == LS_Q_BRDF_FIT;
+        int three = quantity == LS_Q_BRDF_THREE_TERM;
+        int exact_k = three || (quantity == LS_Q_BRDF_ANALYTIC && o[4] == 0);
         REAL fm0, fm1;
-        ls_ms_modes(mi, mo, c, quantity == LS_Q_BRDF_FIT, o[2], o[3], coarse, &fm0, &fm1);
-        REAL w1 = o[1] == 1 ? R(1.0) : R(2.0); /* cos_phi: 0 corrected (x2), 1 paper */
+        ls_ms_modes(mi, mo, c, fitted, exact_k, o[2], o[3], coarse, &fm0, &fm1);
+        /* cos_phi: 0 corrected (x2, = the exact mode), 1 paper (x1);
+         * brdf_three_term is exact: always x2, plus mode 2. */
+        REAL w1 = (o[1] == 1 && !three) ? R(1.0) : R(2.0);
+        REAL fm2 = three ? ls_ms_mode2(mi, mo, c, coarse) : R(0.0); /* eq. 21 drops it */
         if (mode >= 0) {
-            REAL ms = mode == 0 ? fm0 : mode == 1 ? w1 * fm1 : R(0.0); /* eq. 21 */
+            REAL ms = mode == 0 ? fm0 : mode == 1 ? w1 * fm1 : mode == 2 ? fm2 : R(0.0);
             return ls_single_mode(p[0], p[2], c, mode) + ms;
         }
-        return ls_single(i, bt_from_spherical(p[2], p[3]), c) + fm0 + w1 * fm1 * cos(phi); /* eqs. 11-12 */
+        return ls_single(i, bt_from_spherical(p[2], p[3]), c) + fm0 + w1 * fm1 * cos(phi) +
+               fm2 * cos(R(2.0) * phi); /* eqs. 11-12 */
     }
     return R(0.0);
 }
