@@ -74,6 +74,19 @@ double polynomial(const std::vector<double>& coeffs, double x) {
     return v;
 }
 
+// A derived table's provenance is that of the table it is formed from; its
+// storage follows the spec's [output].
+void inherit_provenance(TableData& d, const TableData& from, const Spec& spec) {
+    d.model = from.model;
+    d.seed = from.seed;
+    d.precision = from.precision;
+    d.device = from.device;
+    d.version = from.version;
+    d.spec_file = from.spec_file;
+    d.stored_type = spec.output.stored_type;
+    d.compression = spec.output.compression;
+}
+
 // A [[recombined]] table: the recipe for brdftab::LookupTable, and as values the
 // recombination at p = stored_at with its standard error (terms independent).
 GeneratedTable recombine(const RecombinedSpec& rs, const std::vector<GeneratedTable>& done,
@@ -96,14 +109,7 @@ GeneratedTable recombine(const RecombinedSpec& rs, const std::vector<GeneratedTa
             d.value.assign(term->value.size(), 0.0);
             d.stderr_.assign(term->value.size(), 0.0);
             d.units = term->units;
-            d.model = term->model;
-            d.seed = term->seed;
-            d.precision = term->precision;
-            d.device = term->device;
-            d.version = term->version;
-            d.spec_file = term->spec_file;
-            d.stored_type = term->stored_type;
-            d.compression = term->compression;
+            inherit_provenance(d, *term, spec);
             d.parameters = term->parameters;
         }
         have_stderr = have_stderr && term->stderr_.size() == term->value.size();
@@ -154,7 +160,6 @@ GeneratedTable compare(const ErrorTableSpec& es, const std::vector<GeneratedTabl
     GeneratedTable g;
     TableData& d = g.data;
     d.name = es.name;
-    d.model = t.model;
     d.quantity = "error";
     d.method = "error";
     d.units = es.relative ? "1" : t.units;
@@ -163,13 +168,7 @@ GeneratedTable compare(const ErrorTableSpec& es, const std::vector<GeneratedTabl
                         : std::string(es.relative ? "relative" : "absolute") + " error of '" +
                               es.table + "' against '" + es.reference + "'";
     d.axes = t.axes;
-    d.seed = r.seed;
-    d.precision = r.precision;
-    d.device = r.device;
-    d.version = r.version;
-    d.spec_file = r.spec_file;
-    d.stored_type = spec.output.stored_type;
-    d.compression = spec.output.compression;
+    inherit_provenance(d, r, spec);
     const bool t_err = t.stderr_.size() == t.value.size();
     const bool r_err = r.stderr_.size() == r.value.size();
     const std::size_t n = t.value.size();
@@ -283,6 +282,64 @@ GeneratedTable compare(const ErrorTableSpec& es, const std::vector<GeneratedTabl
     return g;
 }
 
+// An [[inverted]] table.  The library interpolates a 1-D table linearly in
+// its axis' warped coordinate t (node k at t_k = k/(n-1)), so on the segment
+// between nodes k, k+1 the source is y = y_k + (t - t_k)/dt (y_(k+1) - y_k):
+// its exact inverse is t = t_k + dt (y - y_k)/(y_(k+1) - y_k), x = warp(t).
+// Standard error: sigma_x = sigma_y(x) / |dy/dx| with the segment's slope.
+GeneratedTable invert(const InvertedSpec& is, const std::vector<GeneratedTable>& done,
+                      const Spec& spec) {
+    const std::string user = spec.file + ": inverted table '" + is.name + "'";
+    const TableData& src = find_done(done, is.table, user);
+    const Axis& xa = src.axes.front();
+    const std::vector<double>& y = src.value;
+    const std::size_t n = y.size();
+    const double sign = y.back() > y.front() ? 1.0 : -1.0;
+    for (std::size_t k = 0; k + 1 < n; ++k)
+        if (!(sign * (y[k + 1] - y[k]) > 0))
+            throw InputError(user + ": '" + is.table + "' is not strictly monotone along '" +
+                             xa.name + "' (" + std::to_string(y[k]) + " at " + xa.name + " = " +
+                             std::to_string(xa.values[k]) + ", " + std::to_string(y[k + 1]) +
+                             " at " + std::to_string(xa.values[k + 1]) +
+                             "), so it has no inverse; restrict its axis to a monotone part");
+    const double ylo = std::min(y.front(), y.back()), yhi = std::max(y.front(), y.back());
+    if (is.axis.min < ylo || is.axis.max > yhi)
+        throw InputError(user + ": the axis '" + is.axis.name + "' spans [" +
+                         std::to_string(is.axis.min) + ", " + std::to_string(is.axis.max) +
+                         "], outside the values of '" + is.table + "', [" + std::to_string(ylo) +
+                         ", " + std::to_string(yhi) + "]; give a range inside it");
+    const bool have_err = src.stderr_.size() == n;
+    GeneratedTable g;
+    TableData& d = g.data;
+    d.name = is.name;
+    d.quantity = xa.name;
+    d.units = xa.unit;
+    d.method = "inverted";
+    d.description = !is.description.empty()
+                        ? is.description
+                        : xa.name + " as a function of " + is.axis.name + " (the inverse of '" +
+                              is.table + "')";
+    d.axes = {is.axis};
+    inherit_provenance(d, src, spec);
+    d.parameters = src.parameters;
+    d.parameters["inverse_of"] = {{"table", is.table}, {"axis", xa.name}};
+    const double dt = 1.0 / double(n - 1);
+    for (double target : is.axis.values) {
+        std::size_t k = 0;  // segment with target between y_k and y_(k+1)
+        while (k + 2 < n && sign * (target - y[k + 1]) > 0) ++k;
+        const double f = (target - y[k]) / (y[k + 1] - y[k]);
+        const double x = xa.warp((double(k) + f) * dt);
+        d.value.push_back(std::clamp(x, xa.min, xa.max));
+        if (have_err) {
+            const double sy = (1 - f) * src.stderr_[k] + f * src.stderr_[k + 1];
+            const double slope = (y[k + 1] - y[k]) / (xa.values[k + 1] - xa.values[k]);
+            d.stderr_.push_back(sy / std::fabs(slope));
+        }
+    }
+    d.keep_stderr = spec.output.keep_stderr && have_err;
+    return g;
+}
+
 }  // namespace
 
 std::vector<GeneratedTable> generate_tables(const Spec& spec, Backend& backend,
@@ -358,6 +415,7 @@ std::vector<GeneratedTable> generate_tables(const Spec& spec, Backend& backend,
     }
     for (const RecombinedSpec& rs : spec.recombined) out.push_back(recombine(rs, out, spec));
     for (const ErrorTableSpec& es : spec.errors) out.push_back(compare(es, out, spec));
+    for (const InvertedSpec& is : spec.inverted) out.push_back(invert(is, out, spec));
     return out;
 }
 

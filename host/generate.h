@@ -43,8 +43,8 @@ struct GeneratedTable {
     std::optional<ErrorSummary> error;  // set for [[errors]] tables
 };
 
-// Computes every table of `spec` with `settings` (then its [[recombined]] and
-// [[errors]] tables, in that order) (the spec's integration
+// Computes every table of `spec` with `settings` (then its [[recombined]],
+// [[errors]] and [[inverted]] tables, in that order) (the spec's integration
 // settings with any command-line overrides applied).
 std::vector<GeneratedTable> generate_tables(const Spec& spec, Backend& backend,
                                             const IntegrationSettings& settings,

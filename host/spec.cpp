@@ -179,13 +179,18 @@ private:
     std::string allowed_names() const;
     Block parse_parameters(const toml::table& t, const std::string& prefix) const;
     std::vector<AxisSrc> parse_axes(const toml::array& a, const std::string& prefix) const;
-    AxisSrc parse_axis(const toml::table& t, const std::string& prefix) const;
+    // free_unit: an axis that is no model coordinate (e.g. the value axis of an
+    // [[inverted]] table), with that unit and no range limit.
+    AxisSrc parse_axis(const toml::table& t, const std::string& prefix,
+                       const char* free_unit = nullptr) const;
     void parse_integration(const toml::table& t, IntegrationSettings& s) const;
     void parse_output(const toml::table& t, OutputSettings& o) const;
     RecombinedSpec parse_recombined(const toml::table& t, const std::string& prefix,
                                     const Spec& spec, std::map<std::string, Pos>& names) const;
     ErrorTableSpec parse_error_table(const toml::table& t, const std::string& prefix,
                                      const Spec& spec, std::map<std::string, Pos>& names) const;
+    InvertedSpec parse_inverted(const toml::table& t, const std::string& prefix,
+                                const Spec& spec, std::map<std::string, Pos>& names) const;
     // The `name` of a table formed from others: present, valid, unique.
     std::string derived_name(const toml::table& t, const std::string& prefix,
                              std::map<std::string, Pos>& names, const char* what) const;
@@ -332,7 +337,8 @@ Parser::Block Parser::parse_parameters(const toml::table& t, const std::string& 
     return b;
 }
 
-Parser::AxisSrc Parser::parse_axis(const toml::table& t, const std::string& prefix) const {
+Parser::AxisSrc Parser::parse_axis(const toml::table& t, const std::string& prefix,
+                                   const char* free_unit) const {
     check_keys(t, prefix, {"name", "range", "count", "spacing", "values"});
     const Pos tpos = pos_of(t);
     const std::optional<std::string> name = get_string(t, prefix, "name");
@@ -341,8 +347,10 @@ Parser::AxisSrc Parser::parse_axis(const toml::table& t, const std::string& pref
     const std::string nkey = sub(prefix, "name");
 
     std::string unit;
-    const ParameterInfo* p = model_->find_parameter(*name);
-    if (is_direction_coordinate(*name)) {
+    const ParameterInfo* p = free_unit ? nullptr : model_->find_parameter(*name);
+    if (free_unit) {
+        unit = free_unit;
+    } else if (is_direction_coordinate(*name)) {
         unit = direction_unit(*name);
     } else if (p) {
         unit = p->unit.empty() ? "1" : p->unit;
@@ -356,9 +364,12 @@ Parser::AxisSrc Parser::parse_axis(const toml::table& t, const std::string& pref
                              "parameter of model '" + model_->name + "'; allowed: " + join(names));
     }
     auto accepts = [&](double v) {
+        if (free_unit) return std::isfinite(v);
         return p ? p->accepts(v) : direction_accepts(*name, v);
     };
-    const std::string range_text = p ? p->range_text() : direction_range_text(*name);
+    const std::string range_text = free_unit ? std::string("finite numbers")
+                                   : p       ? p->range_text()
+                                             : direction_range_text(*name);
 
     Spacing spacing = Spacing::Linear;
     if (auto s = get_string(t, prefix, "spacing")) {
@@ -743,7 +754,7 @@ Spec Parser::run() {
     }
 
     check_keys(root, "", {"model", "description", "parameters", "axes", "tables", "recombined",
-                          "errors", "integration", "output"});
+                          "errors", "inverted", "integration", "output"});
 
     std::vector<std::string> model_names;
     for (const auto& m : all_models()) model_names.push_back(m.name);
@@ -814,7 +825,38 @@ Spec Parser::run() {
         for (std::size_t k = 0; k < es->size(); ++k)
             spec.errors.push_back(
                 parse_error_table(*(*es)[k].as_table(), indexed("errors", k), spec, names));
+    if (const toml::array* is = get_table_array(root, "", "inverted"))
+        for (std::size_t k = 0; k < is->size(); ++k)
+            spec.inverted.push_back(
+                parse_inverted(*(*is)[k].as_table(), indexed("inverted", k), spec, names));
     return spec;
+}
+
+InvertedSpec Parser::parse_inverted(const toml::table& t, const std::string& prefix,
+                                    const Spec& spec, std::map<std::string, Pos>& names) const {
+    check_keys(t, prefix, {"name", "description", "table", "axis"});
+    InvertedSpec v;
+    v.name = derived_name(t, prefix, names, "inverted table");
+    if (auto d = get_string(t, prefix, "description")) v.description = *d;
+    const TableSpec& src = source_table(t, prefix, "table", spec, false,
+                                       "name the 1-D table to invert, e.g. \"kd_mc\"");
+    v.table = src.name;
+    if (src.axes.size() != 1)
+        fail(pos_of(*t.get("table")), sub(prefix, "table"),
+             "table '" + src.name + "' has " + std::to_string(src.axes.size()) +
+                 " axes; only a table with one axis can be inverted");
+    const toml::table* at = get_table(t, prefix, "axis");
+    if (!at)
+        fail(pos_of(t), sub(prefix, "axis"),
+             "missing; give the new axis of " + src.name + "'s values, e.g. [" + prefix +
+                 ".axis] with name, range and count");
+    const std::string units = model_->quantity(src.quantity).units;
+    v.axis = parse_axis(*at, sub(prefix, "axis"), units.c_str()).axis;
+    if (v.axis.name == src.axes.front().name)
+        fail(pos_of(*at->get("name")), sub(sub(prefix, "axis"), "name"),
+             "'" + v.axis.name + "' is the axis of '" + src.name +
+                 "'; name the new axis after its values (e.g. the quantity)");
+    return v;
 }
 
 std::string Parser::derived_name(const toml::table& t, const std::string& prefix,

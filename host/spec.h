@@ -64,6 +64,17 @@ struct ErrorTableSpec {
     std::string by;  // axis name for the per-node summary; empty: none
 };
 
+// A table that inverts a strictly monotone 1-D table of the same spec: for
+// the source y(x), the values x(y) on a new axis of y values (e.g. the
+// particle albedo c from the spherical albedo kd).  Inverts the library's
+// linear interpolation of the source exactly; standard error
+// sigma_x = sigma_y / |dy/dx|.
+struct InvertedSpec {
+    std::string name, description;
+    std::string table;  // the source, a [[tables]] entry with one axis
+    Axis axis;          // the new axis (the source's values)
+};
+
 struct Spec {
     std::string file;  // path as given (for messages); "<string>" when parsed from text
     std::string text;  // the spec's full text (stored in the output file)
@@ -72,6 +83,7 @@ struct Spec {
     std::vector<TableSpec> tables;
     std::vector<RecombinedSpec> recombined;
     std::vector<ErrorTableSpec> errors;
+    std::vector<InvertedSpec> inverted;
     IntegrationSettings integration;
     OutputSettings output;
 };

@@ -351,3 +351,124 @@ seed = 5
         CHECK(g.error->max_abs < 0.1);
     }
 }
+
+TEST_CASE("inverted tables: the inverse of eq. 40 (kd from c); monotonicity and range errors") {
+    // Source: kd_fit (eq. 40) on 201 nodes in c in [0, 0.9].  Oracle: the
+    // inverse of eq. 40 by bisection on the formula, written here
+    // independently; the table inverts linear interpolation, so they agree to
+    // h^2/8 max|kd''| (~1e-5 here; kd'' grows like (1 - c)^(-3/2), so a table
+    // reaching c -> 1 needs nodes crowding there).
+    auto kd_eq40 = [](double c) {
+        const double s = std::sqrt(1 - c);
+        return (-0.453029 * (1 - c) - 0.544162 * s + 1) / (1.42931 * s + 1);
+    };
+    const std::string base = R"(
+model = "lambert-sphere"
+[[tables]]
+name = "kd"
+quantity = "kd_fit"
+[[tables.axes]]
+name = "c"
+range = [0.0, 0.9]
+count = 201
+[[inverted]]
+name = "c_of_kd"
+table = "kd"
+[inverted.axis]
+name = "kd"
+)";
+    auto device = make_backend("host", Precision::Double);
+    Spec spec = parse_spec_string(base + "range = [0.01, 0.5]\ncount = 50\n", "inv.toml");
+    auto tables = generate_tables(spec, *device, spec.integration);
+    REQUIRE(tables.size() == 2);
+    const TableData& inv = tables[1].data;
+    CHECK(inv.method == "inverted");
+    CHECK(inv.units == "1");
+    REQUIRE(inv.axes.size() == 1);
+    CHECK(inv.axes[0].name == "kd");
+    CHECK(inv.parameters.at("inverse_of").at("table") == "kd");
+    double worst = 0, worst_kd = 0;
+    for (std::size_t k = 0; k < inv.value.size(); ++k) {
+        const double target = inv.axes[0].values[k];
+        double lo = 0, hi = 0.9;
+        for (int it = 0; it < 100; ++it) {
+            const double mid = 0.5 * (lo + hi);
+            (kd_eq40(mid) < target ? lo : hi) = mid;
+        }
+        worst = std::max(worst, std::fabs(inv.value[k] - 0.5 * (lo + hi)));
+        worst_kd = std::max(worst_kd, std::fabs(kd_eq40(inv.value[k]) - target));
+    }
+    MESSAGE("inverse of eq. 40: max |c - c_exact| = " << worst << ", max |kd(c) - kd| = " << worst_kd);
+    CHECK(worst < 3e-5);
+    CHECK(worst_kd < 3e-5);
+    // Not monotone: rough-dielectric's brdf along theta_o peaks at the mirror
+    // direction.
+    Spec bumpy = parse_spec_string(R"(
+model = "rough-dielectric"
+[parameters]
+alpha = 0.2
+eta = 1.5
+theta_i = 30.0
+[[tables]]
+quantity = "brdf"
+[[tables.axes]]
+name = "theta_o"
+range = [0.0, 80.0]
+count = 9
+[[inverted]]
+name = "inv"
+table = "brdf"
+[inverted.axis]
+name = "f"
+range = [0.1, 0.2]
+count = 3
+)",
+                                   "bumpy.toml");
+    CHECK_THROWS_WITH_AS(generate_tables(bumpy, *device, bumpy.integration),
+                         doctest::Contains("is not strictly monotone along 'theta_o'"), InputError);
+    // An axis beyond the source's values.
+    Spec wide = parse_spec_string(base + "range = [0.01, 0.9]\ncount = 5\n", "wide.toml");
+    CHECK_THROWS_WITH_AS(generate_tables(wide, *device, wide.integration),
+                         doctest::Contains("outside the values of 'kd'"), InputError);
+}
+
+TEST_CASE("inverted tables: standard error sigma_x = sigma_y / |dy/dx| from a Monte Carlo source") {
+    Spec spec = parse_spec_string(R"(
+model = "lambert-sphere"
+[[tables]]
+name = "kd"
+quantity = "kd_mc"
+[[tables.axes]]
+name = "c"
+range = [0.2, 0.8]
+count = 4
+[[inverted]]
+name = "c_of_kd"
+table = "kd"
+[inverted.axis]
+name = "kd"
+range = [0.1, 0.3]
+count = 3
+[integration]
+samples = 20000
+)",
+                                  "mcinv.toml");
+    auto device = make_backend("", Precision::Double);
+    auto tables = generate_tables(spec, *device, spec.integration);
+    const TableData& src = tables[0].data;
+    const TableData& inv = tables[1].data;
+    REQUIRE(inv.stderr_.size() == 3);
+    for (std::size_t k = 0; k < 3; ++k) {
+        // The segment of the target, found here directly.
+        const double y = inv.axes[0].values[k];
+        std::size_t j = 0;
+        while (j + 2 < src.value.size() && y > src.value[j + 1]) ++j;
+        const double f = (y - src.value[j]) / (src.value[j + 1] - src.value[j]);
+        const double x = src.axes[0].values[j] + f * (src.axes[0].values[j + 1] - src.axes[0].values[j]);
+        const double slope = (src.value[j + 1] - src.value[j]) / 0.2;
+        const double sy = (1 - f) * src.stderr_[j] + f * src.stderr_[j + 1];
+        CHECK(inv.value[k] == doctest::Approx(x).epsilon(1e-12));
+        CHECK(inv.stderr_[k] == doctest::Approx(sy / slope).epsilon(1e-12));
+        CHECK(inv.stderr_[k] > 0);
+    }
+}

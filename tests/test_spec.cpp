@@ -782,3 +782,55 @@ measure = "absolute"
                  "[[errors]]\nname = \"x\"\ntable = \"brdf\"\nreference = \"albedo_r\"\n",
                  17, "errors[0].reference", "same units");
 }
+
+TEST_CASE("[[inverted]]: a 1-D source and a free value axis") {
+    const std::string base = R"(model = "lambert-sphere"
+[[tables]]
+name = "kd"
+quantity = "kd_fit"
+[[tables.axes]]
+name = "c"
+range = [0.0, 1.0]
+count = 11
+[[tables]]
+name = "two"
+quantity = "brdf_single"
+[[axes]]
+name = "theta_i"
+range = [0.0, 80.0]
+count = 3
+[[axes]]
+name = "theta_o"
+range = [0.0, 80.0]
+count = 3
+)";  // 19 lines: the [[inverted]] header below is line 20
+    const Spec s = parse_spec_string(base + R"([[inverted]]
+name = "c_of_kd"
+table = "kd"
+[inverted.axis]
+name = "kd"
+range = [0.0, 0.8]
+count = 9
+)",
+                                     "spec.toml");
+    REQUIRE(s.inverted.size() == 1);
+    CHECK(s.inverted[0].table == "kd");
+    CHECK(s.inverted[0].axis.name == "kd");
+    CHECK(s.inverted[0].axis.unit == "1");  // the source's units
+    CHECK(s.inverted[0].axis.count == 9);
+    CHECK(s.inverted[0].axis.values.back() == 0.8);
+
+    const std::string head = base + "[[inverted]]\nname = \"x\"\n";  // lines 20-21
+    expect_error(head + "table = \"two\"\n[inverted.axis]\nname = \"y\"\nrange = [0.0, 1.0]\n"
+                        "count = 3\n",
+                 22, "inverted[0].table", "only a table with one axis");
+    expect_error(head + "table = \"nope\"\n", 22, "inverted[0].table", "allowed: kd, two");
+    expect_error(head + "table = \"kd\"\n", 20, "inverted[0].axis", "missing");
+    expect_error(head + "table = \"kd\"\n[inverted.axis]\nname = \"c\"\nrange = [0.0, 1.0]\n"
+                        "count = 3\n",
+                 24, "inverted[0].axis.name", "is the axis of 'kd'");
+    expect_error(head + "table = \"kd\"\n[inverted.axis]\nname = \"kd\"\nrange = [0.5, 0.1]\n"
+                        "count = 3\n",
+                 25, "inverted[0].axis.range", "min must be less than max");
+    expect_error(head + "table = \"kd\"\nextra = 1\n", 23, "inverted[0].extra", "unknown key");
+}

@@ -223,6 +223,7 @@ void register_generate(CLI::App& app) {
         std::cerr << "brdftab: " << spec.model << ", " << spec.tables.size() << " table(s)";
         if (!spec.recombined.empty()) std::cerr << " + " << spec.recombined.size() << " recombined";
         if (!spec.errors.empty()) std::cerr << " + " << spec.errors.size() << " error table(s)";
+        if (!spec.inverted.empty()) std::cerr << " + " << spec.inverted.size() << " inverted";
         std::cerr << " from " << st.spec_path << " on " << backend->device_name()
                   << " (" << precision_name(backend->precision()) << ")\n";
         std::unique_ptr<ProgressPrinter> printer;
@@ -252,7 +253,7 @@ void register_generate(CLI::App& app) {
             for (std::size_t a = 0; a < d.axes.size(); ++a)
                 std::cout << (a ? " x " : "") << d.axes[a].name << " " << d.axes[a].count;
             std::cout << "] = " << d.cell_count() << " cells, " << d.method;
-            if (d.method != "closed-form" && d.method != "recombined" && d.method != "error")
+            if (d.method == "mc" || d.method == "rqmc" || d.method == "quadrature")
                 std::cout << ", " << format_count(static_cast<double>(d.total_samples))
                           << " samples, max rel. stderr " << d.tolerance_achieved;
             std::cout << ", values in [" << lo << ", " << hi << "], "

@@ -86,7 +86,7 @@ void print_table_summary(const TableData& t, bool verbose) {
                   << spacing_name(a.spacing) << "\n";
     std::cout << "    parameters: " << t.parameters.dump() << "\n";
     std::cout << "    method: " << t.method;
-    if (t.method == "error" || t.method == "recombined") {
+    if (t.method == "error" || t.method == "recombined" || t.method == "inverted") {
         std::cout << " (formed from other tables of the file; see parameters)";
     } else if (t.method != "closed-form") {
         std::cout << ", samples/cell requested " << t.samples_requested;

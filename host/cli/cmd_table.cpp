@@ -261,6 +261,12 @@ void run_validate(const ValidateArgs& va) {
                          "tables it compares: '" + e.value("table", std::string("?")) + "' and '" +
                          e.value("reference", std::string("?")) + "'");
     }
+    if (full.table().method == "inverted") {
+        const nlohmann::json& e = full.table().parameters.value("inverse_of", nlohmann::json::object());
+        throw InputError(va.file + ": table '" + full.table().name +
+                         "' is an inverted table (no model quantity of its own); validate the "
+                         "table it inverts: '" + e.value("table", std::string("?")) + "'");
+    }
     // Validate the stored values: the recombination recipe (if any) is a
     // user-level formula applied on top of them.
     const LookupTable lt(stored_only(full.table()));
