@@ -27,21 +27,13 @@ ModelInfo rough_dielectric_model() {
     m.kernel_file = "rough_dielectric.cl";
     m.kernel_name = "rough_dielectric_estimate";
 
-    ParameterInfo alpha;
-    alpha.name = "alpha";
-    alpha.unit = "1";
-    alpha.description = "roughness (Beckmann/GGX alpha; Phong uses alpha_p = 2/alpha^2 - 2)";
-    alpha.min = 0;
-    alpha.min_inclusive = false;
-    alpha.max = 4;
-    ParameterInfo eta;
-    eta.name = "eta";
-    eta.unit = "1";
-    eta.description = "index of refraction, interior / exterior (may be < 1)";
-    eta.min = 0;
-    eta.min_inclusive = false;
-    eta.max = 10;
-    m.parameters = {alpha, eta};
+    m.parameters = {
+        parameter_info("alpha", "1",
+                       "roughness (Beckmann/GGX alpha; Phong uses alpha_p = 2/alpha^2 - 2)", 0, 4)
+            .open_min(),
+        parameter_info("eta", "1", "index of refraction, interior / exterior (may be < 1)", 0, 10)
+            .open_min(),
+    };
 
     m.options = {
         {"distribution", "microfacet normal distribution", {"beckmann", "ggx", "phong"}, "ggx"},

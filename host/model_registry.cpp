@@ -130,6 +130,18 @@ std::string direction_range_text(const std::string& n) {
     return "[-360, 360] deg";
 }
 
+ParameterInfo parameter_info(std::string name, std::string unit, std::string description,
+                             double lo, double hi, std::optional<double> default_value) {
+    ParameterInfo p;
+    p.name = std::move(name);
+    p.unit = std::move(unit);
+    p.description = std::move(description);
+    p.min = lo;
+    p.max = hi;
+    p.default_value = default_value;
+    return p;
+}
+
 // -------------------------------------------------------------- PointBuilder
 
 PointBuilder::PointBuilder(const ModelInfo& model, const QuantityInfo& quantity)

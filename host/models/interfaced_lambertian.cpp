@@ -18,20 +18,6 @@ REAL host_interfaced_lambertian_sample(const REAL* point, const int* options, in
 
 namespace {
 
-ParameterInfo param(const char* name, const char* unit, const char* desc, double lo, double hi,
-                    double def, bool lo_inclusive = true, bool degrees = false) {
-    ParameterInfo p;
-    p.name = name;
-    p.unit = unit;
-    p.description = desc;
-    p.min = lo;
-    p.max = hi;
-    p.min_inclusive = lo_inclusive;
-    p.default_value = def;
-    p.in_degrees = degrees;
-    return p;
-}
-
 ModelInfo interfaced_lambertian_model() {
     ModelInfo m;
     m.name = "interfaced-lambertian";
@@ -49,19 +35,26 @@ ModelInfo interfaced_lambertian_model() {
     m.kernel_name = "interfaced_lambertian_estimate";
 
     m.parameters = {
-        param("sigma", "deg",
-              "Gaussian-of-normals width (distribution = gaussian-ts only, eq. 13); 0 = flat",
-              0, 89, 20, true, true),
-        param("alpha", "1", "Beckmann/GGX width (isotropic; eqs. 15, 20)", 0, 4, 0.3, false),
-        param("alpha_x", "1", "anisotropic Beckmann/GGX width along x; 0 = use alpha", 0, 4, 0),
-        param("alpha_y", "1", "anisotropic Beckmann/GGX width along y; 0 = use alpha", 0, 4, 0),
-        param("ni", "1", "relative index n1/n0 of the facet interface (eq. 7)", 1, 4, 1.5),
-        param("kd", "1", "Lambertian substrate reflectance Kd (brdf, albedo_body, Rb, vcavity)",
-              0, 1, 0.5),
-        param("order", "1",
-              "vcavity: bounce order, 0 = all orders summed (up to 128), k >= 1 = exactly k "
-              "facet interactions (integer)",
-              0, 128, 0),
+        parameter_info("sigma", "deg",
+                       "Gaussian-of-normals width (distribution = gaussian-ts only, eq. 13); "
+                       "0 = flat",
+                       0, 89, 20)
+            .degrees(),
+        parameter_info("alpha", "1", "Beckmann/GGX width (isotropic; eqs. 15, 20)", 0, 4, 0.3)
+            .open_min(),
+        parameter_info("alpha_x", "1", "anisotropic Beckmann/GGX width along x; 0 = use alpha", 0,
+                       4, 0),
+        parameter_info("alpha_y", "1", "anisotropic Beckmann/GGX width along y; 0 = use alpha", 0,
+                       4, 0),
+        parameter_info("ni", "1", "relative index n1/n0 of the facet interface (eq. 7)", 1, 4, 1.5),
+        parameter_info("kd", "1",
+                       "Lambertian substrate reflectance Kd (brdf, albedo_body, Rb, vcavity)", 0, 1,
+                       0.5),
+        parameter_info(
+            "order", "1",
+            "vcavity: bounce order, 0 = all orders summed (up to 128), k >= 1 = exactly k "
+            "facet interactions (integer)",
+            0, 128, 0),
     };
     m.options = {
         {"distribution",

@@ -29,18 +29,6 @@ const char* kCitation =
     "E. d'Eon. An analytic BRDF for materials with spherical Lambertian scatterers. "
     "Computer Graphics Forum 40(4) (EGSR 2021).";
 
-ParameterInfo param(const char* name, const char* desc, double lo, double hi,
-                    std::optional<double> def) {
-    ParameterInfo p;
-    p.name = name;
-    p.unit = "1";
-    p.description = desc;
-    p.min = lo;
-    p.max = hi;
-    p.default_value = def;
-    return p;
-}
-
 ModelInfo hfunction_model() {
     ModelInfo m;
     m.name = "hfunction";
@@ -54,16 +42,18 @@ ModelInfo hfunction_model() {
     m.kernel_file = "hfunction.cl";
     m.kernel_name = "hfunction_estimate";
     m.parameters = {
-        param("mu", "argument of H (cosine; values > 1 give the analytic continuation, "
-                    "large values approach H(inf))",
-              0, 1e12, 1.0),
-        param("c", "single-scattering albedo (lambert0/1/2, isotropic; ignored by poly)", 0, 1,
-              1.0),
-        param("n", "moment order of alpha_n (integer)", 0, 16, 0.0),
-        param("psi_0", "poly: coefficient of mu^0 in Psi", -10, 10, 0.0),
-        param("psi_1", "poly: coefficient of mu^2 in Psi", -10, 10, 0.0),
-        param("psi_2", "poly: coefficient of mu^4 in Psi", -10, 10, 0.0),
-        param("psi_3", "poly: coefficient of mu^6 in Psi", -10, 10, 0.0),
+        parameter_info("mu", "1",
+                       "argument of H (cosine; values > 1 give the analytic continuation, "
+                       "large values approach H(inf))",
+                       0, 1e12, 1.0),
+        parameter_info("c", "1",
+                       "single-scattering albedo (lambert0/1/2, isotropic; ignored by poly)", 0, 1,
+                       1.0),
+        parameter_info("n", "1", "moment order of alpha_n (integer)", 0, 16, 0.0),
+        parameter_info("psi_0", "1", "poly: coefficient of mu^0 in Psi", -10, 10, 0.0),
+        parameter_info("psi_1", "1", "poly: coefficient of mu^2 in Psi", -10, 10, 0.0),
+        parameter_info("psi_2", "1", "poly: coefficient of mu^4 in Psi", -10, 10, 0.0),
+        parameter_info("psi_3", "1", "poly: coefficient of mu^6 in Psi", -10, 10, 0.0),
     };
     m.options = {{"psi",
                   "characteristic function: d'Eon eqs. 13-15 (lambert0/1/2), isotropic "
@@ -113,23 +103,24 @@ ModelInfo lambert_sphere_model() {
     m.kernel_file = "lambert_sphere.cl";
     m.kernel_name = "lambert_sphere_estimate";
     m.parameters = {
-        param("c", "particle (single-scattering) albedo; kd for c_fit", 0, 1, 1.0),
-        param("order",
-              "random walks: 0 all orders 1..max_order, -1 orders >= 2 only, k >= 1 order k only "
-              "(order k scales exactly as c^k); -2 = truncation remainder: albedo_mc/kd_mc the "
-              "weight still inside the medium after max_order scatterings, brdf_mc the BRDF of "
-              "orders max_order+1..tail_order of the same walks",
-              -2, 100000, 0.0),
-        param("max_order", "random walks: truncation order (c = 1 converges slowly)", 1, 100000,
-              1000.0),
-        param("mode",
-              "-1: value at phi; 0, 1, 2: Fourier coefficient f^(m) of eq. 9 "
-              "(f = sum_m f^(m) cos(m phi))",
-              -1, 8, -1.0),
-        param("tail_order",
-              "brdf_mc with order = -2: last order of the truncation remainder (orders "
-              "max_order+1..tail_order); must exceed max_order",
-              2, 10000000, 100000.0),
+        parameter_info("c", "1", "particle (single-scattering) albedo; kd for c_fit", 0, 1, 1.0),
+        parameter_info(
+            "order", "1",
+            "random walks: 0 all orders 1..max_order, -1 orders >= 2 only, k >= 1 order k only "
+            "(order k scales exactly as c^k); -2 = truncation remainder: albedo_mc/kd_mc the "
+            "weight still inside the medium after max_order scatterings, brdf_mc the BRDF of "
+            "orders max_order+1..tail_order of the same walks",
+            -2, 100000, 0.0),
+        parameter_info("max_order", "1", "random walks: truncation order (c = 1 converges slowly)",
+                       1, 100000, 1000.0),
+        parameter_info("mode", "1",
+                       "-1: value at phi; 0, 1, 2: Fourier coefficient f^(m) of eq. 9 "
+                       "(f = sum_m f^(m) cos(m phi))",
+                       -1, 8, -1.0),
+        parameter_info("tail_order", "1",
+                       "brdf_mc with order = -2: last order of the truncation remainder (orders "
+                       "max_order+1..tail_order); must exceed max_order",
+                       2, 10000000, 100000.0),
     };
     m.options = {
         {"phase_mc",

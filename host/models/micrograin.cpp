@@ -16,24 +16,6 @@ REAL host_micrograin_sample(const REAL* point, const int* options, int quantity,
     return micrograin_sample(point, options, quantity, sampler);
 }
 
-namespace {
-
-ParameterInfo param(const char* name, const char* desc, double lo, bool lo_in, double hi,
-                    bool hi_in, double def) {
-    ParameterInfo p;
-    p.name = name;
-    p.unit = "1";
-    p.description = desc;
-    p.min = lo;
-    p.min_inclusive = lo_in;
-    p.max = hi;
-    p.max_inclusive = hi_in;
-    p.default_value = def;
-    return p;
-}
-
-}  // namespace
-
 void register_micrograin(std::vector<ModelInfo>& models) {
     ModelInfo m;
     m.name = "micrograin";
@@ -51,22 +33,31 @@ void register_micrograin(std::vector<ModelInfo>& models) {
 
     // Order = kernel point layout p[4..14] (kernels/models/micrograin.h).
     m.parameters = {
-        param("tau0", "filling factor: fraction of the base covered by grains (eq. 8)", 0, false,
-              1, false, 0.5),
-        param("beta_x", "lateral stretch along x: grain semi-axis 1/beta_x (Fig. 2c)", 0.01,
-              true, 10, true, 1),
-        param("beta_y", "lateral stretch along y: grain semi-axis 1/beta_y", 0.01, true, 10,
-              true, 1),
-        param("h", "height in the layer (shadow/overlap areas, GAF quantities), n.m'", 0, true,
-              1, true, 0),
-        param("kd", "grain diffuse albedo (eq. 21)", 0, true, 1, true, 0.5),
-        param("eta", "grain index of refraction (dielectric) or its real part (conductor)", 0,
-              false, 10, true, 1.5),
-        param("k", "grain extinction coefficient (conductor grains)", 0, true, 20, true, 0),
-        param("base_albedo", "Lambertian base albedo", 0, true, 1, true, 0.5),
-        param("base_alpha", "GGX width of the rough conductor/dielectric base", 0, false, 2, true, 0.2),
-        param("base_eta", "index of the rough base: conductor real part, or dielectric relative index", 0, false, 10, true, 0.2),
-        param("base_k", "rough-conductor base extinction coefficient", 0, true, 20, true, 3.0),
+        parameter_info("tau0", "1",
+                       "filling factor: fraction of the base covered by grains (eq. 8)", 0, 1, 0.5)
+            .open_min()
+            .open_max(),
+        parameter_info("beta_x", "1", "lateral stretch along x: grain semi-axis 1/beta_x (Fig. 2c)",
+                       0.01, 10, 1),
+        parameter_info("beta_y", "1", "lateral stretch along y: grain semi-axis 1/beta_y", 0.01, 10,
+                       1),
+        parameter_info("h", "1", "height in the layer (shadow/overlap areas, GAF quantities), n.m'",
+                       0, 1, 0),
+        parameter_info("kd", "1", "grain diffuse albedo (eq. 21)", 0, 1, 0.5),
+        parameter_info("eta", "1",
+                       "grain index of refraction (dielectric) or its real part (conductor)", 0, 10,
+                       1.5)
+            .open_min(),
+        parameter_info("k", "1", "grain extinction coefficient (conductor grains)", 0, 20, 0),
+        parameter_info("base_albedo", "1", "Lambertian base albedo", 0, 1, 0.5),
+        parameter_info("base_alpha", "1", "GGX width of the rough conductor/dielectric base", 0, 2,
+                       0.2)
+            .open_min(),
+        parameter_info("base_eta", "1",
+                       "index of the rough base: conductor real part, or dielectric relative index",
+                       0, 10, 0.2)
+            .open_min(),
+        parameter_info("base_k", "1", "rough-conductor base extinction coefficient", 0, 20, 3.0),
     };
     m.options = {
         {"grain",

@@ -17,18 +17,6 @@ REAL host_oren_nayar_sample(const REAL* point, const int* options, int quantity,
 
 namespace {
 
-ParameterInfo parameter(const char* name, const char* unit, const char* desc, double lo,
-                        double hi, bool in_degrees) {
-    ParameterInfo p;
-    p.name = name;
-    p.unit = unit;
-    p.description = desc;
-    p.min = lo;
-    p.max = hi;
-    p.in_degrees = in_degrees;
-    return p;
-}
-
 ModelInfo oren_nayar_model() {
     ModelInfo m;
     m.name = "oren-nayar";
@@ -44,28 +32,32 @@ ModelInfo oren_nayar_model() {
     m.kernel_name = "oren_nayar_estimate";
 
     // Order = p[4..8] in kernels/models/oren_nayar.h.
-    ParameterInfo sigma = parameter(
-        "sigma", "deg", "standard deviation of the facet slope (Gaussian slope-area distribution, "
-        "eq. 26)", 0, 80, true);
-    ParameterInfo rho = parameter("rho", "1", "facet albedo (brdf, uni_slope, functional, "
-                                  "qualitative, approx_error, albedo, albedo_avg)", 0, 1, false);
-    rho.default_value = 1.0;
-    ParameterInfo theta_a = parameter("theta_a", "deg",
-                                      "facet slope of the single-slope surfaces (uni_slope, "
-                                      "single_slope_*)", 0, 90, true);
-    theta_a.max_inclusive = false;
-    theta_a.default_value = 20.0;
-    ParameterInfo phi_a = parameter("phi_a", "deg",
-                                    "azimuth of a facet normal of the uni-directional surface "
-                                    "(uni_slope; the other facet is at phi_a + 180)", -360, 360,
-                                    true);
-    phi_a.default_value = 0.0;
-    ParameterInfo nodes = parameter(
-        "nodes", "1",
-        "method quadrature: Gauss-Legendre nodes per sub-interval in theta_a and in phi_a (the "
-        "error estimate is the distance to the rule with half the nodes)", 2, 64, false);
-    nodes.default_value = 12.0;
-    m.parameters = {sigma, rho, theta_a, phi_a, nodes};
+    m.parameters = {
+        parameter_info("sigma", "deg",
+                       "standard deviation of the facet slope (Gaussian slope-area "
+                       "distribution, eq. 26)",
+                       0, 80)
+            .degrees(),
+        parameter_info("rho", "1",
+                       "facet albedo (brdf, uni_slope, functional, qualitative, approx_error, "
+                       "albedo, albedo_avg)",
+                       0, 1, 1.0),
+        parameter_info("theta_a", "deg",
+                       "facet slope of the single-slope surfaces (uni_slope, single_slope_*)", 0,
+                       90, 20.0)
+            .degrees()
+            .open_max(),
+        parameter_info("phi_a", "deg",
+                       "azimuth of a facet normal of the uni-directional surface (uni_slope; "
+                       "the other facet is at phi_a + 180)",
+                       -360, 360, 0.0)
+            .degrees(),
+        parameter_info("nodes", "1",
+                       "method quadrature: Gauss-Legendre nodes per sub-interval in theta_a and "
+                       "in phi_a (the error estimate is the distance to the rule with half the "
+                       "nodes)",
+                       2, 64, 12.0),
+    };
 
     m.options = {
         {"qualitative_a",
