@@ -19,11 +19,11 @@
 #include <cstdio>
 #include <cstring>
 #include <exception>
-#include <sstream>
 #include <unistd.h>
 #include <vector>
 
 #include "error.h"
+#include "text.h"
 
 #ifndef BRDFTAB_VERSION
 #define BRDFTAB_VERSION "unknown"
@@ -32,12 +32,8 @@
 namespace brdftab {
 namespace {
 
-std::string num(double v) {
-    std::ostringstream s;
-    s.precision(12);  // enough to paste back within the 1e-9 node tolerance
-    s << v;
-    return s.str();
-}
+// 12 digits: enough to paste back within the 1e-9 node tolerance.
+std::string num(double v) { return number_text(v, 12); }
 
 std::string axis_label(const Axis& a) {
     std::string unit = a.unit.empty() || a.unit == "1" ? "" : " " + a.unit;

@@ -3,9 +3,9 @@
 #include <algorithm>
 #include <cmath>
 #include <optional>
-#include <sstream>
 
 #include "error.h"
+#include "text.h"
 
 #ifndef BRDFTAB_VERSION
 #define BRDFTAB_VERSION "unknown"
@@ -126,7 +126,7 @@ GeneratedTable recombine(const RecombinedSpec& rs, const std::vector<GeneratedTa
     d.quantity = rs.name;
     d.method = "recombined";
     d.description = (rs.description.empty() ? "recombined table" : rs.description) +
-                    "; stored values at " + rs.parameter + " = " + std::to_string(rs.stored_at);
+                    "; stored values at " + rs.parameter + " = " + number_text(rs.stored_at);
     d.parameters["recombine"] = recipe;
     d.parameters[rs.parameter] = rs.stored_at;
     d.keep_stderr = spec.output.keep_stderr && have_stderr;
@@ -141,10 +141,10 @@ const TableData& find_done(const std::vector<GeneratedTable>& done, const std::s
 }
 
 std::string format_cell(const std::vector<Axis>& axes, const std::vector<double>& at) {
-    std::ostringstream s;
-    s.precision(6);
-    for (std::size_t a = 0; a < axes.size(); ++a) s << (a ? ", " : "") << axes[a].name << " = " << at[a];
-    return s.str();
+    std::string s;
+    for (std::size_t a = 0; a < axes.size(); ++a)
+        s += (a ? ", " : "") + axes[a].name + " = " + number_text(at[a], 6);
+    return s;
 }
 
 // An [[errors]] table: (table - reference) / max(|reference|, floor) or
@@ -189,7 +189,7 @@ GeneratedTable compare(const ErrorTableSpec& es, const std::vector<GeneratedTabl
             if (tv != 0)
                 throw InputError(user + ": the reference '" + es.reference + "' is 0 at " +
                                  format_cell(d.axes, cell_values(c)) + " where '" + es.table +
-                                 "' is " + std::to_string(tv) +
+                                 "' is " + number_text(tv) +
                                  "; a relative error is undefined there: give floor = (a "
                                  "value > 0; the denominator is max(|reference|, floor)) or "
                                  "measure = \"absolute\"");
@@ -298,16 +298,16 @@ GeneratedTable invert(const InvertedSpec& is, const std::vector<GeneratedTable>&
     for (std::size_t k = 0; k + 1 < n; ++k)
         if (!(sign * (y[k + 1] - y[k]) > 0))
             throw InputError(user + ": '" + is.table + "' is not strictly monotone along '" +
-                             xa.name + "' (" + std::to_string(y[k]) + " at " + xa.name + " = " +
-                             std::to_string(xa.values[k]) + ", " + std::to_string(y[k + 1]) +
-                             " at " + std::to_string(xa.values[k + 1]) +
+                             xa.name + "' (" + number_text(y[k]) + " at " + xa.name + " = " +
+                             number_text(xa.values[k]) + ", " + number_text(y[k + 1]) +
+                             " at " + number_text(xa.values[k + 1]) +
                              "), so it has no inverse; restrict its axis to a monotone part");
     const double ylo = std::min(y.front(), y.back()), yhi = std::max(y.front(), y.back());
     if (is.axis.min < ylo || is.axis.max > yhi)
         throw InputError(user + ": the axis '" + is.axis.name + "' spans [" +
-                         std::to_string(is.axis.min) + ", " + std::to_string(is.axis.max) +
-                         "], outside the values of '" + is.table + "', [" + std::to_string(ylo) +
-                         ", " + std::to_string(yhi) + "]; give a range inside it");
+                         number_text(is.axis.min) + ", " + number_text(is.axis.max) +
+                         "], outside the values of '" + is.table + "', [" + number_text(ylo) +
+                         ", " + number_text(yhi) + "]; give a range inside it");
     const bool have_err = src.stderr_.size() == n;
     GeneratedTable g;
     TableData& d = g.data;

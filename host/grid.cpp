@@ -4,9 +4,9 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <sstream>
 
 #include "error.h"
+#include "text.h"
 
 namespace brdftab {
 
@@ -15,12 +15,7 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kDegToRad = kPi / 180.0;
 
-std::string num(double v) {
-    std::ostringstream s;
-    s.precision(17);
-    s << v;
-    return s.str();
-}
+std::string num(double v) { return number_text(v, 17); }
 
 // Piecewise-linear node lookup shared by the explicit spacing: t_k = k/(n-1).
 double explicit_warp(const std::vector<double>& v, double t) {

@@ -5,9 +5,9 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <sstream>
 
 #include "error.h"
+#include "text.h"
 #include "table_io.h"
 
 namespace brdftab {
@@ -17,12 +17,7 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kDeg = kPi / 180.0;
 
-std::string fmt_num(double v) {
-    std::ostringstream s;
-    s.precision(10);
-    s << v;
-    return s.str();
-}
+std::string fmt_num(double v) { return number_text(v, 10); }
 
 std::string range_text(const Axis& a) {
     std::string r = "[" + fmt_num(a.min) + ", " + fmt_num(a.max) + "]";

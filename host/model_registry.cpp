@@ -4,9 +4,9 @@
 #include "model_registry.h"
 
 #include <cmath>
-#include <sstream>
 
 #include "error.h"
+#include "text.h"
 
 namespace brdftab {
 
@@ -33,12 +33,7 @@ std::string join(const std::vector<std::string>& items, const char* sep = ", ") 
     return out;
 }
 
-std::string format_number(double v) {
-    std::ostringstream s;
-    s.precision(10);
-    s << v;
-    return s.str();
-}
+std::string format_number(double v) { return number_text(v, 10); }
 
 }  // namespace
 

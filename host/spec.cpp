@@ -21,6 +21,7 @@
 #include <toml++/toml.h>
 
 #include "error.h"
+#include "text.h"
 #include "model_registry.h"
 
 namespace brdftab {
@@ -58,12 +59,7 @@ std::string join(const std::vector<std::string>& items) {
     return out;
 }
 
-std::string num(double v) {
-    std::ostringstream s;
-    s.precision(10);
-    s << v;
-    return s.str();
-}
+std::string num(double v) { return number_text(v, 10); }
 
 std::string sub(const std::string& prefix, const std::string& key) {
     return prefix.empty() ? key : prefix + "." + key;

@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "error.h"
+#include "text.h"
 
 namespace brdftab::cli {
 
@@ -127,17 +128,9 @@ std::vector<std::string> split_csv(const std::string& line) {
     return out;
 }
 
-std::string format_double(double v) {
-    char buf[40];
-    std::snprintf(buf, sizeof buf, "%.17g", v);
-    return buf;
-}
+std::string format_double(double v) { return number_text(v, 17); }
 
-std::string format_short(double v) {
-    char buf[40];
-    std::snprintf(buf, sizeof buf, "%.6g", v);
-    return buf;
-}
+std::string format_short(double v) { return number_text(v, 6); }
 
 std::string format_seconds(double s) {
     char buf[32];
