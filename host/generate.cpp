@@ -147,65 +147,11 @@ std::string format_cell(const std::vector<Axis>& axes, const std::vector<double>
     return s;
 }
 
-// An [[errors]] table: (table - reference) / max(|reference|, floor) or
-// table - reference, cell by cell.  Standard error by first-order propagation
-// with the two tables independent: for e = t/r - 1,
-//   var(e) = var(t)/r^2 + t^2 var(r)/r^4.
-GeneratedTable compare(const ErrorTableSpec& es, const std::vector<GeneratedTable>& done,
-                       const Spec& spec) {
-    const std::string user = spec.file + ": errors table '" + es.name + "'";
-    const TableData& t = find_done(done, es.table, user);
-    const TableData& r = find_done(done, es.reference, user);
-    if (t.value.size() != r.value.size()) throw Error(user + ": tables differ in size");
-    GeneratedTable g;
-    TableData& d = g.data;
-    d.name = es.name;
-    d.quantity = "error";
-    d.method = "error";
-    d.units = es.relative ? "1" : t.units;
-    d.description = !es.description.empty()
-                        ? es.description
-                        : std::string(es.relative ? "relative" : "absolute") + " error of '" +
-                              es.table + "' against '" + es.reference + "'";
-    d.axes = t.axes;
-    inherit_provenance(d, r, spec);
-    const bool t_err = t.stderr_.size() == t.value.size();
-    const bool r_err = r.stderr_.size() == r.value.size();
-    const std::size_t n = t.value.size();
-    d.value.resize(n);
-    d.stderr_.resize(n);
+// Max |e| and where, RMS, mean, noise level and cells beyond 2 sigma of an
+// error table's values; per node of the `by` axis when given.
+ErrorSummary summarise_errors(const TableData& d, const ErrorTableSpec& es) {
     const Grid grid(d.axes);
-    auto cell_values = [&](std::size_t cell) { return grid.coordinates(cell); };
-    for (std::size_t c = 0; c < n; ++c) {
-        const double tv = t.value[c], rv = r.value[c];
-        const double st = t_err ? t.stderr_[c] : 0.0, sr = r_err ? r.stderr_[c] : 0.0;
-        if (!es.relative) {
-            d.value[c] = tv - rv;
-            d.stderr_[c] = std::sqrt(st * st + sr * sr);
-            continue;
-        }
-        const double den = std::max(std::fabs(rv), es.floor);
-        if (den == 0) {
-            if (tv != 0)
-                throw InputError(user + ": the reference '" + es.reference + "' is 0 at " +
-                                 format_cell(d.axes, cell_values(c)) + " where '" + es.table +
-                                 "' is " + number_text(tv) +
-                                 "; a relative error is undefined there: give floor = (a "
-                                 "value > 0; the denominator is max(|reference|, floor)) or "
-                                 "measure = \"absolute\"");
-            d.value[c] = 0;
-            d.stderr_[c] = 0;
-            continue;
-        }
-        d.value[c] = (tv - rv) / den;
-        // d e / d r = -t/r^2 while |r| > floor; 1/floor below it.
-        const double dr = std::fabs(rv) > es.floor ? std::fabs(tv) / (rv * rv) : 1.0 / den;
-        d.stderr_[c] = std::sqrt(st * st / (den * den) + dr * dr * sr * sr);
-    }
-    d.keep_stderr = spec.output.keep_stderr && (t_err || r_err);
-    d.elapsed_seconds = 0;
-
-    // Summary.
+    const std::size_t n = d.value.size();
     ErrorSummary sum;
     sum.table = es.table;
     sum.reference = es.reference;
@@ -247,14 +193,19 @@ GeneratedTable compare(const ErrorTableSpec& es, const std::vector<GeneratedTabl
     if (used) {
         sum.rms = std::sqrt(sq / double(used));
         sum.mean = total / double(used);
-        sum.worst = cell_values(worst);
+        sum.worst = grid.coordinates(worst);
         std::nth_element(noise.begin(), noise.begin() + noise.size() / 2, noise.end());
         sum.median_stderr = noise[noise.size() / 2];
     }
     for (std::size_t k = 0; k < by_sq.size(); ++k)
         sum.by_nodes.push_back({d.axes[by_axis].values[k], by_max[k],
                                 by_count[k] ? std::sqrt(by_sq[k] / double(by_count[k])) : 0.0});
+    return sum;
+}
 
+// The summary as stored in the table's parameters["comparison"].
+nlohmann::json summary_json(const ErrorSummary& sum, const ErrorTableSpec& es,
+                            const std::vector<Axis>& axes) {
     nlohmann::json j = {{"table", es.table},
                         {"reference", es.reference},
                         {"measure", sum.measure},
@@ -267,7 +218,7 @@ GeneratedTable compare(const ErrorTableSpec& es, const std::vector<GeneratedTabl
                         {"beyond_2sigma", sum.beyond_2sigma}};
     if (es.relative) j["floor"] = es.floor;
     nlohmann::json w = nlohmann::json::object();
-    for (std::size_t a = 0; a < sum.worst.size(); ++a) w[d.axes[a].name] = sum.worst[a];
+    for (std::size_t a = 0; a < sum.worst.size(); ++a) w[axes[a].name] = sum.worst[a];
     j["worst"] = w;
     if (!sum.by.empty()) {
         j["by"] = sum.by;
@@ -276,11 +227,70 @@ GeneratedTable compare(const ErrorTableSpec& es, const std::vector<GeneratedTabl
             nodes.push_back({{sum.by, nd.value}, {"max_abs", nd.max_abs}, {"rms", nd.rms}});
         j["by_nodes"] = nodes;
     }
+    return j;
+}
+
+// An [[errors]] table: (table - reference) / max(|reference|, floor) or
+// table - reference, cell by cell.  Standard error by first-order propagation
+// with the two tables independent: for e = t/r - 1,
+//   var(e) = var(t)/r^2 + t^2 var(r)/r^4.
+GeneratedTable compare(const ErrorTableSpec& es, const std::vector<GeneratedTable>& done,
+                       const Spec& spec) {
+    const std::string user = spec.file + ": errors table '" + es.name + "'";
+    const TableData& t = find_done(done, es.table, user);
+    const TableData& r = find_done(done, es.reference, user);
+    if (t.value.size() != r.value.size()) throw Error(user + ": tables differ in size");
+    GeneratedTable g;
+    TableData& d = g.data;
+    d.name = es.name;
+    d.quantity = "error";
+    d.method = "error";
+    d.units = es.relative ? "1" : t.units;
+    d.description = !es.description.empty()
+                        ? es.description
+                        : std::string(es.relative ? "relative" : "absolute") + " error of '" +
+                              es.table + "' against '" + es.reference + "'";
+    d.axes = t.axes;
+    inherit_provenance(d, r, spec);
+    const bool t_err = t.stderr_.size() == t.value.size();
+    const bool r_err = r.stderr_.size() == r.value.size();
+    const std::size_t n = t.value.size();
+    d.value.resize(n);
+    d.stderr_.resize(n);
+    const Grid grid(d.axes);
+    for (std::size_t c = 0; c < n; ++c) {
+        const double tv = t.value[c], rv = r.value[c];
+        const double st = t_err ? t.stderr_[c] : 0.0, sr = r_err ? r.stderr_[c] : 0.0;
+        if (!es.relative) {
+            d.value[c] = tv - rv;
+            d.stderr_[c] = std::sqrt(st * st + sr * sr);
+            continue;
+        }
+        const double den = std::max(std::fabs(rv), es.floor);
+        if (den == 0) {
+            if (tv != 0)
+                throw InputError(user + ": the reference '" + es.reference + "' is 0 at " +
+                                 format_cell(d.axes, grid.coordinates(c)) + " where '" + es.table +
+                                 "' is " + number_text(tv) +
+                                 "; a relative error is undefined there: give floor = (a "
+                                 "value > 0; the denominator is max(|reference|, floor)) or "
+                                 "measure = \"absolute\"");
+            d.value[c] = 0;
+            d.stderr_[c] = 0;
+            continue;
+        }
+        d.value[c] = (tv - rv) / den;
+        // d e / d r = -t/r^2 while |r| > floor; 1/floor below it.
+        const double dr = std::fabs(rv) > es.floor ? std::fabs(tv) / (rv * rv) : 1.0 / den;
+        d.stderr_[c] = std::sqrt(st * st / (den * den) + dr * dr * sr * sr);
+    }
+    d.keep_stderr = spec.output.keep_stderr && (t_err || r_err);
+    g.error = summarise_errors(d, es);
     d.parameters = nlohmann::json::object();
-    d.parameters["comparison"] = j;
-    g.error = std::move(sum);
+    d.parameters["comparison"] = summary_json(*g.error, es, d.axes);
     return g;
 }
+
 
 // An [[inverted]] table.  The library interpolates a 1-D table linearly in
 // its axis' warped coordinate t (node k at t_k = k/(n-1)), so on the segment
