@@ -17,9 +17,9 @@
 #include <thread>
 #include <vector>
 
-#include "grid.h"
-#include "lookup.h"
-#include "table.h"
+#include "host/core/grid.h"
+#include "host/lookup/lookup.h"
+#include "host/core/table.h"
 
 using namespace brdftab;
 

@@ -7,9 +7,9 @@
 // theta_i/theta_o(/phi_d) axes — a few importance samples.  Parameters not
 // given on the command line are set to the middle of their axis (or of the
 // recombination range).
-#include <brdftab/error.h>
-#include <brdftab/lookup.h>
-#include <brdftab/table_io.h>
+#include <brdftab/core/error.h>
+#include <brdftab/lookup/lookup.h>
+#include <brdftab/io/table_io.h>
 
 #include <cmath>
 #include <cstdio>

@@ -7,7 +7,7 @@ BUILD=$1 SRC=$2 BT=$3
 WORK=$(mktemp -d)
 trap 'rm -rf "$WORK"' EXIT
 cmake --install "$BUILD" --prefix "$WORK/prefix" >/dev/null
-test -f "$WORK/prefix/include/brdftab/lookup.h"
+test -f "$WORK/prefix/include/brdftab/lookup/lookup.h"
 test -x "$WORK/prefix/bin/brdftab"
 cmake -S "$SRC/examples" -B "$WORK/example" -DCMAKE_PREFIX_PATH="$WORK/prefix" \
       -DCMAKE_BUILD_TYPE=Release >/dev/null

@@ -8,9 +8,9 @@
 #include <map>
 #include <random>
 
-#include "engine.h"
-#include "error.h"
-#include "model_registry.h"
+#include "host/engine/engine.h"
+#include "host/core/error.h"
+#include "host/models/registry.h"
 
 using namespace brdftab;
 

@@ -23,8 +23,8 @@
 #include <string>
 #include <vector>
 
-#include "error.h"
-#include "exr_export.h"
+#include "host/core/error.h"
+#include "host/io/exr_export.h"
 
 namespace fs = std::filesystem;
 using namespace brdftab;

@@ -5,10 +5,10 @@
 #include <cstdio>
 #include <filesystem>
 
-#include "error.h"
-#include "generate.h"
-#include "spec.h"
-#include "table_io.h"
+#include "host/core/error.h"
+#include "host/generate/generate.h"
+#include "host/spec/spec.h"
+#include "host/io/table_io.h"
 
 using namespace brdftab;
 

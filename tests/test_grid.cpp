@@ -10,8 +10,8 @@
 #include <string>
 #include <vector>
 
-#include "error.h"
-#include "grid.h"
+#include "host/core/error.h"
+#include "host/core/grid.h"
 
 using namespace brdftab;
 

@@ -21,9 +21,9 @@
 #include <map>
 #include <vector>
 
-#include "engine.h"
-#include "model_registry.h"
-#include "models/hfunction.h"
+#include "host/engine/engine.h"
+#include "host/models/registry.h"
+#include "kernels/models/hfunction.h"
 
 using namespace brdftab;
 

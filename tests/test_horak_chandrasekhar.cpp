@@ -25,8 +25,8 @@
 #include <cmath>
 #include <vector>
 
-#include "models/hfunction.h"
-#include "models/horak_chandrasekhar.h"
+#include "kernels/models/hfunction.h"
+#include "kernels/models/horak_chandrasekhar.h"
 
 namespace {
 

@@ -27,9 +27,9 @@
 #include <string>
 #include <vector>
 
-#include "engine.h"
-#include "model_registry.h"
-#include "models/interfaced_lambertian.h"
+#include "host/engine/engine.h"
+#include "host/models/registry.h"
+#include "kernels/models/interfaced_lambertian.h"
 
 namespace {
 

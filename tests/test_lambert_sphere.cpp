@@ -33,10 +33,10 @@
 #include <random>
 #include <vector>
 
-#include "engine.h"
-#include "error.h"
-#include "model_registry.h"
-#include "models/lambert_sphere.h"
+#include "host/engine/engine.h"
+#include "host/core/error.h"
+#include "host/models/registry.h"
+#include "kernels/models/lambert_sphere.h"
 
 using namespace brdftab;
 

@@ -1,5 +1,5 @@
 // test_lookup.cpp — interpolation, direction lookup, recombination and
-// importance sampling of host/lookup.h.
+// importance sampling of host/lookup/lookup.h.
 //
 // Oracles: closed-form functions tabulated here (node positions computed in
 // this file from the spacing formulas, not by Axis::warp), analytic integrals,
@@ -15,9 +15,9 @@
 #include <string>
 #include <vector>
 
-#include "error.h"
-#include "lookup.h"
-#include "table_io.h"
+#include "host/core/error.h"
+#include "host/lookup/lookup.h"
+#include "host/io/table_io.h"
 
 using namespace brdftab;
 

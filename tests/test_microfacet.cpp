@@ -12,10 +12,10 @@
 #include <functional>
 #include <vector>
 
-#include "common/fresnel.h"
-#include "common/microfacet.h"
-#include "common/sampler.h"
-#include "common/vec3.h"
+#include "kernels/common/fresnel.h"
+#include "kernels/common/microfacet.h"
+#include "kernels/common/sampler.h"
+#include "kernels/common/vec3.h"
 
 namespace {
 

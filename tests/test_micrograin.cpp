@@ -17,9 +17,9 @@
 #include <map>
 #include <vector>
 
-#include "engine.h"
-#include "model_registry.h"
-#include "models/micrograin.h"
+#include "host/engine/engine.h"
+#include "host/models/registry.h"
+#include "kernels/models/micrograin.h"
 
 using namespace brdftab;
 

@@ -20,8 +20,8 @@
 
 #include <unistd.h>
 
-#include "kernel_sources.h"
-#include "opencl_runtime.h"
+#include "host/engine/kernel_sources.h"
+#include "host/engine/opencl_runtime.h"
 
 using namespace brdftab;
 namespace fs = std::filesystem;

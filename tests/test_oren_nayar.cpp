@@ -21,9 +21,9 @@
 #include <random>
 #include <vector>
 
-#include "engine.h"
-#include "model_registry.h"
-#include "models/oren_nayar.h"
+#include "host/engine/engine.h"
+#include "host/models/registry.h"
+#include "kernels/models/oren_nayar.h"
 
 using namespace brdftab;
 

@@ -13,7 +13,7 @@
 #include <cmath>
 #include <vector>
 
-#include "models/rough_dielectric.h"
+#include "kernels/models/rough_dielectric.h"
 
 namespace {
 

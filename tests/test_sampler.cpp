@@ -10,7 +10,7 @@
 #include <set>
 #include <vector>
 
-#include "common/sampler.h"
+#include "kernels/common/sampler.h"
 
 namespace {
 

@@ -2,7 +2,7 @@
 // kernels' sampler.h, so it is kept apart from test_support.h).
 #pragma once
 
-#include "common/sampler.h"
+#include "kernels/common/sampler.h"
 
 namespace brdftab::test {
 

@@ -14,8 +14,8 @@
 #include <initializer_list>
 #include <string>
 
-#include "error.h"
-#include "spec.h"
+#include "host/core/error.h"
+#include "host/spec/spec.h"
 
 using namespace brdftab;
 

@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "grid.h"
+#include "host/core/grid.h"
 
 namespace brdftab::test {
 

@@ -27,8 +27,8 @@
 #include <string>
 #include <unistd.h>
 
-#include "error.h"
-#include "table_io.h"
+#include "host/core/error.h"
+#include "host/io/table_io.h"
 
 namespace fs = std::filesystem;
 using namespace brdftab;

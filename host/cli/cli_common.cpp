@@ -1,4 +1,4 @@
-#include "cli_common.h"
+#include "host/cli/cli_common.h"
 
 #include <unistd.h>
 
@@ -7,8 +7,8 @@
 #include <iostream>
 #include <sstream>
 
-#include "error.h"
-#include "text.h"
+#include "host/core/error.h"
+#include "host/core/text.h"
 
 namespace brdftab::cli {
 

@@ -10,8 +10,8 @@
 #include <string>
 #include <vector>
 
-#include "engine.h"
-#include "model_registry.h"
+#include "host/engine/engine.h"
+#include "host/models/registry.h"
 
 namespace brdftab::cli {
 

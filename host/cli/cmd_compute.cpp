@@ -8,13 +8,13 @@
 #include <iostream>
 #include <sstream>
 
-#include "atomic_file.h"
-#include "cli_common.h"
-#include "commands.h"
-#include "error.h"
-#include "generate.h"
-#include "spec.h"
-#include "table_io.h"
+#include "host/core/atomic_file.h"
+#include "host/cli/cli_common.h"
+#include "host/cli/commands.h"
+#include "host/core/error.h"
+#include "host/generate/generate.h"
+#include "host/spec/spec.h"
+#include "host/io/table_io.h"
 
 namespace brdftab::cli {
 

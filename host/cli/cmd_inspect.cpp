@@ -2,11 +2,11 @@
 #include <iomanip>
 #include <iostream>
 
-#include "cli_common.h"
-#include "commands.h"
-#include "error.h"
-#include "opencl_runtime.h"
-#include "table_io.h"
+#include "host/cli/cli_common.h"
+#include "host/cli/commands.h"
+#include "host/core/error.h"
+#include "host/engine/opencl_runtime.h"
+#include "host/io/table_io.h"
 
 namespace brdftab::cli {
 

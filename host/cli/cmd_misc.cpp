@@ -5,13 +5,13 @@
 #include <filesystem>
 #include <iostream>
 
-#include "cli_common.h"
-#include "commands.h"
-#include "error.h"
-#include "exr_export.h"
-#include "generate.h"
-#include "spec.h"
-#include "table_io.h"
+#include "host/cli/cli_common.h"
+#include "host/cli/commands.h"
+#include "host/core/error.h"
+#include "host/io/exr_export.h"
+#include "host/generate/generate.h"
+#include "host/spec/spec.h"
+#include "host/io/table_io.h"
 
 namespace brdftab::cli {
 

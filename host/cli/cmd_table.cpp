@@ -12,12 +12,12 @@
 #include <set>
 #include <sstream>
 
-#include "atomic_file.h"
-#include "cli_common.h"
-#include "commands.h"
-#include "error.h"
-#include "lookup.h"
-#include "plot_png.h"
+#include "host/core/atomic_file.h"
+#include "host/cli/cli_common.h"
+#include "host/cli/commands.h"
+#include "host/core/error.h"
+#include "host/lookup/lookup.h"
+#include "host/cli/plot_png.h"
 
 namespace brdftab::cli {
 

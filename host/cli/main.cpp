@@ -8,10 +8,10 @@
 #include <cstdio>
 #include <iostream>
 
-#include "cli_common.h"
-#include "commands.h"
-#include "error.h"
-#include "opencl_runtime.h"
+#include "host/cli/cli_common.h"
+#include "host/cli/commands.h"
+#include "host/core/error.h"
+#include "host/engine/opencl_runtime.h"
 
 #ifndef BRDFTAB_VERSION
 #define BRDFTAB_VERSION "unknown"

@@ -1,6 +1,6 @@
-#include "plot_png.h"
+#include "host/cli/plot_png.h"
 
-#include "atomic_file.h"
+#include "host/core/atomic_file.h"
 
 #include <png.h>
 #include <unistd.h>
@@ -10,7 +10,7 @@
 #include <cstdio>
 #include <limits>
 
-#include "error.h"
+#include "host/core/error.h"
 
 namespace brdftab::cli {
 

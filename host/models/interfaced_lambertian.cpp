@@ -3,10 +3,10 @@
 // kernels/models/interfaced_lambertian.h).
 #include <vector>
 
-#include "../../kernels/common/compat.h"
-#include "../../kernels/common/sampler.h"
-#include "../../kernels/models/interfaced_lambertian.h"
-#include "model_registry.h"
+#include "kernels/common/compat.h"
+#include "kernels/common/sampler.h"
+#include "kernels/models/interfaced_lambertian.h"
+#include "host/models/registry.h"
 
 namespace brdftab::detail {
 

@@ -5,10 +5,10 @@
 #include <string>
 #include <vector>
 
-#include "../../kernels/common/compat.h"
-#include "../../kernels/common/sampler.h"
-#include "../../kernels/models/lambert_sphere.h"
-#include "model_registry.h"
+#include "kernels/common/compat.h"
+#include "kernels/common/sampler.h"
+#include "kernels/models/lambert_sphere.h"
+#include "host/models/registry.h"
 
 namespace brdftab::detail {
 

@@ -2,11 +2,11 @@
 // 2024, kernels/models/micrograin.h).
 #include <vector>
 
-#include "model_registry.h"
+#include "host/models/registry.h"
 
-#include "../../kernels/common/compat.h"
-#include "../../kernels/common/sampler.h"
-#include "../../kernels/models/micrograin.h"
+#include "kernels/common/compat.h"
+#include "kernels/common/sampler.h"
+#include "kernels/models/micrograin.h"
 
 namespace brdftab::detail {
 

@@ -3,8 +3,8 @@
 #include <string>
 #include <vector>
 
-#include "../../kernels/models/oren_nayar.h"
-#include "model_registry.h"
+#include "kernels/models/oren_nayar.h"
+#include "host/models/registry.h"
 
 namespace brdftab::detail {
 

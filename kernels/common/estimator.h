@@ -13,7 +13,7 @@
  * A model provides a sample function with the signature
  *     REAL fn(const REAL* point, const int* options, int quantity,
  *             const bt_sampler* sampler);
- * where `point` holds the cell's continuous inputs (see host/model_registry.h
+ * where `point` holds the cell's continuous inputs (see host/models/registry.h
  * for the layout: theta_i, phi_i, theta_o, phi_o in radians, then the model's
  * continuous parameters) and `options` its categorical options.  Closed-form
  * quantities ignore the sampler and are launched with batch_size = 1.

@@ -4,7 +4,7 @@
 #include <map>
 #include <string>
 
-#include "table.h"
+#include "host/core/table.h"
 
 namespace brdftab {
 

@@ -1,16 +1,16 @@
 // engine.cpp — backends (OpenCL device, host serial reference) and the
 // per-cell estimation loop with fixed or adaptive budgets.
-#include "engine.h"
+#include "host/engine/engine.h"
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <map>
 
-#include "../kernels/common/estimator.h"
-#include "error.h"
-#include "kernel_sources.h"
-#include "opencl_runtime.h"
+#include "kernels/common/estimator.h"
+#include "host/core/error.h"
+#include "host/engine/kernel_sources.h"
+#include "host/engine/opencl_runtime.h"
 
 namespace brdftab {
 

@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "table.h"
+#include "../core/table.h"
 
 namespace brdftab {
 

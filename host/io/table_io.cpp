@@ -5,9 +5,9 @@
 // closes it, and every failing call becomes a brdftab::Error naming the call
 // and the innermost message of HDF5's error stack.  HDF5's automatic printing
 // of that stack is switched off because the library never prints.
-#include "table_io.h"
+#include "host/io/table_io.h"
 
-#include "atomic_file.h"
+#include "host/core/atomic_file.h"
 
 #include <hdf5.h>
 #include <hdf5_hl.h>
@@ -26,7 +26,7 @@
 #include <set>
 #include <unistd.h>
 
-#include "error.h"
+#include "host/core/error.h"
 
 #ifndef BRDFTAB_VERSION
 #define BRDFTAB_VERSION "unknown"

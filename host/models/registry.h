@@ -21,8 +21,8 @@
 
 #include <nlohmann/json.hpp>
 
-#include "../kernels/common/compat.h"
-#include "../kernels/common/sampler.h"
+#include "kernels/common/compat.h"
+#include "kernels/common/sampler.h"
 
 namespace brdftab {
 

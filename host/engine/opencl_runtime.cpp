@@ -5,7 +5,7 @@
 // missing ICD (-1001) into an anonymous cl::Error and hides the build log in
 // a per-device vector, while here we want a specific message for each case.
 // Whatever cl.hpp still throws is translated into OpenCLError by guarded().
-#include "opencl_runtime.h"
+#include "host/engine/opencl_runtime.h"
 
 #include <algorithm>
 #include <cctype>

@@ -1,12 +1,12 @@
 // model_registry.cpp — generic registry machinery (lookups, validation, point
 // building).  The model entries themselves live in host_models.cpp, next to
 // the host compilation of their kernels.
-#include "model_registry.h"
+#include "host/models/registry.h"
 
 #include <cmath>
 
-#include "error.h"
-#include "text.h"
+#include "host/core/error.h"
+#include "host/core/text.h"
 
 namespace brdftab {
 

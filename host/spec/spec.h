@@ -12,9 +12,9 @@
 
 #include <nlohmann/json.hpp>
 
-#include "engine.h"
-#include "grid.h"
-#include "table.h"
+#include "host/engine/engine.h"
+#include "host/core/grid.h"
+#include "host/core/table.h"
 
 namespace brdftab {
 

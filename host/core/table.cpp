@@ -1,9 +1,9 @@
 // table.cpp — small helpers of the in-memory table (see table.h).
-#include "table.h"
+#include "host/core/table.h"
 
 #include <string>
 
-#include "error.h"
+#include "host/core/error.h"
 
 namespace brdftab {
 

@@ -21,7 +21,7 @@
 #include <string>
 #include <vector>
 
-#include "model_registry.h"
+#include "host/models/registry.h"
 
 namespace brdftab {
 

@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "error.h"
+#include "host/core/error.h"
 
 namespace brdftab {
 

@@ -2,9 +2,9 @@
 //
 // Scanline + ZIP + R/G/B/A in HALF or FLOAT is the combination every EXR
 // loader reads (tinyexr included); DWA/B44 would be lossy and are not used.
-#include "exr_export.h"
+#include "host/io/exr_export.h"
 
-#include "atomic_file.h"
+#include "host/core/atomic_file.h"
 
 #include <ImfChannelList.h>
 #include <ImfFrameBuffer.h>
@@ -22,8 +22,8 @@
 #include <unistd.h>
 #include <vector>
 
-#include "error.h"
-#include "text.h"
+#include "host/core/error.h"
+#include "host/core/text.h"
 
 #ifndef BRDFTAB_VERSION
 #define BRDFTAB_VERSION "unknown"

@@ -1,14 +1,14 @@
 // lookup.cpp — interpolation, direction-level evaluation and importance
 // sampling of brdftab tables (docs/lookup.md).
-#include "lookup.h"
+#include "host/lookup/lookup.h"
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
 
-#include "error.h"
-#include "text.h"
-#include "table_io.h"
+#include "host/core/error.h"
+#include "host/core/text.h"
+#include "host/io/table_io.h"
 
 namespace brdftab {
 

@@ -4,13 +4,17 @@
 //
 // Adding a model: write kernels/models/<model>.h (sample function) and
 // kernels/<model>.cl (entry kernel), then add an entry below.
-#include "model_registry.h"
+#include "host/models/registry.h"
+#include "kernels/models/rough_dielectric.h"
 
 namespace brdftab::detail {
 
-// Host compilations of the models' sample functions (host_kernels.cpp).
+// Host (C++) compilation of the kernel's sample function: the `--device host`
+// reference path.
 REAL host_rough_dielectric_sample(const REAL* point, const int* options, int quantity,
-                                  const bt_sampler* sampler);
+                                  const bt_sampler* sampler) {
+    return rough_dielectric_sample(point, options, quantity, sampler);
+}
 
 namespace {
 

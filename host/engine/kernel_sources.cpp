@@ -6,7 +6,7 @@
 // paths with spaces (PLATFORM-NOTES.md).  One flat source with `#line`
 // markers builds from PoCL's cache and still reports errors against the real
 // file and line.
-#include "kernel_sources.h"
+#include "host/engine/kernel_sources.h"
 
 #include <fstream>
 #include <map>
@@ -14,7 +14,7 @@
 #include <sstream>
 #include <sys/stat.h>
 
-#include "error.h"
+#include "host/core/error.h"
 
 namespace brdftab {
 namespace detail {

@@ -17,8 +17,8 @@
 
 #include <nlohmann/json.hpp>
 
-#include "grid.h"
-#include "table.h"
+#include "../core/grid.h"
+#include "../core/table.h"
 
 namespace brdftab {
 

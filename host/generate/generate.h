@@ -6,9 +6,9 @@
 #include <string>
 #include <vector>
 
-#include "engine.h"
-#include "spec.h"
-#include "table.h"
+#include "host/engine/engine.h"
+#include "host/spec/spec.h"
+#include "host/core/table.h"
 
 namespace brdftab {
 

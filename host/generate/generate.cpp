@@ -1,11 +1,11 @@
-#include "generate.h"
+#include "host/generate/generate.h"
 
 #include <algorithm>
 #include <cmath>
 #include <optional>
 
-#include "error.h"
-#include "text.h"
+#include "host/core/error.h"
+#include "host/core/text.h"
 
 #ifndef BRDFTAB_VERSION
 #define BRDFTAB_VERSION "unknown"

@@ -1,4 +1,4 @@
-#include "atomic_file.h"
+#include "host/core/atomic_file.h"
 
 #include <fcntl.h>
 #include <unistd.h>
@@ -10,7 +10,7 @@
 #include <filesystem>
 #include <fstream>
 
-#include "error.h"
+#include "host/core/error.h"
 
 namespace brdftab {
 

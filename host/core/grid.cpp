@@ -1,12 +1,12 @@
 // grid.cpp — axis node placement and its closed-form inverse (see grid.h).
-#include "grid.h"
+#include "host/core/grid.h"
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
 
-#include "error.h"
-#include "text.h"
+#include "host/core/error.h"
+#include "host/core/text.h"
 
 namespace brdftab {
 

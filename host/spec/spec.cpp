@@ -6,7 +6,7 @@
 // [[axes]] and checked against its quantity (which directions it depends on,
 // what must be given).  Every failure is an InputError of the form
 //   FILE:LINE:COL: key 'dotted.key': what is wrong; allowed: ...
-#include "spec.h"
+#include "host/spec/spec.h"
 
 #include <algorithm>
 #include <cmath>
@@ -20,9 +20,9 @@
 
 #include <toml++/toml.h>
 
-#include "error.h"
-#include "text.h"
-#include "model_registry.h"
+#include "host/core/error.h"
+#include "host/core/text.h"
+#include "host/models/registry.h"
 
 namespace brdftab {
 

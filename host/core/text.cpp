@@ -1,4 +1,4 @@
-#include "text.h"
+#include "host/core/text.h"
 
 #include <cstdio>
 
