@@ -133,26 +133,27 @@ public:
                 std::copy(tmp.begin(), tmp.end(), m2.begin());
             }
         } catch (const cl::Error& e) {
-            throw OpenCLError(e.what(), e.err(), "while running kernel " + l.model->kernel_name);
+            throw OpenCLError(e.what(), e.err(), "while running the kernel of model '" + l.model->name + "'");
         }
     }
 
 private:
     cl::Kernel& kernel_for(const ModelInfo& model) {
-        auto it = kernels_.find(model.kernel_name);
+        auto it = kernels_.find(model.name);
         if (it != kernels_.end()) return it->second;
-        const std::string source = load_kernel_source(model.kernel_file, kernel_dir_);
+        const std::string source =
+            estimate_kernel_source(model.kernel_header, model.sample_function, kernel_dir_);
         std::string options = "-cl-std=CL1.2";
         options += runtime_.device_info().has_fp64 ? " -D BT_HAS_FP64=1" : " -D BT_HAS_FP64=0";
         if (precision_ == Precision::Float) options += " -D BT_REAL_IS_FLOAT=1";
         cl::Program program = runtime_.build_program(source, options);
         try {
             programs_.push_back(program);
-            return kernels_.emplace(model.kernel_name, cl::Kernel(program, model.kernel_name.c_str()))
+            return kernels_.emplace(model.name, cl::Kernel(program, kEstimateKernelName))
                 .first->second;
         } catch (const cl::Error& e) {
-            throw OpenCLError(e.what(), e.err(), "kernel '" + model.kernel_name + "' in " +
-                                                     model.kernel_file);
+            throw OpenCLError(e.what(), e.err(), "entry point of model '" + model.name +
+                                                     "' (kernels/" + model.kernel_header + ")");
         }
     }
 

@@ -25,6 +25,20 @@ const std::map<std::string, std::string>& embedded_kernel_map();
 
 namespace {
 
+// Kernel files added at run time (add_embedded_kernel_sources).
+std::map<std::string, std::string>& added_kernel_map() {
+    static std::map<std::string, std::string> files;
+    return files;
+}
+
+const std::string* embedded_file(const std::string& rel) {
+    const auto& built_in = detail::embedded_kernel_map();
+    auto it = built_in.find(rel);
+    if (it != built_in.end()) return &it->second;
+    auto added = added_kernel_map().find(rel);
+    return added == added_kernel_map().end() ? nullptr : &added->second;
+}
+
 // Lexically normalise a '/'-separated relative path: drop "." and empty
 // components, resolve "..".  Returns false when the path is absolute or
 // climbs above the kernel root, so such an include can never name a file
@@ -80,12 +94,12 @@ public:
     const std::string& dir() const { return dir_; }
 
     bool exists(const std::string& rel) const {
-        if (!from_disk()) return detail::embedded_kernel_map().count(rel) != 0;
+        if (!from_disk()) return embedded_file(rel) != nullptr;
         return is_regular_file(dir_ + rel);
     }
 
     std::string read(const std::string& rel) const {
-        if (!from_disk()) return detail::embedded_kernel_map().at(rel);
+        if (!from_disk()) return *embedded_file(rel);
         std::ifstream in(dir_ + rel, std::ios::binary);
         if (!in) throw InputError("cannot read kernel file '" + dir_ + rel + "'");
         std::ostringstream ss;
@@ -182,7 +196,27 @@ void expand(const SourceStore& store, const std::string& rel, std::set<std::stri
 std::vector<std::string> embedded_kernel_files() {
     std::vector<std::string> files;
     for (const auto& entry : detail::embedded_kernel_map()) files.push_back(entry.first);
+    for (const auto& entry : added_kernel_map())
+        if (!detail::embedded_kernel_map().count(entry.first)) files.push_back(entry.first);
     return files;
+}
+
+bool add_embedded_kernel_sources(const std::map<std::string, std::string>& files) {
+    for (const auto& [path, text] : files) added_kernel_map().emplace(path, text);
+    return true;
+}
+
+std::string estimate_kernel_source(const std::string& kernel_header,
+                                   const std::string& sample_function,
+                                   const std::string& kernel_dir) {
+    // The entry point is the same three lines for every model, so it is
+    // generated here rather than kept as one kernels/<model>.cl per model.
+    std::string source = load_kernel_source("common/estimator.h", kernel_dir);
+    source += load_kernel_source(kernel_header, kernel_dir);
+    source += "#line 1 \"generated entry point for " + kernel_header + "\"\n";
+    source += "BT_DEFINE_ESTIMATE_KERNEL(" + std::string(kEstimateKernelName) + ", " +
+              sample_function + ")\n";
+    return source;
 }
 
 std::string load_kernel_source(const std::string& relative_path, const std::string& kernel_dir) {

@@ -8,13 +8,28 @@
 // disk instead (development: edit kernels without rebuilding).
 #pragma once
 
+#include <map>
 #include <string>
 #include <vector>
 
 namespace brdftab {
 
+// The name of the entry point estimate_kernel_source() generates.
+constexpr const char* kEstimateKernelName = "bt_estimate";
+
 std::vector<std::string> embedded_kernel_files();  // paths relative to kernels/
 std::string load_kernel_source(const std::string& relative_path,
                                const std::string& kernel_dir = "");
+// The complete program of a model: kernels/common/estimator.h, the model's
+// kernel header (relative to kernels/) and a generated entry point
+// BT_DEFINE_ESTIMATE_KERNEL(bt_estimate, sample_function).
+std::string estimate_kernel_source(const std::string& kernel_header,
+                                   const std::string& sample_function,
+                                   const std::string& kernel_dir = "");
+// Adds kernel files (path relative to kernels/ -> text) to the embedded set,
+// for models compiled outside kernels/ (the test-only toy model: see
+// docs/adding-a-model.md).  Existing paths are kept.  Returns true, so that a
+// static initialiser can call it.
+bool add_embedded_kernel_sources(const std::map<std::string, std::string>& files);
 
 }  // namespace brdftab

@@ -1,81 +1,88 @@
 // Registry entry and host compilation of the interfaced-lambertian model
 // (Meneveaux et al., interfaced Lambertian microfacets; kernel math in
 // kernels/models/interfaced_lambertian.h).
+#include "kernels/models/interfaced_lambertian.h"
+
 #include <vector>
 
+#include "host/models/registry.h"
 #include "kernels/common/compat.h"
 #include "kernels/common/sampler.h"
-#include "kernels/models/interfaced_lambertian.h"
-#include "host/models/registry.h"
 
 namespace brdftab::detail {
-
-// The serial reference path (--device host): the very code the OpenCL kernel runs.
-REAL host_interfaced_lambertian_sample(const REAL* point, const int* options, int quantity,
-                                       const bt_sampler* sampler) {
-    return interfaced_lambertian_sample(point, options, quantity, sampler);
-}
 
 namespace {
 
 ModelInfo interfaced_lambertian_model() {
-    ModelInfo m;
-    m.name = "interfaced-lambertian";
-    m.citation =
+    ModelBuilder b("interfaced-lambertian", 30);
+    b.citation(
         "D. Meneveaux, B. Bringier, E. Tauzia, M. Ribardiere, L. Simonot. Rendering Rough "
         "Opaque Materials with Interfaced Lambertian Microfacets. IEEE Transactions on "
         "Visualization and Computer Graphics 24(3), 2018 (preprint: Isotropic and Anisotropic "
-        "Interfaced Lambertian Microfacets, 2015).";
-    m.description =
+        "Interfaced Lambertian Microfacets, 2015).");
+    b.description(
         "Rough plastics, paints, ceramics: every microfacet is a flat dielectric interface "
         "(relative index ni) over a Lambertian substrate (Kd). Body term (eq. 12) tabulated "
         "without its Kd prefactor, specular term (eq. 3), r_e/r_i (eqs. 9-10), albedos, and "
-        "multiple V-cavity bounces per order (eqs. 22-23, point estimator).";
-    m.kernel_file = "interfaced_lambertian.cl";
-    m.kernel_name = "interfaced_lambertian_estimate";
+        "multiple V-cavity bounces per order (eqs. 22-23, point estimator).");
+    b.kernel("models/interfaced_lambertian.h", "interfaced_lambertian_sample",
+             &interfaced_lambertian_sample);
+    b.counts(IL_PARAM_COUNT, IL_OPT_COUNT, IL_Q_COUNT);
 
-    m.parameters = {
+    b.parameter(
+        IL_PARAM_SIGMA,
         parameter_info("sigma", "deg",
                        "Gaussian-of-normals width (distribution = gaussian-ts only, eq. 13); "
                        "0 = flat",
                        0, 89, 20)
-            .degrees(),
+            .degrees());
+    b.parameter(
+        IL_PARAM_ALPHA,
         parameter_info("alpha", "1", "Beckmann/GGX width (isotropic; eqs. 15, 20)", 0, 4, 0.3)
-            .open_min(),
-        parameter_info("alpha_x", "1", "anisotropic Beckmann/GGX width along x; 0 = use alpha", 0,
-                       4, 0),
-        parameter_info("alpha_y", "1", "anisotropic Beckmann/GGX width along y; 0 = use alpha", 0,
-                       4, 0),
-        parameter_info("ni", "1", "relative index n1/n0 of the facet interface (eq. 7)", 1, 4, 1.5),
+            .open_min());
+    b.parameter(IL_PARAM_ALPHA_X,
+                parameter_info("alpha_x", "1",
+                               "anisotropic Beckmann/GGX width along x; 0 = use alpha", 0, 4, 0));
+    b.parameter(IL_PARAM_ALPHA_Y,
+                parameter_info("alpha_y", "1",
+                               "anisotropic Beckmann/GGX width along y; 0 = use alpha", 0, 4, 0));
+    b.parameter(IL_PARAM_NI,
+                parameter_info("ni", "1", "relative index n1/n0 of the facet interface (eq. 7)", 1,
+                               4, 1.5));
+    b.parameter(
+        IL_PARAM_KD,
         parameter_info("kd", "1",
                        "Lambertian substrate reflectance Kd (brdf, albedo_body, Rb, vcavity)", 0, 1,
-                       0.5),
-        parameter_info(
-            "order", "1",
-            "vcavity: bounce order, 0 = all orders summed (up to 128), k >= 1 = exactly k "
-            "facet interactions (integer)",
-            0, 128, 0),
-    };
-    m.options = {
+                       0.5));
+    b.parameter(IL_PARAM_ORDER,
+                parameter_info(
+                    "order", "1",
+                    "vcavity: bounce order, 0 = all orders summed (up to 128), k >= 1 = exactly k "
+                    "facet interactions (integer)",
+                    0, 128, 0));
+    b.option(
+        IL_OPT_DISTRIBUTION,
         {"distribution",
          "normal distribution / shadowing pair (Table 2): Gaussian normals + Torrance-Sparrow "
          "(eqs. 13-14), Beckmann + TS (eqs. 15, 14), Beckmann + Smith (eqs. 15-19), GGX + Smith "
          "(eqs. 20-21)",
          {"gaussian-ts", "beckmann-ts", "beckmann-smith", "ggx-smith"},
-         "beckmann-smith"},
+         "beckmann-smith"});
+    b.option(
+        IL_OPT_SAMPLING,
         {"sampling",
          "how microfacet normals are sampled: visible normals of the Beckmann/GGX distribution "
          "(bounded weights), or D(m)|m.n| (eqs. 29-31). Gaussian always samples D(m)|m.n| "
          "(exactly, by rejection)",
          {"visible", "distribution"},
-         "visible"},
-        {"interreflection",
-         "vcavity: at each facet hit inside the groove, full = specular reflection with "
-         "probability F or body scattering; body = body scattering only (specular light "
-         "inside the groove dropped)",
-         {"full", "body"},
-         "full"},
-    };
+         "visible"});
+    b.option(IL_OPT_INTERREFLECTION,
+             {"interreflection",
+              "vcavity: at each facet hit inside the groove, full = specular reflection with "
+              "probability F or body scattering; body = body scattering only (specular light "
+              "inside the groove dropped)",
+              {"full", "body"},
+              "full"});
 
     const std::vector<std::string> all_dirs = {"theta_i", "phi_i", "theta_o", "phi_o"};
     const std::vector<std::string> shape = {"distribution"};
@@ -99,52 +106,48 @@ ModelInfo interfaced_lambertian_model() {
     const auto CF = QuantityKind::ClosedForm;
     const auto IN = QuantityKind::Integral;
     const auto QU = QuantityKind::Quadrature;
-    // ids: IL_Q_* in kernels/models/interfaced_lambertian.h
-    m.quantities = {
-        q("body", 0, "1", IN, all_dirs, sampled,
-          "integral of eq. 12 WITHOUT the prefactor Kd/(pi ni^2 (1 - ri Kd)): "
-          "int T(i,m) T(o,m) D G |i.m||o.m|/(|i.n||o.n|) dm",
-          "eqs. 7, 12-21; sampling eqs. 29-31 or visible normals", "rqmc", 2),
-        q("brdf", 1, "1/sr", IN, all_dirs, sampled,
-          "f = Kd/(pi ni^2 (1 - ri Kd)) * body + specular", "eqs. 3, 11, 12", "rqmc", 2),
-        q("specular", 2, "1/sr", CF, all_dirs, shape,
-          "specular term F D G / (4 |i.n||o.n|)", "eq. 3 (denominator corrected), 7", "closed-form",
-          0),
-        q("re", 3, "1", CF, {}, {}, "external diffuse reflectance r_e (Molenaar)", "eq. 10",
-          "closed-form", 0),
-        q("ri", 4, "1", CF, {}, {}, "internal diffuse reflectance r_i = 1 - (1 - r_e)/ni^2",
-          "eqs. 9-10", "closed-form", 0),
-        q("re_integral", 5, "1", QU, {}, {},
-          "r_e by Gauss-Legendre quadrature of int F(mu) 2 mu dmu", "eqs. 7, 9 (external)",
-          "quadrature", 0),
-        q("ri_integral", 6, "1", QU, {}, {},
-          "r_i by Gauss-Legendre quadrature of eq. 9 (internal Fresnel, total internal "
-          "reflection)",
-          "eqs. 7, 9", "quadrature", 0),
-        q("Rs", 7, "1", CF, {}, {}, "specular sampling weight R_s = r_e", "§4.1", "closed-form",
-          0),
-        q("Rb", 8, "1", CF, {}, {},
-          "body sampling weight R_b = (1 - r_e)^2 Kd / (ni^2 (1 - Kd r_i))", "§4.1",
-          "closed-form", 0),
-        q("albedo_body", 9, "1", IN, {"theta_i", "phi_i"}, sampled,
-          "directional albedo of the body term (with the Kd prefactor)", "eqs. 8, 12",
-          "rqmc", 4),
-        q("albedo_specular", 10, "1", IN, {"theta_i", "phi_i"}, sampled,
-          "directional albedo of the specular term", "eq. 3", "rqmc", 2),
-        q("vcavity", 11, "1/sr", IN, all_dirs, {"distribution", "sampling", "interreflection"},
-          "body reflection with multiple bounces inside V-cavities (point estimator at o), "
-          "bounce order selected by `order` (0 = all); uses the chosen distribution with "
-          "V-cavity visibility whatever its GAF",
-          "eqs. 8, 14, 22-23", "rqmc", 8),
-    };
-    m.host_fn = &host_interfaced_lambertian_sample;
-    return m;
+    b.quantity(q("body", IL_Q_BODY, "1", IN, all_dirs, sampled,
+                 "integral of eq. 12 WITHOUT the prefactor Kd/(pi ni^2 (1 - ri Kd)): "
+                 "int T(i,m) T(o,m) D G |i.m||o.m|/(|i.n||o.n|) dm",
+                 "eqs. 7, 12-21; sampling eqs. 29-31 or visible normals", "rqmc", 2));
+    b.quantity(q("brdf", IL_Q_BRDF, "1/sr", IN, all_dirs, sampled,
+                 "f = Kd/(pi ni^2 (1 - ri Kd)) * body + specular", "eqs. 3, 11, 12", "rqmc", 2));
+    b.quantity(q("specular", IL_Q_SPECULAR, "1/sr", CF, all_dirs, shape,
+                 "specular term F D G / (4 |i.n||o.n|)", "eq. 3 (denominator corrected), 7",
+                 "closed-form", 0));
+    b.quantity(q("re", IL_Q_RE, "1", CF, {}, {}, "external diffuse reflectance r_e (Molenaar)",
+                 "eq. 10", "closed-form", 0));
+    b.quantity(q("ri", IL_Q_RI, "1", CF, {}, {},
+                 "internal diffuse reflectance r_i = 1 - (1 - r_e)/ni^2", "eqs. 9-10",
+                 "closed-form", 0));
+    b.quantity(q("re_integral", IL_Q_RE_INTEGRAL, "1", QU, {}, {},
+                 "r_e by Gauss-Legendre quadrature of int F(mu) 2 mu dmu", "eqs. 7, 9 (external)",
+                 "quadrature", 0));
+    b.quantity(q("ri_integral", IL_Q_RI_INTEGRAL, "1", QU, {}, {},
+                 "r_i by Gauss-Legendre quadrature of eq. 9 (internal Fresnel, total internal "
+                 "reflection)",
+                 "eqs. 7, 9", "quadrature", 0));
+    b.quantity(q("Rs", IL_Q_RS, "1", CF, {}, {}, "specular sampling weight R_s = r_e", "§4.1",
+                 "closed-form", 0));
+    b.quantity(q("Rb", IL_Q_RB, "1", CF, {}, {},
+                 "body sampling weight R_b = (1 - r_e)^2 Kd / (ni^2 (1 - Kd r_i))", "§4.1",
+                 "closed-form", 0));
+    b.quantity(q("albedo_body", IL_Q_ALBEDO_BODY, "1", IN, {"theta_i", "phi_i"}, sampled,
+                 "directional albedo of the body term (with the Kd prefactor)", "eqs. 8, 12",
+                 "rqmc", 4));
+    b.quantity(q("albedo_specular", IL_Q_ALBEDO_SPECULAR, "1", IN, {"theta_i", "phi_i"}, sampled,
+                 "directional albedo of the specular term", "eq. 3", "rqmc", 2));
+    b.quantity(q("vcavity", IL_Q_VCAVITY, "1/sr", IN, all_dirs,
+                 {"distribution", "sampling", "interreflection"},
+                 "body reflection with multiple bounces inside V-cavities (point estimator at o), "
+                 "bounce order selected by `order` (0 = all); uses the chosen distribution with "
+                 "V-cavity visibility whatever its GAF",
+                 "eqs. 8, 14, 22-23", "rqmc", 8));
+    return b.build();
 }
+
+BRDFTAB_REGISTER_MODEL(interfaced_lambertian_model);
 
 }  // namespace
-
-void register_interfaced_lambertian(std::vector<ModelInfo>& models) {
-    models.push_back(interfaced_lambertian_model());
-}
 
 }  // namespace brdftab::detail

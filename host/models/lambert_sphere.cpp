@@ -1,27 +1,17 @@
 // Registry entries and host compilation of the `hfunction` and
 // `lambert-sphere` models (kernels/models/hfunction.h,
 // kernels/models/lambert_sphere.h; docs/models/lambert-sphere.md).
+#include "kernels/models/lambert_sphere.h"
+
 #include <sstream>
 #include <string>
 #include <vector>
 
+#include "host/models/registry.h"
 #include "kernels/common/compat.h"
 #include "kernels/common/sampler.h"
-#include "kernels/models/lambert_sphere.h"
-#include "host/models/registry.h"
 
 namespace brdftab::detail {
-
-// External linkage: the --device host reference path (same source as the kernels).
-REAL host_hfunction_sample(const REAL* point, const int* options, int quantity,
-                           const bt_sampler* sampler) {
-    return hfunction_sample(point, options, quantity, sampler);
-}
-
-REAL host_lambert_sphere_sample(const REAL* point, const int* options, int quantity,
-                                const bt_sampler* sampler) {
-    return lambert_sphere_sample(point, options, quantity, sampler);
-}
 
 namespace {
 
@@ -30,53 +20,58 @@ const char* kCitation =
     "Computer Graphics Forum 40(4) (EGSR 2021).";
 
 ModelInfo hfunction_model() {
-    ModelInfo m;
-    m.name = "hfunction";
-    m.citation = std::string(kCitation) +
-                 " S. Chandrasekhar, Radiative Transfer (1960), ch. V.";
-    m.description =
+    ModelBuilder b("hfunction", 40);
+    b.citation(std::string(kCitation) + " S. Chandrasekhar, Radiative Transfer (1960), ch. V.");
+    b.description(
         "Chandrasekhar H-functions H(mu) for even polynomial characteristic functions "
         "(the Lambert-sphere Psi0, Psi1, Psi2 of d'Eon eqs. 13-15, isotropic scattering "
         "Psi = c/2, or user coefficients), from the Fock integral (eq. 16) by a trapezoidal "
-        "rule in log t; exact at c = 1 (the log K singularity is integrated analytically).";
-    m.kernel_file = "hfunction.cl";
-    m.kernel_name = "hfunction_estimate";
-    m.parameters = {
-        parameter_info("mu", "1",
-                       "argument of H (cosine; values > 1 give the analytic continuation, "
-                       "large values approach H(inf))",
-                       0, 1e12, 1.0),
-        parameter_info("c", "1",
-                       "single-scattering albedo (lambert0/1/2, isotropic; ignored by poly)", 0, 1,
-                       1.0),
-        parameter_info("n", "1", "moment order of alpha_n (integer)", 0, 16, 0.0),
-        parameter_info("psi_0", "1", "poly: coefficient of mu^0 in Psi", -10, 10, 0.0),
-        parameter_info("psi_1", "1", "poly: coefficient of mu^2 in Psi", -10, 10, 0.0),
-        parameter_info("psi_2", "1", "poly: coefficient of mu^4 in Psi", -10, 10, 0.0),
-        parameter_info("psi_3", "1", "poly: coefficient of mu^6 in Psi", -10, 10, 0.0),
-    };
-    m.options = {{"psi",
-                  "characteristic function: d'Eon eqs. 13-15 (lambert0/1/2), isotropic "
-                  "scattering c/2, or the polynomial psi_0 + psi_1 mu^2 + psi_2 mu^4 + "
-                  "psi_3 mu^6 (needs 1 - 2 int Psi >= 0; NaN otherwise)",
-                  {"lambert0", "lambert1", "lambert2", "isotropic", "poly"},
-                  "lambert0"}};
+        "rule in log t; exact at c = 1 (the log K singularity is integrated analytically).");
+    b.kernel("models/hfunction.h", "hfunction_sample", &hfunction_sample);
+    b.counts(HF_PARAM_COUNT, HF_OPT_COUNT, HF_Q_COUNT);
+    b.parameter(HF_PARAM_MU,
+                parameter_info("mu", "1",
+                               "argument of H (cosine; values > 1 give the analytic continuation, "
+                               "large values approach H(inf))",
+                               0, 1e12, 1.0));
+    b.parameter(HF_PARAM_C,
+                parameter_info(
+                    "c", "1", "single-scattering albedo (lambert0/1/2, isotropic; ignored by poly)",
+                    0, 1, 1.0));
+    b.parameter(HF_PARAM_N,
+                parameter_info("n", "1", "moment order of alpha_n (integer)", 0, 16, 0.0));
+    b.parameter(HF_PARAM_PSI_0,
+                parameter_info("psi_0", "1", "poly: coefficient of mu^0 in Psi", -10, 10, 0.0));
+    b.parameter(HF_PARAM_PSI_1,
+                parameter_info("psi_1", "1", "poly: coefficient of mu^2 in Psi", -10, 10, 0.0));
+    b.parameter(HF_PARAM_PSI_2,
+                parameter_info("psi_2", "1", "poly: coefficient of mu^4 in Psi", -10, 10, 0.0));
+    b.parameter(HF_PARAM_PSI_3,
+                parameter_info("psi_3", "1", "poly: coefficient of mu^6 in Psi", -10, 10, 0.0));
+    b.option(HF_OPT_PSI, {"psi",
+                          "characteristic function: d'Eon eqs. 13-15 (lambert0/1/2), isotropic "
+                          "scattering c/2, or the polynomial psi_0 + psi_1 mu^2 + psi_2 mu^4 + "
+                          "psi_3 mu^6 (needs 1 - 2 int Psi >= 0; NaN otherwise)",
+                          {"lambert0", "lambert1", "lambert2", "isotropic", "poly"},
+                          "lambert0"});
     const std::vector<std::string> none;
     const std::vector<std::string> psi = {"psi"};
-    m.quantities = {
-        QuantityInfo{"H", HF_Q_H, "H(mu) from eq. 16 (trapezoid in log t, error from the "
-                              "half-resolution rule)",
-                 "1", QuantityKind::Quadrature, none, psi, "eqs. 13-20 (d'Eon)", "quadrature", 0},
+    b.quantity(QuantityInfo{"H", HF_Q_H,
+                            "H(mu) from eq. 16 (trapezoid in log t, error from the "
+                            "half-resolution rule)",
+                            "1", QuantityKind::Quadrature, none, psi, "eqs. 13-20 (d'Eon)",
+                            "quadrature", 0});
+    b.quantity(
         QuantityInfo{"moment", HF_Q_MOMENT,
-                 "alpha_n = int_0^1 mu^n H(mu) dmu (24-point Gauss-Legendre in sqrt(mu))", "1",
-                 QuantityKind::Quadrature, none, psi, "eqs. 13-20 (d'Eon)", "quadrature", 0},
-        QuantityInfo{"H_inf", HF_Q_HINF, "H(inf) = 1/sqrt(K(0)) (inf when K(0) = 0)", "1",
-                 QuantityKind::ClosedForm, none, psi, "eq. 32 (d'Eon)", "closed-form", 0},
-        QuantityInfo{"K", HF_Q_K, "K(t) at t = mu (diagnostic; closed forms or series)", "1",
-                 QuantityKind::ClosedForm, none, psi, "eqs. 17-20 (d'Eon)", "closed-form", 0},
-    };
-    m.host_fn = &host_hfunction_sample;
-    return m;
+                     "alpha_n = int_0^1 mu^n H(mu) dmu (24-point Gauss-Legendre in sqrt(mu))", "1",
+                     QuantityKind::Quadrature, none, psi, "eqs. 13-20 (d'Eon)", "quadrature", 0});
+    b.quantity(QuantityInfo{"H_inf", HF_Q_HINF, "H(inf) = 1/sqrt(K(0)) (inf when K(0) = 0)", "1",
+                            QuantityKind::ClosedForm, none, psi, "eq. 32 (d'Eon)", "closed-form",
+                            0});
+    b.quantity(QuantityInfo{"K", HF_Q_K, "K(t) at t = mu (diagnostic; closed forms or series)", "1",
+                            QuantityKind::ClosedForm, none, psi, "eqs. 17-20 (d'Eon)",
+                            "closed-form", 0});
+    return b.build();
 }
 
 // The remainder's order range must be non-empty (the kernel returns NaN
@@ -93,121 +88,199 @@ std::string check_lambert_sphere_point(const QuantityInfo& q,
 }
 
 ModelInfo lambert_sphere_model() {
-    ModelInfo m;
-    m.name = "lambert-sphere";
-    m.citation = kCitation;
-    m.description =
+    ModelBuilder b("lambert-sphere", 50);
+    b.citation(kCitation);
+    b.description(
         "Semi-infinite medium of sparse Lambertian spheres of albedo c (dusty / porous "
         "materials): the exact BRDF by random walks per scattering order, and d'Eon's "
-        "analytic model with exact or fitted H-functions, its fast variant and albedo maps.";
-    m.kernel_file = "lambert_sphere.cl";
-    m.kernel_name = "lambert_sphere_estimate";
-    m.parameters = {
-        parameter_info("c", "1", "particle (single-scattering) albedo; kd for c_fit", 0, 1, 1.0),
+        "analytic model with exact or fitted H-functions, its fast variant and albedo maps.");
+    b.kernel("models/lambert_sphere.h", "lambert_sphere_sample", &lambert_sphere_sample);
+    b.counts(LS_PARAM_COUNT, LS_OPT_COUNT, LS_Q_COUNT);
+    b.parameter(
+        LS_PARAM_C,
+        parameter_info("c", "1", "particle (single-scattering) albedo; kd for c_fit", 0, 1, 1.0));
+    b.parameter(
+        LS_PARAM_ORDER,
         parameter_info(
             "order", "1",
             "random walks: 0 all orders 1..max_order, -1 orders >= 2 only, k >= 1 order k only "
             "(order k scales exactly as c^k); -2 = truncation remainder: albedo_mc/kd_mc the "
             "weight still inside the medium after max_order scatterings, brdf_mc the BRDF of "
             "orders max_order+1..tail_order of the same walks",
-            -2, 100000, 0.0),
+            -2, 100000, 0.0));
+    b.parameter(
+        LS_PARAM_MAX_ORDER,
         parameter_info("max_order", "1", "random walks: truncation order (c = 1 converges slowly)",
-                       1, 100000, 1000.0),
-        parameter_info("mode", "1",
-                       "-1: value at phi; 0, 1, 2: Fourier coefficient f^(m) of eq. 9 "
-                       "(f = sum_m f^(m) cos(m phi))",
-                       -1, 8, -1.0),
+                       1, 100000, 1000.0));
+    b.parameter(LS_PARAM_MODE,
+                parameter_info("mode", "1",
+                               "-1: value at phi; 0, 1, 2: Fourier coefficient f^(m) of eq. 9 "
+                               "(f = sum_m f^(m) cos(m phi))",
+                               -1, 8, -1.0));
+    b.parameter(
+        LS_PARAM_TAIL_ORDER,
         parameter_info("tail_order", "1",
                        "brdf_mc with order = -2: last order of the truncation remainder (orders "
                        "max_order+1..tail_order); must exceed max_order",
-                       2, 10000000, 100000.0),
-    };
-    m.options = {
-        {"phase_mc",
-         "random walks: exact Lambert-sphere phase function (eqs. 1, 5), or its 3-term "
-         "Legendre truncation (eqs. 2, 8; signed weights, noisy for c near 1)",
-         {"exact", "three-term"},
-         "exact"},
-        {"cos_phi",
-         "analytic/fit: weight of the multiple-scattering cos(phi) mode eq. 22 - eq. 28: "
-         "'corrected' (x2, what the Monte Carlo reference shows) or 'paper' (x1, as printed)",
-         {"corrected", "paper"},
-         "corrected"},
-        {"fm1", "brdf_fit: cos(phi) mode from eqs. 22, 28 with fitted H1, l, m, or the fast fit eq. 29",
+                       2, 10000000, 100000.0));
+    b.option(LS_OPT_PHASE_MC,
+             {"phase_mc",
+              "random walks: exact Lambert-sphere phase function (eqs. 1, 5), or its 3-term "
+              "Legendre truncation (eqs. 2, 8; signed weights, noisy for c near 1)",
+              {"exact", "three-term"},
+              "exact"});
+    b.option(LS_OPT_COS_PHI,
+             {"cos_phi",
+              "analytic/fit: weight of the multiple-scattering cos(phi) mode eq. 22 - eq. 28: "
+              "'corrected' (x2, what the Monte Carlo reference shows) or 'paper' (x1, as printed)",
+              {"corrected", "paper"},
+              "corrected"});
+    b.option(
+        LS_OPT_FM1,
+        {"fm1",
+         "brdf_fit: cos(phi) mode from eqs. 22, 28 with fitted H1, l, m, or the fast fit eq. 29",
          {"eq22", "eq29"},
-         "eq22"},
-        {"h1_fit",
-         "brdf_fit: H1 fit eqs. 23-25 as printed (up to 11 % off the exact H1), normalised by "
-         "Hc1(1) (9 %), or 'power' = H1(1)^(mu^e(mu)) with eq. 24's exponent e and eq. 25 "
-         "(our reading, 0.24 %)",
-         {"printed", "normalised", "power"},
-         "printed"},
-        {"constants",
-         "brdf_analytic, constant: the constants l, m (eq. 22) and A..F (eq. 30) 'exact' "
-         "(Horak-Chandrasekhar psi-function system solved numerically, "
-         "kernels/models/horak_chandrasekhar.h) or the paper's 'fit' (eqs. 26-27, 33-37)",
-         {"exact", "fit"},
-         "exact"},
-        {"constant", "quantity constant: which constant", {"l", "m", "A", "B", "C", "D", "E", "F"},
-         "l"},
-    };
+         "eq22"});
+    b.option(LS_OPT_H1_FIT,
+             {"h1_fit",
+              "brdf_fit: H1 fit eqs. 23-25 as printed (up to 11 % off the exact H1), normalised by "
+              "Hc1(1) (9 %), or 'power' = H1(1)^(mu^e(mu)) with eq. 24's exponent e and eq. 25 "
+              "(our reading, 0.24 %)",
+              {"printed", "normalised", "power"},
+              "printed"});
+    b.option(LS_OPT_CONSTANTS,
+             {"constants",
+              "brdf_analytic, constant: the constants l, m (eq. 22) and A..F (eq. 30) 'exact' "
+              "(Horak-Chandrasekhar psi-function system solved numerically, "
+              "kernels/models/horak_chandrasekhar.h) or the paper's 'fit' (eqs. 26-27, 33-37)",
+              {"exact", "fit"},
+              "exact"});
+    b.option(LS_OPT_CONSTANT, {"constant",
+                               "quantity constant: which constant",
+                               {"l", "m", "A", "B", "C", "D", "E", "F"},
+                               "l"});
     const std::vector<std::string> dirs = {"theta_i", "phi_i", "theta_o", "phi_o"};
     const std::vector<std::string> walk_opts = {"phase_mc"};
     const std::vector<std::string> an_opts = {"cos_phi", "constants"};
     const std::vector<std::string> fit_opts = {"cos_phi", "fm1", "h1_fit"};
-    m.quantities = {
-        QuantityInfo{"phase", LS_Q_PHASE,
-                 "phase function p(cos theta_o); theta_o is the scattering angle (0 = forward)",
-                 "1/sr", QuantityKind::ClosedForm, {"theta_o"}, {}, "eq. 1", "closed-form", 0},
-        QuantityInfo{"brdf_mc", LS_Q_BRDF_MC,
-                 "exact BRDF: random walks with the exact phase function and next-event "
-                 "estimation, per scattering order (parameters order, max_order, mode)",
-                 "1/sr", QuantityKind::Integral, dirs, walk_opts, "eqs. 1, 5, 10 (order 1)", "mc",
-                 8},
-        QuantityInfo{"albedo_mc", LS_Q_ALBEDO_MC,
-                 "directional albedo E(mu_i) by random walks, per scattering order", "1",
-                 QuantityKind::Integral, {"theta_i"}, walk_opts, "eqs. 1, 5", "mc", 8},
+    b.quantity(
+        QuantityInfo{"phase",
+                     LS_Q_PHASE,
+                     "phase function p(cos theta_o); theta_o is the scattering angle (0 = forward)",
+                     "1/sr",
+                     QuantityKind::ClosedForm,
+                     {"theta_o"},
+                     {},
+                     "eq. 1",
+                     "closed-form",
+                     0});
+    b.quantity(QuantityInfo{"brdf_mc", LS_Q_BRDF_MC,
+                            "exact BRDF: random walks with the exact phase function and next-event "
+                            "estimation, per scattering order (parameters order, max_order, mode)",
+                            "1/sr", QuantityKind::Integral, dirs, walk_opts,
+                            "eqs. 1, 5, 10 (order 1)", "mc", 8});
+    b.quantity(QuantityInfo{"albedo_mc",
+                            LS_Q_ALBEDO_MC,
+                            "directional albedo E(mu_i) by random walks, per scattering order",
+                            "1",
+                            QuantityKind::Integral,
+                            {"theta_i"},
+                            walk_opts,
+                            "eqs. 1, 5",
+                            "mc",
+                            8});
+    b.quantity(
         QuantityInfo{"brdf_analytic", LS_Q_BRDF_ANALYTIC,
-                 "d'Eon's model with exact H0, H1 (eq. 16) and exact (default) or fitted "
-                 "constants l, m, A-F",
-                 "1/sr", QuantityKind::Quadrature, dirs, an_opts,
-                 "eqs. 9-12, 16, 18-19, 22, 26-28, 30, 33-38", "quadrature", 0},
-        QuantityInfo{"brdf_fit", LS_Q_BRDF_FIT, "d'Eon's model entirely with fitted functions",
-                 "1/sr", QuantityKind::ClosedForm, dirs, fit_opts,
-                 "eqs. 9-12, 22-31, 33-38 (29 with fm1=eq29)", "closed-form", 0},
-        QuantityInfo{"brdf_fast", LS_Q_BRDF_FAST, "fast variant", "1/sr", QuantityKind::ClosedForm,
-                 dirs, {}, "eqs. 40, 41", "closed-form", 0},
-        QuantityInfo{"brdf_single", LS_Q_BRDF_SINGLE, "exact single scattering", "1/sr",
-                 QuantityKind::ClosedForm, dirs, {}, "eq. 10", "closed-form", 0},
-        QuantityInfo{"kd_fit", LS_Q_KD_FIT, "spherical albedo kd from c (fit)", "1",
-                 QuantityKind::ClosedForm, {}, {}, "eq. 40", "closed-form", 0},
-        QuantityInfo{"kd_mc", LS_Q_KD_MC,
-                 "spherical (bond) albedo 2 int E(mu) mu dmu by random walks", "1",
-                 QuantityKind::Integral, {}, walk_opts, "eqs. 1, 5", "mc", 8},
-        QuantityInfo{"brdf_three_term", LS_Q_BRDF_THREE_TERM,
-                 "exact single scattering + the exact multiple scattering of the three-term "
-                 "phase function (modes 0-2, exact H and constants): d'Eon's construction "
-                 "without approximations beyond the phase truncation",
-                 "1/sr", QuantityKind::Quadrature, dirs, {},
-                 "eqs. 8-12, 16, 22, 30 + Horak-Chandrasekhar mode 2", "quadrature", 0},
-        QuantityInfo{"constant", LS_Q_CONSTANT,
-                 "one of the constants l, m, A-F of eqs. 22, 30 (option constant), exact or "
-                 "fitted (option constants)",
-                 "1", QuantityKind::ClosedForm, {}, {"constants", "constant"},
-                 "eqs. 22, 26-27, 30, 33-37", "closed-form", 0},
-        QuantityInfo{"c_fit", LS_Q_C_FIT, "particle albedo c from kd (fit); kd is given as c", "1",
-                 QuantityKind::ClosedForm, {}, {}, "eq. 39", "closed-form", 0},
-    };
-    m.host_fn = &host_lambert_sphere_sample;
-    m.check_point = &check_lambert_sphere_point;
-    return m;
+                     "d'Eon's model with exact H0, H1 (eq. 16) and exact (default) or fitted "
+                     "constants l, m, A-F",
+                     "1/sr", QuantityKind::Quadrature, dirs, an_opts,
+                     "eqs. 9-12, 16, 18-19, 22, 26-28, 30, 33-38", "quadrature", 0});
+    b.quantity(QuantityInfo{"brdf_fit", LS_Q_BRDF_FIT,
+                            "d'Eon's model entirely with fitted functions", "1/sr",
+                            QuantityKind::ClosedForm, dirs, fit_opts,
+                            "eqs. 9-12, 22-31, 33-38 (29 with fm1=eq29)", "closed-form", 0});
+    b.quantity(QuantityInfo{"brdf_fast",
+                            LS_Q_BRDF_FAST,
+                            "fast variant",
+                            "1/sr",
+                            QuantityKind::ClosedForm,
+                            dirs,
+                            {},
+                            "eqs. 40, 41",
+                            "closed-form",
+                            0});
+    b.quantity(QuantityInfo{"brdf_single",
+                            LS_Q_BRDF_SINGLE,
+                            "exact single scattering",
+                            "1/sr",
+                            QuantityKind::ClosedForm,
+                            dirs,
+                            {},
+                            "eq. 10",
+                            "closed-form",
+                            0});
+    b.quantity(QuantityInfo{"kd_fit",
+                            LS_Q_KD_FIT,
+                            "spherical albedo kd from c (fit)",
+                            "1",
+                            QuantityKind::ClosedForm,
+                            {},
+                            {},
+                            "eq. 40",
+                            "closed-form",
+                            0});
+    b.quantity(QuantityInfo{"kd_mc",
+                            LS_Q_KD_MC,
+                            "spherical (bond) albedo 2 int E(mu) mu dmu by random walks",
+                            "1",
+                            QuantityKind::Integral,
+                            {},
+                            walk_opts,
+                            "eqs. 1, 5",
+                            "mc",
+                            8});
+    b.quantity(
+        QuantityInfo{"brdf_three_term",
+                     LS_Q_BRDF_THREE_TERM,
+                     "exact single scattering + the exact multiple scattering of the three-term "
+                     "phase function (modes 0-2, exact H and constants): d'Eon's construction "
+                     "without approximations beyond the phase truncation",
+                     "1/sr",
+                     QuantityKind::Quadrature,
+                     dirs,
+                     {},
+                     "eqs. 8-12, 16, 22, 30 + Horak-Chandrasekhar mode 2",
+                     "quadrature",
+                     0});
+    b.quantity(
+        QuantityInfo{"constant",
+                     LS_Q_CONSTANT,
+                     "one of the constants l, m, A-F of eqs. 22, 30 (option constant), exact or "
+                     "fitted (option constants)",
+                     "1",
+                     QuantityKind::ClosedForm,
+                     {},
+                     {"constants", "constant"},
+                     "eqs. 22, 26-27, 30, 33-37",
+                     "closed-form",
+                     0});
+    b.quantity(QuantityInfo{"c_fit",
+                            LS_Q_C_FIT,
+                            "particle albedo c from kd (fit); kd is given as c",
+                            "1",
+                            QuantityKind::ClosedForm,
+                            {},
+                            {},
+                            "eq. 39",
+                            "closed-form",
+                            0});
+    b.check_point(&check_lambert_sphere_point);
+    return b.build();
 }
+
+BRDFTAB_REGISTER_MODEL(hfunction_model);
+BRDFTAB_REGISTER_MODEL(lambert_sphere_model);
 
 }  // namespace
-
-void register_lambert_sphere(std::vector<ModelInfo>& models) {
-    models.push_back(hfunction_model());
-    models.push_back(lambert_sphere_model());
-}
 
 }  // namespace brdftab::detail

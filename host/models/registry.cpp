@@ -1,9 +1,14 @@
-// model_registry.cpp — generic registry machinery (lookups, validation, point
-// building).  The model entries themselves live in host_models.cpp, next to
-// the host compilation of their kernels.
+// registry.cpp — generic registry machinery: the registration list, the
+// ModelBuilder checks, lookups, validation and point building.  The model
+// entries themselves live in host/models/<model>.cpp, one file per model.
 #include "host/models/registry.h"
 
+#include <algorithm>
 #include <cmath>
+#include <set>
+#include <stdexcept>
+
+#include "kernels/common/estimator.h"  // BT_MAX_POINT, BT_MAX_OPTIONS
 
 #include "host/core/error.h"
 #include "host/core/text.h"
@@ -11,13 +16,16 @@
 namespace brdftab {
 
 namespace detail {
-// Defined in host_models.cpp (rough-dielectric, the first model).
-std::vector<ModelInfo> build_model_list();
-// One per model file under host/models/ (each appends its entries).
-void register_oren_nayar(std::vector<ModelInfo>& models);
-void register_interfaced_lambertian(std::vector<ModelInfo>& models);
-void register_lambert_sphere(std::vector<ModelInfo>& models);
-void register_micrograin(std::vector<ModelInfo>& models);
+namespace {
+// Function-local so that registrations from other translation units' static
+// initialisers find it constructed, whatever the initialisation order.
+std::vector<ModelFactory>& factories() {
+    static std::vector<ModelFactory> list;
+    return list;
+}
+}  // namespace
+
+ModelRegistration::ModelRegistration(ModelFactory factory) { factories().push_back(factory); }
 }  // namespace detail
 
 namespace {
@@ -82,14 +90,167 @@ const QuantityInfo& ModelInfo::quantity(const std::string& n) const {
 
 const std::vector<ModelInfo>& all_models() {
     static const std::vector<ModelInfo> models = [] {
-        std::vector<ModelInfo> m = detail::build_model_list();
-        detail::register_oren_nayar(m);
-        detail::register_interfaced_lambertian(m);
-        detail::register_lambert_sphere(m);
-        detail::register_micrograin(m);
+        std::vector<ModelInfo> m;
+        for (detail::ModelFactory factory : detail::factories()) m.push_back(factory());
+        // Registration order depends on link order; the listing must not.
+        std::sort(m.begin(), m.end(), [](const ModelInfo& a, const ModelInfo& b) {
+            return a.listing_order != b.listing_order ? a.listing_order < b.listing_order
+                                                      : a.name < b.name;
+        });
+        for (std::size_t k = 1; k < m.size(); ++k)
+            if (m[k].name == m[k - 1].name)
+                throw std::logic_error("model '" + m[k].name + "' is registered twice");
         return m;
     }();
     return models;
+}
+
+// ------------------------------------------------------------ ModelBuilder
+
+ModelBuilder::ModelBuilder(std::string name, int listing_order) {
+    model_.name = std::move(name);
+    model_.listing_order = listing_order;
+}
+ModelBuilder& ModelBuilder::citation(std::string text) {
+    model_.citation = std::move(text);
+    return *this;
+}
+ModelBuilder& ModelBuilder::description(std::string text) {
+    model_.description = std::move(text);
+    return *this;
+}
+ModelBuilder& ModelBuilder::kernel(std::string kernel_header, std::string sample_function,
+                                   HostSampleFn host_fn) {
+    model_.kernel_header = std::move(kernel_header);
+    model_.sample_function = std::move(sample_function);
+    model_.host_fn = host_fn;
+    return *this;
+}
+ModelBuilder& ModelBuilder::counts(int parameters, int options, int quantities) {
+    declared_parameters_ = parameters;
+    declared_options_ = options;
+    declared_quantities_ = quantities;
+    return *this;
+}
+ModelBuilder& ModelBuilder::parameter(int slot, ParameterInfo info) {
+    parameter_slots_.push_back(slot);
+    model_.parameters.push_back(std::move(info));
+    return *this;
+}
+ModelBuilder& ModelBuilder::option(int slot, OptionInfo info) {
+    option_slots_.push_back(slot);
+    model_.options.push_back(std::move(info));
+    return *this;
+}
+ModelBuilder& ModelBuilder::quantity(int id, QuantityInfo info) {
+    info.id = id;
+    model_.quantities.push_back(std::move(info));
+    return *this;
+}
+ModelBuilder& ModelBuilder::check_point(
+    std::string (*fn)(const QuantityInfo&, const std::map<std::string, double>&)) {
+    model_.check_point = fn;
+    return *this;
+}
+QuantityInfo& ModelBuilder::quantity_by_id(int id) {
+    for (auto& q : model_.quantities)
+        if (q.id == id) return q;
+    throw std::logic_error("model '" + model_.name + "': no quantity with id " +
+                           std::to_string(id));
+}
+
+namespace {
+
+// Sorts `items` by their slots and checks the slots are first, first+1, ...
+// with exactly `declared` entries.
+template <class T>
+std::vector<T> order_by_slot(const std::string& model, const char* what,
+                             const std::vector<int>& slots, const std::vector<T>& items,
+                             int first, int declared, int limit) {
+    auto fail = [&](const std::string& why) {
+        throw std::logic_error("model '" + model + "': " + what + " slots: " + why);
+    };
+    if (declared < 0) fail("counts() was not called with the kernel header's counts");
+    if (static_cast<int>(items.size()) != declared)
+        fail(std::to_string(items.size()) + " described but the kernel header declares " +
+             std::to_string(declared));
+    if (first + declared > limit)
+        fail("slots up to " + std::to_string(first + declared - 1) + " exceed the kernel limit " +
+             std::to_string(limit - 1));
+    std::vector<T> ordered(items.size());
+    std::vector<bool> filled(items.size(), false);
+    for (std::size_t k = 0; k < items.size(); ++k) {
+        const int index = slots[k] - first;
+        if (index < 0 || index >= declared)
+            fail("slot " + std::to_string(slots[k]) + " is outside [" + std::to_string(first) +
+                 ", " + std::to_string(first + declared - 1) + "]");
+        if (filled[static_cast<std::size_t>(index)])
+            fail("slot " + std::to_string(slots[k]) + " is used twice");
+        filled[static_cast<std::size_t>(index)] = true;
+        ordered[static_cast<std::size_t>(index)] = items[k];
+    }
+    return ordered;
+}
+
+void require_unique(const std::string& model, const char* what,
+                    const std::vector<std::string>& names) {
+    std::set<std::string> seen;
+    for (const auto& n : names) {
+        if (n.empty()) throw std::logic_error("model '" + model + "': a " + what + " has no name");
+        if (!seen.insert(n).second)
+            throw std::logic_error("model '" + model + "': " + what + " '" + n +
+                                   "' is declared twice");
+    }
+}
+
+}  // namespace
+
+ModelInfo ModelBuilder::build() const {
+    ModelInfo m = model_;
+    const std::string& name = m.name;
+    auto fail = [&](const std::string& why) { throw std::logic_error("model '" + name + "': " + why); };
+    if (name.empty()) throw std::logic_error("a model has no name");
+    if (m.kernel_header.empty() || m.sample_function.empty() || !m.host_fn)
+        fail("kernel() must give the kernel header, its sample function and the host function");
+    m.parameters = order_by_slot(name, "parameter", parameter_slots_, model_.parameters,
+                                 kDirectionSlots, declared_parameters_, BT_MAX_POINT);
+    m.options = order_by_slot(name, "option", option_slots_, model_.options, 0,
+                              declared_options_, BT_MAX_OPTIONS);
+    std::vector<int> ids;
+    for (const auto& q : m.quantities) ids.push_back(q.id);
+    // Quantities keep their listing order; their ids must cover 0..count-1.
+    std::vector<int> id_slots = ids;
+    order_by_slot(name, "quantity", id_slots, ids, 0, declared_quantities_, 1 << 30);
+
+    std::vector<std::string> names;
+    for (const auto& p : m.parameters) {
+        if (is_direction_coordinate(p.name))
+            fail("parameter '" + p.name + "' has the name of a direction coordinate");
+        if (!(p.min <= p.max)) fail("parameter '" + p.name + "' has an empty range");
+        if (p.default_value && !p.accepts(*p.default_value))
+            fail("the default of parameter '" + p.name + "' is outside " + p.range_text());
+        names.push_back(p.name);
+    }
+    require_unique(name, "parameter", names);
+    names.clear();
+    for (const auto& o : m.options) {
+        if (o.choices.empty() || o.index_of(o.default_choice) < 0)
+            fail("option '" + o.name + "' has no choice '" + o.default_choice + "'");
+        require_unique(name, ("choice of option '" + o.name + "'").c_str(), o.choices);
+        names.push_back(o.name);
+    }
+    require_unique(name, "option", names);
+    names.clear();
+    for (const auto& q : m.quantities) {
+        for (const auto& d : q.directions)
+            if (d != "theta_i" && d != "phi_i" && d != "theta_o" && d != "phi_o")
+                fail("quantity '" + q.name + "' depends on '" + d + "', not a direction slot");
+        for (const auto& o : q.uses_options)
+            if (!m.find_option(o)) fail("quantity '" + q.name + "' uses unknown option '" + o + "'");
+        names.push_back(q.name);
+    }
+    require_unique(name, "quantity", names);
+    return m;
 }
 
 const ModelInfo& find_model(const std::string& name) {

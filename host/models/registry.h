@@ -1,11 +1,21 @@
-// model_registry.h — what models exist, their quantities, parameters (with
-// allowed ranges), categorical options and implemented equations.
+// registry.h — what models exist, their quantities, parameters (with allowed
+// ranges), categorical options and implemented equations.
+//
+// The model contract.  A model is one kernel header (kernels/models/<model>.h)
+// and one registration file (host/models/<model>.cpp); nothing else names it.
+// The kernel header declares the slot of every continuous parameter in the
+// point, of every option and the id of every quantity as named constants
+// (e.g. MG_P_TAU0, MG_O_GRAIN, MG_Q_BRDF, MG_NUM_PARAMS); the registration
+// file describes the model with ModelBuilder, addressing each entry by those
+// constants, and registers itself with BRDFTAB_REGISTER_MODEL.  ModelBuilder
+// checks the description against the declared counts when the registry is
+// first used.  docs/adding-a-model.md walks through it.
 //
 // Point layout shared with the kernels (kernels/common/estimator.h): each cell
 // is a vector of REALs
-//     [theta_i, phi_i, theta_o, phi_o, <continuous parameters in registry order>]
-// with angles in radians.  Categorical options go to the kernel as ints, in
-// registry order, each the index of the chosen value in `choices`.
+//     [theta_i, phi_i, theta_o, phi_o, <continuous parameters by slot>]
+// with angles in radians.  Categorical options go to the kernel as ints, by
+// slot, each the index of the chosen value in `choices`.
 //
 // User-facing coordinate names (CLI `eval`, spec axes), all in degrees except mu:
 //   theta_i, phi_i, theta_o, phi_o   polar angle in [0, 180] from the macro normal
@@ -21,13 +31,17 @@
 
 #include <nlohmann/json.hpp>
 
-#include "kernels/common/compat.h"
-#include "kernels/common/sampler.h"
+// The sampler state of kernels/common/sampler.h; host code outside the engine
+// and the model files only passes pointers to it.
+struct bt_sampler;
 
 namespace brdftab {
 
-typedef REAL (*HostSampleFn)(const REAL* point, const int* options, int quantity,
-                             const bt_sampler* sampler);
+// A model's sample function compiled as C++ (REAL is double on the host): the
+// `--device host` serial reference path.  Model files pass the kernel
+// function itself, e.g. &micrograin_sample.
+typedef double (*HostSampleFn)(const double* point, const int* options, int quantity,
+                               const bt_sampler* sampler);
 
 constexpr int kDirectionSlots = 4;
 
@@ -86,8 +100,13 @@ struct ModelInfo {
     std::string name;
     std::string citation;
     std::string description;
-    std::string kernel_file;  // relative to kernels/, e.g. "rough_dielectric.cl"
-    std::string kernel_name;  // entry point
+    // Position in `brdftab models` listings (ascending; ties by name).
+    int listing_order = 0;
+    // The kernel header, relative to kernels/ (e.g. "models/micrograin.h"), and
+    // the name of its sample function; the engine generates the OpenCL entry
+    // point around them (BT_DEFINE_ESTIMATE_KERNEL in kernels/common/estimator.h).
+    std::string kernel_header;
+    std::string sample_function;
     std::vector<ParameterInfo> parameters;
     std::vector<OptionInfo> options;
     std::vector<QuantityInfo> quantities;
@@ -107,9 +126,71 @@ struct ModelInfo {
     std::size_t point_stride() const { return kDirectionSlots + parameters.size(); }
 };
 
+// Every registered model, in listing order.  The first call builds them (and
+// throws std::logic_error naming the model if a description breaks the
+// contract: a programming error, caught by tests/test_model_registry.cpp).
 const std::vector<ModelInfo>& all_models();
 // Throws InputError listing known models.
 const ModelInfo& find_model(const std::string& name);
+
+// Describes one model; build() checks it against the counts its kernel header
+// declares.  Slots and ids are the kernel header's constants:
+//   parameter(MG_P_TAU0, parameter_info(...))   slot in the point, >= kDirectionSlots
+//   option(MG_O_GRAIN, OptionInfo{...})          index in the options array
+//   quantity(MG_Q_BRDF, QuantityInfo{...})       the `quantity` argument (its
+//                                                `id` field is set from here)
+// build() requires: parameter slots dense from kDirectionSlots, option slots
+// and quantity ids dense from 0, each exactly as many as declared with
+// counts(); the point within BT_MAX_POINT and options within BT_MAX_OPTIONS
+// (kernels/common/estimator.h); unique names; defaults inside their ranges;
+// quantities that name only existing directions and options.
+class ModelBuilder {
+public:
+    ModelBuilder(std::string name, int listing_order);
+    ModelBuilder& citation(std::string text);
+    ModelBuilder& description(std::string text);
+    // kernel_header relative to kernels/, e.g. "models/micrograin.h".
+    ModelBuilder& kernel(std::string kernel_header, std::string sample_function,
+                         HostSampleFn host_fn);
+    // The counts the kernel header declares (<PFX>_NUM_PARAMS, ..._OPTIONS, ..._QUANTITIES).
+    ModelBuilder& counts(int parameters, int options, int quantities);
+    ModelBuilder& parameter(int slot, ParameterInfo info);
+    ModelBuilder& option(int slot, OptionInfo info);
+    ModelBuilder& quantity(int id, QuantityInfo info);
+    // The same with the id already in `info` (aggregate initialisation).
+    ModelBuilder& quantity(QuantityInfo info) { return quantity(info.id, std::move(info)); }
+    ModelBuilder& check_point(std::string (*fn)(const QuantityInfo&,
+                                                const std::map<std::string, double>&));
+    // The quantity registered under `id` (to adjust it after a shared factory).
+    QuantityInfo& quantity_by_id(int id);
+    ModelInfo build() const;
+
+private:
+    ModelInfo model_;
+    int declared_parameters_ = -1, declared_options_ = -1, declared_quantities_ = -1;
+    std::vector<int> parameter_slots_, option_slots_;
+};
+
+namespace detail {
+using ModelFactory = ModelInfo (*)();
+// Adds a factory to the registry; BRDFTAB_REGISTER_MODEL creates one per model.
+struct ModelRegistration {
+    explicit ModelRegistration(ModelFactory factory);
+};
+}  // namespace detail
+
+}  // namespace brdftab
+
+// In a host/models/<model>.cpp, at namespace scope:
+//     BRDFTAB_REGISTER_MODEL(micrograin_model);
+// where micrograin_model is a function returning the ModelInfo.  The build
+// links host/models/ as a whole archive (CMakeLists.txt: bt_model_set), so
+// every registration runs even though nothing refers to it by name.
+#define BRDFTAB_REGISTER_MODEL(factory)                                              \
+    static const ::brdftab::detail::ModelRegistration brdftab_model_registration_##factory{ \
+        &(factory)}
+
+namespace brdftab {
 
 // Names that can be a spec axis or an `eval` argument for directions.
 bool is_direction_coordinate(const std::string& name);

@@ -27,7 +27,7 @@
 #define BT_METHOD_QUADRATURE 3u
 #define BT_MAX_DIMS 8u
 
-typedef struct {
+typedef struct bt_sampler {
     uint key0, key1;  /* the seed, split in two 32-bit words */
     uint cell;        /* global table cell index */
     uint batch;       /* batch number within the cell */

@@ -256,20 +256,35 @@ BT_INLINE REAL hf_alpha(const hf_psi* P, int n, int coarse)
 #define HF_Q_HINF 2
 #define HF_Q_K 3
 
+/* The model contract: slots of the point p[] and of the options o[] and the
+ * number of quantities (ids HF_Q_* above).  host/models/lambert_sphere.cpp registers
+ * the model by these names; p[0..3] are the directions (estimator.h). */
+#define HF_PARAM_MU 4
+#define HF_PARAM_C 5
+#define HF_PARAM_N 6
+#define HF_PARAM_PSI_0 7
+#define HF_PARAM_PSI_1 8
+#define HF_PARAM_PSI_2 9
+#define HF_PARAM_PSI_3 10
+#define HF_PARAM_COUNT 7
+#define HF_OPT_PSI 0
+#define HF_OPT_COUNT 1
+#define HF_Q_COUNT 4
+
 BT_INLINE REAL hfunction_sample(const REAL* p, const int* o, int quantity, const bt_sampler* s)
 {
     REAL poly[HF_NCOEF];
-    for (int k = 0; k < HF_NCOEF; ++k) poly[k] = p[7 + k];
-    hf_psi P = hf_make_psi(o[0], p[5], poly);
+    for (int k = 0; k < HF_NCOEF; ++k) poly[k] = p[HF_PARAM_PSI_0 + k];
+    hf_psi P = hf_make_psi(o[HF_OPT_PSI], p[HF_PARAM_C], poly);
     /* Deterministic: the same value under every method; only batch 1 of
      * BT_METHOD_QUADRATURE uses the coarse rule. */
     int coarse = (s->method == BT_METHOD_QUADRATURE && s->batch == 1u) ? 1 : 0;
-    if (quantity == HF_Q_H) return hf_h(&P, p[4], coarse);
-    if (quantity == HF_Q_MOMENT) return hf_alpha(&P, (int)floor(p[6] + R(0.5)), coarse);
+    if (quantity == HF_Q_H) return hf_h(&P, p[HF_PARAM_MU], coarse);
+    if (quantity == HF_Q_MOMENT) return hf_alpha(&P, (int)floor(p[HF_PARAM_N] + R(0.5)), coarse);
     if (quantity == HF_Q_HINF) /* eq. 32 (general form 1/sqrt(K(0))) */
         return P.k0 > R(0.0) ? R(1.0) / sqrt(P.k0) : R(1.0) / R(0.0);
     if (quantity == HF_Q_K) { /* K(t) at t = mu (diagnostic) */
-        REAL t = p[4];
+        REAL t = p[HF_PARAM_MU];
         if (t < HF_T_SERIES) return P.k0 + P.b * t * t + hf_k_series_rest(&P, t);
         return hf_k_direct(&P, t);
     }

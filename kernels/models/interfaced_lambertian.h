@@ -71,6 +71,23 @@ using std::log1p;
 #define IL_Q_ALBEDO_SPECULAR 10
 #define IL_Q_VCAVITY 11
 
+/* The model contract: slots of the point p[] and of the options o[] and the
+ * number of quantities (ids IL_Q_* above).  host/models/interfaced_lambertian.cpp registers
+ * the model by these names; p[0..3] are the directions (estimator.h). */
+#define IL_PARAM_SIGMA 4
+#define IL_PARAM_ALPHA 5
+#define IL_PARAM_ALPHA_X 6
+#define IL_PARAM_ALPHA_Y 7
+#define IL_PARAM_NI 8
+#define IL_PARAM_KD 9
+#define IL_PARAM_ORDER 10
+#define IL_PARAM_COUNT 7
+#define IL_OPT_DISTRIBUTION 0
+#define IL_OPT_SAMPLING 1
+#define IL_OPT_INTERREFLECTION 2
+#define IL_OPT_COUNT 3
+#define IL_Q_COUNT 12
+
 #define IL_GAUSSIAN_TS 0
 #define IL_BECKMANN_TS 1
 #define IL_BECKMANN_SMITH 2
@@ -226,11 +243,11 @@ typedef struct {
 BT_INLINE il_surface il_make_surface(const REAL* p, const int* o)
 {
     il_surface s;
-    s.dist = o[0];
-    s.sigma = fmax(p[4], R(0.0));
+    s.dist = o[IL_OPT_DISTRIBUTION];
+    s.sigma = fmax(p[IL_PARAM_SIGMA], R(0.0));
     s.gauss_c = R(0.0);
-    REAL ax = p[6] > R(0.0) ? p[6] : p[5];
-    REAL ay = p[7] > R(0.0) ? p[7] : p[5];
+    REAL ax = p[IL_PARAM_ALPHA_X] > R(0.0) ? p[IL_PARAM_ALPHA_X] : p[IL_PARAM_ALPHA];
+    REAL ay = p[IL_PARAM_ALPHA_Y] > R(0.0) ? p[IL_PARAM_ALPHA_Y] : p[IL_PARAM_ALPHA];
     s.mf = bt_microfacet_make(s.dist == IL_GGX_SMITH ? BT_MF_GGX : BT_MF_BECKMANN, BT_G1_EXACT,
                               BT_SHADOW_SEPARABLE, ax, ay);
     return s;
@@ -443,7 +460,7 @@ BT_INLINE REAL il_albedo_specular_sample(il_surface* s, int sampling, bt_vec3 i,
 BT_INLINE REAL interfaced_lambertian_sample(const REAL* p, const int* o, int quantity,
                                             const bt_sampler* smp)
 {
-    REAL ni = p[8], kd = p[9];
+    REAL ni = p[IL_PARAM_NI], kd = p[IL_PARAM_KD];
     if (quantity == IL_Q_RE || quantity == IL_Q_RS) return il_re(ni);
     if (quantity == IL_Q_RI) return il_ri(ni);
     if (quantity == IL_Q_RE_INTEGRAL) return il_re_quadrature(ni, smp->batch == 0u ? 32 : 16);
@@ -456,16 +473,16 @@ BT_INLINE REAL interfaced_lambertian_sample(const REAL* p, const int* o, int qua
     il_surface s = il_make_surface(p, o);
     bt_vec3 vi, vo;
     if (!il_direction(p[0], p[1], &vi)) return R(0.0);
-    if (quantity == IL_Q_ALBEDO_BODY) return il_albedo_body_sample(&s, o[1], vi, ni, kd, smp);
-    if (quantity == IL_Q_ALBEDO_SPECULAR) return il_albedo_specular_sample(&s, o[1], vi, ni, smp);
+    if (quantity == IL_Q_ALBEDO_BODY) return il_albedo_body_sample(&s, o[IL_OPT_SAMPLING], vi, ni, kd, smp);
+    if (quantity == IL_Q_ALBEDO_SPECULAR) return il_albedo_specular_sample(&s, o[IL_OPT_SAMPLING], vi, ni, smp);
     if (!il_direction(p[2], p[3], &vo)) return R(0.0);
-    if (quantity == IL_Q_BODY) return il_body_sample(&s, o[1], vi, vo, ni, smp);
+    if (quantity == IL_Q_BODY) return il_body_sample(&s, o[IL_OPT_SAMPLING], vi, vo, ni, smp);
     if (quantity == IL_Q_SPECULAR) return il_specular(&s, vi, vo, ni);
     if (quantity == IL_Q_BRDF)
-        return il_body_prefactor(kd, ni) * il_body_sample(&s, o[1], vi, vo, ni, smp) +
+        return il_body_prefactor(kd, ni) * il_body_sample(&s, o[IL_OPT_SAMPLING], vi, vo, ni, smp) +
                il_specular(&s, vi, vo, ni); /* eq. 11 */
     if (quantity == IL_Q_VCAVITY)
-        return il_vcavity_sample(&s, o[1], o[2], vi, vo, ni, kd, (int)floor(p[10] + R(0.5)), smp);
+        return il_vcavity_sample(&s, o[IL_OPT_SAMPLING], o[IL_OPT_INTERREFLECTION], vi, vo, ni, kd, (int)floor(p[IL_PARAM_ORDER] + R(0.5)), smp);
     return R(0.0);
 }
 

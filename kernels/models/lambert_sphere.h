@@ -108,6 +108,24 @@
 #define LS_Q_BRDF_THREE_TERM 10
 #define LS_Q_CONSTANT 11
 
+/* The model contract: slots of the point p[] and of the options o[] and the
+ * number of quantities (ids LS_Q_* above).  host/models/lambert_sphere.cpp registers
+ * the model by these names; p[0..3] are the directions (estimator.h). */
+#define LS_PARAM_C 4
+#define LS_PARAM_ORDER 5
+#define LS_PARAM_MAX_ORDER 6
+#define LS_PARAM_MODE 7
+#define LS_PARAM_TAIL_ORDER 8
+#define LS_PARAM_COUNT 5
+#define LS_OPT_PHASE_MC 0
+#define LS_OPT_COS_PHI 1
+#define LS_OPT_FM1 2
+#define LS_OPT_H1_FIT 3
+#define LS_OPT_CONSTANTS 4
+#define LS_OPT_CONSTANT 5
+#define LS_OPT_COUNT 6
+#define LS_Q_COUNT 12
+
 /* Smallest mu_o used by the next-event estimator: exp(-tau/mu_o)/mu_o has
  * unbounded variance as mu_o -> 0 (the mean stays finite). */
 #define LS_MIN_MU R(1e-6)
@@ -445,29 +463,29 @@ BT_INLINE REAL ls_wrap_phi(REAL phi)
 BT_INLINE REAL lambert_sphere_sample(const REAL* p, const int* o, int quantity,
                                      const bt_sampler* s)
 {
-    REAL c = p[4];
-    int order = (int)floor(p[5] + R(0.5));
-    int max_order = (int)floor(p[6] + R(0.5));
-    int mode = (int)floor(p[7] + R(0.5));
-    int tail_order = (int)floor(p[8] + R(0.5));
+    REAL c = p[LS_PARAM_C];
+    int order = (int)floor(p[LS_PARAM_ORDER] + R(0.5));
+    int max_order = (int)floor(p[LS_PARAM_MAX_ORDER] + R(0.5));
+    int mode = (int)floor(p[LS_PARAM_MODE] + R(0.5));
+    int tail_order = (int)floor(p[LS_PARAM_TAIL_ORDER] + R(0.5));
     if (quantity == LS_Q_PHASE) return ls_phase(cos(p[2]));
     if (quantity == LS_Q_KD_FIT) return ls_kd_fit(c);
     if (quantity == LS_Q_C_FIT) return ls_c_fit(c);
-    if (quantity == LS_Q_CONSTANT) { /* o[4] constants, o[5] which (l, m, A..F) */
+    if (quantity == LS_Q_CONSTANT) { /* o[LS_OPT_CONSTANTS] constants, o[LS_OPT_CONSTANT] which (l, m, A..F) */
         REAL k[8];
-        ls_constants(c, o[4] == 0, k);
-        return k[o[5]];
+        ls_constants(c, o[LS_OPT_CONSTANTS] == 0, k);
+        return k[o[LS_OPT_CONSTANT]];
     }
     if (quantity == LS_Q_KD_MC) {
         REAL mi = sqrt(R(1.0) - bt_uniform(s, 0u)); /* cosine-weighted mu_i */
         bt_vec3 i = bt_v3(bt_safe_sqrt(R(1.0) - mi * mi), R(0.0), mi);
-        return ls_walk(i, i, c, order, max_order, tail_order, o[0], 0, s);
+        return ls_walk(i, i, c, order, max_order, tail_order, o[LS_OPT_PHASE_MC], 0, s);
     }
     /* Reflection only: directions below the horizon give 0. */
     if (p[0] > BT_HALF_PI) return R(0.0);
     bt_vec3 i = bt_from_spherical(p[0], p[1]);
     if (quantity == LS_Q_ALBEDO_MC)
-        return ls_walk(i, i, c, order, max_order, tail_order, o[0], 0, s);
+        return ls_walk(i, i, c, order, max_order, tail_order, o[LS_OPT_PHASE_MC], 0, s);
     if (p[2] > BT_HALF_PI) return R(0.0);
     REAL phi = ls_wrap_phi(p[3] - p[1]);
     if (quantity == LS_Q_BRDF_MC) {
@@ -480,7 +498,7 @@ BT_INLINE REAL lambert_sphere_sample(const REAL* p, const int* o, int quantity,
         }
         bt_vec3 i0 = bt_from_spherical(p[0], R(0.0));
         bt_vec3 oo = bt_from_spherical(p[2], phi);
-        return weight * ls_walk(i0, oo, c, order, max_order, tail_order, o[0], 1, s);
+        return weight * ls_walk(i0, oo, c, order, max_order, tail_order, o[LS_OPT_PHASE_MC], 1, s);
     }
     /* side from theta (above), cosines floored as in ls_single */
     REAL mi = fmax(cos(p[0]), LS_MIN_MU), mo = fmax(cos(p[2]), LS_MIN_MU);
@@ -506,12 +524,12 @@ BT_INLINE REAL lambert_sphere_sample(const REAL* p, const int* o, int quantity,
         int coarse = (s->method == BT_METHOD_QUADRATURE && s->batch == 1u) ? 1 : 0;
         int fitted = quantity == LS_Q_BRDF_FIT;
         int three = quantity == LS_Q_BRDF_THREE_TERM;
-        int exact_k = three || (quantity == LS_Q_BRDF_ANALYTIC && o[4] == 0);
+        int exact_k = three || (quantity == LS_Q_BRDF_ANALYTIC && o[LS_OPT_CONSTANTS] == 0);
         REAL fm0, fm1;
-        ls_ms_modes(mi, mo, c, fitted, exact_k, o[2], o[3], coarse, &fm0, &fm1);
+        ls_ms_modes(mi, mo, c, fitted, exact_k, o[LS_OPT_FM1], o[LS_OPT_H1_FIT], coarse, &fm0, &fm1);
         /* cos_phi: 0 corrected (x2, = the exact mode), 1 paper (x1);
          * brdf_three_term is exact: always x2, plus mode 2. */
-        REAL w1 = (o[1] == 1 && !three) ? R(1.0) : R(2.0);
+        REAL w1 = (o[LS_OPT_COS_PHI] == 1 && !three) ? R(1.0) : R(2.0);
         REAL fm2 = three ? ls_ms_mode2(mi, mo, c, coarse) : R(0.0); /* eq. 21 drops it */
         if (mode >= 0) {
             REAL ms = mode == 0 ? fm0 : mode == 1 ? w1 * fm1 : mode == 2 ? fm2 : R(0.0);

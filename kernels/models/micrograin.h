@@ -101,6 +101,28 @@ using std::log1p;
 #define MG_Q_P_DIFFUSE 14
 #define MG_Q_COVERAGE 15
 
+/* The model contract: slots of the point p[] and of the options o[] and the
+ * number of quantities (ids MG_Q_* above).  host/models/micrograin.cpp registers
+ * the model by these names; p[0..3] are the directions (estimator.h). */
+#define MG_PARAM_TAU0 4
+#define MG_PARAM_BETA_X 5
+#define MG_PARAM_BETA_Y 6
+#define MG_PARAM_H 7
+#define MG_PARAM_KD 8
+#define MG_PARAM_ETA 9
+#define MG_PARAM_K 10
+#define MG_PARAM_BASE_ALBEDO 11
+#define MG_PARAM_BASE_ALPHA 12
+#define MG_PARAM_BASE_ETA 13
+#define MG_PARAM_BASE_K 14
+#define MG_PARAM_COUNT 11
+#define MG_OPT_GRAIN 0
+#define MG_OPT_BASE 1
+#define MG_OPT_CORRELATION 2
+#define MG_OPT_WEIGHTING 3
+#define MG_OPT_COUNT 4
+#define MG_Q_COUNT 16
+
 #define MG_GRAIN_DIFFUSE 0
 #define MG_GRAIN_DIELECTRIC 1
 #define MG_GRAIN_CONDUCTOR 2
@@ -412,8 +434,8 @@ BT_INLINE REAL mg_fresnel_conductor(REAL cos_i, REAL eta, REAL k)
 
 BT_INLINE REAL mg_grain_fresnel(REAL cos_i, const REAL* p, int grain)
 {
-    if (grain == MG_GRAIN_DIELECTRIC) return bt_fresnel_dielectric(cos_i, p[9]);
-    if (grain == MG_GRAIN_CONDUCTOR) return mg_fresnel_conductor(cos_i, p[9], p[10]);
+    if (grain == MG_GRAIN_DIELECTRIC) return bt_fresnel_dielectric(cos_i, p[MG_PARAM_ETA]);
+    if (grain == MG_GRAIN_CONDUCTOR) return mg_fresnel_conductor(cos_i, p[MG_PARAM_ETA], p[MG_PARAM_K]);
     return R(0.0);
 }
 
@@ -423,14 +445,14 @@ BT_INLINE REAL mg_grain_fresnel(REAL cos_i, const REAL* p, int grain)
  * G = chi+(i.h) chi+(o.h) G_dist(i, o, h'(h)). */
 BT_INLINE REAL mg_f_specular(bt_vec3 i, bt_vec3 o, const REAL* p, const int* opt)
 {
-    if (opt[0] == MG_GRAIN_DIFFUSE) return R(0.0);
+    if (opt[MG_OPT_GRAIN] == MG_GRAIN_DIFFUSE) return R(0.0);
     bt_vec3 m = bt_v3_normalize(bt_v3_add(i, o));
     REAL im = bt_v3_dot(i, m), om = bt_v3_dot(o, m);
     if (!(im > R(0.0)) || !(om > R(0.0)) || !(m.z > R(0.0))) return R(0.0);
-    REAL tau0 = p[4], bx = p[5], by = p[6];
+    REAL tau0 = p[MG_PARAM_TAU0], bx = p[MG_PARAM_BETA_X], by = p[MG_PARAM_BETA_Y];
     REAL D = mg_ndf(m, tau0, bx, by);
-    REAL G = mg_g_dist(i, o, mg_height_of_normal(m, bx, by), tau0, bx, by, opt[2]);
-    REAL F = mg_grain_fresnel(im, p, opt[0]);
+    REAL G = mg_g_dist(i, o, mg_height_of_normal(m, bx, by), tau0, bx, by, opt[MG_OPT_CORRELATION]);
+    REAL F = mg_grain_fresnel(im, p, opt[MG_OPT_GRAIN]);
     return D * G * F / (R(4.0) * i.z * o.z);
 }
 
@@ -440,32 +462,32 @@ BT_INLINE REAL mg_f_specular(bt_vec3 i, bt_vec3 o, const REAL* p, const int* opt
 BT_INLINE REAL mg_f_diffuse_sample(bt_vec3 i, bt_vec3 o, const REAL* p, const int* opt, REAL u0,
                                    REAL u1)
 {
-    REAL kd = p[8];
+    REAL kd = p[MG_PARAM_KD];
     if (!(kd > R(0.0))) return R(0.0);
-    REAL tau0 = p[4], bx = p[5], by = p[6];
+    REAL tau0 = p[MG_PARAM_TAU0], bx = p[MG_PARAM_BETA_X], by = p[MG_PARAM_BETA_Y];
     REAL pdf;
     bt_vec3 m = mg_sample_m(u0, u1, tau0, bx, by, &pdf);
     REAL im = bt_v3_dot(i, m), om = bt_v3_dot(o, m);
     if (!(im > R(0.0)) || !(om > R(0.0)) || !(pdf > R(0.0))) return R(0.0); /* G_local */
     REAL D = mg_ndf(m, tau0, bx, by);
-    REAL G = mg_g_dist(i, o, mg_height_of_normal(m, bx, by), tau0, bx, by, opt[2]);
-    REAL T = (R(1.0) - mg_grain_fresnel(im, p, opt[0])) * (R(1.0) - mg_grain_fresnel(om, p, opt[0]));
+    REAL G = mg_g_dist(i, o, mg_height_of_normal(m, bx, by), tau0, bx, by, opt[MG_OPT_CORRELATION]);
+    REAL T = (R(1.0) - mg_grain_fresnel(im, p, opt[MG_OPT_GRAIN])) * (R(1.0) - mg_grain_fresnel(om, p, opt[MG_OPT_GRAIN]));
     return kd * BT_INV_PI * im * om / (i.z * o.z) * D * G * T / pdf;
 }
 
 /* Base (bulk) BRDF f^B. */
 BT_INLINE REAL mg_f_base(bt_vec3 i, bt_vec3 o, const REAL* p, const int* opt)
 {
-    if (opt[1] == MG_BASE_LAMBERTIAN) return p[11] * BT_INV_PI;
-    if (opt[1] == MG_BASE_CONDUCTOR || opt[1] == MG_BASE_DIELECTRIC) {
+    if (opt[MG_OPT_BASE] == MG_BASE_LAMBERTIAN) return p[MG_PARAM_BASE_ALBEDO] * BT_INV_PI;
+    if (opt[MG_OPT_BASE] == MG_BASE_CONDUCTOR || opt[MG_OPT_BASE] == MG_BASE_DIELECTRIC) {
         /* Microfacet reflection (Walter 2007 eq. 20) of a GGX surface; only
          * the Fresnel term tells a conductor from a dielectric. */
         bt_microfacet mf =
-            bt_microfacet_make(BT_MF_GGX, BT_G1_EXACT, BT_SHADOW_HEIGHT_CORRELATED, p[12], p[12]);
+            bt_microfacet_make(BT_MF_GGX, BT_G1_EXACT, BT_SHADOW_HEIGHT_CORRELATED, p[MG_PARAM_BASE_ALPHA], p[MG_PARAM_BASE_ALPHA]);
         bt_vec3 m = bt_v3_normalize(bt_v3_add(i, o));
         REAL cos_im = bt_v3_dot(i, m);
-        REAL F = opt[1] == MG_BASE_CONDUCTOR ? mg_fresnel_conductor(cos_im, p[13], p[14])
-                                             : bt_fresnel_dielectric(cos_im, p[13]);
+        REAL F = opt[MG_OPT_BASE] == MG_BASE_CONDUCTOR ? mg_fresnel_conductor(cos_im, p[MG_PARAM_BASE_ETA], p[MG_PARAM_BASE_K])
+                                             : bt_fresnel_dielectric(cos_im, p[MG_PARAM_BASE_ETA]);
         return F * bt_mf_d(&mf, m) * bt_mf_g(&mf, i, o, m) / (R(4.0) * i.z * o.z);
     }
     return R(0.0);
@@ -474,8 +496,8 @@ BT_INLINE REAL mg_f_base(bt_vec3 i, bt_vec3 o, const REAL* p, const int* opt)
 /* Weights of f^S and f^B: eqs. 20, 23 or eqs. 1, 25 (option weighting). */
 BT_INLINE void mg_weights(bt_vec3 i, bt_vec3 o, const REAL* p, const int* opt, REAL* ws, REAL* wb)
 {
-    REAL tau0 = p[4], bx = p[5], by = p[6];
-    if (opt[3] == 1) {
+    REAL tau0 = p[MG_PARAM_TAU0], bx = p[MG_PARAM_BETA_X], by = p[MG_PARAM_BETA_Y];
+    if (opt[MG_OPT_WEIGHTING] == 1) {
         REAL b = (R(1.0) - tau0) * mg_g1_dist(i, R(0.0), tau0, bx, by) *
                  mg_g1_dist(o, R(0.0), tau0, bx, by);            /* eq. 25 */
         *wb = b;
@@ -494,7 +516,7 @@ BT_INLINE REAL mg_brdf_sample(bt_vec3 i, bt_vec3 o, const REAL* p, const int* op
     REAL ws, wb;
     mg_weights(i, o, p, opt, &ws, &wb);
     REAL fs = mg_f_specular(i, o, p, opt) + mg_f_diffuse_sample(i, o, p, opt, u0, u1);
-    REAL fb = opt[1] == MG_BASE_ABSORBING ? R(0.0) : mg_f_base(i, o, p, opt);
+    REAL fb = opt[MG_OPT_BASE] == MG_BASE_ABSORBING ? R(0.0) : mg_f_base(i, o, p, opt);
     return ws * fs + wb * fb;
 }
 
@@ -504,9 +526,9 @@ BT_INLINE REAL mg_brdf_sample(bt_vec3 i, bt_vec3 o, const REAL* p, const int* op
  * The sum of two unbiased estimators of the two parts. */
 BT_INLINE REAL mg_albedo_sample(bt_vec3 i, const REAL* p, const int* opt, const bt_sampler* s)
 {
-    REAL tau0 = p[4], bx = p[5], by = p[6];
+    REAL tau0 = p[MG_PARAM_TAU0], bx = p[MG_PARAM_BETA_X], by = p[MG_PARAM_BETA_Y];
     REAL total = R(0.0);
-    if (opt[0] != MG_GRAIN_DIFFUSE) {
+    if (opt[MG_OPT_GRAIN] != MG_GRAIN_DIFFUSE) {
         REAL pdf_m;
         bt_vec3 m = mg_sample_m(bt_uniform(s, 0), bt_uniform(s, 1), tau0, bx, by, &pdf_m);
         REAL im = bt_v3_dot(i, m);
@@ -526,7 +548,7 @@ BT_INLINE REAL mg_albedo_sample(bt_vec3 i, const REAL* p, const int* opt, const 
     REAL ws, wb;
     mg_weights(i, o, p, opt, &ws, &wb);
     REAL fd = mg_f_diffuse_sample(i, o, p, opt, bt_uniform(s, 4), bt_uniform(s, 5));
-    REAL fb = opt[1] == MG_BASE_ABSORBING ? R(0.0) : mg_f_base(i, o, p, opt);
+    REAL fb = opt[MG_OPT_BASE] == MG_BASE_ABSORBING ? R(0.0) : mg_f_base(i, o, p, opt);
     total += (ws * fd + wb * fb) * BT_PI; /* f o.z / (o.z / pi) */
     return total;
 }
@@ -540,8 +562,8 @@ BT_INLINE REAL mg_p_bulk(bt_vec3 i, REAL tau0, REAL bx, REAL by)
 
 BT_INLINE REAL mg_p_diffuse(bt_vec3 i, const REAL* p, const int* opt)
 {
-    REAL kd = p[8];
-    REAL F = mg_grain_fresnel(i.z, p, opt[0]); /* F(i.n, n), eq. 27 */
+    REAL kd = p[MG_PARAM_KD];
+    REAL F = mg_grain_fresnel(i.z, p, opt[MG_OPT_GRAIN]); /* F(i.n, n), eq. 27 */
     return kd + F > R(0.0) ? kd / (kd + F) : R(0.0);
 }
 
@@ -554,7 +576,7 @@ BT_INLINE REAL micrograin_sample(const REAL* p, const int* o, int quantity, cons
     int ok_i, ok_o;
     bt_vec3 vi = mg_direction(p[0], p[1], &ok_i);
     bt_vec3 vo = mg_direction(p[2], p[3], &ok_o);
-    REAL tau0 = p[4], bx = p[5], by = p[6], h = p[7];
+    REAL tau0 = p[MG_PARAM_TAU0], bx = p[MG_PARAM_BETA_X], by = p[MG_PARAM_BETA_Y], h = p[MG_PARAM_H];
     switch (quantity) {
     case MG_Q_NDF:
         /* m is the direction (theta_i, phi_i); D(m) = 0 below the horizon. */
@@ -564,9 +586,9 @@ BT_INLINE REAL micrograin_sample(const REAL* p, const int* o, int quantity, cons
     case MG_Q_SHADOW_AREA: return ok_i ? mg_shadow_area(vi, h, bx, by) : R(0.0);
     case MG_Q_OVERLAP_AREA: return ok_i && ok_o ? mg_overlap_area(vi, vo, h, bx, by) : R(0.0);
     case MG_Q_G1_DIST: return ok_i ? mg_g1_dist(vi, h, tau0, bx, by) : R(0.0);
-    case MG_Q_G_DIST: return ok_i && ok_o ? mg_g_dist(vi, vo, h, tau0, bx, by, o[2]) : R(0.0);
+    case MG_Q_G_DIST: return ok_i && ok_o ? mg_g_dist(vi, vo, h, tau0, bx, by, o[MG_OPT_CORRELATION]) : R(0.0);
     case MG_Q_PORE_VISIBILITY:
-        return ok_i && ok_o ? mg_pore_visibility(vi, vo, tau0, bx, by, o[2]) : R(0.0);
+        return ok_i && ok_o ? mg_pore_visibility(vi, vo, tau0, bx, by, o[MG_OPT_CORRELATION]) : R(0.0);
     case MG_Q_BRDF:
         return ok_i && ok_o ? mg_brdf_sample(vi, vo, p, o, bt_uniform(s, 0), bt_uniform(s, 1))
                             : R(0.0);

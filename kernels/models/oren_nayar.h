@@ -103,6 +103,21 @@
 #define ON_Q_ALBEDO_AVG_DIRECT 15 /* albedo_avg of brdf_direct */
 #define ON_Q_ALBEDO_AVG_INTER 16  /* albedo_avg of brdf_interreflection */
 
+/* The model contract: slots of the point p[] and of the options o[] and the
+ * number of quantities (ids ON_Q_* above).  host/models/oren_nayar.cpp registers
+ * the model by these names; p[0..3] are the directions (estimator.h). */
+#define ON_PARAM_SIGMA 4
+#define ON_PARAM_RHO 5
+#define ON_PARAM_THETA_A 6
+#define ON_PARAM_PHI_A 7
+#define ON_PARAM_NODES 8
+#define ON_PARAM_COUNT 5
+#define ON_OPT_QUALITATIVE_A 0
+#define ON_OPT_APPROXIMATION 1
+#define ON_OPT_ERROR 2
+#define ON_OPT_COUNT 3
+#define ON_Q_COUNT 17
+
 #define ON_WANT_DIRECT 1
 #define ON_WANT_INTER 2
 
@@ -535,7 +550,7 @@ BT_INLINE REAL on_qualitative(REAL ti, REAL tr, REAL phi, REAL sigma, REAL rho, 
 
 BT_INLINE int on_quad_nodes(const REAL* p, const bt_sampler* s)
 {
-    int n = (int)(p[8] + R(0.5));
+    int n = (int)(p[ON_PARAM_NODES] + R(0.5));
     n = n < 2 ? 2 : (n > ON_MAX_NODES ? ON_MAX_NODES : n);
     if (s->batch != 0u) n = (n + 1) / 2; /* the coarse rule */
     return n;
@@ -546,7 +561,7 @@ BT_INLINE int on_quad_nodes(const REAL* p, const bt_sampler* s)
 BT_INLINE void on_gaussian(const REAL* p, const bt_sampler* s, int want, REAL* r1, REAL* r2)
 {
     on_geom g = on_make_geom(p);
-    REAL sigma = p[4];
+    REAL sigma = p[ON_PARAM_SIGMA];
     if (!(sigma > R(1e-6))) {
         /* sigma -> 0: every facet is the macro surface (a = n). */
         on_facet(&g, bt_v3(R(0.0), R(0.0), R(1.0)), want, r1, r2);
@@ -567,7 +582,7 @@ BT_INLINE void on_gaussian(const REAL* p, const bt_sampler* s, int want, REAL* r
 BT_INLINE void on_single_slope(const REAL* p, const bt_sampler* s, int want, REAL* r1, REAL* r2)
 {
     on_geom g = on_make_geom(p);
-    REAL theta_a = p[6];
+    REAL theta_a = p[ON_PARAM_THETA_A];
     if (s->method == BT_METHOD_QUADRATURE) {
         REAL gx[ON_MAX_NODES], gw[ON_MAX_NODES];
         int n = on_quad_nodes(p, s);
@@ -582,9 +597,9 @@ BT_INLINE void on_single_slope(const REAL* p, const bt_sampler* s, int want, REA
 BT_INLINE REAL on_approximation(const REAL* p, const int* o)
 {
     REAL phi = p[3] - p[1];
-    if (o[1] == 0) return on_functional(p[0], p[2], phi, p[4], p[5]);
-    if (o[1] == 1) return on_qualitative(p[0], p[2], phi, p[4], p[5], o[0]);
-    return p[5] * BT_INV_PI;
+    if (o[ON_OPT_APPROXIMATION] == 0) return on_functional(p[0], p[2], phi, p[ON_PARAM_SIGMA], p[ON_PARAM_RHO]);
+    if (o[ON_OPT_APPROXIMATION] == 1) return on_qualitative(p[0], p[2], phi, p[ON_PARAM_SIGMA], p[ON_PARAM_RHO], o[ON_OPT_QUALITATIVE_A]);
+    return p[ON_PARAM_RHO] * BT_INV_PI;
 }
 
 /* Directional albedo sample at light direction (theta_i, phi_i = 0):
@@ -619,7 +634,7 @@ BT_INLINE REAL on_avg_theta(const bt_sampler* s)
 BT_INLINE REAL oren_nayar_sample(const REAL* p, const int* o, int quantity, const bt_sampler* s)
 {
     int below = p[0] > BT_HALF_PI || p[2] > BT_HALF_PI;
-    REAL rho = p[5];
+    REAL rho = p[ON_PARAM_RHO];
     REAL r1 = R(0.0), r2 = R(0.0);
     REAL phi = p[3] - p[1];
     switch (quantity) {
@@ -640,8 +655,8 @@ BT_INLINE REAL oren_nayar_sample(const REAL* p, const int* o, int quantity, cons
         if (below) return R(0.0);
         on_geom g = on_make_geom(p);
         REAL a1, a2, b1, b2;
-        on_facet(&g, on_facet_normal(p[6], p[7]), ON_WANT_DIRECT | ON_WANT_INTER, &a1, &a2);
-        on_facet(&g, on_facet_normal(p[6], p[7] + BT_PI), ON_WANT_DIRECT | ON_WANT_INTER, &b1, &b2);
+        on_facet(&g, on_facet_normal(p[ON_PARAM_THETA_A], p[ON_PARAM_PHI_A]), ON_WANT_DIRECT | ON_WANT_INTER, &a1, &a2);
+        on_facet(&g, on_facet_normal(p[ON_PARAM_THETA_A], p[ON_PARAM_PHI_A] + BT_PI), ON_WANT_DIRECT | ON_WANT_INTER, &b1, &b2);
         return R(0.5) * (rho * (a1 + b1) + rho * rho * (a2 + b2));
     }
     case ON_Q_SS_DIRECT:
@@ -654,22 +669,22 @@ BT_INLINE REAL oren_nayar_sample(const REAL* p, const int* o, int quantity, cons
         return r2;
     case ON_Q_SS_DIRECT_CF:
         if (below) return R(0.0);
-        return on_single_slope_direct_cf(p[0], p[2], phi, p[6]);
+        return on_single_slope_direct_cf(p[0], p[2], phi, p[ON_PARAM_THETA_A]);
     case ON_Q_SS_INTER_CF:
         if (below) return R(0.0);
-        return on_single_slope_inter_cf(p[0], p[2], phi, p[6]);
+        return on_single_slope_inter_cf(p[0], p[2], phi, p[ON_PARAM_THETA_A]);
     case ON_Q_FUNCTIONAL:
         if (below) return R(0.0);
-        return on_functional(p[0], p[2], phi, p[4], rho);
+        return on_functional(p[0], p[2], phi, p[ON_PARAM_SIGMA], rho);
     case ON_Q_QUALITATIVE:
         if (below) return R(0.0);
-        return on_qualitative(p[0], p[2], phi, p[4], rho, o[0]);
+        return on_qualitative(p[0], p[2], phi, p[ON_PARAM_SIGMA], rho, o[ON_OPT_QUALITATIVE_A]);
     case ON_Q_APPROX_ERROR: {
         if (below) return R(0.0);
         on_gaussian(p, s, ON_WANT_DIRECT | ON_WANT_INTER, &r1, &r2);
         REAL exact = rho * r1 + rho * rho * r2;
         REAL approx = on_approximation(p, o);
-        if (o[2] == 1) return approx - exact;
+        if (o[ON_OPT_ERROR] == 1) return approx - exact;
         /* Relative error.  Under quadrature `exact` is the rule's value; under
          * sampling methods the ratio would be biased, so the estimator is
          * linearised around the approximation: (approx - exact)/approx
@@ -680,19 +695,19 @@ BT_INLINE REAL oren_nayar_sample(const REAL* p, const int* o, int quantity, cons
     }
     case ON_Q_ALBEDO:
         if (p[0] > BT_HALF_PI) return R(0.0);
-        return on_albedo_sample(p[0], p[4], rho, rho * rho, s);
+        return on_albedo_sample(p[0], p[ON_PARAM_SIGMA], rho, rho * rho, s);
     case ON_Q_ALBEDO_DIRECT:
         if (p[0] > BT_HALF_PI) return R(0.0);
-        return on_albedo_sample(p[0], p[4], R(1.0), R(0.0), s);
+        return on_albedo_sample(p[0], p[ON_PARAM_SIGMA], R(1.0), R(0.0), s);
     case ON_Q_ALBEDO_INTER:
         if (p[0] > BT_HALF_PI) return R(0.0);
-        return on_albedo_sample(p[0], p[4], R(0.0), R(1.0), s);
+        return on_albedo_sample(p[0], p[ON_PARAM_SIGMA], R(0.0), R(1.0), s);
     case ON_Q_ALBEDO_AVG:
-        return on_albedo_sample(on_avg_theta(s), p[4], rho, rho * rho, s);
+        return on_albedo_sample(on_avg_theta(s), p[ON_PARAM_SIGMA], rho, rho * rho, s);
     case ON_Q_ALBEDO_AVG_DIRECT:
-        return on_albedo_sample(on_avg_theta(s), p[4], R(1.0), R(0.0), s);
+        return on_albedo_sample(on_avg_theta(s), p[ON_PARAM_SIGMA], R(1.0), R(0.0), s);
     case ON_Q_ALBEDO_AVG_INTER:
-        return on_albedo_sample(on_avg_theta(s), p[4], R(0.0), R(1.0), s);
+        return on_albedo_sample(on_avg_theta(s), p[ON_PARAM_SIGMA], R(0.0), R(1.0), s);
     default:
         return R(0.0);
     }

@@ -73,6 +73,21 @@
 #define RD_Q_ALBEDO_T 4
 #define RD_Q_ALBEDO_AVG 5
 
+/* The model contract: slots of the point p[] and of the options o[] and the
+ * number of quantities (ids RD_Q_* above).  host/models/rough_dielectric.cpp registers
+ * the model by these names; p[0..3] are the directions (estimator.h). */
+#define RD_PARAM_ALPHA 4
+#define RD_PARAM_ETA 5
+#define RD_PARAM_COUNT 2
+#define RD_OPT_DISTRIBUTION 0
+#define RD_OPT_G1 1
+#define RD_OPT_SHADOWING 2
+#define RD_OPT_LOBE 3
+#define RD_OPT_SIDE 4
+#define RD_OPT_SAMPLING 5
+#define RD_OPT_COUNT 6
+#define RD_Q_COUNT 6
+
 #define RD_LOBE_BOTH 0
 #define RD_LOBE_REFLECTION 1
 #define RD_LOBE_TRANSMISSION 2
@@ -94,7 +109,7 @@ BT_INLINE bt_vec3 rd_direction(REAL theta, REAL phi, int* below)
 
 BT_INLINE bt_microfacet rd_microfacet(const REAL* p, const int* o)
 {
-    return bt_microfacet_make(o[0], o[1], o[2], p[4], p[4]);
+    return bt_microfacet_make(o[RD_OPT_DISTRIBUTION], o[RD_OPT_G1], o[RD_OPT_SHADOWING], p[RD_PARAM_ALPHA], p[RD_PARAM_ALPHA]);
 }
 
 /* ---------------------------------------------------- canonical frame
@@ -174,7 +189,7 @@ BT_INLINE REAL rough_dielectric_fr(const REAL* p, const int* o)
     bt_vec3 vo = rd_direction(p[2], p[3], &bo);
     if (bi != bo) return R(0.0);
     bt_microfacet mf = rd_microfacet(p, o);
-    return rough_dielectric_fr_dir(&mf, vi, vo, p[5]);
+    return rough_dielectric_fr_dir(&mf, vi, vo, p[RD_PARAM_ETA]);
 }
 
 BT_INLINE REAL rough_dielectric_ft(const REAL* p, const int* o)
@@ -184,7 +199,7 @@ BT_INLINE REAL rough_dielectric_ft(const REAL* p, const int* o)
     bt_vec3 vo = rd_direction(p[2], p[3], &bo);
     if (bi == bo) return R(0.0);
     bt_microfacet mf = rd_microfacet(p, o);
-    return rough_dielectric_ft_dir(&mf, vi, vo, p[5]);
+    return rough_dielectric_ft_dir(&mf, vi, vo, p[RD_PARAM_ETA]);
 }
 
 BT_INLINE REAL rough_dielectric_fs(const REAL* p, const int* o)
@@ -285,17 +300,17 @@ BT_INLINE REAL rough_dielectric_sample(const REAL* p, const int* o, int quantity
     if (quantity == RD_Q_ALBEDO_R || quantity == RD_Q_ALBEDO_T) {
         int below;
         bt_vec3 i = rd_direction(p[0], p[1], &below);
-        return rd_albedo_sample_dir(&mf, i, p[5],
+        return rd_albedo_sample_dir(&mf, i, p[RD_PARAM_ETA],
                                     quantity == RD_Q_ALBEDO_R ? RD_LOBE_REFLECTION
                                                               : RD_LOBE_TRANSMISSION,
-                                    o[5], u0, u1);
+                                    o[RD_OPT_SAMPLING], u0, u1);
     }
     if (quantity == RD_Q_ALBEDO_AVG) {
         /* 2 int E(mu) mu dmu = E[E(sqrt(u))] with u uniform (pdf of mu: 2 mu). */
         REAL mu = fmax(sqrt(bt_uniform(s, 2u)), RD_MIN_COS);
         REAL st = bt_safe_sqrt(R(1.0) - mu * mu);
-        bt_vec3 i = bt_v3(st, R(0.0), o[4] == 1 ? -mu : mu);
-        return rd_albedo_sample_dir(&mf, i, p[5], o[3], o[5], u0, u1);
+        bt_vec3 i = bt_v3(st, R(0.0), o[RD_OPT_SIDE] == 1 ? -mu : mu);
+        return rd_albedo_sample_dir(&mf, i, p[RD_PARAM_ETA], o[RD_OPT_LOBE], o[RD_OPT_SAMPLING], u0, u1);
     }
     return R(0.0);
 }

@@ -1,0 +1,235 @@
+// The model contract (host/models/registry.h): every registered model keeps
+// it, and ModelBuilder refuses descriptions that break it.
+#include <doctest/doctest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <set>
+#include <stdexcept>
+#include <string>
+
+#include "host/core/error.h"
+#include "host/engine/engine.h"
+#include "host/engine/kernel_sources.h"
+#include "host/models/registry.h"
+#include "kernels/common/estimator.h"  // BT_MAX_POINT, BT_MAX_OPTIONS
+
+using namespace brdftab;
+
+namespace {
+
+// A value every parameter accepts: its default, or the middle of its range
+// (an integer for integer-valued parameters is not needed: none lacks a default).
+double usable_value(const ParameterInfo& p) {
+    if (p.default_value) return *p.default_value;
+    return 0.5 * (p.min + p.max);
+}
+
+std::map<std::string, double> default_point(const ModelInfo& m, const QuantityInfo& q) {
+    std::map<std::string, double> values;
+    for (const auto& d : q.directions) {
+        if (d == "theta_i") values["theta_i"] = 30;
+        if (d == "theta_o") values["theta_o"] = 50;
+        if (d == "phi_o") values["phi_d"] = 120;
+    }
+    for (const auto& p : m.parameters) values[p.name] = usable_value(p);
+    return values;
+}
+
+// A description that keeps the contract, for the negative tests to break.
+ModelBuilder valid_builder() {
+    ModelBuilder b("contract-probe", 0);
+    b.citation("none").description("a test description");
+    b.kernel("models/rough_dielectric.h", "rough_dielectric_sample", find_model("rough-dielectric").host_fn);
+    b.counts(2, 1, 2);
+    b.parameter(kDirectionSlots + 0, parameter_info("a", "1", "first", 0, 1, 0.5));
+    b.parameter(kDirectionSlots + 1, parameter_info("b", "1", "second", 0, 1, 0.5));
+    b.option(0, OptionInfo{"mode", "a mode", {"x", "y"}, "x"});
+    b.quantity(QuantityInfo{"q0", 0, "first", "1", QuantityKind::ClosedForm, {"theta_i"}, {"mode"},
+                            "none", "closed-form", 0});
+    b.quantity(QuantityInfo{"q1", 1, "second", "1", QuantityKind::ClosedForm, {}, {}, "none",
+                            "closed-form", 0});
+    return b;
+}
+
+}  // namespace
+
+TEST_CASE("every registered model keeps the contract") {
+    const auto& models = all_models();
+    REQUIRE(models.size() >= 6);
+    const auto files = embedded_kernel_files();
+    std::set<std::string> model_names;
+    for (const auto& m : models) {
+        CAPTURE(m.name);
+        CHECK(model_names.insert(m.name).second);
+        CHECK(!m.citation.empty());
+        CHECK(!m.description.empty());
+        CHECK(static_cast<bool>(m.host_fn));
+        CHECK(std::find(files.begin(), files.end(), m.kernel_header) != files.end());
+        CHECK(m.point_stride() <= static_cast<std::size_t>(BT_MAX_POINT));
+        CHECK(m.options.size() <= static_cast<std::size_t>(BT_MAX_OPTIONS));
+        std::set<int> ids;
+        std::set<std::string> names;
+        for (const auto& q : m.quantities) {
+            CHECK(ids.insert(q.id).second);
+            CHECK(names.insert(q.name).second);
+            CHECK(q.id >= 0);
+            CHECK(q.id < static_cast<int>(m.quantities.size()));
+        }
+        std::set<std::string> parameters;
+        for (const auto& p : m.parameters) {
+            CHECK(parameters.insert(p.name).second);
+            CHECK(!is_direction_coordinate(p.name));
+        }
+    }
+    // The listing order is the documented one (docs: rough-dielectric first).
+    CHECK(models.front().name == "rough-dielectric");
+}
+
+TEST_CASE("every quantity of every model evaluates at its default parameters") {
+    auto host = make_backend("host", Precision::Double);
+    auto device = make_backend("", Precision::Double);
+    IntegrationSettings settings;
+    settings.samples = 64;
+    settings.seed = 3;
+    for (const auto& m : all_models()) {
+        const std::vector<int> options = resolve_options(m, nullptr, "test");
+        for (const auto& q : m.quantities) {
+            CAPTURE(m.name);
+            CAPTURE(q.name);
+            const auto values = default_point(m, q);
+            std::vector<double> point(m.point_stride());
+            PointBuilder(m, q).build(values, point.data());
+            auto point_of = [&](std::size_t, double* out) {
+                std::copy(point.begin(), point.end(), out);
+            };
+            const EstimateResult h = estimate(*host, m, q, options, 1, point_of, settings);
+            const EstimateResult d = estimate(*device, m, q, options, 1, point_of, settings);
+            // Not NaN; infinite only where the quantity is (H_inf at c = 1).
+            CHECK(!std::isnan(h.value[0]));
+            // Same samples, same kernel source: the device agrees with the
+            // host up to the rounding of a different compiler.
+            if (std::isfinite(h.value[0]))
+                CHECK(d.value[0] == doctest::Approx(h.value[0]).epsilon(1e-9).scale(1e-12));
+            else
+                CHECK(d.value[0] == h.value[0]);
+        }
+    }
+}
+
+TEST_CASE("ModelBuilder accepts a valid description and fills ids and slots") {
+    const ModelInfo m = valid_builder().build();
+    CHECK(m.point_stride() == kDirectionSlots + 2);
+    CHECK(m.parameters[0].name == "a");
+    CHECK(m.quantities[1].id == 1);
+}
+
+TEST_CASE("ModelBuilder puts parameters in slot order whatever the call order") {
+    ModelBuilder b("order-probe", 0);
+    b.citation("none").description("d");
+    b.kernel("models/rough_dielectric.h", "rough_dielectric_sample",
+             find_model("rough-dielectric").host_fn);
+    b.counts(2, 0, 1);
+    b.parameter(kDirectionSlots + 1, parameter_info("second", "1", "", 0, 1, 0.5));
+    b.parameter(kDirectionSlots + 0, parameter_info("first", "1", "", 0, 1, 0.5));
+    b.quantity(QuantityInfo{"q", 0, "", "1", QuantityKind::ClosedForm, {}, {}, "", "closed-form", 0});
+    const ModelInfo m = b.build();
+    CHECK(m.parameters[0].name == "first");
+    CHECK(m.parameters[1].name == "second");
+}
+
+TEST_CASE("ModelBuilder refuses descriptions that break the contract") {
+    auto refuses = [](ModelBuilder b, const char* why) {
+        CAPTURE(why);
+        CHECK_THROWS_AS(b.build(), std::logic_error);
+    };
+    {
+        ModelBuilder b = valid_builder();
+        b.counts(3, 1, 2);  // the header declares a parameter nobody describes
+        refuses(b, "parameter count");
+    }
+    {
+        ModelBuilder b = valid_builder();
+        b.counts(2, 1, 3);
+        refuses(b, "quantity count");
+    }
+    {
+        ModelBuilder b = valid_builder();
+        b.counts(3, 1, 2);
+        b.parameter(kDirectionSlots + 1, parameter_info("c", "1", "dup slot", 0, 1, 0.5));
+        refuses(b, "slot used twice");
+    }
+    {
+        ModelBuilder b = valid_builder();
+        b.counts(3, 1, 2);
+        b.parameter(kDirectionSlots + 3, parameter_info("c", "1", "gap", 0, 1, 0.5));
+        refuses(b, "slot outside the dense range");
+    }
+    {
+        // A point beyond BT_MAX_POINT would overflow the kernels' p[] array.
+        ModelBuilder b = valid_builder();
+        const int extra = BT_MAX_POINT - kDirectionSlots - 2 + 1;
+        b.counts(2 + extra, 1, 2);
+        for (int k = 0; k < extra; ++k)
+            b.parameter(kDirectionSlots + 2 + k,
+                        parameter_info("x" + std::to_string(k), "1", "", 0, 1, 0.5));
+        refuses(b, "beyond BT_MAX_POINT");
+    }
+    {
+        ModelBuilder b = valid_builder();
+        b.counts(2, 1 + BT_MAX_OPTIONS, 2);
+        for (int k = 1; k <= BT_MAX_OPTIONS; ++k)
+            b.option(k, OptionInfo{"o" + std::to_string(k), "", {"x"}, "x"});
+        refuses(b, "beyond BT_MAX_OPTIONS");
+    }
+    {
+        ModelBuilder b = valid_builder();
+        b.counts(2, 1, 3);
+        b.quantity(QuantityInfo{"q2", 1, "", "1", QuantityKind::ClosedForm, {}, {}, "", "closed-form", 0});
+        refuses(b, "quantity id used twice");
+    }
+    {
+        ModelBuilder b = valid_builder();
+        b.counts(2, 1, 3);
+        b.quantity(QuantityInfo{"q0", 2, "", "1", QuantityKind::ClosedForm, {}, {}, "", "closed-form", 0});
+        refuses(b, "quantity name used twice");
+    }
+    {
+        ModelBuilder b = valid_builder();
+        b.counts(2, 1, 3);
+        b.quantity(QuantityInfo{"q2", 2, "", "1", QuantityKind::ClosedForm, {}, {"colour"}, "",
+                                "closed-form", 0});
+        refuses(b, "unknown option");
+    }
+    {
+        ModelBuilder b = valid_builder();
+        b.counts(2, 1, 3);
+        b.quantity(QuantityInfo{"q2", 2, "", "1", QuantityKind::ClosedForm, {"phi_d"}, {}, "",
+                                "closed-form", 0});
+        refuses(b, "direction that is not a slot");
+    }
+    {
+        ModelBuilder b = valid_builder();
+        b.counts(3, 1, 2);
+        b.parameter(kDirectionSlots + 2, parameter_info("c", "1", "", 0, 1, 2.0));
+        refuses(b, "default outside the range");
+    }
+    {
+        ModelBuilder b = valid_builder();
+        b.counts(3, 1, 2);
+        b.parameter(kDirectionSlots + 2, parameter_info("theta_i", "1", "", 0, 1, 0.5));
+        refuses(b, "parameter named like a direction");
+    }
+    {
+        ModelBuilder b = valid_builder();
+        b.counts(2, 2, 2);
+        b.option(1, OptionInfo{"other", "", {"x", "y"}, "z"});
+        refuses(b, "default choice missing");
+    }
+    {
+        ModelBuilder b = valid_builder();
+        b.kernel("", "f", nullptr);
+        refuses(b, "no kernel");
+    }
+}
