@@ -6,6 +6,7 @@
 # Usage: cli_table_tests.sh BRDFTAB SOURCE_DIR
 set -u
 BT=$(realpath "$1")
+DATA="$(realpath "$2")/tests/data"  # shared spec fixtures
 WORK=$(mktemp -d)
 trap 'rm -rf "$WORK"' EXIT
 cd "$WORK"
@@ -17,34 +18,11 @@ source "$(dirname "${BASH_SOURCE[0]}")/cli_lib.sh"
 json_field() {  # json_field FILE KEY -> prints the number
   "$PY" -c 'import json,sys; print(repr(float(json.load(open(sys.argv[1]))[sys.argv[2]])))' "$1" "$2"
 }
-# Closed-form GGX rough dielectric BRDF (Walter et al. 2007) over
-# (theta_i, theta_o, phi_d); $1 = name, $2 = nodes per axis.  Linear axes with
-# round nodes so a query can hit a node exactly.
+# The closed-form GGX rough dielectric BRDF of the fixture, its nodes set to
+# $2 per axis; $1 = name.
 make_spec() {
-  cat >"$1.toml" <<EOF
-model = "rough-dielectric"
-[parameters]
-distribution = "ggx"
-alpha = 0.5
-eta = 1.5
-[[axes]]
-name = "theta_i"
-range = [0.0, 80.0]
-count = $2
-[[axes]]
-name = "theta_o"
-range = [0.0, 80.0]
-count = $2
-[[axes]]
-name = "phi_d"
-range = [0.0, 180.0]
-count = $2
-[[tables]]
-quantity = "brdf"
-[output]
-path = "$1.h5"
-type = "float32"
-EOF
+  sed -e "s/^count = .*/count = $2/" -e "s/^path = .*/path = \"$1.h5\"/" \
+    "$DATA/rough_dielectric_brdf.toml" >"$1.toml"
 }
 make_spec coarse 5   # nodes 0,20,40,60,80 deg and 0,45,90,135,180 deg
 make_spec fine 17    # refines every coarse cell 4x per axis
@@ -137,28 +115,8 @@ assert a["linear"] == b["linear"] and a["cubic"] == b["cubic"]
 EOF
 
 # Integral table: the reference's own noise is reported.
-cat >albedo.toml <<'EOF'
-model = "rough-dielectric"
-[parameters]
-eta = 1.5
-[[axes]]
-name = "theta_i"
-range = [0.0, 80.0]
-count = 4
-[[axes]]
-name = "alpha"
-range = [0.2, 0.8]
-count = 3
-[[tables]]
-quantity = "albedo_r"
-[integration]
-method = "mc"
-samples = 2048
-seed = 3
-[output]
-path = "albedo.h5"
-EOF
-expect_exit 0 "generate albedo" -- "$BT" generate albedo.toml -q
+cp "$DATA/rough_dielectric_albedo.toml" albedo.toml
+expect_exit 0 "generate albedo" -- "$BT" generate albedo.toml --method mc --samples 2048 --seed 3 -q
 expect_exit 0 "query integral table" -- "$BT" query albedo.h5 --table albedo_r theta_i=30 alpha=0.5 --json
 "$PY" -c 'import json,sys; d=json.load(open("out.txt")); sys.exit(0 if d["stderr"] > 0 else 1)' \
   && ok || bad "query of an integral table reports an interpolated stderr"

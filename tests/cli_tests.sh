@@ -4,7 +4,8 @@
 # inspection and EXR export.  Usage: cli_tests.sh BRDFTAB SOURCE_DIR
 set -u
 BT=$(realpath "$1")
-SRC="$2"
+SRC=$(realpath "$2")
+DATA="$SRC/tests/data"  # shared spec fixtures
 WORK=$(mktemp -d)
 trap 'rm -rf "$WORK"' EXIT
 cd "$WORK"
@@ -84,42 +85,19 @@ expect_grep "badpts.csv:3" err.txt "CSV error names file and line"
 [ ! -e res2.csv ] && ok || bad "no output after a CSV error"
 
 # --- generate -----------------------------------------------------------------
-cat >small.toml <<'EOF'
-model = "rough-dielectric"
-[parameters]
-distribution = "ggx"
-eta = 1.5
-[[axes]]
-name = "theta_i"
-range = [0.0, 80.0]
-count = 5
-[[axes]]
-name = "alpha"
-range = [0.1, 0.9]
-count = 3
-[[tables]]
-quantity = "albedo_r"
-[[tables]]
-quantity = "albedo_t"
-[integration]
-samples = 1024
-seed = 7
-[output]
-path = "small.h5"
-type = "float64"
-EOF
-expect_exit 0 "generate small" -- "$BT" generate small.toml
-expect_grep "wrote small.h5" out.txt "generate says where it wrote"
-[ -s small.h5 ] && ok || bad "small.h5 written"
-expect_exit 0 "generate again, other slab size" -- "$BT" generate small.toml -o small2.h5 --slab 3
-expect_exit 0 "generate with other seed" -- "$BT" generate small.toml -o small3.h5 --seed 8
-expect_exit 0 "info" -- "$BT" info small.h5 --values
+cp "$DATA/rough_dielectric_albedo.toml" albedo.toml
+expect_exit 0 "generate albedo" -- "$BT" generate albedo.toml
+expect_grep "wrote albedo.h5" out.txt "generate says where it wrote"
+[ -s albedo.h5 ] && ok || bad "albedo.h5 written"
+expect_exit 0 "generate again, other slab size" -- "$BT" generate albedo.toml -o albedo2.h5 --slab 3
+expect_exit 0 "generate with other seed" -- "$BT" generate albedo.toml -o albedo3.h5 --seed 8
+expect_exit 0 "info" -- "$BT" info albedo.h5 --values
 expect_grep "albedo_t" out.txt "info lists tables"
 expect_grep "theta_i=5" out.txt "info shows shape"
 if have_h5py; then
   "$PY" - <<'EOF' && ok || bad "determinism / format via h5py"
 import h5py, numpy as np, sys
-a, b, c = (h5py.File(f, "r") for f in ("small.h5", "small2.h5", "small3.h5"))
+a, b, c = (h5py.File(f, "r") for f in ("albedo.h5", "albedo2.h5", "albedo3.h5"))
 for t in ("albedo_r", "albedo_t"):
     va, vb, vc = (f[t]["value"][...] for f in (a, b, c))
     assert va.shape == (5, 3), va.shape
@@ -140,62 +118,29 @@ fi
 
 # Bad specs: exit 2, message names file, line and key; nothing written, and an
 # existing output is left untouched.
-cp small.h5 keep.h5
+cp albedo.h5 keep.h5
 cksum keep.h5 >keep.sum
-sed -e 's/count = 3/count = 1/' -e 's/small.h5/keep.h5/' small.toml >bad1.toml
+sed -e 's/count = 3/count = 1/' -e 's/albedo.h5/keep.h5/' albedo.toml >bad1.toml
 expect_exit 2 "count < 2" -- "$BT" generate bad1.toml
 expect_grep "bad1.toml:[0-9]+" err.txt "error names the file and line"
 expect_grep "count" err.txt "error names the key"
-sed -e 's/0.1, 0.9/-0.1, 0.9/' -e 's/small.h5/keep.h5/' small.toml >bad2.toml
+sed -e 's/0.1, 0.9/-0.1, 0.9/' -e 's/albedo.h5/keep.h5/' albedo.toml >bad2.toml
 expect_exit 2 "alpha range below 0" -- "$BT" generate bad2.toml
 expect_grep "alpha" err.txt "error names alpha"
-sed -e 's/^seed = 7/seed = 7\nsede = 3/' -e 's/small.h5/keep.h5/' small.toml >bad3.toml
+sed -e 's/^seed = 7/seed = 7\nsede = 3/' -e 's/albedo.h5/keep.h5/' albedo.toml >bad3.toml
 expect_exit 2 "unknown key" -- "$BT" generate bad3.toml
 expect_grep "sede" err.txt "error names the unknown key"
-sed -e 's/eta = 1.5/eta = 0.0/' -e 's/small.h5/keep.h5/' small.toml >bad4.toml
+sed -e 's/eta = 1.5/eta = 0.0/' -e 's/albedo.h5/keep.h5/' albedo.toml >bad4.toml
 expect_exit 2 "eta <= 0" -- "$BT" generate bad4.toml
 printf 'model = "rough-dielectric"\n[[tables]\n' >bad5.toml
 expect_exit 2 "TOML syntax error" -- "$BT" generate bad5.toml -o keep.h5
 expect_exit 2 "missing spec file" -- "$BT" generate does-not-exist.toml -o keep.h5
-expect_exit 2 "output directory missing" -- "$BT" generate small.toml -o no/such/dir/x.h5
+expect_exit 2 "output directory missing" -- "$BT" generate albedo.toml -o no/such/dir/x.h5
 cksum keep.h5 | cmp -s - keep.sum && ok || bad "existing output untouched by failed runs"
 ls ./*.tmp* >/dev/null 2>&1 && bad "temporary files left behind" || ok
 
 # --- recombined tables: Oren-Nayar at any rho from its two factored tables ----
-cat >on.toml <<'EOF'
-model = "oren-nayar"
-[parameters]
-sigma = 20.0
-[[axes]]
-name = "theta_i"
-range = [0.0, 80.0]
-count = 5
-[[axes]]
-name = "theta_o"
-range = [0.0, 80.0]
-count = 5
-[[axes]]
-name = "phi_d"
-range = [0.0, 180.0]
-count = 5
-[[tables]]
-quantity = "brdf_direct"
-[[tables]]
-quantity = "brdf_interreflection"
-[[recombined]]
-name = "brdf"
-parameter = "rho"
-range = [0.0, 1.0]
-[[recombined.terms]]
-table = "brdf_direct"
-coeffs = [0.0, 1.0]
-[[recombined.terms]]
-table = "brdf_interreflection"
-coeffs = [0.0, 0.0, 1.0]
-[output]
-path = "on.h5"
-type = "float64"
-EOF
+cp "$DATA/oren_nayar_recombined.toml" on.toml
 expect_exit 0 "generate with a recombined table" -- "$BT" generate on.toml -q
 expect_exit 0 "query recombined at rho" -- "$BT" query on.h5 --table brdf theta_i=40 theta_o=60 \
   phi_d=45 rho=0.5 --json
@@ -246,11 +191,11 @@ expect_grep "bad7.toml:[0-9]+:[0-9]+: key 'errors\[0\]\.floor'" err.txt "error n
 [ ! -e bad7.h5 ] && ok || bad "no output after an error-spec error"
 
 # --- export -------------------------------------------------------------------
-expect_exit 0 "export exr" -- "$BT" export small.h5 --table albedo_r --exr slice.exr
+expect_exit 0 "export exr" -- "$BT" export albedo.h5 --table albedo_r --exr slice.exr
 [ -s slice.exr ] && ok || bad "slice.exr written"
-expect_exit 2 "export wrong table" -- "$BT" export small.h5 --table nope --exr x.exr
+expect_exit 2 "export wrong table" -- "$BT" export albedo.h5 --table nope --exr x.exr
 expect_grep "albedo_r" err.txt "available tables listed"
 [ ! -e x.exr ] && ok || bad "no EXR after an error"
-expect_exit 2 "info on a non-HDF5 file" -- "$BT" info small.toml
+expect_exit 2 "info on a non-HDF5 file" -- "$BT" info albedo.toml
 
 cli_summary

@@ -11,24 +11,14 @@
 #include "host/engine/engine.h"
 #include "host/core/error.h"
 #include "host/models/registry.h"
+#include "test_support.h"
 
 using namespace brdftab;
 
 namespace {
 
-const double kPi = 3.14159265358979323846;
-
-// Unpolarised dielectric Fresnel reflectance, written here from the textbook
-// form (Walter 2007 eq. 22 / Cook-Torrance) as an oracle independent of
-// kernels/common/fresnel.h.
-double fresnel_oracle(double cos_i, double eta) {
-    const double g2 = eta * eta - 1 + cos_i * cos_i;
-    if (g2 < 0) return 1;
-    const double g = std::sqrt(g2);
-    const double a = (g - cos_i) / (g + cos_i);
-    const double b = (cos_i * (g + cos_i) - 1) / (cos_i * (g - cos_i) + 1);
-    return 0.5 * a * a * (1 + b * b);
-}
+using brdftab::test::fresnel_sp;
+using brdftab::test::kPi;
 
 struct Fixture {
     const ModelInfo& model = find_model("rough-dielectric");
@@ -219,7 +209,7 @@ TEST_CASE("albedo_r at tiny roughness equals the Fresnel reflectance (oracle)") 
             auto r = f.run(*dev, "albedo_r", pts, s, "beckmann");
             CAPTURE(theta);
             CAPTURE(eta);
-            const double expected = fresnel_oracle(std::cos(theta * kPi / 180), eta);
+            const double expected = fresnel_sp(std::cos(theta * kPi / 180), eta);
             // alpha = 1e-4 blurs the mirror by ~1e-4 rad: negligible next to 1e-3.
             CHECK(r.value[0] == doctest::Approx(expected).epsilon(1e-3));
         }

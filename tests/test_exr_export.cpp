@@ -32,12 +32,11 @@ using namespace brdftab;
 namespace {
 
 fs::path scratch_dir(const std::string& sub) { return test::scratch_dir(BT_BINARY_DIR, "test_exr_export", sub); }
-Axis axis(const std::string& name, const std::string& unit, double lo, double hi, std::size_t n) {
-    return test::linear_axis(name, unit, lo, hi, n);
-}
+using test::axis;
+using test::kPi;
 
 double f_value(double a, double th, double ph) {
-    return std::exp(-a) * std::cos(th * M_PI / 180) * (1.5 + std::sin(ph * M_PI / 180)) + 0.01;
+    return std::exp(-a) * std::cos(th * kPi / 180) * (1.5 + std::sin(ph * kPi / 180)) + 0.01;
 }
 double f_stderr(double a, double th, double ph) { return 1e-3 * a + 1e-5 * th + 1e-7 * ph; }
 

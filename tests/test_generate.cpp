@@ -9,42 +9,12 @@
 #include "host/generate/generate.h"
 #include "host/spec/spec.h"
 #include "host/io/table_io.h"
+#include "test_support.h"
 
 using namespace brdftab;
 
-namespace {
-
-const char* kSpec = R"(
-model = "rough-dielectric"
-[parameters]
-distribution = "beckmann"
-eta = 1.5
-[[axes]]
-name = "mu_i"
-range = [0.2, 1.0]
-count = 3
-[[axes]]
-name = "theta_o"
-range = [0.0, 180.0]
-count = 5
-[[axes]]
-name = "alpha"
-range = [0.1, 0.4]
-count = 2
-spacing = "log"
-[[tables]]
-name = "f"
-quantity = "bsdf"
-[integration]
-seed = 11
-[output]
-type = "float64"
-)";
-
-}  // namespace
-
 TEST_CASE("cell points follow the axes (mu -> theta, phi defaults, parameters)") {
-    Spec spec = parse_spec_string(kSpec, "mem.toml");
+    Spec spec = parse_spec_string(test::fixture_text("rough_dielectric_bsdf_mu.toml"), "mem.toml");
     const ModelInfo& model = find_model("rough-dielectric");
     const TableSpec& t = spec.tables.at(0);
     CellPoints cp(model, model.quantity("bsdf"), t);
@@ -61,14 +31,14 @@ TEST_CASE("cell points follow the axes (mu -> theta, phi defaults, parameters)")
     cp.point(1, p.data());
     CHECK(p[4] == doctest::Approx(0.4));
     cp.point(2, p.data());
-    CHECK(p[2] == doctest::Approx(45.0 * 3.14159265358979323846 / 180));
+    CHECK(p[2] == doctest::Approx(45.0 * test::kDeg));
     cp.point(29, p.data());
     CHECK(p[0] == doctest::Approx(0.0).epsilon(1e-12));  // mu = 1
-    CHECK(p[2] == doctest::Approx(3.14159265358979323846));
+    CHECK(p[2] == doctest::Approx(test::kPi));
 }
 
 TEST_CASE("generated table equals direct evaluation and round-trips through HDF5") {
-    Spec spec = parse_spec_string(kSpec, "mem.toml");
+    Spec spec = parse_spec_string(test::fixture_text("rough_dielectric_bsdf_mu.toml"), "mem.toml");
     auto device = make_backend("", Precision::Double);
     auto tables = generate_tables(spec, *device, spec.integration);
     REQUIRE(tables.size() == 1);
@@ -135,27 +105,10 @@ samples = 2000
 
 // brdf and btdf of one rough dielectric on a 3 x 4 grid (theta_o crosses the
 // horizon): the sources of the derived-table cases.
-const char* const kBrdfBtdf = R"(
-model = "rough-dielectric"
-[parameters]
-alpha = 0.4
-eta = 1.5
-[[axes]]
-name = "theta_i"
-range = [0.0, 60.0]
-count = 3
-[[axes]]
-name = "theta_o"
-range = [0.0, 170.0]
-count = 4
-[[tables]]
-quantity = "brdf"
-[[tables]]
-quantity = "btdf"
-)";
+std::string brdf_btdf() { return test::fixture_text("rough_dielectric_brdf_btdf.toml"); }
 
 TEST_CASE("recombined tables: values at stored_at and the recipe for the lookup") {
-    Spec spec = parse_spec_string(std::string(kBrdfBtdf) + R"(
+    Spec spec = parse_spec_string(brdf_btdf() + R"(
 [[recombined]]
 name = "mix"
 parameter = "w"
@@ -186,7 +139,7 @@ coeffs = [0.0, 0.0, 4.0]
 }
 
 TEST_CASE("error tables: known errors by construction; the reference 0 needs a floor") {
-    const std::string base = std::string(kBrdfBtdf) + R"(
+    const std::string base = brdf_btdf() + R"(
 [[recombined]]
 name = "twice"
 parameter = "w"
@@ -291,44 +244,7 @@ TEST_CASE("error tables: the propagated standard error covers Monte Carlo noise"
     // estimate of eq. 10, which brdf_single gives in closed form.  The relative
     // error must be consistent with zero within its propagated standard error,
     // whichever of the two is the reference.
-    Spec spec = parse_spec_string(R"(
-model = "lambert-sphere"
-[parameters]
-c = 0.8
-[[axes]]
-name = "theta_i"
-range = [0.0, 80.0]
-count = 5
-[[axes]]
-name = "theta_o"
-range = [0.0, 80.0]
-count = 5
-[[axes]]
-name = "phi_d"
-range = [0.0, 180.0]
-count = 4
-[[tables]]
-name = "mc"
-quantity = "brdf_mc"
-[tables.parameters]
-order = 1
-[[tables]]
-name = "exact"
-quantity = "brdf_single"
-[[errors]]
-name = "mc_vs_exact"
-table = "mc"
-reference = "exact"
-[[errors]]
-name = "exact_vs_mc"
-table = "exact"
-reference = "mc"
-[integration]
-method = "mc"
-samples = 4096
-seed = 5
-)",
-                                  "ls.toml");
+    Spec spec = parse_spec_string(test::fixture_text("lambert_sphere_mc_vs_exact.toml"), "ls.toml");
     auto device = make_backend("", Precision::Double);
     auto tables = generate_tables(spec, *device, spec.integration);
     REQUIRE(tables.size() == 4);

@@ -12,11 +12,12 @@
 
 #include "host/core/error.h"
 #include "host/core/grid.h"
+#include "test_support.h"
 
 using namespace brdftab;
 
 namespace {
-const double kDeg = 3.14159265358979323846 / 180.0;
+using test::kDeg;
 
 std::vector<Axis> sample_axes() {
     return {

@@ -31,7 +31,7 @@
 namespace {
 
 using brdftab::test::gauss_legendre;
-const double kPi = 3.14159265358979323846;
+using brdftab::test::kPi;
 
 // p3(x), x = cosine of the scattering angle (1 forward), eq. 8 / (4 pi c).
 double p3(double x) { return (1 - 4.0 / 3.0 * x + 5.0 / 16.0 * (1.5 * x * x - 0.5)) / (4 * kPi); }

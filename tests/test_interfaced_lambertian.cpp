@@ -30,26 +30,18 @@
 #include "host/engine/engine.h"
 #include "host/models/registry.h"
 #include "kernels/models/interfaced_lambertian.h"
+#include "test_support.h"
 
 namespace {
 
-const double kPi = 3.14159265358979323846;
-const double kDeg = kPi / 180;
+using brdftab::test::kPi;
+using brdftab::test::kDeg;
 
 enum { GAUSS_TS = 0, BECK_TS = 1, BECK_SMITH = 2, GGX_SMITH = 3 };
 
 // ---------------------------------------------------------------- oracles
 
-double fresnel_sp(double ci, double eta)
-{
-    ci = std::fabs(ci);
-    double st2 = (1 - ci * ci) / (eta * eta);
-    if (st2 >= 1) return 1;
-    double ct = std::sqrt(1 - st2);
-    double rs = (ci - eta * ct) / (ci + eta * ct);
-    double rp = (eta * ci - ct) / (eta * ci + ct);
-    return 0.5 * (rs * rs + rp * rp);
-}
+using brdftab::test::fresnel_sp;
 
 struct V {
     double x, y, z;
@@ -163,19 +155,16 @@ struct Stat {
 // batch means are i.i.d., so their spread gives the standard error.
 Stat est(const double* p, const int* o, int q, int n = 8192, int batches = 8, uint cell = 1)
 {
-    double m = 0, m2 = 0;
+    brdftab::test::RunningStat batch_means;
     for (int b = 0; b < batches; ++b) {
         double s = 0;
         for (int k = 0; k < n; ++k) {
             bt_sampler sm{0x1234u, 0x9876u, cell, (uint)b, (uint)k, BT_METHOD_RQMC};
             s += interfaced_lambertian_sample(p, o, q, &sm);
         }
-        s /= n;
-        double d = s - m;
-        m += d / (b + 1);
-        m2 += d * (s - m);
+        batch_means.add(s / n);
     }
-    return {m, std::sqrt(m2 / (batches - 1) / batches)};
+    return {batch_means.mean, batch_means.se()};
 }
 
 struct Pt {
@@ -384,7 +373,7 @@ TEST_CASE("energy: body + specular albedo with Kd = 1")
         const double ni = 1.5, kd = 0.6, ti = 55;
         Pt a(ti, 30, 0, 0, 30, 0.5, ni, kd);
         Stat ea = est(a.p, opt, IL_Q_ALBEDO_BODY, 4096, 8);
-        double sum = 0, sum2 = 0;
+        brdftab::test::RunningStat paths;
         const int n = 200000;
         for (int k = 0; k < n; ++k) {
             bt_sampler sm{7, 8, 99, 0, (uint)k, BT_METHOD_MC};
@@ -392,10 +381,9 @@ TEST_CASE("energy: body + specular albedo with Kd = 1")
             double to = std::acos(std::sqrt(1 - u)) / kDeg, po = 360 * v;
             Pt b(ti, 30, to, po, 30, 0.5, ni, kd);
             double x = kPi * interfaced_lambertian_sample(b.p, opt, IL_Q_BODY, &sm);
-            sum += x;
-            sum2 += x * x;
+            paths.add(x);
         }
-        double mean = sum / n, se = std::sqrt((sum2 / n - mean * mean) / n);
+        const double mean = paths.mean, se = paths.se();
         double re = 0;
         for (int k = 0; k < 100000; ++k) {
             double mu = (k + 0.5) / 100000;
@@ -457,7 +445,7 @@ TEST_CASE("V-cavity: order 1 = TS body, ni = 1 order 2 = Oren-Nayar L2, energy, 
     for (int dist = 0; dist < 4; ++dist)
         for (double ti : {dist % 2 ? 0.0 : 60.0, 85.0}) {
             int opt[8] = {dist, 0, 0};
-            double sum = 0, sum2 = 0;
+            brdftab::test::RunningStat paths;
             const int n = 40000;
             for (int k = 0; k < n; ++k) {
                 bt_sampler sm{3, 4, 77, 0, (uint)k, BT_METHOD_MC};
@@ -465,10 +453,9 @@ TEST_CASE("V-cavity: order 1 = TS body, ni = 1 order 2 = Oren-Nayar L2, energy, 
                 double to = std::acos(std::sqrt(1 - u)) / kDeg;
                 Pt p(ti, 0, to, 360 * w, 40, 0.8, 1.0, 1.0, 0);
                 double x = kPi * interfaced_lambertian_sample(p.p, opt, IL_Q_VCAVITY, &sm);
-                sum += x;
-                sum2 += x * x;
+                paths.add(x);
             }
-            double mean = sum / n, se = std::sqrt((sum2 / n - mean * mean) / n);
+            const double mean = paths.mean, se = paths.se();
             CAPTURE(dist);
             CAPTURE(ti);
             CAPTURE(se);
@@ -483,17 +470,16 @@ TEST_CASE("V-cavity: order 1 = TS body, ni = 1 order 2 = Oren-Nayar L2, energy, 
         double alb[2];
         for (int mode = 0; mode < 2; ++mode) {
             int opt[8] = {BECK_TS, 1, mode};
-            double sum = 0, sum2 = 0;
+            brdftab::test::RunningStat paths;
             const int n = 40000;
             for (int k = 0; k < n; ++k) {
                 bt_sampler sm{3, 4, 78, 0, (uint)k, BT_METHOD_MC};
                 double u = bt_uniform(&sm, 3000), w = bt_uniform(&sm, 3001);
                 Pt p(ti, 0, std::acos(std::sqrt(1 - u)) / kDeg, 360 * w, 0, 0.8, 1.5, 1.0, 0);
                 double x = kPi * interfaced_lambertian_sample(p.p, opt, IL_Q_VCAVITY, &sm);
-                sum += x;
-                sum2 += x * x;
+                paths.add(x);
             }
-            double mean = sum / n, se = std::sqrt((sum2 / n - mean * mean) / n);
+            const double mean = paths.mean, se = paths.se();
             Pt p(ti, 0, 0, 0, 0, 0.8, 1.5, 1.0, 0);  // (n = 40000 paths above)
             Stat spec = est(p.p, opt, IL_Q_ALBEDO_SPECULAR, 4096, 8);
             alb[mode] = mean + spec.mean;

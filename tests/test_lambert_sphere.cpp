@@ -49,7 +49,7 @@ bt_sampler mc_sampler(uint cell, uint sample) {
     return brdftab::test::mc_sampler(0xABCDu, 0x1234u, cell, sample);
 }
 
-const double kPi = 3.14159265358979323846;
+using brdftab::test::kPi;
 
 // eq. 1 written in the scattering angle: p = 2(sin th - th cos th)/(3 pi^2).
 double phase_theta(double th) { return 2 * (std::sin(th) - th * std::cos(th)) / (3 * kPi * kPi); }

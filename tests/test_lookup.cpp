@@ -1,8 +1,8 @@
 // test_lookup.cpp — interpolation, direction lookup, recombination and
 // importance sampling of host/lookup/lookup.h.
 //
-// Oracles: closed-form functions tabulated here (node positions computed in
-// this file from the spacing formulas, not by Axis::warp), analytic integrals,
+// Oracles: closed-form functions tabulated here (node positions computed by
+// test::axis from the spacing formulas, not by Axis::warp), analytic integrals,
 // independent quadrature of pdf(), and a chi-square test of sample() against
 // cell probabilities computed from pdf() times exact cell areas.
 #include <doctest/doctest.h>
@@ -18,42 +18,15 @@
 #include "host/core/error.h"
 #include "host/lookup/lookup.h"
 #include "host/io/table_io.h"
+#include "test_support.h"
 
 using namespace brdftab;
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-constexpr double kDeg = kPi / 180;
-
-Axis axis(const std::string& name, const std::string& unit, double min, double max,
-          std::size_t n, Spacing sp) {
-    Axis a;
-    a.name = name;
-    a.unit = unit;
-    a.min = min;
-    a.max = max;
-    a.count = n;
-    a.spacing = sp;
-    for (std::size_t k = 0; k < n; ++k) {
-        const double t = double(k) / double(n - 1);
-        double x = 0;
-        switch (sp) {
-            case Spacing::Linear: x = min + t * (max - min); break;
-            case Spacing::Cos:
-                x = std::acos(std::cos(min * kDeg) + t * (std::cos(max * kDeg) - std::cos(min * kDeg))) /
-                    kDeg;
-                break;
-            case Spacing::Log: x = min * std::pow(max / min, t); break;
-            case Spacing::Quadratic: x = min + t * t * (max - min); break;
-            default: break;
-        }
-        a.values.push_back(x);
-    }
-    a.values.front() = min;
-    a.values.back() = max;
-    return a;
-}
+using test::axis;
+using test::kDeg;
+using test::kPi;
 
 // Warped coordinate of x on axis a, from the spacing formulas (test oracle).
 double tcoord(const Axis& a, double x) {

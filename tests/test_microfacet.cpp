@@ -16,10 +16,11 @@
 #include "kernels/common/microfacet.h"
 #include "kernels/common/sampler.h"
 #include "kernels/common/vec3.h"
+#include "test_support.h"
 
 namespace {
 
-const double kPi = 3.14159265358979323846;
+using brdftab::test::kPi;
 
 // 5-point Gauss-Legendre on [-1, 1].
 const double kGlX[5] = {-0.9061798459386640, -0.5384693101056831, 0.0, 0.5384693101056831,
@@ -53,17 +54,7 @@ double hemisphere_integral(const std::function<double(bt_vec3)>& f, int panels, 
     return total;
 }
 
-// Fresnel from the s- and p-polarised amplitude coefficients (Hecht):
-// rs = (ci - eta ct)/(ci + eta ct), rp = (eta ci - ct)/(eta ci + ct).
-double fresnel_sp(double ci, double eta)
-{
-    double st2 = (1 - ci * ci) / (eta * eta);
-    if (st2 >= 1) return 1;
-    double ct = std::sqrt(1 - st2);
-    double rs = (ci - eta * ct) / (ci + eta * ct);
-    double rp = (eta * ci - ct) / (eta * ci + ct);
-    return 0.5 * (rs * rs + rp * rp);
-}
+using brdftab::test::fresnel_sp;
 
 struct Cfg {
     int dist;

@@ -25,8 +25,8 @@ using namespace brdftab;
 
 namespace {
 
-const double kPi = 3.14159265358979323846;
-const double kDeg = kPi / 180;
+using brdftab::test::kPi;
+using brdftab::test::kDeg;
 
 bt_vec3 dir(double theta_deg, double phi_deg)
 {
@@ -408,15 +408,12 @@ TEST_CASE("BRDF: reciprocity, eq. 21 against quadrature, tau0 -> 0 limit, albedo
                         (kPi / 2 / n) * (kPi / n);
             }
         quad *= c.tau0;  // eq. 20 weight, absorbing base
-        double sum = 0, sum2 = 0;
-        const int N = 40000;
-        for (int k = 0; k < N; ++k) {
+        test::RunningStat stat;
+        for (int k = 0; k < 40000; ++k) {
             bt_sampler s = mc(900, (uint)k);
-            const double v = micrograin_sample(pt.p, pt.o, MG_Q_BRDF, &s);
-            sum += v;
-            sum2 += v * v;
+            stat.add(micrograin_sample(pt.p, pt.o, MG_Q_BRDF, &s));
         }
-        const double mean = sum / N, se = std::sqrt((sum2 / N - mean * mean) / N);
+        const double mean = stat.mean, se = stat.se();
         CAPTURE(c.ti);
         CHECK(std::fabs(mean - quad) < 5 * se + 2e-3 * quad);
     }
@@ -470,15 +467,12 @@ TEST_CASE("BRDF: reciprocity, eq. 21 against quadrature, tau0 -> 0 limit, albedo
                 quad += micrograin_sample(q.p, q.o, MG_Q_BRDF, &s) * std::cos(th * kDeg) *
                         std::sin(th * kDeg) * (kPi / 2 / n) * (kPi / n);
             }
-        double sum = 0, sum2 = 0;
-        const int N = 40000;
-        for (int k = 0; k < N; ++k) {
+        test::RunningStat stat;
+        for (int k = 0; k < 40000; ++k) {
             bt_sampler s = mc(77, (uint)k);
-            const double v = micrograin_sample(pt.p, pt.o, MG_Q_ALBEDO, &s);
-            sum += v;
-            sum2 += v * v;
+            stat.add(micrograin_sample(pt.p, pt.o, MG_Q_ALBEDO, &s));
         }
-        const double mean = sum / N, se = std::sqrt((sum2 / N - mean * mean) / N);
+        const double mean = stat.mean, se = stat.se();
         CHECK(std::fabs(mean - quad) < 5 * se + 2e-3 * quad);
         CHECK(mean < 1);  // single scattering cannot create energy
     }

@@ -22,13 +22,14 @@
 
 #include "host/engine/kernel_sources.h"
 #include "host/engine/opencl_runtime.h"
+#include "test_support.h"
 
 using namespace brdftab;
 namespace fs = std::filesystem;
 
 namespace {
 
-// PoCL crashes on an unwritable cache directory (PLATFORM-NOTES.md).  CTest
+// PoCL crashes on an unwritable cache directory.  CTest
 // sets POCL_CACHE_DIR; when the binary is run by hand, point it at the build
 // tree before the first OpenCL call.
 const bool pocl_cache_ready = [] {
@@ -209,7 +210,7 @@ TEST_CASE("list_devices finds a CPU device") {
         any_cpu = any_cpu || d.is_cpu;
     }
     CHECK(any_cpu);
-    // PoCL's CPU device has doubles (PLATFORM-NOTES.md); the double precision
+    // PoCL's CPU device has doubles; the double precision
     // test below proves it by computing with them.
     CHECK(cpu_device().has_fp64);
 }
@@ -552,7 +553,7 @@ TEST_CASE("REAL is double on device with BT_HAS_FP64=1") {
     // series psi'(m) = 1/m + 1/(2m^2) + 1/(6m^3) - 1/(30m^5) + ...
     // (error < 1/(42 m^7), far below double rounding for m = 1e5+1).
     const double m = n + 1.0;
-    const double pi = 3.14159265358979323846;
+    const double pi = test::kPi;
     const double exact =
         pi * pi / 6 - (1 / m + 1 / (2 * m * m) + 1 / (6 * m * m * m) - 1 / (30 * m * m * m * m * m));
 

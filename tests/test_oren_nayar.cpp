@@ -24,13 +24,14 @@
 #include "host/engine/engine.h"
 #include "host/models/registry.h"
 #include "kernels/models/oren_nayar.h"
+#include "test_support.h"
 
 using namespace brdftab;
 
 namespace {
 
-const double kPi = 3.14159265358979323846;
-const double kDeg = kPi / 180;
+using brdftab::test::kPi;
+using brdftab::test::kDeg;
 
 bt_sampler quad_sampler(uint batch = 0)
 {

@@ -21,18 +21,10 @@ using Stat = brdftab::test::RunningStat;
 
 bt_sampler mc(uint cell, uint sample) { return brdftab::test::mc_sampler(0xC0FFEEu, 0x5EEDu, cell, sample); }
 
-const double kPi = 3.14159265358979323846;
-const double kDeg = kPi / 180;
+using brdftab::test::kPi;
+using brdftab::test::kDeg;
 
-double fresnel_sp(double ci, double eta)
-{
-    double st2 = (1 - ci * ci) / (eta * eta);
-    if (st2 >= 1) return 1;
-    double ct = std::sqrt(1 - st2);
-    double rs = (ci - eta * ct) / (ci + eta * ct);
-    double rp = (eta * ci - ct) / (eta * ci + ct);
-    return 0.5 * (rs * rs + rp * rp);
-}
+using brdftab::test::fresnel_sp;
 
 // Mean of quantity q over n MC samples.
 Stat estimate(const double* p, const int* o, int q, int n, uint cell)

@@ -11,22 +11,9 @@
 #include <vector>
 
 #include "kernels/common/sampler.h"
+#include "test_sampling.h"
 
-namespace {
-
-bt_sampler make(uint method, uint key0, uint key1, uint cell, uint batch, uint sample)
-{
-    bt_sampler s;
-    s.key0 = key0;
-    s.key1 = key1;
-    s.cell = cell;
-    s.batch = batch;
-    s.sample = sample;
-    s.method = method;
-    return s;
-}
-
-}  // namespace
+using brdftab::test::make_sampler;
 
 TEST_CASE("philox4x32-10 matches Random123 known-answer vectors")
 {
@@ -55,7 +42,7 @@ TEST_CASE("philox4x32-10 matches Random123 known-answer vectors")
 
 TEST_CASE("MC uniform uses counter (cell, batch, sample, dim/4), word dim%4, key (key0, key1)")
 {
-    bt_sampler s = make(BT_METHOD_MC, 0xa4093822u, 0x299f31d0u, 0x243f6a88u, 0x85a308d3u,
+    bt_sampler s = make_sampler(BT_METHOD_MC, 0xa4093822u, 0x299f31d0u, 0x243f6a88u, 0x85a308d3u,
                         0x13198a2eu);
     // dim/4 = 0x03707344 is not a valid dim, so use the KAT block layout with
     // dim/4 = 1 and compare against the block function (validated above).
@@ -81,7 +68,7 @@ TEST_CASE("uniforms are in [0,1), never 1.0, with U(0,1) mean and variance")
         long n = 0;
         for (uint cell = 0; cell < 64; ++cell)
             for (uint k = 0; k < 256; ++k) {
-                bt_sampler s = make(method, 7u, 11u, cell, 3u, k);
+                bt_sampler s = make_sampler(method, 7u, 11u, cell, 3u, k);
                 for (uint d = 0; d < BT_MAX_DIMS; ++d) {
                     double u = bt_uniform(&s, d);
                     REQUIRE(u >= 0.0);
@@ -95,7 +82,7 @@ TEST_CASE("uniforms are in [0,1), never 1.0, with U(0,1) mean and variance")
         CHECK(std::fabs(mean - 0.5) < 5 * std::sqrt(1.0 / 12 / n));
         CHECK(std::fabs(var - 1.0 / 12) < 5 * std::sqrt(1.0 / 180 / n));
     }
-    bt_sampler c = make(BT_METHOD_CLOSED, 1, 2, 3, 4, 5);
+    bt_sampler c = make_sampler(BT_METHOD_CLOSED, 1, 2, 3, 4, 5);
     CHECK(bt_uniform(&c, 0) == 0.5);
 }
 
@@ -159,7 +146,7 @@ TEST_CASE("Sobol dims 0/1 form a (0,m,2)-net, before and after Owen scrambling")
         for (uint k = 0; k < (1u << m); ++k) {
             x[k] = bt_sobol_u32(k, 0);
             y[k] = bt_sobol_u32(k, 1);
-            bt_sampler s = make(BT_METHOD_RQMC, 0x1234u, 0x9876u, 17u + m, 5u, k);
+            bt_sampler s = make_sampler(BT_METHOD_RQMC, 0x1234u, 0x9876u, 17u + m, 5u, k);
             xs[k] = to_u32(bt_uniform(&s, 0));
             ys[k] = to_u32(bt_uniform(&s, 1));
         }
@@ -184,7 +171,7 @@ TEST_CASE("every scrambled Sobol dim is stratified: one point per 1/2^m interval
     for (uint d = 0; d < BT_MAX_DIMS; ++d) {
         std::set<uint> seen;
         for (uint k = 0; k < (1u << m); ++k) {
-            bt_sampler s = make(BT_METHOD_RQMC, 3u, 4u, 99u, 2u, k);
+            bt_sampler s = make_sampler(BT_METHOD_RQMC, 3u, 4u, 99u, 2u, k);
             seen.insert(to_u32(bt_uniform(&s, d)) >> (32 - m));
         }
         CHECK(seen.size() == (1u << m));
@@ -206,7 +193,7 @@ TEST_CASE("RQMC batches are unbiased and beat MC on a smooth integrand")
         for (int b = 0; b < nb; ++b) {
             double acc = 0;
             for (uint k = 0; k < 256; ++k) {
-                bt_sampler s = make(method, 42u, 0u, 7u, (uint)b, k);
+                bt_sampler s = make_sampler(method, 42u, 0u, 7u, (uint)b, k);
                 acc += bt_uniform(&s, 0) * bt_uniform(&s, 1) * bt_uniform(&s, 2) *
                        std::exp(bt_uniform(&s, 3));
             }
@@ -227,7 +214,7 @@ TEST_CASE("streams differ across cells, batches, keys and dims; results are dete
         auto seq = [&](uint k0, uint cell, uint batch, uint dim) {
             std::vector<double> v;
             for (uint k = 0; k < 16; ++k) {
-                bt_sampler s = make(method, k0, 5u, cell, batch, k);
+                bt_sampler s = make_sampler(method, k0, 5u, cell, batch, k);
                 v.push_back(bt_uniform(&s, dim));
             }
             return v;
@@ -239,9 +226,9 @@ TEST_CASE("streams differ across cells, batches, keys and dims; results are dete
         CHECK(base != seq(2, 10, 0, 0));
         CHECK(base != seq(1, 10, 0, 1));
         // Order independence: evaluating other cells in between changes nothing.
-        bt_sampler a = make(method, 1, 5, 10, 0, 3);
+        bt_sampler a = make_sampler(method, 1, 5, 10, 0, 3);
         double first = bt_uniform(&a, 2);
-        bt_sampler other = make(method, 9, 9, 9, 9, 9);
+        bt_sampler other = make_sampler(method, 9, 9, 9, 9, 9);
         (void)bt_uniform(&other, 2);
         CHECK(bt_uniform(&a, 2) == first);
     }

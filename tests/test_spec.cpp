@@ -7,6 +7,7 @@
 // line is known by construction).  The presets in tables/ must all parse.
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -16,6 +17,7 @@
 
 #include "host/core/error.h"
 #include "host/spec/spec.h"
+#include "test_support.h"
 
 using namespace brdftab;
 
@@ -180,27 +182,8 @@ TEST_CASE("samples above the default cap raise max_samples with it") {
 }
 
 TEST_CASE("per-table overrides of parameters and axes") {
-    const std::string text = lines({
-        "model = \"rough-dielectric\"",
-        "[parameters]",
-        "alpha = 0.3",
-        "eta = 1.5",
-        "theta_i = 20",
-        "[[axes]]",
-        "name = \"theta_o\"",
-        "range = [0, 180]",
-        "count = 5",
-        "spacing = \"cos\"",
-        "[[axes]]",
-        "name = \"eta\"",  // line 12: also a global fixed value
-        "range = [1.1, 2.0]",
-        "count = 4",
-    });
-    // A global value and a global axis of the same name contradict each other.
-    expect_error(text + lines({"[[tables]]", "quantity = \"brdf\""}), 12, "axes[1].name",
-                 "eta");
-
-    const std::string ok = lines({
+    // Lines 1-11: global alpha, eta and theta_i, a theta_o axis, a second axis.
+    const std::string head = lines({
         "model = \"rough-dielectric\"",  // 1
         "[parameters]",                  // 2
         "alpha = 0.3",                   // 3
@@ -212,25 +195,25 @@ TEST_CASE("per-table overrides of parameters and axes") {
         "count = 5",                     // 9
         "spacing = \"cos\"",             // 10
         "[[axes]]",                      // 11
-        "name = \"alpha\"",              // 12 (global alpha is fixed: not allowed)
+    });
+    const std::string text = head + lines({
+        "name = \"eta\"",  // line 12: also a global fixed value
+        "range = [1.1, 2.0]",
+        "count = 4",
+    });
+    // A global value and a global axis of the same name contradict each other.
+    expect_error(text + lines({"[[tables]]", "quantity = \"brdf\""}), 12, "axes[1].name",
+                 "eta");
+
+    const std::string ok = head + lines({
+        "name = \"alpha\"",  // 12 (global alpha is fixed: not allowed)
         "range = [0.1, 0.5]",
         "count = 3",
     });
     expect_error(ok + lines({"[[tables]]", "quantity = \"brdf\""}), 12, "axes[1].name",
                  "alpha");
 
-    const std::string good = lines({
-        "model = \"rough-dielectric\"",
-        "[parameters]",
-        "alpha = 0.3",
-        "eta = 1.5",
-        "theta_i = 20",
-        "[[axes]]",
-        "name = \"theta_o\"",
-        "range = [0, 180]",
-        "count = 5",
-        "spacing = \"cos\"",
-        "[[axes]]",
+    const std::string good = head + lines({
         "name = \"phi_d\"",
         "range = [0, 180]",
         "count = 3",
@@ -655,27 +638,16 @@ TEST_CASE("the annotated example in docs/spec.md parses as documented") {
     CHECK(s.integration.tolerance == 1e-3);
 }
 
-// Two tables on one 3 x 3 grid (16 lines), the base of the derived-table cases.
-const char* const kTwoTables = R"(model = "rough-dielectric"
-[parameters]
-alpha = 0.3
-eta = 1.5
-[[axes]]
-name = "theta_i"
-range = [0.0, 80.0]
-count = 3
-[[axes]]
-name = "theta_o"
-range = [0.0, 80.0]
-count = 3
-[[tables]]
-quantity = "brdf"
-[[tables]]
-quantity = "btdf"
-)";
+// Two tables (brdf, btdf) on one 3 x 4 grid, the base of the derived-table
+// cases; the expected line numbers below count on its 16 lines.
+std::string two_tables() {
+    std::string text = test::fixture_text("rough_dielectric_brdf_btdf.toml");
+    REQUIRE(std::count(text.begin(), text.end(), '\n') == 16);
+    return text;
+}
 
 TEST_CASE("[[recombined]]: recipe parsed; terms must exist and share their axes") {
-    const std::string base = kTwoTables;
+    const std::string base = two_tables();
     const Spec s = parse_spec_string(base + R"([[recombined]]
 name = "sum"
 parameter = "w"
@@ -726,7 +698,7 @@ coeffs = [0.0, 1]
 }
 
 TEST_CASE("[[errors]]: recipe parsed; compared tables must exist, differ and share axes and units") {
-    const std::string base = kTwoTables;  // 16 lines: [[errors]] below starts at line 17
+    const std::string base = two_tables();  // 16 lines: [[errors]] below starts at line 17
     const Spec s = parse_spec_string(base + R"([[errors]]
 name = "e"
 table = "btdf"

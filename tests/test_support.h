@@ -1,16 +1,41 @@
-// test_support.h — numerical helpers shared by the model tests.  Written
-// independently of the kernels, so tests that use them stay oracles.
+// test_support.h — constants, oracles and helpers shared by the tests.
+// Written independently of the kernels and of the host code they test, so
+// tests that use them stay oracles.
 #pragma once
 
 #include <cmath>
 #include <cstddef>
 #include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
 #include "host/core/grid.h"
 
 namespace brdftab::test {
+
+// pi and one degree in radians, typed here rather than taken from the
+// kernels' constants.
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kDeg = kPi / 180;
+
+// Unpolarised Fresnel reflectance of a smooth dielectric interface, the mean
+// of the squared s- and p-polarised amplitude coefficients (Hecht, Optics,
+// sec. 4.6): rs = (ci - eta ct)/(ci + eta ct), rp = (eta ci - ct)/(eta ci + ct),
+// ct from Snell's law; 1 under total internal reflection.  eta is the ratio
+// of the refractive index across the interface to the one on the incident
+// side; |ci| is used, so the side of the normal does not matter.
+inline double fresnel_sp(double ci, double eta) {
+    ci = std::fabs(ci);
+    const double st2 = (1 - ci * ci) / (eta * eta);
+    if (st2 >= 1) return 1;
+    const double ct = std::sqrt(1 - st2);
+    const double rs = (ci - eta * ct) / (ci + eta * ct);
+    const double rp = (eta * ci - ct) / (eta * ci + ct);
+    return 0.5 * (rs * rs + rp * rp);
+}
 
 // Welford running mean and standard error of the mean.
 struct RunningStat {
@@ -25,20 +50,55 @@ struct RunningStat {
     double se() const { return n > 1 ? std::sqrt(m2 / (n - 1) / n) : 0; }
 };
 
-// A linear axis with its nodes filled by hand (not by make_axis, which the
-// grid tests test), for tests that build tables in memory.
-inline Axis linear_axis(const std::string& name, const std::string& unit, double lo, double hi,
-                        std::size_t n) {
+// An axis with its nodes filled by hand from the spacing definitions (not by
+// make_axis, which the grid tests test), for tests that build tables in
+// memory.  Node k of n sits at t = k/(n-1): lo + t (hi - lo) (linear), the
+// angle whose cosine is the same blend of cos lo and cos hi (cos, degrees),
+// lo (hi/lo)^t (log), lo + t^2 (hi - lo) (quadratic); the end nodes are lo
+// and hi exactly.  One node: lo.
+inline Axis axis(const std::string& name, const std::string& unit, double lo, double hi,
+                 std::size_t n, Spacing spacing = Spacing::Linear) {
     Axis a;
     a.name = name;
     a.unit = unit;
     a.min = lo;
     a.max = hi;
     a.count = n;
-    a.spacing = Spacing::Linear;
-    for (std::size_t k = 0; k < n; ++k)
-        a.values.push_back(n == 1 ? lo : lo + (hi - lo) * double(k) / double(n - 1));
+    a.spacing = spacing;
+    if (n == 1) {
+        a.values = {lo};
+        return a;
+    }
+    for (std::size_t k = 0; k < n; ++k) {
+        const double t = double(k) / double(n - 1);
+        double x = 0;
+        switch (spacing) {
+            case Spacing::Linear: x = lo + t * (hi - lo); break;
+            case Spacing::Cos: {
+                const double c0 = std::cos(lo * kDeg), c1 = std::cos(hi * kDeg);
+                x = std::acos(c0 + t * (c1 - c0)) / kDeg;
+                break;
+            }
+            case Spacing::Log: x = lo * std::pow(hi / lo, t); break;
+            case Spacing::Quadratic: x = lo + t * t * (hi - lo); break;
+            case Spacing::Explicit:
+                throw std::invalid_argument("axis: explicit nodes are not computed");
+        }
+        a.values.push_back(x);
+    }
+    a.values.front() = lo;
+    a.values.back() = hi;
     return a;
+}
+
+// The text of a shared spec fixture, tests/data/<name>.
+inline std::string fixture_text(const std::string& name) {
+    const std::filesystem::path p = std::filesystem::path(BT_SOURCE_DIR) / "tests" / "data" / name;
+    std::ifstream in(p);
+    if (!in) throw std::runtime_error("cannot read test fixture " + p.string());
+    std::ostringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
 }
 
 // An empty scratch directory under the build tree: <build>/tmp-<test>/<sub>.

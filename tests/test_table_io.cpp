@@ -36,7 +36,8 @@ using namespace brdftab;
 namespace {
 
 fs::path scratch_dir(const std::string& sub) { return test::scratch_dir(BT_BINARY_DIR, "test_table_io", sub); }
-using test::linear_axis;
+using test::axis;
+using test::kPi;
 
 // A smooth analytic 3-D table with stderr and samples.
 TableData smooth_table(std::size_t n0, std::size_t n1, std::size_t n2, StoredType st) {
@@ -48,11 +49,11 @@ TableData smooth_table(std::size_t n0, std::size_t n1, std::size_t n2, StoredTyp
     t.description = "test table \u00b5 \u03b8";  // non-ASCII: UTF-8 must survive
     t.parameters = {{"eta", 1.5}, {"alpha", 0.25}, {"distribution", "ggx"},
                     {"nested", {{"list", {1, 2, 3}}}}};
-    t.axes.push_back(linear_axis("alpha", "1", 0.05, 1.0, n0));
-    Axis th = linear_axis("theta_i", "deg", 0.0, 89.0, n1);
+    t.axes.push_back(axis("alpha", "1", 0.05, 1.0, n0));
+    Axis th = axis("theta_i", "deg", 0.0, 89.0, n1);
     th.spacing = Spacing::Cos;  // values need not follow the spacing for storage
     t.axes.push_back(th);
-    t.axes.push_back(linear_axis("phi_d", "deg", 0.0, 180.0, n2));
+    t.axes.push_back(axis("phi_d", "deg", 0.0, 180.0, n2));
     const std::size_t n = n0 * n1 * n2;
     t.value.resize(n);
     t.stderr_.resize(n);
@@ -61,8 +62,8 @@ TableData smooth_table(std::size_t n0, std::size_t n1, std::size_t n2, StoredTyp
         for (std::size_t j = 0; j < n1; ++j)
             for (std::size_t k = 0; k < n2; ++k) {
                 const std::size_t c = (i * n1 + j) * n2 + k;
-                const double a = t.axes[0].values[i], th_ = t.axes[1].values[j] * M_PI / 180,
-                             ph = t.axes[2].values[k] * M_PI / 180;
+                const double a = t.axes[0].values[i], th_ = t.axes[1].values[j] * kPi / 180,
+                             ph = t.axes[2].values[k] * kPi / 180;
                 t.value[c] = std::exp(-a) * std::cos(th_) * (1.2 + std::cos(ph)) / 3.0;
                 t.stderr_[c] = 1e-3 * t.value[c] + 1e-7;
                 t.samples[c] = static_cast<std::uint32_t>(1000 + c);
