@@ -10,6 +10,7 @@
 #include "host/spec/spec.h"
 #include "host/io/table_io.h"
 #include "test_support.h"
+#include "kernels/common/sampler.h"  // bt_sampler: the test calls a host sample function
 
 using namespace brdftab;
 
