@@ -147,6 +147,7 @@ public:
 private:
     LookupTable() = default;
     void init();
+    void init_recombination();
     double combine(const std::vector<double>& piece_values, double p) const;
     void resolve_param(double& p, OutOfRange mode) const;
     std::vector<double> param_coords(const std::map<std::string, double>& params,
