@@ -199,6 +199,21 @@ void LookupTable::init() {
     }
 }
 
+TableData without_recombination(const TableData& table) {
+    TableData d = table;
+    if (d.parameters.is_object()) d.parameters.erase("recombine");
+    return d;
+}
+
+std::unique_ptr<LookupTable> stderr_lookup(const LookupTable& lt) {
+    const TableData& t = lt.table();
+    if (lt.has_recombination() || t.stderr_.size() != t.value.size()) return nullptr;
+    TableData d = without_recombination(t);
+    d.value = t.stderr_;
+    d.stderr_.clear();
+    return std::make_unique<LookupTable>(std::move(d));
+}
+
 std::vector<std::string> LookupTable::coordinate_names() const {
     std::vector<std::string> names;
     for (const auto& a : axes()) names.push_back(a.name);

@@ -12,6 +12,7 @@
 #include <cstddef>
 #include <initializer_list>
 #include <map>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -166,6 +167,15 @@ private:
 
     friend class BoundTable;
 };
+
+// The table with its own stored values only: the "recombine" recipe (if
+// any) removed from its parameters.
+TableData without_recombination(const TableData& table);
+
+// A lookup over the per-cell standard errors of `lt`'s table (same axes and
+// interpolation), or null when the table stores none (closed form) or is
+// recombined from several tables.
+std::unique_ptr<LookupTable> stderr_lookup(const LookupTable& lt);
 
 // A LookupTable with all non-angle coordinates fixed.  eval / sample / pdf
 // use the same interpolation and out-of-range mode given to bind().
