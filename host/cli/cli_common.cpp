@@ -107,27 +107,6 @@ std::pair<std::string, std::string> split_assignment(const std::string& arg) {
     return {arg.substr(0, eq), arg.substr(eq + 1)};
 }
 
-double parse_number(const std::string& text, const std::string& what) {
-    char* end = nullptr;
-    const double v = std::strtod(text.c_str(), &end);
-    if (end == text.c_str() || *end != '\0' || !std::isfinite(v))
-        throw InputError(what + ": '" + text + "' is not a finite number");
-    return v;
-}
-
-std::vector<std::string> split_csv(const std::string& line) {
-    std::vector<std::string> out;
-    std::string cell;
-    std::istringstream s(line);
-    while (std::getline(s, cell, ',')) {
-        const auto b = cell.find_first_not_of(" \t\r");
-        const auto e = cell.find_last_not_of(" \t\r");
-        out.push_back(b == std::string::npos ? "" : cell.substr(b, e - b + 1));
-    }
-    if (!line.empty() && line.back() == ',') out.push_back("");
-    return out;
-}
-
 std::string format_double(double v) { return number_text(v, 17); }
 
 std::string format_short(double v) { return number_text(v, 6); }

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "host/engine/engine.h"
+#include "host/io/point_file.h"
 #include "host/models/registry.h"
 
 namespace brdftab::cli {
@@ -50,13 +51,9 @@ private:
     double last_fraction_ = -1;
 };
 
-// Split "name=value"; throws InputError naming the argument.
+// Split "name=value"; throws InputError naming the argument.  Numbers are
+// read with brdftab::parse_number (host/io/point_file.h).
 std::pair<std::string, std::string> split_assignment(const std::string& arg);
-double parse_number(const std::string& text, const std::string& what);
-
-// One CSV line split on commas, cells trimmed (no quoting: our CSV files hold
-// names and numbers only).
-std::vector<std::string> split_csv(const std::string& line);
 
 // Full precision ("%.17g") and short ("%.6g") number formatting.
 std::string format_double(double v);

@@ -1,170 +1,123 @@
-// eval and generate: the commands that run the engine.
-#include <sys/stat.h>
-#include <unistd.h>
-
+// eval and generate: the commands that run the engine.  The work is done by
+// host/engine/evaluate.h and host/generate/generate.h; this file parses and
+// prints.
 #include <cstdio>
-#include <filesystem>
-#include <fstream>
 #include <iostream>
+#include <memory>
 #include <sstream>
 
 #include "host/core/atomic_file.h"
 #include "host/cli/cli_common.h"
 #include "host/cli/commands.h"
 #include "host/core/error.h"
+#include "host/engine/evaluate.h"
 #include "host/generate/generate.h"
+#include "host/io/point_file.h"
 #include "host/spec/spec.h"
 #include "host/io/table_io.h"
 
 namespace brdftab::cli {
+
+namespace {
+
+struct EvalArgs {
+    std::string model, quantity;
+    std::vector<std::string> assignments;
+    bool json = false;
+    std::string points_file, output;
+    ComputeOptions compute;
+};
+
+void run_eval(const EvalArgs& st) {
+    const ModelInfo& model = find_model(st.model);
+    const QuantityInfo& q = model.quantity(st.quantity);
+    NamedInputs inputs(model, q, "argument");
+    for (const auto& a : st.assignments) {
+        auto [name, text] = split_assignment(a);
+        inputs.add(name, text);
+    }
+    const std::vector<int> options = inputs.options();
+
+    // Points: one from the arguments, or one per CSV row (arguments act as
+    // defaults for columns the CSV does not have).
+    PointFile file;
+    std::vector<std::map<std::string, double>> points;
+    if (!st.points_file.empty()) {
+        file = read_model_point_file(st.points_file, model, q);
+        for (const auto& row : file.rows) points.push_back(file.named(row, inputs.values()));
+    } else {
+        points.push_back(inputs.values());
+    }
+    const std::vector<double> kernel_points =
+        build_kernel_points(model, q, points, [&](std::size_t k) {
+            return st.points_file.empty() ? std::string("arguments")
+                                          : st.points_file + " row " + std::to_string(k + 1);
+        });
+    IntegrationSettings settings = st.compute.apply(IntegrationSettings{});
+    if (!st.output.empty()) check_output_writable(st.output);
+    auto backend = st.compute.make_backend();
+    EstimateResult r = estimate_at(*backend, model, q, options, kernel_points, settings);
+
+    if (st.points_file.empty()) {
+        if (st.json) {
+            nlohmann::json j = {{"model", model.name},
+                                {"quantity", q.name},
+                                {"value", r.value[0]},
+                                {"stderr", r.stderr_[0]},
+                                {"samples", r.method == "closed-form" ? 1u : r.samples[0]},
+                                {"method", r.method},
+                                {"units", q.units},
+                                {"device", backend->device_name()},
+                                {"precision", precision_name(backend->precision())}};
+            std::cout << j.dump() << "\n";
+        } else {
+            std::cout << model.name << " " << q.name << " = " << format_double(r.value[0]);
+            if (r.method != "closed-form")
+                std::cout << " ± " << r.stderr_[0] << " (1 stderr, " << r.samples[0]
+                          << " samples, " << r.method << ")";
+            else
+                std::cout << " (closed form)";
+            std::cout << " [" << q.units << "]\n";
+        }
+        return;
+    }
+    std::ostringstream csv;
+    for (const auto& h : file.header) csv << h << ",";
+    csv << "value,stderr,samples\n";
+    for (std::size_t k = 0; k < file.rows.size(); ++k) {
+        for (const auto& c : file.rows[k].cells) csv << c << ",";
+        csv << format_double(r.value[k]) << "," << format_double(r.stderr_[k]) << ","
+            << (r.method == "closed-form" ? 1u : r.samples[k]) << "\n";
+    }
+    if (st.output.empty()) {
+        std::cout << csv.str();
+    } else {
+        write_text_atomically(st.output, csv.str());
+        std::cerr << "wrote " << file.rows.size() << " rows to " << st.output << "\n";
+    }
+}
+
+}  // namespace
 
 void register_eval(CLI::App& app) {
     auto* cmd = app.add_subcommand(
         "eval",
         "evaluate one quantity at one point (or at every row of --points FILE.csv) on the "
         "device, with its standard error");
-    struct State {
-        std::string model, quantity;
-        std::vector<std::string> assignments;
-        bool json = false;
-        std::string points_file, output;
-        ComputeOptions compute;
-    };
-    static State st;
-    cmd->add_option("MODEL", st.model, "model name (see `brdftab models`)")->required();
-    cmd->add_option("QUANTITY", st.quantity, "quantity of the model")->required();
-    cmd->add_option("VALUES", st.assignments,
+    // Owned by the callback, which CLI11 keeps as long as the command.
+    auto st = std::make_shared<EvalArgs>();
+    cmd->add_option("MODEL", st->model, "model name (see `brdftab models`)")->required();
+    cmd->add_option("QUANTITY", st->quantity, "quantity of the model")->required();
+    cmd->add_option("VALUES", st->assignments,
                     "name=value pairs: directions theta_i phi_i theta_o phi_o phi_d (degrees) "
                     "or mu_i mu_o, model parameters, and options (e.g. distribution=ggx)");
-    cmd->add_flag("--json", st.json, "print one JSON object (value, stderr, samples, method)");
-    cmd->add_option("--points", st.points_file,
+    cmd->add_flag("--json", st->json, "print one JSON object (value, stderr, samples, method)");
+    cmd->add_option("--points", st->points_file,
                     "CSV file with a header row of coordinate/parameter names and one point per "
                     "row; all rows are evaluated in one device launch");
-    cmd->add_option("-o,--output", st.output, "with --points: write the CSV here instead of stdout");
-    st.compute.add_to(*cmd);
-    cmd->callback([] {
-        const ModelInfo& model = find_model(st.model);
-        const QuantityInfo& q = model.quantity(st.quantity);
-        PointBuilder builder(model, q);
-        nlohmann::json option_values = nlohmann::json::object();
-        std::map<std::string, double> fixed;
-        for (const auto& a : st.assignments) {
-            auto [name, text] = split_assignment(a);
-            if (model.find_option(name)) {
-                option_values[name] = text;
-                continue;
-            }
-            const double v = parse_number(text, "argument '" + name + "'");
-            const std::string problem = builder.check(name, v);
-            if (!problem.empty()) throw InputError("argument '" + a + "': " + problem);
-            fixed[name] = v;
-        }
-        const std::vector<int> options = resolve_options(model, option_values, "argument");
-
-        // Points: one from the arguments, or one per CSV row (arguments act as
-        // defaults for columns the CSV does not have).
-        std::vector<std::string> header;
-        std::vector<std::vector<std::string>> rows;
-        std::vector<std::map<std::string, double>> points;
-        if (!st.points_file.empty()) {
-            std::ifstream in(st.points_file);
-            if (!in) throw InputError("cannot open points file '" + st.points_file + "'");
-            std::string line;
-            std::size_t line_no = 0;
-            while (std::getline(in, line)) {
-                ++line_no;
-                if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
-                if (header.empty()) {
-                    header = split_csv(line);
-                    for (const auto& h : header)
-                        if (!is_direction_coordinate(h) && !model.find_parameter(h))
-                            throw InputError(st.points_file + ":" + std::to_string(line_no) +
-                                             ": column '" + h +
-                                             "' is not a coordinate or parameter of '" +
-                                             model.name + "'");
-                    continue;
-                }
-                auto cells = split_csv(line);
-                if (cells.size() != header.size())
-                    throw InputError(st.points_file + ":" + std::to_string(line_no) + ": " +
-                                     std::to_string(cells.size()) + " columns, header has " +
-                                     std::to_string(header.size()));
-                std::map<std::string, double> p = fixed;
-                for (std::size_t c = 0; c < cells.size(); ++c) {
-                    const std::string where = st.points_file + ":" + std::to_string(line_no) +
-                                              ": column '" + header[c] + "'";
-                    const double v = parse_number(cells[c], where);
-                    const std::string problem = builder.check(header[c], v);
-                    if (!problem.empty()) throw InputError(where + ": " + problem);
-                    p[header[c]] = v;
-                }
-                rows.push_back(cells);
-                points.push_back(std::move(p));
-            }
-            if (points.empty()) throw InputError("points file '" + st.points_file + "' has no rows");
-        } else {
-            points.push_back(fixed);
-        }
-        const std::size_t stride = model.point_stride();
-        std::vector<double> kernel_points(points.size() * stride);
-        for (std::size_t k = 0; k < points.size(); ++k) {
-            try {
-                builder.build(points[k], &kernel_points[k * stride]);
-            } catch (const InputError& e) {
-                throw InputError((st.points_file.empty() ? std::string("arguments")
-                                                         : st.points_file + " row " +
-                                                               std::to_string(k + 1)) +
-                                 ": " + e.what());
-            }
-        }
-        IntegrationSettings settings = st.compute.apply(IntegrationSettings{});
-        if (!st.output.empty()) check_output_writable(st.output);
-        auto backend = st.compute.make_backend();
-        EstimateResult r = estimate(
-            *backend, model, q, options, points.size(),
-            [&](std::size_t cell, double* out) {
-                std::copy_n(&kernel_points[cell * stride], stride, out);
-            },
-            settings);
-
-        if (st.points_file.empty()) {
-            if (st.json) {
-                nlohmann::json j = {{"model", model.name},
-                                    {"quantity", q.name},
-                                    {"value", r.value[0]},
-                                    {"stderr", r.stderr_[0]},
-                                    {"samples", r.method == "closed-form" ? 1u : r.samples[0]},
-                                    {"method", r.method},
-                                    {"units", q.units},
-                                    {"device", backend->device_name()},
-                                    {"precision", precision_name(backend->precision())}};
-                std::cout << j.dump() << "\n";
-            } else {
-                std::cout << model.name << " " << q.name << " = " << format_double(r.value[0]);
-                if (r.method != "closed-form")
-                    std::cout << " ± " << r.stderr_[0] << " (1 stderr, " << r.samples[0]
-                              << " samples, " << r.method << ")";
-                else
-                    std::cout << " (closed form)";
-                std::cout << " [" << q.units << "]\n";
-            }
-            return;
-        }
-        std::ostringstream csv;
-        for (const auto& h : header) csv << h << ",";
-        csv << "value,stderr,samples\n";
-        for (std::size_t k = 0; k < rows.size(); ++k) {
-            for (const auto& c : rows[k]) csv << c << ",";
-            csv << format_double(r.value[k]) << "," << format_double(r.stderr_[k]) << ","
-                << (r.method == "closed-form" ? 1u : r.samples[k]) << "\n";
-        }
-        if (st.output.empty()) {
-            std::cout << csv.str();
-        } else {
-            write_text_atomically(st.output, csv.str());
-            std::cerr << "wrote " << rows.size() << " rows to " << st.output << "\n";
-        }
-    });
+    cmd->add_option("-o,--output", st->output, "with --points: write the CSV here instead of stdout");
+    st->compute.add_to(*cmd);
+    cmd->callback([st] { run_eval(*st); });
 }
 
 namespace {
@@ -209,12 +162,13 @@ void register_generate(CLI::App& app) {
         ComputeOptions compute;
         bool quiet = false;
     };
-    static State st;
-    cmd->add_option("SPEC", st.spec_path, "table specification (TOML)")->required();
-    cmd->add_option("-o,--output", st.output, "output file (default: the spec's output.path)");
-    cmd->add_flag("-q,--quiet", st.quiet, "no progress display");
-    st.compute.add_to(*cmd);
-    cmd->callback([] {
+    auto state = std::make_shared<State>();  // owned by the callback
+    cmd->add_option("SPEC", state->spec_path, "table specification (TOML)")->required();
+    cmd->add_option("-o,--output", state->output, "output file (default: the spec's output.path)");
+    cmd->add_flag("-q,--quiet", state->quiet, "no progress display");
+    state->compute.add_to(*cmd);
+    cmd->callback([state] {
+        const State& st = *state;
         Spec spec = parse_spec_file(st.spec_path);
         const std::string out_path = st.output.empty() ? spec.output.path : st.output;
         check_output_writable(out_path);

@@ -1,6 +1,7 @@
 // devices, models, info: commands that only describe things.
 #include <iomanip>
 #include <iostream>
+#include <memory>
 
 #include "host/cli/cli_common.h"
 #include "host/cli/commands.h"
@@ -33,10 +34,10 @@ void register_devices(CLI::App& app) {
 void register_models(CLI::App& app) {
     auto* cmd = app.add_subcommand(
         "models", "list models: quantities, parameters with allowed ranges, options, equations");
-    static bool as_json = false;
-    cmd->add_flag("--json", as_json, "machine-readable output");
-    cmd->callback([] {
-        if (as_json) {
+    auto as_json = std::make_shared<bool>(false);  // owned by the callback
+    cmd->add_flag("--json", *as_json, "machine-readable output");
+    cmd->callback([as_json] {
+        if (*as_json) {
             std::cout << describe_models().dump(2) << "\n";
             return;
         }
@@ -110,11 +111,16 @@ void print_table_summary(const TableData& t, bool verbose) {
 
 void register_info(CLI::App& app) {
     auto* cmd = app.add_subcommand("info", "describe a brdftab table file");
-    static std::string path;
-    static bool values = false;
-    cmd->add_option("FILE", path, "HDF5 file written by `brdftab generate`")->required();
-    cmd->add_flag("--values", values, "also read the data and print value ranges");
-    cmd->callback([] {
+    struct State {
+        std::string path;
+        bool values = false;
+    };
+    auto state = std::make_shared<State>();  // owned by the callback
+    cmd->add_option("FILE", state->path, "HDF5 file written by `brdftab generate`")->required();
+    cmd->add_flag("--values", state->values, "also read the data and print value ranges");
+    cmd->callback([state] {
+        const std::string& path = state->path;
+        const bool values = state->values;
         const auto names = list_tables(path);
         const auto attrs = read_file_attributes(path);
         std::cout << path << ": " << names.size() << " table(s)";

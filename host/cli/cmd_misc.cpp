@@ -4,6 +4,7 @@
 #include <chrono>
 #include <filesystem>
 #include <iostream>
+#include <memory>
 
 #include "host/cli/cli_common.h"
 #include "host/cli/commands.h"
@@ -23,14 +24,15 @@ void register_export(CLI::App& app) {
         std::vector<std::string> slice;
         bool half = false;
     };
-    static State st;
-    cmd->add_option("FILE", st.file, "brdftab HDF5 file")->required();
-    cmd->add_option("--table", st.table, "table name (see `brdftab info FILE`)")->required();
-    cmd->add_option("--exr", st.exr, "output .exr path")->required();
-    cmd->add_option("--slice", st.slice,
+    auto state = std::make_shared<State>();  // owned by the callback
+    cmd->add_option("FILE", state->file, "brdftab HDF5 file")->required();
+    cmd->add_option("--table", state->table, "table name (see `brdftab info FILE`)")->required();
+    cmd->add_option("--exr", state->exr, "output .exr path")->required();
+    cmd->add_option("--slice", state->slice,
                     "name=value for every axis except two (values must be grid nodes)");
-    cmd->add_flag("--half", st.half, "store 16-bit half channels instead of 32-bit float");
-    cmd->callback([] {
+    cmd->add_flag("--half", state->half, "store 16-bit half channels instead of 32-bit float");
+    cmd->callback([state] {
+        const State& st = *state;
         TableData t = read_table(st.file, st.table);
         ExrExportOptions o;
         o.half = st.half;
@@ -90,14 +92,15 @@ void register_bench(CLI::App& app) {
         std::string presets_dir;
         ComputeOptions compute;
     };
-    static State st;
-    cmd->add_option("--cells", st.cells, "cells per measurement (default 4096)");
-    cmd->add_option("--samples", st.samples, "samples per cell for integrals (default 1024)");
-    cmd->add_option("--presets", st.presets_dir,
+    auto state = std::make_shared<State>();  // owned by the callback
+    cmd->add_option("--cells", state->cells, "cells per measurement (default 4096)");
+    cmd->add_option("--samples", state->samples, "samples per cell for integrals (default 1024)");
+    cmd->add_option("--presets", state->presets_dir,
                     "also time `generate` for every *.toml in this directory (output to a "
                     "temporary directory, deleted afterwards)");
-    st.compute.add_to(*cmd, false);
-    cmd->callback([] {
+    state->compute.add_to(*cmd, false);
+    cmd->callback([state] {
+        const State& st = *state;
         const ModelInfo& model = find_model("rough-dielectric");
         auto device = st.compute.make_backend();
         auto host = make_backend("host", Precision::Double);

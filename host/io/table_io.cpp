@@ -1,18 +1,16 @@
-// table_io.cpp — brdftab HDF5 table files (layout: docs/format.md).
-//
-// A thin RAII layer over the HDF5 C API: H5Cpp has no dimension-scale API and
-// HighFive is not packaged on Debian 12, so every hid_t lives in a Handle that
-// closes it, and every failing call becomes a brdftab::Error naming the call
-// and the innermost message of HDF5's error stack.  HDF5's automatic printing
-// of that stack is switched off because the library never prints.
+// table_io.cpp — the brdftab HDF5 table file schema (layout: docs/format.md):
+// one group per table with `value`, optional `stderr` and `samples` datasets,
+// axis datasets attached as dimension scales, provenance as attributes, and
+// the file-level format version.  Writing goes through a temporary file that
+// replaces the target only when complete.  The HDF5 plumbing (handles, error
+// stack, attributes) is in hdf5_handles.h and hdf5_attributes.h, the
+// binary16 rounding in half_float.h.
 #include "host/io/table_io.h"
 
 #include "host/core/atomic_file.h"
 
 #include <hdf5.h>
 #include <hdf5_hl.h>
-
-#include <Imath/half.h>
 
 #include <algorithm>
 #include <cerrno>
@@ -27,6 +25,9 @@
 #include <unistd.h>
 
 #include "host/core/error.h"
+#include "host/io/half_float.h"
+#include "host/io/hdf5_attributes.h"
+#include "host/io/hdf5_handles.h"
 
 #ifndef BRDFTAB_VERSION
 #define BRDFTAB_VERSION "unknown"
@@ -35,267 +36,12 @@
 namespace brdftab {
 namespace {
 
+using namespace hdf5;
+
 constexpr int kFormatVersion = 1;
 // Upper bound of one chunk.  HDF5's default chunk cache is 1 MiB per dataset,
 // so a chunk of at most that size is cached whole when a reader revisits it.
 constexpr std::size_t kMaxChunkBytes = 1u << 20;
-
-// ---------------------------------------------------------------- errors ----
-
-void silence_hdf5() {
-    // Once per process: HDF5 keeps the setting globally.
-    static const bool done = [] {
-        H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
-        return true;
-    }();
-    (void)done;
-}
-
-herr_t collect_error(unsigned, const H5E_error2_t* e, void* data) {
-    auto* out = static_cast<std::string*>(data);
-    // The walk runs from the API call inwards; the innermost entry usually
-    // carries the concrete cause (errno text, missing object name).
-    if (e && e->desc && *e->desc) *out = e->desc;
-    return 0;
-}
-
-[[noreturn]] void fail(const std::string& call, const std::string& what) {
-    std::string detail;
-    H5Ewalk2(H5E_DEFAULT, H5E_WALK_DOWNWARD, collect_error, &detail);
-    H5Eclear2(H5E_DEFAULT);
-    std::string msg = "HDF5 " + call + " failed";
-    if (!what.empty()) msg += " (" + what + ")";
-    if (!detail.empty()) msg += ": " + detail;
-    throw Error(msg);
-}
-
-herr_t check(herr_t status, const char* call, const std::string& what = {}) {
-    if (status < 0) fail(call, what);
-    return status;
-}
-
-// ---------------------------------------------------------------- handles ---
-
-class Handle {
-public:
-    using Closer = herr_t (*)(hid_t);
-    Handle() = default;
-    Handle(hid_t id, Closer closer, const char* call, const std::string& what = {})
-        : id_(id), closer_(closer) {
-        if (id_ < 0) fail(call, what);
-    }
-    Handle(const Handle&) = delete;
-    Handle& operator=(const Handle&) = delete;
-    Handle(Handle&& o) noexcept : id_(o.id_), closer_(o.closer_) { o.id_ = -1; }
-    Handle& operator=(Handle&& o) noexcept {
-        if (this != &o) {
-            reset();
-            id_ = o.id_;
-            closer_ = o.closer_;
-            o.id_ = -1;
-        }
-        return *this;
-    }
-    ~Handle() { reset(); }
-
-    hid_t get() const { return id_; }
-    operator hid_t() const { return id_; }  // NOLINT: handles pass straight to the C API
-
-    // Close now and report failure (the destructor must stay silent).  Used
-    // for the file, whose close flushes everything to disk.
-    void close(const char* call, const std::string& what = {}) {
-        if (id_ < 0) return;
-        hid_t id = id_;
-        id_ = -1;
-        check(closer_(id), call, what);
-    }
-
-private:
-    void reset() noexcept {
-        if (id_ >= 0 && closer_) closer_(id_);
-        id_ = -1;
-    }
-    hid_t id_ = -1;
-    Closer closer_ = nullptr;
-};
-
-Handle make_plist(hid_t cls, const char* what) {
-    return Handle(H5Pcreate(cls), H5Pclose, "H5Pcreate", what);
-}
-Handle copy_type(hid_t t) { return Handle(H5Tcopy(t), H5Tclose, "H5Tcopy"); }
-Handle scalar_space() { return Handle(H5Screate(H5S_SCALAR), H5Sclose, "H5Screate"); }
-
-Handle utf8_string_type() {
-    Handle t = copy_type(H5T_C_S1);
-    check(H5Tset_size(t, H5T_VARIABLE), "H5Tset_size");
-    check(H5Tset_cset(t, H5T_CSET_UTF8), "H5Tset_cset");
-    return t;
-}
-
-// IEEE binary16 as an HDF5 float type: sign bit 15, exponent bits 10..14,
-// mantissa bits 0..9, bias 15.  h5py maps exactly this layout to numpy.float16.
-Handle half_type() {
-    Handle t = copy_type(H5T_IEEE_F32LE);
-    check(H5Tset_fields(t, 15, 10, 5, 0, 10), "H5Tset_fields");
-    check(H5Tset_size(t, 2), "H5Tset_size");
-    check(H5Tset_ebias(t, 15), "H5Tset_ebias");
-    return t;
-}
-
-// Double -> binary16 bits, correctly rounded (nearest, ties to even).
-// HDF5's own conversion is wrong for some values (PLATFORM-NOTES.md), and
-// Imath::half only takes a float: double -> float -> half can round twice.
-// That only matters when the float lands exactly on a midpoint between two
-// halves although the double did not; then the other float neighbour of the
-// double decides, and we keep whichever half is nearer the double.
-std::uint16_t half_bits(double d) {
-    if (std::isnan(d)) return 0x7e00;  // a quiet NaN
-    float f = static_cast<float>(d);
-    Imath::half h(f);
-    if (std::isfinite(f) && static_cast<double>(f) != d) {
-        float g = std::nextafter(f, d < static_cast<double>(f) ? -INFINITY : INFINITY);
-        Imath::half h2(g);
-        if (h2.bits() != h.bits()) {
-            double e1 = std::fabs(static_cast<double>(static_cast<float>(h)) - d);
-            double e2 = std::fabs(static_cast<double>(static_cast<float>(h2)) - d);
-            if (e2 < e1) h = h2;
-        }
-    }
-    return h.bits();
-}
-
-double half_to_double(std::uint16_t bits) {
-    Imath::half h;
-    h.setBits(bits);
-    return static_cast<double>(static_cast<float>(h));  // exact: half ⊂ float ⊂ double
-}
-
-// ---------------------------------------------------------------- attributes
-
-void write_string_attr(hid_t obj, const char* name, const std::string& value) {
-    Handle type = utf8_string_type();
-    Handle space = scalar_space();
-    Handle attr(H5Acreate2(obj, name, type, space, H5P_DEFAULT, H5P_DEFAULT), H5Aclose,
-                "H5Acreate2", name);
-    const char* p = value.c_str();
-    check(H5Awrite(attr, type, &p), "H5Awrite", name);
-}
-
-void write_attr(hid_t obj, const char* name, hid_t file_type, hid_t mem_type,
-                const void* value) {
-    Handle space = scalar_space();
-    Handle attr(H5Acreate2(obj, name, file_type, space, H5P_DEFAULT, H5P_DEFAULT), H5Aclose,
-                "H5Acreate2", name);
-    check(H5Awrite(attr, mem_type, value), "H5Awrite", name);
-}
-
-void write_double_attr(hid_t obj, const char* name, double v) {
-    write_attr(obj, name, H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, &v);
-}
-void write_u64_attr(hid_t obj, const char* name, std::uint64_t v) {
-    write_attr(obj, name, H5T_STD_U64LE, H5T_NATIVE_UINT64, &v);
-}
-void write_i32_attr(hid_t obj, const char* name, std::int32_t v) {
-    write_attr(obj, name, H5T_STD_I32LE, H5T_NATIVE_INT32, &v);
-}
-
-bool has_attr(hid_t obj, const char* name) {
-    htri_t r = H5Aexists(obj, name);
-    check(r, "H5Aexists", name);
-    return r > 0;
-}
-
-Handle open_attr(hid_t obj, const char* name) {
-    return Handle(H5Aopen(obj, name, H5P_DEFAULT), H5Aclose, "H5Aopen", name);
-}
-
-// Reads variable- or fixed-length string attributes alike, so files touched
-// by other tools still load.
-std::string read_string_attr(hid_t obj, const char* name) {
-    Handle attr = open_attr(obj, name);
-    Handle ftype(H5Aget_type(attr), H5Tclose, "H5Aget_type", name);
-    if (H5Tget_class(ftype) != H5T_STRING) throw Error(std::string("attribute '") + name + "' is not a string");
-    htri_t var = H5Tis_variable_str(ftype);
-    check(var, "H5Tis_variable_str", name);
-    if (var > 0) {
-        Handle mtype = utf8_string_type();
-        check(H5Tset_cset(mtype, H5Tget_cset(ftype)), "H5Tset_cset", name);
-        char* p = nullptr;
-        check(H5Aread(attr, mtype, &p), "H5Aread", name);
-        std::string s = p ? p : "";
-        if (p) H5free_memory(p);
-        return s;
-    }
-    std::size_t n = H5Tget_size(ftype);
-    std::string s(n, '\0');
-    Handle mtype = copy_type(ftype);
-    check(H5Aread(attr, mtype, s.data()), "H5Aread", name);
-    s.resize(std::strlen(s.c_str()));  // fixed-length strings may be NUL padded
-    return s;
-}
-
-double read_double_attr(hid_t obj, const char* name) {
-    Handle attr = open_attr(obj, name);
-    double v = 0;
-    check(H5Aread(attr, H5T_NATIVE_DOUBLE, &v), "H5Aread", name);
-    return v;
-}
-
-std::uint64_t read_u64_attr(hid_t obj, const char* name) {
-    Handle attr = open_attr(obj, name);
-    std::uint64_t v = 0;
-    check(H5Aread(attr, H5T_NATIVE_UINT64, &v), "H5Aread", name);
-    return v;
-}
-
-// Any scalar or 1-D string/integer/float attribute as JSON (others: null).
-nlohmann::json attr_to_json(hid_t obj, const std::string& name) {
-    Handle attr = open_attr(obj, name.c_str());
-    Handle ftype(H5Aget_type(attr), H5Tclose, "H5Aget_type", name);
-    Handle space(H5Aget_space(attr), H5Sclose, "H5Aget_space", name);
-    H5T_class_t cls = H5Tget_class(ftype);
-    if (cls == H5T_STRING) return read_string_attr(obj, name.c_str());
-    hssize_t n = H5Sget_simple_extent_npoints(space);
-    int rank = H5Sget_simple_extent_ndims(space);
-    if (n < 0 || rank > 1) return nullptr;
-    nlohmann::json out;
-    if (cls == H5T_INTEGER) {
-        if (H5Tget_sign(ftype) == H5T_SGN_NONE) {
-            std::vector<std::uint64_t> v(static_cast<std::size_t>(n));
-            check(H5Aread(attr, H5T_NATIVE_UINT64, v.data()), "H5Aread", name);
-            out = v;
-        } else {
-            std::vector<std::int64_t> v(static_cast<std::size_t>(n));
-            check(H5Aread(attr, H5T_NATIVE_INT64, v.data()), "H5Aread", name);
-            out = v;
-        }
-    } else if (cls == H5T_FLOAT) {
-        std::vector<double> v(static_cast<std::size_t>(n));
-        check(H5Aread(attr, H5T_NATIVE_DOUBLE, v.data()), "H5Aread", name);
-        out = v;
-    } else {
-        return nullptr;
-    }
-    if (rank == 0 && out.size() == 1) return out[0];
-    return out;
-}
-
-herr_t collect_name(hid_t, const char* name, const H5A_info_t*, void* data) noexcept {
-    try {
-        static_cast<std::vector<std::string>*>(data)->emplace_back(name);
-        return 0;
-    } catch (...) {
-        return -1;
-    }
-}
-
-std::vector<std::string> attr_names(hid_t obj) {
-    std::vector<std::string> names;
-    hsize_t idx = 0;
-    check(H5Aiterate2(obj, H5_INDEX_NAME, H5_ITER_INC, &idx, collect_name, &names),
-          "H5Aiterate2");
-    return names;
-}
 
 // ---------------------------------------------------------------- writing ---
 

@@ -12,6 +12,7 @@
 #include <cstddef>
 #include <initializer_list>
 #include <map>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -147,6 +148,7 @@ public:
 private:
     LookupTable() = default;
     void init();
+    void init_recombination();
     double combine(const std::vector<double>& piece_values, double p) const;
     void resolve_param(double& p, OutOfRange mode) const;
     std::vector<double> param_coords(const std::map<std::string, double>& params,
@@ -165,6 +167,15 @@ private:
 
     friend class BoundTable;
 };
+
+// The table with its own stored values only: the "recombine" recipe (if
+// any) removed from its parameters.
+TableData without_recombination(const TableData& table);
+
+// A lookup over the per-cell standard errors of `lt`'s table (same axes and
+// interpolation), or null when the table stores none (closed form) or is
+// recombined from several tables.
+std::unique_ptr<LookupTable> stderr_lookup(const LookupTable& lt);
 
 // A LookupTable with all non-angle coordinates fixed.  eval / sample / pdf
 // use the same interpolation and out-of-range mode given to bind().

@@ -1,0 +1,138 @@
+// hdf5_attributes.cpp — attribute helpers declared in hdf5_attributes.h.
+#include "host/io/hdf5_attributes.h"
+
+#include <cstring>
+
+#include "host/core/error.h"
+
+namespace brdftab::hdf5 {
+
+void write_string_attr(hid_t obj, const char* name, const std::string& value) {
+    Handle type = utf8_string_type();
+    Handle space = scalar_space();
+    Handle attr(H5Acreate2(obj, name, type, space, H5P_DEFAULT, H5P_DEFAULT), H5Aclose,
+                "H5Acreate2", name);
+    const char* p = value.c_str();
+    check(H5Awrite(attr, type, &p), "H5Awrite", name);
+}
+
+void write_attr(hid_t obj, const char* name, hid_t file_type, hid_t mem_type,
+                const void* value) {
+    Handle space = scalar_space();
+    Handle attr(H5Acreate2(obj, name, file_type, space, H5P_DEFAULT, H5P_DEFAULT), H5Aclose,
+                "H5Acreate2", name);
+    check(H5Awrite(attr, mem_type, value), "H5Awrite", name);
+}
+
+void write_double_attr(hid_t obj, const char* name, double v) {
+    write_attr(obj, name, H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, &v);
+}
+void write_u64_attr(hid_t obj, const char* name, std::uint64_t v) {
+    write_attr(obj, name, H5T_STD_U64LE, H5T_NATIVE_UINT64, &v);
+}
+void write_i32_attr(hid_t obj, const char* name, std::int32_t v) {
+    write_attr(obj, name, H5T_STD_I32LE, H5T_NATIVE_INT32, &v);
+}
+
+bool has_attr(hid_t obj, const char* name) {
+    htri_t r = H5Aexists(obj, name);
+    check(r, "H5Aexists", name);
+    return r > 0;
+}
+
+Handle open_attr(hid_t obj, const char* name) {
+    return Handle(H5Aopen(obj, name, H5P_DEFAULT), H5Aclose, "H5Aopen", name);
+}
+
+// Reads variable- or fixed-length string attributes alike, so files touched
+// by other tools still load.
+std::string read_string_attr(hid_t obj, const char* name) {
+    Handle attr = open_attr(obj, name);
+    Handle ftype(H5Aget_type(attr), H5Tclose, "H5Aget_type", name);
+    if (H5Tget_class(ftype) != H5T_STRING) throw Error(std::string("attribute '") + name + "' is not a string");
+    htri_t var = H5Tis_variable_str(ftype);
+    check(var, "H5Tis_variable_str", name);
+    if (var > 0) {
+        Handle mtype = utf8_string_type();
+        check(H5Tset_cset(mtype, H5Tget_cset(ftype)), "H5Tset_cset", name);
+        char* p = nullptr;
+        check(H5Aread(attr, mtype, &p), "H5Aread", name);
+        std::string s = p ? p : "";
+        if (p) H5free_memory(p);
+        return s;
+    }
+    std::size_t n = H5Tget_size(ftype);
+    std::string s(n, '\0');
+    Handle mtype = copy_type(ftype);
+    check(H5Aread(attr, mtype, s.data()), "H5Aread", name);
+    s.resize(std::strlen(s.c_str()));  // fixed-length strings may be NUL padded
+    return s;
+}
+
+double read_double_attr(hid_t obj, const char* name) {
+    Handle attr = open_attr(obj, name);
+    double v = 0;
+    check(H5Aread(attr, H5T_NATIVE_DOUBLE, &v), "H5Aread", name);
+    return v;
+}
+
+std::uint64_t read_u64_attr(hid_t obj, const char* name) {
+    Handle attr = open_attr(obj, name);
+    std::uint64_t v = 0;
+    check(H5Aread(attr, H5T_NATIVE_UINT64, &v), "H5Aread", name);
+    return v;
+}
+
+// Any scalar or 1-D string/integer/float attribute as JSON (others: null).
+nlohmann::json attr_to_json(hid_t obj, const std::string& name) {
+    Handle attr = open_attr(obj, name.c_str());
+    Handle ftype(H5Aget_type(attr), H5Tclose, "H5Aget_type", name);
+    Handle space(H5Aget_space(attr), H5Sclose, "H5Aget_space", name);
+    H5T_class_t cls = H5Tget_class(ftype);
+    if (cls == H5T_STRING) return read_string_attr(obj, name.c_str());
+    hssize_t n = H5Sget_simple_extent_npoints(space);
+    int rank = H5Sget_simple_extent_ndims(space);
+    if (n < 0 || rank > 1) return nullptr;
+    nlohmann::json out;
+    if (cls == H5T_INTEGER) {
+        if (H5Tget_sign(ftype) == H5T_SGN_NONE) {
+            std::vector<std::uint64_t> v(static_cast<std::size_t>(n));
+            check(H5Aread(attr, H5T_NATIVE_UINT64, v.data()), "H5Aread", name);
+            out = v;
+        } else {
+            std::vector<std::int64_t> v(static_cast<std::size_t>(n));
+            check(H5Aread(attr, H5T_NATIVE_INT64, v.data()), "H5Aread", name);
+            out = v;
+        }
+    } else if (cls == H5T_FLOAT) {
+        std::vector<double> v(static_cast<std::size_t>(n));
+        check(H5Aread(attr, H5T_NATIVE_DOUBLE, v.data()), "H5Aread", name);
+        out = v;
+    } else {
+        return nullptr;
+    }
+    if (rank == 0 && out.size() == 1) return out[0];
+    return out;
+}
+namespace {
+
+herr_t collect_name(hid_t, const char* name, const H5A_info_t*, void* data) noexcept {
+    try {
+        static_cast<std::vector<std::string>*>(data)->emplace_back(name);
+        return 0;
+    } catch (...) {
+        return -1;
+    }
+}
+
+}  // namespace
+
+std::vector<std::string> attr_names(hid_t obj) {
+    std::vector<std::string> names;
+    hsize_t idx = 0;
+    check(H5Aiterate2(obj, H5_INDEX_NAME, H5_ITER_INC, &idx, collect_name, &names),
+          "H5Aiterate2");
+    return names;
+}
+
+}  // namespace brdftab::hdf5

@@ -1,0 +1,187 @@
+// directions.cpp — direction-level lookup for isotropic tables: (wi, wo) to
+// the table's angular coordinates, LookupTable::eval_dirs, and bind(), which
+// fixes every non-angle coordinate and leaves a BoundTable over the angles.
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "host/core/error.h"
+#include "host/lookup/lookup.h"
+#include "host/lookup/lookup_internal.h"
+
+namespace brdftab {
+
+namespace lookup_internal {
+
+namespace {
+
+double wrap_pi(double d) {  // into (-pi, pi]
+    d = std::fmod(d, 2 * kPi);
+    if (d > kPi) d -= 2 * kPi;
+    if (d <= -kPi) d += 2 * kPi;
+    return d;
+}
+
+Vec3 normalised(const Vec3& v) {
+    const double l = std::sqrt(v.x * v.x + v.y * v.y + v.z * v.z);
+    if (!(l > 0)) throw InputError("direction vector has zero or NaN length");
+    return {v.x / l, v.y / l, v.z / l};
+}
+
+}  // namespace
+
+// Shared by LookupTable::eval_dirs and BoundTable: angular coordinates of
+// (wi, wo) in axis units.  phi is reduced to the phi axis' span (fold or wrap).
+void direction_coords(const LookupTable::AngleLayout& L, const Axis* phi_axis,
+                      const Vec3& wi_in, const Vec3& wo_in, double& xi, double& xo,
+                      double& xphi, double& phi_i) {
+    const Vec3 wi = normalised(wi_in), wo = normalised(wo_in);
+    const double mi = std::min(1.0, std::max(-1.0, wi.z));
+    const double mo = std::min(1.0, std::max(-1.0, wo.z));
+    xi = L.mu_i ? mi : std::acos(mi) / L.scale_i;
+    xo = L.mu_o ? mo : std::acos(mo) / L.scale_o;
+    // atan2(0, 0) = 0: a direction on the pole gets azimuth 0, both here and
+    // in the sampler, so pdf() and sample() agree there too.
+    phi_i = std::atan2(wi.y, wi.x);
+    const double d = wrap_pi(std::atan2(wo.y, wo.x) - phi_i);
+    xphi = 0;
+    if (!phi_axis) return;
+    if (L.fold_phi) {
+        xphi = std::fabs(d) / L.scale_phi;  // isotropy: f(phi_d) = f(-phi_d)
+    } else {
+        const double period = 2 * kPi / L.scale_phi;
+        double v = std::fmod(d / L.scale_phi - phi_axis->min, period);
+        if (v < 0) v += period;
+        xphi = phi_axis->min + v;
+    }
+}
+
+}  // namespace lookup_internal
+
+using namespace lookup_internal;
+
+// Coordinates of the non-angle axes from `params` (NaN in angle slots).
+std::vector<double> LookupTable::param_coords(const std::map<std::string, double>& params,
+                                              double* p_out) const {
+    if (!directional_) throw InputError(directional_error_);
+    const auto& ax = axes();
+    std::vector<double> v(ax.size() + (terms_.empty() ? 0 : 1),
+                          std::numeric_limits<double>::quiet_NaN());
+    std::vector<std::string> used;
+    for (std::size_t d = 0; d < ax.size(); ++d) {
+        if (int(d) == layout_.axis_i || int(d) == layout_.axis_o || int(d) == layout_.axis_phi)
+            continue;
+        auto it = params.find(ax[d].name);
+        if (it == params.end())
+            throw InputError("table '" + table().name + "': parameter '" + ax[d].name +
+                             "' is missing (range " + range_text(ax[d]) + ")");
+        v[d] = it->second;
+        used.push_back(ax[d].name);
+    }
+    if (!terms_.empty()) {
+        auto it = params.find(rparam_);
+        if (it == params.end())
+            throw InputError("table '" + table().name + "': parameter '" + rparam_ +
+                             "' is missing");
+        v.back() = it->second;
+        used.push_back(rparam_);
+        if (p_out) *p_out = it->second;
+    }
+    for (const auto& kv : params)
+        if (std::find(used.begin(), used.end(), kv.first) == used.end())
+            throw InputError("table '" + table().name + "': unknown parameter '" + kv.first +
+                             "'");
+    return v;
+}
+
+double LookupTable::eval_dirs(const Vec3& wi, const Vec3& wo,
+                              const std::map<std::string, double>& params,
+                              Interpolation interp, OutOfRange mode) const {
+    std::vector<double> v = param_coords(params, nullptr);
+    double xi, xo, xphi, phi_i;
+    const Axis* phi_axis = layout_.axis_phi >= 0 ? &axes()[layout_.axis_phi] : nullptr;
+    direction_coords(layout_, phi_axis, wi, wo, xi, xo, xphi, phi_i);
+    v[layout_.axis_i] = xi;
+    v[layout_.axis_o] = xo;
+    if (phi_axis) v[layout_.axis_phi] = xphi;
+    return eval(v, interp, mode);
+}
+
+BoundTable LookupTable::bind(const std::map<std::string, double>& params,
+                             Interpolation interp, OutOfRange mode) const {
+    std::vector<double> v = param_coords(params, nullptr);
+    const auto& ax = axes();
+    const std::size_t dims = ax.size();
+    std::vector<AxisWeights> ws(dims);
+    for (std::size_t d = 0; d < dims; ++d) {
+        if (int(d) == layout_.axis_i || int(d) == layout_.axis_o || int(d) == layout_.axis_phi)
+            continue;
+        axis_weights(ax[d], resolve(ax[d], v[d], mode, table().name), interp, ws[d]);
+    }
+    double p = 0;
+    if (!terms_.empty()) {
+        p = v.back();
+        resolve_param(p, mode);
+    }
+
+    BoundTable b;
+    b.name_ = table().name;
+    b.layout_ = layout_;
+    b.interp_ = interp;
+    b.mode_ = mode;
+    b.axes_.push_back(ax[layout_.axis_i]);
+    b.axes_.push_back(ax[layout_.axis_o]);
+    b.has_phi_ = layout_.axis_phi >= 0;
+    if (b.has_phi_) {
+        b.axes_.push_back(ax[layout_.axis_phi]);
+    } else {
+        // Azimuth-independent table: a 2-node synthetic phi_d axis over [0, 180]
+        // carrying the same value at both nodes.
+        Axis a;
+        a.name = "phi_d";
+        a.unit = "deg";
+        a.min = 0;
+        a.max = 180;
+        a.count = 2;
+        a.spacing = Spacing::Linear;
+        a.values = {0.0, 180.0};
+        b.axes_.push_back(a);
+        b.layout_.fold_phi = true;
+        b.layout_.scale_phi = kDeg;
+    }
+    const std::size_t ni = b.axes_[0].count, no = b.axes_[1].count, np = b.axes_[2].count;
+    b.values_.resize(ni * no * np);
+    std::vector<double> pv(pieces_.size());
+    for (std::size_t i = 0; i < ni; ++i)
+        for (std::size_t o = 0; o < no; ++o)
+            for (std::size_t f = 0; f < np; ++f) {
+                ws[layout_.axis_i].single(i);
+                ws[layout_.axis_o].single(o);
+                if (b.has_phi_) ws[layout_.axis_phi].single(f);
+                for (std::size_t k = 0; k < pieces_.size(); ++k)
+                    pv[k] = contract(ws.data(), strides_.data(), dims, pieces_[k].value.data());
+                b.values_[(i * no + o) * np + f] = combine(pv, p);
+            }
+    b.build_sampling();
+    return b;
+}
+
+// ---------------------------------------------------------------------------
+// BoundTable
+
+double BoundTable::eval_angles(double xi, double xo, double xphi) const {
+    AxisWeights ws[3];
+    const double x[3] = {xi, xo, xphi};
+    for (int d = 0; d < 3; ++d)
+        axis_weights(axes_[d], resolve(axes_[d], x[d], mode_, name_), interp_, ws[d]);
+    const std::size_t strides[3] = {axes_[1].count * axes_[2].count, axes_[2].count, 1};
+    return contract(ws, strides, 3, values_.data());
+}
+
+double BoundTable::eval(const Vec3& wi, const Vec3& wo) const {
+    double xi, xo, xphi, phi_i;
+    direction_coords(layout_, &axes_[2], wi, wo, xi, xo, xphi, phi_i);
+    return eval_angles(xi, xo, xphi);
+}
+
+}  // namespace brdftab

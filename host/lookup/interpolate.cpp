@@ -1,0 +1,158 @@
+// interpolate.cpp — values between the nodes of a table: range checks, the
+// per-axis linear and Catmull-Rom weights in each axis' warped coordinate, and
+// their tensor-product contraction (LookupTable::eval).  Direction-level
+// evaluation builds on these in directions.cpp.
+#include <algorithm>
+#include <cmath>
+
+#include "host/core/error.h"
+#include "host/core/text.h"
+#include "host/lookup/lookup.h"
+#include "host/lookup/lookup_internal.h"
+
+namespace brdftab {
+
+namespace lookup_internal {
+
+std::string fmt_num(double v) { return number_text(v, 10); }
+
+std::string range_text(const Axis& a) {
+    std::string r = "[" + fmt_num(a.min) + ", " + fmt_num(a.max) + "]";
+    if (!a.unit.empty()) r += " " + a.unit;
+    return r;
+}
+
+// Validate a coordinate against its axis and apply the out-of-range policy.
+// A tolerance of 1e-9 of the span absorbs rounding (e.g. acos at 90 degrees).
+double resolve(const Axis& a, double x, OutOfRange mode, const std::string& table) {
+    if (std::isnan(x))
+        throw InputError("table '" + table + "': axis '" + a.name + "' value is NaN");
+    const double tol = 1e-9 * (a.max - a.min);
+    if (x < a.min || x > a.max) {
+        if (mode == OutOfRange::Reject && (x < a.min - tol || x > a.max + tol))
+            throw InputError("table '" + table + "': axis '" + a.name + "' value " +
+                             fmt_num(x) + " is outside " + range_text(a));
+        x = std::min(std::max(x, a.min), a.max);
+    }
+    return x;
+}
+
+namespace {
+
+bool is_mirror_phi(const Axis& a) {
+    return a.name == "phi_d" && a.spacing == Spacing::Linear &&
+           std::fabs(a.min) < 1e-9 &&
+           (a.unit == "rad" ? std::fabs(a.max - kPi) < 1e-9 : std::fabs(a.max - 180.0) < 1e-9);
+}
+
+}  // namespace
+
+// Weights of the (already range-resolved) coordinate x on axis a, computed in
+// the warped coordinate u = unwarp(x) * (count - 1) (node k at u = k).
+void axis_weights(const Axis& a, double x, Interpolation interp, AxisWeights& out) {
+    const std::size_t n = a.count;
+    out.n = 0;
+    double u = a.unwarp(x) * double(n - 1);
+    if (!(u >= 0)) u = 0;  // also catches NaN from a degenerate warp
+    if (u > double(n - 1)) u = double(n - 1);
+    std::size_t k = std::min<std::size_t>(std::size_t(u), n - 2);
+    const double s = std::min(std::max(u - double(k), 0.0), 1.0);
+    if (interp == Interpolation::Linear) {
+        out.add(k, 1.0 - s);
+        out.add(k + 1, s);
+        return;
+    }
+    // Uniform Catmull-Rom in u: Hermite with central-difference slopes.
+    const double s2 = s * s, s3 = s2 * s;
+    const double wm = 0.5 * (-s3 + 2 * s2 - s);
+    const double w0 = 0.5 * (3 * s3 - 5 * s2 + 2);
+    const double w1 = 0.5 * (-3 * s3 + 4 * s2 + s);
+    const double w2 = 0.5 * (s3 - s2);
+    const bool mirror = is_mirror_phi(a);
+    out.add(k, w0);
+    out.add(k + 1, w1);
+    // Ghost below node 0.
+    if (k >= 1) {
+        out.add(k - 1, wm);
+    } else if (mirror) {
+        out.add(1, wm);  // f(-h) = f(h): even about phi_d = 0
+    } else if (n >= 3) {
+        out.add(0, 3 * wm);  // quadratic extrapolation: p(-1) = 3p0 - 3p1 + p2
+        out.add(1, -3 * wm);
+        out.add(2, wm);
+    } else {
+        out.add(0, 2 * wm);  // linear: p(-1) = 2p0 - p1
+        out.add(1, -wm);
+    }
+    // Ghost above node n-1.
+    if (k + 2 <= n - 1) {
+        out.add(k + 2, w2);
+    } else if (mirror) {
+        out.add(n - 2, w2);  // even about phi_d = 180
+    } else if (n >= 3) {
+        out.add(n - 1, 3 * w2);
+        out.add(n - 2, -3 * w2);
+        out.add(n - 3, w2);
+    } else {
+        out.add(n - 1, 2 * w2);
+        out.add(n - 2, -w2);
+    }
+}
+
+// Tensor-product contraction of per-axis weights with a row-major array.
+double contract(const AxisWeights* ws, const std::size_t* strides, std::size_t dims,
+                const double* values, std::size_t d, std::size_t offset) {
+    if (d == dims) return values[offset];
+    double sum = 0;
+    for (int k = 0; k < ws[d].n; ++k) {
+        if (ws[d].w[k] == 0) continue;
+        sum += ws[d].w[k] *
+               contract(ws, strides, dims, values, d + 1, offset + ws[d].idx[k] * strides[d]);
+    }
+    return sum;
+}
+
+}  // namespace lookup_internal
+
+using namespace lookup_internal;
+
+double LookupTable::eval(const std::vector<double>& coords, Interpolation interp,
+                         OutOfRange mode) const {
+    const auto& ax = axes();
+    const std::size_t dims = ax.size();
+    const std::size_t want = dims + (terms_.empty() ? 0 : 1);
+    if (coords.size() != want)
+        throw InputError("table '" + table().name + "': eval needs " + std::to_string(want) +
+                         " coordinates, got " + std::to_string(coords.size()));
+    std::vector<AxisWeights> ws(dims);
+    for (std::size_t d = 0; d < dims; ++d)
+        axis_weights(ax[d], resolve(ax[d], coords[d], mode, table().name), interp, ws[d]);
+    double p = 0;
+    if (!terms_.empty()) {
+        p = coords[dims];
+        resolve_param(p, mode);
+    }
+    std::vector<double> pv(pieces_.size());
+    for (std::size_t k = 0; k < pieces_.size(); ++k)
+        pv[k] = contract(ws.data(), strides_.data(), dims, pieces_[k].value.data());
+    return combine(pv, p);
+}
+
+double LookupTable::eval(const std::map<std::string, double>& coords, Interpolation interp,
+                         OutOfRange mode) const {
+    const auto names = coordinate_names();
+    std::vector<double> v;
+    for (const auto& n : names) {
+        auto it = coords.find(n);
+        if (it == coords.end())
+            throw InputError("table '" + table().name + "': coordinate '" + n + "' is missing");
+        v.push_back(it->second);
+    }
+    for (const auto& kv : coords)
+        if (std::find(names.begin(), names.end(), kv.first) == names.end())
+            throw InputError("table '" + table().name + "': unknown coordinate '" + kv.first +
+                             "'");
+    return eval(v, interp, mode);
+}
+
+}  // namespace brdftab
