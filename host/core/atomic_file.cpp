@@ -1,11 +1,14 @@
 #include "host/core/atomic_file.h"
 
 #include <fcntl.h>
+#include <signal.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <atomic>
 #include <cerrno>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -34,10 +37,70 @@ void sync_file(const std::string& path) {
     if (rc != 0) throw Error("fsync of '" + path + "' failed: " + std::strerror(err));
 }
 
+const char* kind_of(mode_t mode) {
+    if (S_ISDIR(mode)) return "a directory";
+    if (S_ISFIFO(mode)) return "a FIFO";
+    if (S_ISCHR(mode)) return "a character device";
+    if (S_ISBLK(mode)) return "a block device";
+    if (S_ISSOCK(mode)) return "a socket";
+    return "not a regular file";
+}
+
+// Removes `<target>.tmp-<pid>-<n>` files whose process is gone.  Best effort:
+// a file we cannot remove is left alone.
+void remove_stale_temporaries(const std::string& target) {
+    namespace fs = std::filesystem;
+    const fs::path p(target);
+    const fs::path dir = p.has_parent_path() ? p.parent_path() : fs::path(".");
+    const std::string prefix = p.filename().string() + ".tmp-";
+    std::error_code ec;
+    for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+        const std::string name = it->path().filename().string();
+        if (name.compare(0, prefix.size(), prefix) != 0) continue;
+        const std::string rest = name.substr(prefix.size());
+        const std::size_t dash = rest.find('-');
+        if (dash == 0 || dash == std::string::npos) continue;
+        if (rest.find_first_not_of("0123456789-") != std::string::npos) continue;
+        const long pid = std::strtol(rest.substr(0, dash).c_str(), nullptr, 10);
+        if (pid <= 0 || pid == static_cast<long>(::getpid())) continue;
+        if (::kill(static_cast<pid_t>(pid), 0) == 0 || errno != ESRCH) continue;  // still running
+        std::error_code ignored;
+        fs::remove(it->path(), ignored);
+    }
+}
+
 }  // namespace
 
+std::string resolve_output_path(const std::string& target) {
+    if (target.empty()) throw InputError("the output path is empty");
+    std::string path = target;
+    // Follow links by hand (not realpath): the final file may not exist yet.
+    for (int depth = 0;; ++depth) {
+        struct stat st;
+        if (::lstat(path.c_str(), &st) != 0) return path;  // nothing there yet
+        if (S_ISREG(st.st_mode)) return path;
+        if (!S_ISLNK(st.st_mode))
+            throw InputError("output '" + target + "'" +
+                             (path == target ? "" : " (through links, '" + path + "')") + " is " +
+                             kind_of(st.st_mode) +
+                             "; brdftab replaces only regular files, give a file path");
+        if (depth >= 40) throw InputError("output '" + target + "': too many levels of links");
+        char buf[4096];
+        const ssize_t n = ::readlink(path.c_str(), buf, sizeof buf - 1);
+        if (n < 0) throw InputError("output '" + target + "': cannot read link '" + path + "'");
+        std::string link(buf, static_cast<std::size_t>(n));
+        if (link.empty() || link[0] != '/') {
+            const std::size_t slash = path.rfind('/');
+            if (slash != std::string::npos) link = path.substr(0, slash + 1) + link;
+        }
+        path = link;
+    }
+}
+
 AtomicOutput::AtomicOutput(std::string target)
-    : target_(std::move(target)), temp_(temporary_name(target_)) {}
+    : target_(resolve_output_path(target)), temp_(temporary_name(target_)) {
+    remove_stale_temporaries(target_);
+}
 
 AtomicOutput::~AtomicOutput() {
     if (!committed_) std::remove(temp_.c_str());
@@ -63,14 +126,22 @@ void write_text_atomically(const std::string& target, const std::string& text) {
 
 void check_output_writable(const std::string& target) {
     namespace fs = std::filesystem;
-    const fs::path p(target);
+    const std::string resolved = resolve_output_path(target);  // refuses non-regular files
+    const fs::path p(resolved);
     const fs::path dir = p.has_parent_path() ? p.parent_path() : fs::path(".");
     std::error_code ec;
     if (!fs::is_directory(dir, ec))
         throw InputError("output '" + target + "': directory '" + dir.string() + "' does not exist");
     if (::access(dir.c_str(), W_OK) != 0)
         throw InputError("output '" + target + "': directory '" + dir.string() + "' is not writable");
-    if (fs::is_directory(p, ec)) throw InputError("output '" + target + "' is a directory");
+    // The probe finds what access() cannot: a name too long for the file
+    // system (with the temporary suffix), a read-only mount, a full inode table.
+    const std::string probe = temporary_name(resolved);
+    const int fd = ::open(probe.c_str(), O_WRONLY | O_CREAT | O_EXCL, 0644);
+    if (fd < 0)
+        throw InputError("output '" + target + "' cannot be created: " + std::strerror(errno));
+    ::close(fd);
+    ::unlink(probe.c_str());
 }
 
 }  // namespace brdftab

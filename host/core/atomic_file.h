@@ -8,9 +8,19 @@
 
 namespace brdftab {
 
+// What an output path may name.  A missing file or a regular file is
+// replaced; a symbolic link is followed (to any depth) and the file it leads
+// to is replaced, the link itself is kept; anything else (directory, FIFO,
+// device, socket) is refused with InputError, so `-o /dev/null` can never
+// replace a device node.  Returns the path that will be replaced.
+std::string resolve_output_path(const std::string& target);
+
 // RAII temporary path: `path()` is where to write; `commit()` syncs the file
 // and renames it over the target; the destructor removes the temporary file
-// unless committed.
+// unless committed.  The target is resolved by resolve_output_path().
+// Temporary files are named `<target>.tmp-<pid>-<n>`; those left by a process
+// that no longer runs (a killed run) are removed when a new AtomicOutput for
+// the same target is made.
 class AtomicOutput {
 public:
     explicit AtomicOutput(std::string target);
@@ -30,8 +40,11 @@ private:
 // Whole text file, atomically.
 void write_text_atomically(const std::string& target, const std::string& text);
 
-// Fails early (InputError) when `target` cannot be written: missing or
-// unwritable directory, or a directory in its place.
+// Fails early (InputError) when `target` cannot be written: an empty path,
+// a missing or unwritable directory, a name the file system refuses (too
+// long), or something other than a regular file in its place (see
+// resolve_output_path).  Creates and removes a probe file under the
+// temporary name, so what passes here can be written after a long compute.
 void check_output_writable(const std::string& target);
 
 }  // namespace brdftab
