@@ -45,9 +45,9 @@ std::string zero_table_file(const std::string& sub, nlohmann::json extra_paramet
     t.units = "1/sr";
     t.parameters = {{"alpha", 0.5}, {"eta", 1.5}, {"distribution", "ggx"}};
     if (extra_parameters.is_object()) t.parameters.update(extra_parameters);
-    t.axes = {test::linear_axis("theta_i", "deg", 0, 80, 3),
-              test::linear_axis("theta_o", "deg", 0, 80, 4),
-              test::linear_axis("phi_d", "deg", 0, 180, 5)};
+    t.axes = {test::axis("theta_i", "deg", 0, 80, 3),
+              test::axis("theta_o", "deg", 0, 80, 4),
+              test::axis("phi_d", "deg", 0, 180, 5)};
     t.value.assign(t.cell_count(), 0.0);
     t.method = method;
     t.stored_type = StoredType::Float64;
