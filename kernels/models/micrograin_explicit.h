@@ -1,8 +1,9 @@
 /*
  * micrograin_explicit.h — reference simulator for the micrograin model
  * (Lucas et al. 2024, §5.1): ray tracing of an explicit random Boolean
- * distribution of half-ellipsoid grains.  Included by micrograin.h; runs on
- * the device (OpenCL) and on the host alike.
+ * distribution of half-ellipsoid grains: the explicit_* and coverage
+ * quantities of micrograin.h, with the grain and base materials of
+ * micrograin_materials.h.  Runs on the device (OpenCL) and on the host alike.
  *
  * Grain field.  Centres form a Poisson process on the base plane of density
  * rho = -ln(1 - tau0) beta_x beta_y / pi (eq. 9, r_s = 1); grain surface
@@ -43,6 +44,12 @@
  */
 #ifndef BRDFTAB_MICROGRAIN_EXPLICIT_H
 #define BRDFTAB_MICROGRAIN_EXPLICIT_H
+
+#include "../common/compat.h"
+#include "../common/philox.h"
+#include "../common/sampler.h"
+#include "../common/vec3.h"
+#include "micrograin_materials.h"
 
 #define MGX_MAX_PER_CELL 40
 #define MGX_MAX_CELLS 20000
