@@ -16,8 +16,10 @@
  *   Math calls (sqrt, exp, log, cos, sin, acos, atan2, erf, fabs, fmin, fmax,
  *   floor, copysign) are written bare: OpenCL provides them as overloaded
  *   built-ins, and the C++ branch below brings the std:: overloads into scope.
- *   Shared code never calls pow(): PoCL's pow is ~10x slower than glibc
- *   (PLATFORM-NOTES.md); integer powers are written as products.
+ *   BT_TABLE    qualifier of a program-scope constant table.
+ *   Shared code never calls pow(): measured, PoCL's double pow is about ten
+ *   times slower than glibc's, so integer powers are written as products
+ *   (docs/contributing.md collects such platform notes).
  */
 #ifndef BRDFTAB_COMPAT_H
 #define BRDFTAB_COMPAT_H
@@ -41,6 +43,7 @@ typedef float ACCUM;
 #define BT_INLINE static inline
 #define BT_GLOBAL __global
 #define BT_CONSTANT __constant
+#define BT_TABLE __constant
 
 #else
 /* ------------------------------------------------------------------ C++ */
@@ -54,6 +57,8 @@ typedef std::uint64_t ulong;
 #define BT_INLINE static inline
 #define BT_GLOBAL
 #define BT_CONSTANT
+/* static: the header can be included from several translation units. */
+#define BT_TABLE static const
 using std::acos;
 using std::atan;
 using std::atan2;

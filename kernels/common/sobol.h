@@ -44,14 +44,6 @@
 #define BT_SOBOL_SCRAMBLE_BITS 32u
 #endif
 
-/* Program-scope constant table: __constant on the device; static const on the
- * host so the header can be included from several translation units. */
-#if BT_DEVICE
-#define BT_TABLE __constant
-#else
-#define BT_TABLE static const
-#endif
-
 BT_TABLE uint bt_sobol_v[BT_SOBOL_DIMS][32] = {
     {0x80000000u, 0x40000000u, 0x20000000u, 0x10000000u, 0x08000000u, 0x04000000u,
      0x02000000u, 0x01000000u, 0x00800000u, 0x00400000u, 0x00200000u, 0x00100000u,

@@ -77,6 +77,37 @@ BT_INLINE bt_vec3 bt_from_spherical(REAL theta, REAL phi)
     return bt_v3(st * cos(phi), st * sin(phi), cos(theta));
 }
 
+/* How bt_direction forms the z component (see there). */
+#define BT_DIR_CLAMP_COS 0  /* z = max(cos theta, min_cos) on both sides */
+#define BT_DIR_SIGNED_COS 1 /* z = max(|cos theta|, min_cos), negated below */
+
+/* The direction of a tabulated point (theta, phi) as the models evaluate it.
+ * Returns 1 when it is above the surface, 0 below.  The side comes from
+ * theta (theta <= pi/2 is above), not from the sign of cos(theta): in float,
+ * theta = pi/2 rounds up and its cosine is -4.4e-8, yet the point is meant
+ * to be on the horizon.  x and y are those of bt_from_spherical; z is
+ * floored at min_cos so that a grazing direction gives the model's finite
+ * grazing value instead of 0/0 (each model passes its own floor and says why
+ * that value).  The two rules differ only where cos(theta) <= min_cos:
+ *   BT_DIR_CLAMP_COS   z = max(cos theta, min_cos); a direction below the
+ *                      surface reads as grazing (models that reject it first);
+ *                      float theta = pi/2 gets z = min_cos.
+ *   BT_DIR_SIGNED_COS  z = +-max(|cos theta|, min_cos), minus below (models
+ *                      defined on both sides); float theta = pi/2 gets
+ *                      z = 4.4e-8 when min_cos is smaller. */
+BT_INLINE int bt_direction(REAL theta, REAL phi, REAL min_cos, int z_rule, bt_vec3* v)
+{
+    int above = !(theta > BT_HALF_PI);
+    *v = bt_from_spherical(theta, phi);
+    if (z_rule == BT_DIR_CLAMP_COS) {
+        v->z = fmax(v->z, min_cos);
+    } else {
+        REAL z = fmax(fabs(v->z), min_cos);
+        v->z = above ? z : -z;
+    }
+    return above;
+}
+
 /* Cartesian (any length > 0) -> spherical; phi in (-pi, pi]. */
 BT_INLINE void bt_to_spherical(bt_vec3 v, REAL* theta, REAL* phi)
 {

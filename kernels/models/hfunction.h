@@ -4,7 +4,8 @@
  *
  * E. d'Eon, "An analytic BRDF for materials with spherical Lambertian
  * scatterers", Computer Graphics Forum 40(4) (EGSR 2021).  Equation numbers
- * are that paper's; symbols restored in /work/shared/MODELS.md §3.
+ * are that paper's; its symbols and the equations as implemented are in
+ * docs/models/lambert-sphere.md.
  * Background: S. Chandrasekhar, Radiative Transfer (1960), ch. V;
  * H. G. Horak, S. Chandrasekhar, ApJ 134 (1961) 45.
  *

@@ -6,8 +6,8 @@
  * References
  *  [d'Eon]  E. d'Eon, "An analytic BRDF for materials with spherical Lambertian
  *           scatterers", Computer Graphics Forum 40(4) (EGSR 2021).  Equation
- *           numbers "eq. N" are this paper's (symbols restored in
- *           /work/shared/MODELS.md §3).
+ *           numbers "eq. N" are this paper's (symbols and the equations
+ *           as implemented: docs/models/lambert-sphere.md).
  *  [HC61]   H. G. Horak, S. Chandrasekhar, "Diffuse reflection by a
  *           semi-infinite atmosphere", ApJ 134 (1961) 45.
  *  [RT]     S. Chandrasekhar, Radiative Transfer, Oxford 1950 (Dover 1960),

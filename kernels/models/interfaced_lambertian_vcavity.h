@@ -1,8 +1,10 @@
 /*
  * interfaced_lambertian_vcavity.h — multiple reflections between interfaced
  * Lambertian microfacets inside V-cavities (Meneveaux et al. §3.3,
- * eqs. 22-23), tallied per bounce order.  Included by
- * interfaced_lambertian.h (uses its il_surface, il_t, il_ri, ...).
+ * eqs. 22-23), tallied per bounce order: the `vcavity` quantity of
+ * interfaced_lambertian.h, on the surface of interfaced_lambertian_surface.h
+ * (il_surface, il_t, il_ri, ...).  Equations as implemented:
+ * docs/models/interfaced-lambertian.md.
  *
  * Geometry (Torrance-Sparrow / Oren-Nayar V-cavities, "much longer than
  * wide"): a facet of normal m forms a symmetric groove with its mirror
@@ -54,6 +56,21 @@
 #ifndef BRDFTAB_INTERFACED_LAMBERTIAN_VCAVITY_H
 #define BRDFTAB_INTERFACED_LAMBERTIAN_VCAVITY_H
 
+#include "../common/compat.h"
+#include "../common/fresnel.h"
+#include "../common/microfacet.h"
+#include "../common/sampler.h"
+#include "../common/vec3.h"
+#include "interfaced_lambertian_surface.h"
+
+/* Option o[2]: which facet events continue a path (header comment). */
+#define IL_INTERREFLECTION_FULL 0
+#define IL_INTERREFLECTION_BODY 1
+
+/* Bounce cut-off of the V-cavity walk (order = 0). */
+#ifndef IL_MAX_BOUNCES
+#define IL_MAX_BOUNCES 128
+#endif
 /* Paths whose throughput falls below IL_ROULETTE continue with probability
  * tau / IL_ROULETTE (Philox dimensions IL_DIM_ROULETTE + bounce). */
 #define IL_ROULETTE R(0.05)

@@ -3,7 +3,8 @@
  *
  * E. d'Eon, "An analytic BRDF for materials with spherical Lambertian
  * scatterers", Computer Graphics Forum 40(4) (EGSR 2021).  Equation numbers
- * are that paper's; symbols restored in /work/shared/MODELS.md §3.
+ * are that paper's; its symbols and the equations as implemented, with every
+ * correction, are in docs/models/lambert-sphere.md.
  *
  * Geometry: a semi-infinite, optically thick, plane-parallel medium of
  * sparse, independently placed Lambertian spheres of diffuse albedo c

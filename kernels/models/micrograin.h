@@ -4,8 +4,8 @@
  * S. Lucas, M. Ribardiere, R. Pacanowski, P. Barla, "A Fully-correlated
  * Anisotropic Micrograin BSDF Model", ACM Transactions on Graphics 43(4),
  * article 111, 2024.  doi:10.1145/3658224
- * (Restated in /work/shared/MODELS.md §4; equation and appendix numbers are
- * the paper's.)
+ * Equation and appendix numbers are the paper's; the equations as
+ * implemented, with every correction, are in docs/models/micrograin.md.
  *
  * Microstructure: a Boolean (Poisson) model of identical opaque half-
  * ellipsoid grains on a base plane z = 0; a grain is the unit half-sphere
@@ -79,10 +79,8 @@
 #include "../common/microfacet.h"
 #include "../common/sampler.h"
 #include "../common/vec3.h"
-
-#if !BT_DEVICE
-using std::log1p;
-#endif
+#include "micrograin_explicit.h"
+#include "micrograin_materials.h"
 
 #define MG_Q_NDF 0
 #define MG_Q_ALPHA_X 1
@@ -100,57 +98,21 @@ using std::log1p;
 #define MG_Q_P_BULK 13
 #define MG_Q_P_DIFFUSE 14
 #define MG_Q_COVERAGE 15
-
-/* The model contract: slots of the point p[] and of the options o[] and the
- * number of quantities (ids MG_Q_* above).  host/models/micrograin.cpp registers
- * the model by these names; p[0..3] are the directions (estimator.h). */
-#define MG_PARAM_TAU0 4
-#define MG_PARAM_BETA_X 5
-#define MG_PARAM_BETA_Y 6
-#define MG_PARAM_H 7
-#define MG_PARAM_KD 8
-#define MG_PARAM_ETA 9
-#define MG_PARAM_K 10
-#define MG_PARAM_BASE_ALBEDO 11
-#define MG_PARAM_BASE_ALPHA 12
-#define MG_PARAM_BASE_ETA 13
-#define MG_PARAM_BASE_K 14
-#define MG_PARAM_COUNT 11
-#define MG_OPT_GRAIN 0
-#define MG_OPT_BASE 1
-#define MG_OPT_CORRELATION 2
-#define MG_OPT_WEIGHTING 3
-#define MG_OPT_COUNT 4
 #define MG_Q_COUNT 16
+/* Parameter and option slots: micrograin_materials.h. */
 
-#define MG_GRAIN_DIFFUSE 0
-#define MG_GRAIN_DIELECTRIC 1
-#define MG_GRAIN_CONDUCTOR 2
-#define MG_BASE_ABSORBING 0
-#define MG_BASE_LAMBERTIAN 1
-#define MG_BASE_CONDUCTOR 2
-#define MG_BASE_DIELECTRIC 3
 #define MG_CORR_DIRECTION 0
 #define MG_CORR_NONE 1
 
-/* Floor on cos(theta) of i and o: theta = 90 deg gives the finite grazing
- * limit (G_dist -> 0) instead of 0/0. */
+/* Floor on |cos theta| of i and o (bt_direction) and of the cosines in the
+ * shadow areas: theta = 90 deg gives the finite grazing limit (G_dist -> 0)
+ * instead of 0/0.  The limit is finite, so the floor only has to keep the
+ * quotients defined; 1e-9 is within 1e-9 rad of the horizon. */
 #define MG_MIN_COS R(1e-9)
 /* Probability of NDF sampling in the defensive mixture (header comment). */
 #define MG_P_NDF R(0.75)
 
 /* ------------------------------------------------------------ helpers */
-
-BT_INLINE REAL mg_log1m(REAL tau0) { return log1p(-tau0); } /* ln(1 - tau0) */
-
-/* Direction above the surface, |z| floored; *ok = 0 when below. */
-BT_INLINE bt_vec3 mg_direction(REAL theta, REAL phi, int* ok)
-{
-    *ok = theta <= BT_HALF_PI;
-    REAL st = sin(theta);
-    REAL z = fmax(fabs(cos(theta)), MG_MIN_COS);
-    return bt_v3(st * cos(phi), st * sin(phi), z);
-}
 
 /* i' = E i / |E i| (§4.2). */
 BT_INLINE bt_vec3 mg_to_sphere_dir(bt_vec3 v, REAL bx, REAL by)
@@ -411,34 +373,6 @@ BT_INLINE REAL mg_pore_visibility(bt_vec3 i, bt_vec3 o, REAL tau0, REAL bx, REAL
     return (R(1.0) - tau0) * mg_g_dist(i, o, R(0.0), tau0, bx, by, corr);
 }
 
-/* -------------------------------------------------------------- Fresnel */
-
-/* Unpolarised reflectance of a conductor of complex index eta + i k (k >= 0;
- * k = 0 is the dielectric case).  Textbook form with
- * a^2 + b^2 = sqrt((eta^2 - k^2 - s^2)^2 + 4 eta^2 k^2):
- *   Rs = (a2b2 + c^2 - 2 a c) / (a2b2 + c^2 + 2 a c)
- *   Rp = Rs (a2b2 c^2 + s^4 - 2 a c s^2) / (a2b2 c^2 + s^4 + 2 a c s^2). */
-BT_INLINE REAL mg_fresnel_conductor(REAL cos_i, REAL eta, REAL k)
-{
-    REAL c = bt_clamp(fabs(cos_i), R(0.0), R(1.0));
-    REAL c2 = c * c, s2 = R(1.0) - c2;
-    REAL t0 = eta * eta - k * k - s2;
-    REAL a2b2 = sqrt(t0 * t0 + R(4.0) * eta * eta * k * k);
-    REAL a = bt_safe_sqrt(R(0.5) * (a2b2 + t0));
-    REAL t1 = a2b2 + c2, t2 = R(2.0) * a * c;
-    REAL rs = (t1 - t2) / fmax(t1 + t2, R(1e-30));
-    REAL t3 = a2b2 * c2 + s2 * s2, t4 = t2 * s2;
-    REAL rp = rs * (t3 - t4) / fmax(t3 + t4, R(1e-30));
-    return bt_clamp(R(0.5) * (rs + rp), R(0.0), R(1.0));
-}
-
-BT_INLINE REAL mg_grain_fresnel(REAL cos_i, const REAL* p, int grain)
-{
-    if (grain == MG_GRAIN_DIELECTRIC) return bt_fresnel_dielectric(cos_i, p[MG_PARAM_ETA]);
-    if (grain == MG_GRAIN_CONDUCTOR) return mg_fresnel_conductor(cos_i, p[MG_PARAM_ETA], p[MG_PARAM_K]);
-    return R(0.0);
-}
-
 /* ---------------------------------------------------------- BSDF terms */
 
 /* Specular micrograin term of eq. 22: D(h) G(i,o,h) F(i.h) / (4 i.n o.n),
@@ -473,24 +407,6 @@ BT_INLINE REAL mg_f_diffuse_sample(bt_vec3 i, bt_vec3 o, const REAL* p, const in
     REAL G = mg_g_dist(i, o, mg_height_of_normal(m, bx, by), tau0, bx, by, opt[MG_OPT_CORRELATION]);
     REAL T = (R(1.0) - mg_grain_fresnel(im, p, opt[MG_OPT_GRAIN])) * (R(1.0) - mg_grain_fresnel(om, p, opt[MG_OPT_GRAIN]));
     return kd * BT_INV_PI * im * om / (i.z * o.z) * D * G * T / pdf;
-}
-
-/* Base (bulk) BRDF f^B. */
-BT_INLINE REAL mg_f_base(bt_vec3 i, bt_vec3 o, const REAL* p, const int* opt)
-{
-    if (opt[MG_OPT_BASE] == MG_BASE_LAMBERTIAN) return p[MG_PARAM_BASE_ALBEDO] * BT_INV_PI;
-    if (opt[MG_OPT_BASE] == MG_BASE_CONDUCTOR || opt[MG_OPT_BASE] == MG_BASE_DIELECTRIC) {
-        /* Microfacet reflection (Walter 2007 eq. 20) of a GGX surface; only
-         * the Fresnel term tells a conductor from a dielectric. */
-        bt_microfacet mf =
-            bt_microfacet_make(BT_MF_GGX, BT_G1_EXACT, BT_SHADOW_HEIGHT_CORRELATED, p[MG_PARAM_BASE_ALPHA], p[MG_PARAM_BASE_ALPHA]);
-        bt_vec3 m = bt_v3_normalize(bt_v3_add(i, o));
-        REAL cos_im = bt_v3_dot(i, m);
-        REAL F = opt[MG_OPT_BASE] == MG_BASE_CONDUCTOR ? mg_fresnel_conductor(cos_im, p[MG_PARAM_BASE_ETA], p[MG_PARAM_BASE_K])
-                                             : bt_fresnel_dielectric(cos_im, p[MG_PARAM_BASE_ETA]);
-        return F * bt_mf_d(&mf, m) * bt_mf_g(&mf, i, o, m) / (R(4.0) * i.z * o.z);
-    }
-    return R(0.0);
 }
 
 /* Weights of f^S and f^B: eqs. 20, 23 or eqs. 1, 25 (option weighting). */
@@ -567,15 +483,13 @@ BT_INLINE REAL mg_p_diffuse(bt_vec3 i, const REAL* p, const int* opt)
     return kd + F > R(0.0) ? kd / (kd + F) : R(0.0);
 }
 
-#include "micrograin_explicit.h"
-
 /* ------------------------------------------------------ sample function */
 
 BT_INLINE REAL micrograin_sample(const REAL* p, const int* o, int quantity, const bt_sampler* s)
 {
-    int ok_i, ok_o;
-    bt_vec3 vi = mg_direction(p[0], p[1], &ok_i);
-    bt_vec3 vo = mg_direction(p[2], p[3], &ok_o);
+    bt_vec3 vi, vo; /* only read when ok_i, ok_o */
+    int ok_i = bt_direction(p[0], p[1], MG_MIN_COS, BT_DIR_SIGNED_COS, &vi);
+    int ok_o = bt_direction(p[2], p[3], MG_MIN_COS, BT_DIR_SIGNED_COS, &vo);
     REAL tau0 = p[MG_PARAM_TAU0], bx = p[MG_PARAM_BETA_X], by = p[MG_PARAM_BETA_Y], h = p[MG_PARAM_H];
     switch (quantity) {
     case MG_Q_NDF:

@@ -1,8 +1,9 @@
 /*
  * micrograin_explicit.h — reference simulator for the micrograin model
  * (Lucas et al. 2024, §5.1): ray tracing of an explicit random Boolean
- * distribution of half-ellipsoid grains.  Included by micrograin.h; runs on
- * the device (OpenCL) and on the host alike.
+ * distribution of half-ellipsoid grains: the explicit_* and coverage
+ * quantities of micrograin.h, with the grain and base materials of
+ * micrograin_materials.h.  Runs on the device (OpenCL) and on the host alike.
  *
  * Grain field.  Centres form a Poisson process on the base plane of density
  * rho = -ln(1 - tau0) beta_x beta_y / pi (eq. 9, r_s = 1); grain surface
@@ -44,6 +45,12 @@
 #ifndef BRDFTAB_MICROGRAIN_EXPLICIT_H
 #define BRDFTAB_MICROGRAIN_EXPLICIT_H
 
+#include "../common/compat.h"
+#include "../common/philox.h"
+#include "../common/sampler.h"
+#include "../common/vec3.h"
+#include "micrograin_materials.h"
+
 #define MGX_MAX_PER_CELL 40
 #define MGX_MAX_CELLS 20000
 #define MGX_MAX_TRIES 4096
@@ -63,11 +70,11 @@ BT_INLINE mgx_field mgx_make(const REAL* p, const bt_sampler* s, uint attempt)
     mgx_field f;
     f.k0 = bt_philox_u32(s, 20u);
     f.k1 = bt_philox_u32(s, 21u) + attempt * 0x9E3779B9u;
-    f.bx = p[5];
-    f.by = p[6];
-    f.ax = R(1.0) / p[5];
-    f.ay = R(1.0) / p[6];
-    f.lambda = -mg_log1m(p[4]) * BT_INV_PI; /* rho * ax * ay, eq. 9 */
+    f.bx = p[MG_PARAM_BETA_X];
+    f.by = p[MG_PARAM_BETA_Y];
+    f.ax = R(1.0) / p[MG_PARAM_BETA_X];
+    f.ay = R(1.0) / p[MG_PARAM_BETA_Y];
+    f.lambda = -mg_log1m(p[MG_PARAM_TAU0]) * BT_INV_PI; /* rho * ax * ay, eq. 9 */
     return f;
 }
 
@@ -216,7 +223,7 @@ BT_INLINE REAL mgx_g_sample(bt_vec3 i, bt_vec3 o, int single, const REAL* p, con
      * realisation equally instead of by its pore area (measured: G1 biased
      * from 0.948 to 0.75 at tau0 = 0.5, theta_i = 30 deg, h = 0). */
     mgx_field f = mgx_make(p, s, 0u);
-    REAL h = bt_clamp(p[7], R(0.0), R(1.0));
+    REAL h = bt_clamp(p[MG_PARAM_H], R(0.0), R(1.0));
     REAL x = R(0.0), y = R(0.0);
     int ok = 0;
     for (int k = 0; k < MGX_MAX_TRIES && !ok; ++k) {
@@ -249,13 +256,13 @@ BT_INLINE REAL mgx_brdf_sample(bt_vec3 i, bt_vec3 o, const REAL* p, const int* o
             bt_v3((P.x - gx) * f.bx * f.bx, (P.y - gy) * f.by * f.by, fmax(P.z, R(0.0))));
         REAL im = bt_v3_dot(i, m), om = bt_v3_dot(o, m);
         if (!(om > R(0.0)) || !(im > R(0.0))) return R(0.0);
-        REAL kd = p[8];
+        REAL kd = p[MG_PARAM_KD];
         if (!(kd > R(0.0))) return R(0.0);
         if (mgx_blocked(&f, P, o)) return R(0.0);
-        REAL T = (R(1.0) - mg_grain_fresnel(im, p, opt[0])) * (R(1.0) - mg_grain_fresnel(om, p, opt[0]));
+        REAL T = (R(1.0) - mg_grain_fresnel(im, p, opt[MG_OPT_GRAIN])) * (R(1.0) - mg_grain_fresnel(om, p, opt[MG_OPT_GRAIN]));
         return kd * BT_INV_PI * T * om / o.z;
     }
-    if (opt[1] == MG_BASE_ABSORBING) return R(0.0);
+    if (opt[MG_OPT_BASE] == MG_BASE_ABSORBING) return R(0.0);
     bt_vec3 P = bt_v3(org.x + d.x * tbase, org.y + d.y * tbase, R(0.0));
     if (mgx_blocked(&f, P, o)) return R(0.0);
     return mg_f_base(i, o, p, opt); /* f_B (o.n) / (o.n) */
@@ -266,7 +273,7 @@ BT_INLINE REAL mgx_coverage_sample(const REAL* p, const bt_sampler* s)
 {
     mgx_field f = mgx_make(p, s, 0u);
     REAL x = bt_uniform(s, 0) * f.ax, y = bt_uniform(s, 1) * f.ay;
-    return mgx_inside(&f, x, y, bt_clamp(p[7], R(0.0), R(1.0))) ? R(1.0) : R(0.0);
+    return mgx_inside(&f, x, y, bt_clamp(p[MG_PARAM_H], R(0.0), R(1.0))) ? R(1.0) : R(0.0);
 }
 
 #endif /* BRDFTAB_MICROGRAIN_EXPLICIT_H */

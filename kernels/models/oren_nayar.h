@@ -5,7 +5,8 @@
  *
  * M. Oren, S. K. Nayar, "Generalization of Lambert's Reflectance Model",
  * Proc. SIGGRAPH '94, pp. 239-246, 1994.  doi:10.1145/192161.192213
- * (Restated in /work/shared/MODELS.md §1; equation numbers are the paper's.)
+ * Equation numbers are the paper's; the equations as implemented, with every
+ * correction, are in docs/models/oren-nayar.md.
  *
  * Point p[] (kernels/common/estimator.h layout):
  *   p[0] theta_i, p[1] phi_i, p[2] theta_o, p[3] phi_o   radians
@@ -34,7 +35,7 @@
  *           Y = 2<v,n><a,n>/<v,a>.
  *     DEPARTURE (typo fix): eqs. 11/38 as printed read Min[1, Max[0, X, Y]];
  *     the visible-and-lit fraction is min(1 - m_s/w, 1 - m_v/w) (eq. 33),
- *     i.e. the smaller of X and Y (MODELS.md §1).
+ *     i.e. the smaller of X and Y (docs/models/oren-nayar.md).
  *     F1 is evaluated as min(<s,a><v,a>/<a,n>, 2<s,n><v,a>, 2<v,n><s,a>)
  *     / (pi <v,n><s,n>), the three Table 1 rows, which stays finite as
  *     <a,n> -> 0.
@@ -81,6 +82,7 @@
 #define BRDFTAB_OREN_NAYAR_H
 
 #include "../common/compat.h"
+#include "../common/gauss_legendre.h"
 #include "../common/sampler.h"
 #include "../common/vec3.h"
 
@@ -121,6 +123,11 @@
 #define ON_WANT_DIRECT 1
 #define ON_WANT_INTER 2
 
+/* Floor on cos(theta) of s and v (bt_direction) and in tan theta.  Unlike
+ * the microfacet models (finite grazing limit, floor 1e-9), this BRDF grows
+ * like 1/cos when both directions graze (header comment), so the floor sets
+ * the value returned at exactly 90 deg; 1e-6 keeps tan theta <= 1e6 in
+ * on_make_geom and on_tan_clamped. */
 #define ON_MIN_COS R(1e-6)
 #define ON_MAX_NODES 64
 #define ON_GRADE_LEVELS 5
@@ -136,18 +143,12 @@ typedef struct {
     int has_x;
 } on_geom;
 
-BT_INLINE bt_vec3 on_direction(REAL theta, REAL phi)
-{
-    REAL st = sin(theta);
-    REAL z = fmax(cos(theta), ON_MIN_COS);
-    return bt_v3(st * cos(phi), st * sin(phi), z);
-}
-
 BT_INLINE on_geom on_make_geom(const REAL* p)
 {
     on_geom g;
-    g.s = on_direction(p[0], p[1]);
-    g.v = on_direction(p[2], p[3]);
+    /* callers reject directions below the surface first */
+    bt_direction(p[0], p[1], ON_MIN_COS, BT_DIR_CLAMP_COS, &g.s);
+    bt_direction(p[2], p[3], ON_MIN_COS, BT_DIR_CLAMP_COS, &g.v);
     g.phi_s = p[1];
     g.phi_v = p[3];
     g.tan_s = sqrt(g.s.x * g.s.x + g.s.y * g.s.y) / g.s.z;
@@ -209,36 +210,6 @@ BT_INLINE void on_facet(const on_geom* g, bt_vec3 a, int want, REAL* f1, REAL* f
 }
 
 /* --------------------------------------------------------- quadrature */
-
-/* Gauss-Legendre nodes/weights on [-1, 1] by Newton iteration on P_n. */
-BT_INLINE void on_gauss_legendre(int n, REAL* x, REAL* w)
-{
-#if defined(BT_REAL_IS_FLOAT) && BT_REAL_IS_FLOAT && BT_DEVICE
-    const REAL eps = R(1e-6);
-#else
-    const REAL eps = R(1e-14);
-#endif
-    for (int i = 0; i < (n + 1) / 2; ++i) {
-        REAL z = cos(BT_PI * ((REAL)i + R(0.75)) / ((REAL)n + R(0.5)));
-        REAL pp = R(1.0);
-        for (int it = 0; it < 12; ++it) {
-            REAL p1 = R(1.0), p2 = R(0.0);
-            for (int j = 1; j <= n; ++j) {
-                REAL p3 = p2;
-                p2 = p1;
-                p1 = ((R(2.0) * j - R(1.0)) * z * p2 - (R(1.0) * j - R(1.0)) * p3) / (REAL)j;
-            }
-            pp = (REAL)n * (z * p1 - p2) / (z * z - R(1.0));
-            REAL dz = p1 / pp;
-            z -= dz;
-            if (fabs(dz) < eps) break;
-        }
-        x[i] = -z;
-        x[n - 1 - i] = z;
-        w[i] = R(2.0) / ((R(1.0) - z * z) * pp * pp);
-        w[n - 1 - i] = w[i];
-    }
-}
 
 BT_INLINE REAL on_wrap(REAL phi)
 {
@@ -343,7 +314,7 @@ BT_INLINE void on_gauss_quadrature(const on_geom* g, REAL sigma, int want, int n
                                    REAL* r2)
 {
     REAL gx[ON_MAX_NODES], gw[ON_MAX_NODES];
-    on_gauss_legendre(n, gx, gw);
+    bt_gauss_legendre_rule(n, gx, gw);
     REAL T = fmin(BT_HALF_PI, R(8.0) * sigma);
     /* theta_a breakpoints: 0, 3 sigma (the Gaussian's bulk), the critical
      * slopes pi/2 - theta_d where the phi_a kinks of d appear (substituted,
@@ -586,7 +557,7 @@ BT_INLINE void on_single_slope(const REAL* p, const bt_sampler* s, int want, REA
     if (s->method == BT_METHOD_QUADRATURE) {
         REAL gx[ON_MAX_NODES], gw[ON_MAX_NODES];
         int n = on_quad_nodes(p, s);
-        on_gauss_legendre(n, gx, gw);
+        bt_gauss_legendre_rule(n, gx, gw);
         on_phi_integral(&g, theta_a, want, n, gx, gw, r1, r2);
         return;
     }

@@ -4,7 +4,8 @@
  * B. Walter, S. R. Marschner, H. Li, K. E. Torrance, "Microfacet Models for
  * Refraction through Rough Surfaces", Eurographics Symposium on Rendering
  * (EGSR) 2007, pp. 195-206.  doi:10.2312/EGWR/EGSR07/195-206
- * (Restated in /work/shared/MODELS.md §5; equation numbers are the paper's.)
+ * Equation numbers are the paper's; the equations as implemented are in
+ * docs/models/rough-dielectric.md.
  *
  * Point p[] (kernels/common/estimator.h layout):
  *   p[0] theta_i, p[1] phi_i, p[2] theta_o, p[3] phi_o   radians; theta in
@@ -72,10 +73,11 @@
 #define RD_Q_ALBEDO_R 3
 #define RD_Q_ALBEDO_T 4
 #define RD_Q_ALBEDO_AVG 5
+#define RD_Q_COUNT 6
 
-/* The model contract: slots of the point p[] and of the options o[] and the
- * number of quantities (ids RD_Q_* above).  host/models/rough_dielectric.cpp registers
- * the model by these names; p[0..3] are the directions (estimator.h). */
+/* The model contract: slots of the point p[] and of the options o[]
+ * (quantity ids: RD_Q_* in rough_dielectric.h).  host/models/rough_dielectric.cpp registers the
+ * model by these names; p[0..3] are the directions (estimator.h). */
 #define RD_PARAM_ALPHA 4
 #define RD_PARAM_ETA 5
 #define RD_PARAM_COUNT 2
@@ -86,7 +88,6 @@
 #define RD_OPT_SIDE 4
 #define RD_OPT_SAMPLING 5
 #define RD_OPT_COUNT 6
-#define RD_Q_COUNT 6
 
 #define RD_LOBE_BOTH 0
 #define RD_LOBE_REFLECTION 1
@@ -95,17 +96,11 @@
 #define RD_SAMPLING_VISIBLE 0
 #define RD_SAMPLING_WALTER 1
 
-/* Floor on |cos theta| of i and o (see header comment). */
+/* Floor on |cos theta| of i and o (bt_direction, see header comment): the
+ * grazing limit is finite (G1 ~ cos theta cancels the 1/|i.n| of eqs. 20-21),
+ * so the floor only has to keep the quotient defined; 1e-9 is within 1e-9
+ * rad of the horizon. */
 #define RD_MIN_COS R(1e-9)
-
-/* Direction from (theta, phi) with the side decided by theta and |z| >= floor. */
-BT_INLINE bt_vec3 rd_direction(REAL theta, REAL phi, int* below)
-{
-    *below = theta > BT_HALF_PI;
-    REAL st = sin(theta);
-    REAL z = fmax(fabs(cos(theta)), RD_MIN_COS);
-    return bt_v3(st * cos(phi), st * sin(phi), *below ? -z : z);
-}
 
 BT_INLINE bt_microfacet rd_microfacet(const REAL* p, const int* o)
 {
@@ -160,7 +155,7 @@ BT_INLINE REAL rd_ft_canonical(const bt_microfacet* mf, bt_vec3 i, bt_vec3 o, RE
 /* ---------------------------------------------------- public evaluators
  * i, o: unit directions pointing away from the surface, any side;
  * eta: inside/outside index (p[5]).  The "below" flag of i decides the
- * mirroring; i.z must not be 0 (callers use rd_direction). */
+ * mirroring; i.z must not be 0 (callers use bt_direction). */
 BT_INLINE REAL rough_dielectric_fr_dir(const bt_microfacet* mf, bt_vec3 i, bt_vec3 o, REAL eta)
 {
     if (i.z < R(0.0)) {
@@ -184,20 +179,20 @@ BT_INLINE REAL rough_dielectric_ft_dir(const bt_microfacet* mf, bt_vec3 i, bt_ve
 /* Point/option forms (the registry's layout). */
 BT_INLINE REAL rough_dielectric_fr(const REAL* p, const int* o)
 {
-    int bi, bo;
-    bt_vec3 vi = rd_direction(p[0], p[1], &bi);
-    bt_vec3 vo = rd_direction(p[2], p[3], &bo);
-    if (bi != bo) return R(0.0);
+    bt_vec3 vi, vo;
+    int above_i = bt_direction(p[0], p[1], RD_MIN_COS, BT_DIR_SIGNED_COS, &vi);
+    int above_o = bt_direction(p[2], p[3], RD_MIN_COS, BT_DIR_SIGNED_COS, &vo);
+    if (above_i != above_o) return R(0.0);
     bt_microfacet mf = rd_microfacet(p, o);
     return rough_dielectric_fr_dir(&mf, vi, vo, p[RD_PARAM_ETA]);
 }
 
 BT_INLINE REAL rough_dielectric_ft(const REAL* p, const int* o)
 {
-    int bi, bo;
-    bt_vec3 vi = rd_direction(p[0], p[1], &bi);
-    bt_vec3 vo = rd_direction(p[2], p[3], &bo);
-    if (bi == bo) return R(0.0);
+    bt_vec3 vi, vo;
+    int above_i = bt_direction(p[0], p[1], RD_MIN_COS, BT_DIR_SIGNED_COS, &vi);
+    int above_o = bt_direction(p[2], p[3], RD_MIN_COS, BT_DIR_SIGNED_COS, &vo);
+    if (above_i == above_o) return R(0.0);
     bt_microfacet mf = rd_microfacet(p, o);
     return rough_dielectric_ft_dir(&mf, vi, vo, p[RD_PARAM_ETA]);
 }
@@ -298,8 +293,8 @@ BT_INLINE REAL rough_dielectric_sample(const REAL* p, const int* o, int quantity
     bt_microfacet mf = rd_microfacet(p, o);
     REAL u0 = bt_uniform(s, 0u), u1 = bt_uniform(s, 1u);
     if (quantity == RD_Q_ALBEDO_R || quantity == RD_Q_ALBEDO_T) {
-        int below;
-        bt_vec3 i = rd_direction(p[0], p[1], &below);
+        bt_vec3 i;
+        bt_direction(p[0], p[1], RD_MIN_COS, BT_DIR_SIGNED_COS, &i);
         return rd_albedo_sample_dir(&mf, i, p[RD_PARAM_ETA],
                                     quantity == RD_Q_ALBEDO_R ? RD_LOBE_REFLECTION
                                                               : RD_LOBE_TRANSMISSION,
