@@ -29,17 +29,6 @@ std::string write_csv(const std::string& sub, const std::string& text) {
     return p.string();
 }
 
-// The message of the InputError `f` throws ("" if it throws none).
-template <class F>
-std::string input_error(F&& f) {
-    try {
-        f();
-    } catch (const InputError& e) {
-        return e.what();
-    }
-    return "";
-}
-
 }  // namespace
 
 TEST_CASE("split_csv trims cells and keeps empty ones") {
@@ -52,10 +41,10 @@ TEST_CASE("split_csv trims cells and keeps empty ones") {
 TEST_CASE("parse_number accepts whole finite numbers only") {
     CHECK(parse_number("1.5", "x") == 1.5);
     CHECK(parse_number("-2e3", "x") == -2000.0);
-    CHECK(input_error([] { parse_number("abc", "argument 'alpha'"); }) ==
+    CHECK(test::input_error([] { parse_number("abc", "argument 'alpha'"); }) ==
           "argument 'alpha': 'abc' is not a finite number");
     for (const char* bad : {"", "1.5x", "inf", "nan", "1e999"})
-        CHECK(input_error([&] { parse_number(bad, "x"); }) != "");
+        CHECK(test::input_error([&] { parse_number(bad, "x"); }) != "");
 }
 
 TEST_CASE("a point file: header, rows with their lines, blank lines skipped") {
@@ -75,38 +64,38 @@ TEST_CASE("a point file: header, rows with their lines, blank lines skipped") {
 }
 
 TEST_CASE("every rejection names the file and line") {
-    CHECK(input_error([] { read_point_file("/nonexistent/points.csv"); }) ==
+    CHECK(test::input_error([] { read_point_file("/nonexistent/points.csv"); }) ==
           "cannot open points file '/nonexistent/points.csv'");
 
     std::string p = write_csv("columns", "a,b\n1,2\n1,2,3\n");
-    CHECK(input_error([&] { read_point_file(p); }) == p + ":3: 3 columns, header has 2");
+    CHECK(test::input_error([&] { read_point_file(p); }) == p + ":3: 3 columns, header has 2");
 
     p = write_csv("number", "a,b\n1,x\n");
-    CHECK(input_error([&] { read_point_file(p); }) ==
+    CHECK(test::input_error([&] { read_point_file(p); }) ==
           p + ":2: column 'b': 'x' is not a finite number");
 
     p = write_csv("empty", "\n a,b \n\n");
-    CHECK(input_error([&] { read_point_file(p); }) == "points file '" + p + "' has no rows");
+    CHECK(test::input_error([&] { read_point_file(p); }) == "points file '" + p + "' has no rows");
 
     p = write_csv("rules", "a,z\n1,2\n");
     PointFileRules rules;
     rules.column_problem = [](const std::string& c) {
         return c == "z" ? std::string("is not known") : std::string();
     };
-    CHECK(input_error([&] { read_point_file(p, rules); }) == p + ":1: column 'z' is not known");
+    CHECK(test::input_error([&] { read_point_file(p, rules); }) == p + ":1: column 'z' is not known");
 
     p = write_csv("twice", "a,a\n1,2\n");
     CHECK_NOTHROW(read_point_file(p));  // repeated columns are allowed unless asked
     rules = PointFileRules{};
     rules.unique_columns = true;
-    CHECK(input_error([&] { read_point_file(p, rules); }) == p + ":1: column 'a' twice");
+    CHECK(test::input_error([&] { read_point_file(p, rules); }) == p + ":1: column 'a' twice");
 
     p = write_csv("values", "a,b\n1,2\n1,-2\n");
     rules = PointFileRules{};
     rules.value_problem = [](const std::string&, double v) {
         return v < 0 ? std::string("negative") : std::string();
     };
-    CHECK(input_error([&] { read_point_file(p, rules); }) == p + ":3: column 'b': negative");
+    CHECK(test::input_error([&] { read_point_file(p, rules); }) == p + ":3: column 'b': negative");
 }
 
 TEST_CASE("rows reach on_row in file order, before later lines are read") {
@@ -119,6 +108,6 @@ TEST_CASE("rows reach on_row in file order, before later lines are read") {
         CHECK(&f.rows.back() == &row);
         if (row.values[0] == 2) throw InputError(f.where(row) + ": caller's error");
     };
-    CHECK(input_error([&] { read_point_file(p, rules); }) == p + ":3: caller's error");
+    CHECK(test::input_error([&] { read_point_file(p, rules); }) == p + ":3: caller's error");
     CHECK(seen == std::vector<std::size_t>{2, 3});
 }

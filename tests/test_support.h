@@ -12,9 +12,21 @@
 #include <string>
 #include <vector>
 
+#include "host/core/error.h"
 #include "host/core/grid.h"
 
 namespace brdftab::test {
+
+// The message of the InputError that `f` throws; "" when it throws none.
+template <class F>
+std::string input_error(F&& f) {
+    try {
+        f();
+    } catch (const InputError& e) {
+        return e.what();
+    }
+    return "";
+}
 
 // pi and one degree in radians, typed here rather than taken from the
 // kernels' constants.

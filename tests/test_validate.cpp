@@ -24,16 +24,6 @@ using namespace brdftab;
 
 namespace {
 
-template <class F>
-std::string input_error(F&& f) {
-    try {
-        f();
-    } catch (const InputError& e) {
-        return e.what();
-    }
-    return "";
-}
-
 // A closed-form rough-dielectric BRDF table over (theta_i, theta_o, phi_d),
 // every value 0, written to a scratch file.
 std::string zero_table_file(const std::string& sub, nlohmann::json extra_parameters = {},
@@ -81,15 +71,15 @@ TEST_CASE("NamedInputs: options by name, numbers checked, messages name the argu
     in.add("theta_i", "30");
     in.add("distribution", "beckmann");
     CHECK(in.values() == std::map<std::string, double>{{"theta_i", 30.0}});
-    CHECK(input_error([&] { in.add("alpha", "x"); }) ==
+    CHECK(test::input_error([&] { in.add("alpha", "x"); }) ==
           "argument 'alpha': 'x' is not a finite number");
-    const std::string range = input_error([&] { in.add("alpha", "9"); });
+    const std::string range = test::input_error([&] { in.add("alpha", "9"); });
     CHECK(range.rfind("argument 'alpha=9': ", 0) == 0);
     NamedInputs bad(m, q, "argument");
     bad.add("distribution", "nope");
-    CHECK(input_error([&] { bad.options(); }) != "");
+    CHECK(test::input_error([&] { bad.options(); }) != "");
     // A point the builder rejects (no theta_o) is labelled by the caller.
-    const std::string missing = input_error([&] {
+    const std::string missing = test::input_error([&] {
         build_kernel_points(m, q, {{{"theta_i", 30.0}, {"alpha", 0.3}, {"eta", 1.5}}},
                             [](std::size_t k) { return "row " + std::to_string(k + 1); });
     });
@@ -173,16 +163,16 @@ TEST_CASE("validate: a recombination recipe is set aside, derived tables are ref
 
     const std::string error_table = zero_table_file(
         "error", {{"comparison", {{"table", "approx"}, {"reference", "exact"}}}}, "error");
-    const std::string msg = input_error([&] { ValidationPlan(error_table, "brdf", o); });
+    const std::string msg = test::input_error([&] { ValidationPlan(error_table, "brdf", o); });
     CHECK(msg.find("is an error table") != std::string::npos);
     CHECK(msg.find("'approx' and 'exact'") != std::string::npos);
 
     const std::string file = zero_table_file("missing");
-    CHECK(input_error([&] { ValidationPlan(file, "nope", o); }).find("no table 'nope'") !=
+    CHECK(test::input_error([&] { ValidationPlan(file, "nope", o); }).find("no table 'nope'") !=
           std::string::npos);
     o.points = 0;
-    CHECK(input_error([&] { ValidationPlan(file, "brdf", o); }) != "");
+    CHECK(test::input_error([&] { ValidationPlan(file, "brdf", o); }) != "");
     o.points = 5;
     o.rel_floor = 1;
-    CHECK(input_error([&] { ValidationPlan(file, "brdf", o); }) != "");
+    CHECK(test::input_error([&] { ValidationPlan(file, "brdf", o); }) != "");
 }
