@@ -233,3 +233,23 @@ TEST_CASE("ModelBuilder refuses descriptions that break the contract") {
         refuses(b, "no kernel");
     }
 }
+
+TEST_CASE("integer parameters refuse fractions (the kernels would round them)") {
+    const ModelInfo& ls = find_model("lambert-sphere");
+    const QuantityInfo& q = ls.quantity("brdf_mc");
+    PointBuilder builder(ls, q);
+    CHECK(builder.check("order", 2.0).empty());
+    CHECK(builder.check("order", 2.5).find("integers in [-2, 100000]") != std::string::npos);
+    CHECK(builder.check("mode", 0.5) != "");
+    CHECK(builder.check("c", 0.5).empty());  // continuous
+    for (const char* model : {"hfunction", "oren-nayar", "interfaced-lambertian"}) {
+        CAPTURE(model);
+        const ModelInfo& m = find_model(model);
+        int integers = 0;
+        for (const auto& p : m.parameters) integers += p.integer ? 1 : 0;
+        CHECK(integers == 1);  // n, nodes, order
+    }
+    std::vector<double> point(ls.point_stride());
+    CHECK_THROWS_AS(builder.build({{"theta_i", 10}, {"theta_o", 20}, {"order", 1.5}}, point.data()),
+                    InputError);
+}

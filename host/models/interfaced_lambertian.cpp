@@ -59,7 +59,8 @@ ModelInfo interfaced_lambertian_model() {
                     "order", "1",
                     "vcavity: bounce order, 0 = all orders summed (up to 128), k >= 1 = exactly k "
                     "facet interactions (integer)",
-                    0, 128, 0));
+                    0, 128, 0)
+                    .whole());
     b.option(
         IL_OPT_DISTRIBUTION,
         {"distribution",

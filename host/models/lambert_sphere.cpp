@@ -39,7 +39,8 @@ ModelInfo hfunction_model() {
                     "c", "1", "single-scattering albedo (lambert0/1/2, isotropic; ignored by poly)",
                     0, 1, 1.0));
     b.parameter(HF_PARAM_N,
-                parameter_info("n", "1", "moment order of alpha_n (integer)", 0, 16, 0.0));
+                parameter_info("n", "1", "moment order of alpha_n (integer)", 0, 16, 0.0)
+                    .whole());
     b.parameter(HF_PARAM_PSI_0,
                 parameter_info("psi_0", "1", "poly: coefficient of mu^0 in Psi", -10, 10, 0.0));
     b.parameter(HF_PARAM_PSI_1,
@@ -107,22 +108,26 @@ ModelInfo lambert_sphere_model() {
             "(order k scales exactly as c^k); -2 = truncation remainder: albedo_mc/kd_mc the "
             "weight still inside the medium after max_order scatterings, brdf_mc the BRDF of "
             "orders max_order+1..tail_order of the same walks",
-            -2, 100000, 0.0));
+            -2, 100000, 0.0)
+            .whole());
     b.parameter(
         LS_PARAM_MAX_ORDER,
         parameter_info("max_order", "1", "random walks: truncation order (c = 1 converges slowly)",
-                       1, 100000, 1000.0));
+                       1, 100000, 1000.0)
+                    .whole());
     b.parameter(LS_PARAM_MODE,
                 parameter_info("mode", "1",
                                "-1: value at phi; 0, 1, 2: Fourier coefficient f^(m) of eq. 9 "
                                "(f = sum_m f^(m) cos(m phi))",
-                               -1, 8, -1.0));
+                               -1, 8, -1.0)
+                    .whole());
     b.parameter(
         LS_PARAM_TAIL_ORDER,
         parameter_info("tail_order", "1",
                        "brdf_mc with order = -2: last order of the truncation remainder (orders "
                        "max_order+1..tail_order); must exceed max_order",
-                       2, 10000000, 100000.0));
+                       2, 10000000, 100000.0)
+            .whole());
     b.option(LS_OPT_PHASE_MC,
              {"phase_mc",
               "random walks: exact Lambert-sphere phase function (eqs. 1, 5), or its 3-term "

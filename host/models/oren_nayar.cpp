@@ -56,7 +56,8 @@ ModelInfo oren_nayar_model() {
                        "method quadrature: Gauss-Legendre nodes per sub-interval in theta_a and "
                        "in phi_a (the error estimate is the distance to the rule with half the "
                        "nodes)",
-                       2, 64, 12.0));
+                       2, 64, 12.0)
+                    .whole());
 
     b.option(
         ON_OPT_QUALITATIVE_A,

@@ -49,11 +49,14 @@ bool ParameterInfo::accepts(double v) const {
     if (!std::isfinite(v)) return false;
     if (min_inclusive ? v < min : v <= min) return false;
     if (max_inclusive ? v > max : v >= max) return false;
+    // The kernels round integer parameters; 2.5 would silently become 3.
+    if (integer && v != std::floor(v)) return false;
     return true;
 }
 
 std::string ParameterInfo::range_text() const {
-    return std::string(min_inclusive ? "[" : "(") + format_number(min) + ", " +
+    return std::string(integer ? "integers in " : "") + (min_inclusive ? "[" : "(") +
+           format_number(min) + ", " +
            format_number(max) + (max_inclusive ? "]" : ")") +
            (unit.empty() || unit == "1" ? "" : " " + unit);
 }

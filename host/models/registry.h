@@ -53,18 +53,21 @@ struct ParameterInfo {
     bool min_inclusive = true, max_inclusive = true;
     std::optional<double> default_value;
     bool in_degrees = false;  // converted to radians before reaching the kernel
+    bool integer = false;     // only whole numbers (orders, node counts, modes)
 
     bool accepts(double v) const;
-    std::string range_text() const;  // e.g. "(0, 4]"
+    std::string range_text() const;  // e.g. "(0, 4]", "integers in [0, 128]"
 
     // Chainable adjustments of a parameter_info() result.
     ParameterInfo& open_min() { min_inclusive = false; return *this; }
     ParameterInfo& open_max() { max_inclusive = false; return *this; }
     ParameterInfo& degrees() { in_degrees = true; return *this; }
+    ParameterInfo& whole() { integer = true; return *this; }
 };
 
 // Registry shorthand: a parameter with the closed range [lo, hi]; chain
-// .open_min() / .open_max() / .degrees() for the other cases, e.g.
+// .open_min() / .open_max() / .degrees() / .whole() (integers only) for the
+// other cases, e.g.
 //   parameter_info("alpha", "1", "roughness", 0, 4, 0.3).open_min()
 ParameterInfo parameter_info(std::string name, std::string unit, std::string description,
                              double lo, double hi,
