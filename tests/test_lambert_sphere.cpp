@@ -497,6 +497,11 @@ TEST_CASE("fits: H1/H0 fits against exact H within their claims; kd map round tr
     // eq. 39 inverts eq. 40 approximately
     for (double c : {0.1, 0.5, 0.9, 0.99})
         CHECK(ls_c_fit(ls_kd_fit(c)) == doctest::Approx(c).epsilon(0.01));
+    // c is an albedo: never negative, also where the printed fit dips below 0
+    // (kd < 0.00159), and 0 at kd = 0 (a black medium has black particles).
+    CHECK(ls_c_fit(0.0) == 0.0);
+    for (double kd = 0; kd <= 1.0; kd += 1.0 / 4096) CHECK(ls_c_fit(kd) >= 0.0);
+    CHECK(ls_c_fit(0.01) > 0.0);
 }
 
 TEST_CASE("device vs host (double), float sanity, finite values at extremes") {

@@ -368,13 +368,16 @@ BT_INLINE REAL ls_kd_fit(REAL c)
     return (-R(0.453029) * (R(1.0) - c) - R(0.544162) * s + R(1.0)) / (R(1.42931) * s + R(1.0));
 }
 
-/* eq. 39 */
+/* eq. 39.  Departure: as printed the fit goes negative for kd below
+ * 1 - 1.00425^(-1/2.67103) = 0.00159 (c = -0.0054 at kd = 0), where its
+ * numerator changes sign; c is an albedo, so the result is clamped to 0
+ * there (docs/models/lambert-sphere.md). */
 BT_INLINE REAL ls_c_fit(REAL kd)
 {
     REAL x = R(1.0) - kd;
     REAL a = x > R(0.0) ? exp(R(2.67103) * log(x)) : R(0.0);
     REAL b = x > R(0.0) ? exp(R(2.44559) * log(x)) : R(0.0);
-    return (R(1.0) - R(1.00425) * a) / (R(1.0) - R(0.219924) * b);
+    return fmax((R(1.0) - R(1.00425) * a) / (R(1.0) - R(0.219924) * b), R(0.0));
 }
 
 /* eq. 41 (phi in [-pi, pi]). */
