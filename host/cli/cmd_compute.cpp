@@ -133,17 +133,17 @@ void register_eval(CLI::App& app) {
                                     {"quantity", q.name},
                                     {"value", r.value[0]},
                                     {"stderr", r.stderr_[0]},
-                                    {"samples", r.method == "closed-form" ? 1u : r.samples[0]},
-                                    {"method", r.method},
+                                    {"samples", r.method == Method::ClosedForm ? 1u : r.samples[0]},
+                                    {"method", to_string(r.method)},
                                     {"units", q.units},
                                     {"device", backend->device_name()},
                                     {"precision", precision_name(backend->precision())}};
                 std::cout << j.dump() << "\n";
             } else {
                 std::cout << model.name << " " << q.name << " = " << format_double(r.value[0]);
-                if (r.method != "closed-form")
+                if (r.method != Method::ClosedForm)
                     std::cout << " ± " << r.stderr_[0] << " (1 stderr, " << r.samples[0]
-                              << " samples, " << r.method << ")";
+                              << " samples, " << to_string(r.method) << ")";
                 else
                     std::cout << " (closed form)";
                 std::cout << " [" << q.units << "]\n";
@@ -156,7 +156,7 @@ void register_eval(CLI::App& app) {
         for (std::size_t k = 0; k < rows.size(); ++k) {
             for (const auto& c : rows[k]) csv << c << ",";
             csv << format_double(r.value[k]) << "," << format_double(r.stderr_[k]) << ","
-                << (r.method == "closed-form" ? 1u : r.samples[k]) << "\n";
+                << (r.method == Method::ClosedForm ? 1u : r.samples[k]) << "\n";
         }
         if (st.output.empty()) {
             std::cout << csv.str();

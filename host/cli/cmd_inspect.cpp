@@ -59,7 +59,7 @@ void register_models(CLI::App& app) {
             for (const auto& q : m.quantities) {
                 std::cout << "    " << std::left << std::setw(14) << q.name << "["
                           << (q.kind == QuantityKind::ClosedForm ? "closed form" : "integral, " +
-                                                                                       q.default_method)
+                                                                                       to_string(q.default_method))
                           << "; " << q.units << "; depends on:";
                 for (const auto& d : q.directions) std::cout << " " << d;
                 if (q.directions.empty()) std::cout << " no direction";

@@ -317,7 +317,7 @@ void run_validate(const ValidateArgs& va) {
     // seed differs from the table's so the reference noise is independent of
     // the table's noise.
     IntegrationSettings s;
-    s.method = t.method.empty() ? "auto" : t.method;
+    s.method = t.method.empty() ? Method::Auto : parse_method(t.method);
     if (va.samples) {
         s.samples = va.samples;
     } else if (t.tolerance_requested > 0) {
@@ -339,7 +339,7 @@ void run_validate(const ValidateArgs& va) {
             if (printer) (*printer)(p);
         });
     if (printer) printer->finish();
-    const bool noisy = ref.method != "closed-form";
+    const bool noisy = ref.method != Method::ClosedForm;
 
     // Relative errors use a floor: |diff| / max(|ref|, rel_floor * max|table|),
     // so points where the function is ~0 do not dominate.
@@ -423,7 +423,7 @@ void run_validate(const ValidateArgs& va) {
             {"relative_floor_factor", va.rel_floor},
             {"max_abs_table_value", scale},
             {"reference",
-             {{"method", ref.method},
+             {{"method", to_string(ref.method)},
               {"device", backend->device_name()},
               {"precision", precision_name(backend->precision())},
               {"total_samples", ref.total_samples},
@@ -461,7 +461,7 @@ void run_validate(const ValidateArgs& va) {
     for (const auto& a : t.axes) std::cout << " " << a.name << "(" << a.count << ")";
     std::cout << "\n  " << n << " random off-grid points (seed " << va.seed
               << ", uniform in each axis' warped coordinate)\n"
-              << "  reference: " << ref.method << " on " << backend->device_name() << " ("
+              << "  reference: " << to_string(ref.method) << " on " << backend->device_name() << " ("
               << precision_name(backend->precision()) << "), ";
     if (noisy) std::cout << format_count(double(ref.total_samples)) << " samples, ";
     std::cout << format_seconds(ref.elapsed_seconds) << "\n";

@@ -25,24 +25,27 @@ CellPoints::CellPoints(const ModelInfo& model, const QuantityInfo& quantity,
     for (const Axis& a : table.axes) values[a.name] = a.values.at(0);
     PointBuilder(model, quantity).build(values, base_.data());
 
-    auto has = [&](const char* n) { return values.count(n) != 0; };
-    phi_o_from_phi_d_ = has("phi_d");
-    if (has("phi_d") && table.fixed.count("phi_d")) fixed_phi_d_ = table.fixed.at("phi_d") * kDegToRad;
+    const std::string phi_d = to_string(Coordinate::PhiD);
+    phi_o_from_phi_d_ = values.count(phi_d) != 0;
+    if (phi_o_from_phi_d_ && table.fixed.count(phi_d))
+        fixed_phi_d_ = table.fixed.at(phi_d) * kDegToRad;
     for (const Axis& a : table.axes) {
-        if (a.name == "theta_i") feeds_.push_back({Feed::ThetaDeg, 0});
-        else if (a.name == "mu_i") feeds_.push_back({Feed::Mu, 0});
-        else if (a.name == "theta_o") feeds_.push_back({Feed::ThetaDeg, 2});
-        else if (a.name == "mu_o") feeds_.push_back({Feed::Mu, 2});
-        else if (a.name == "phi_i") feeds_.push_back({Feed::PhiIDeg, 1});
-        else if (a.name == "phi_o") feeds_.push_back({Feed::PhiODeg, 3});
-        else if (a.name == "phi_d") feeds_.push_back({Feed::PhiDDeg, 3});
-        else {
-            const ParameterInfo* p = model.find_parameter(a.name);
-            if (!p) throw InputError("axis '" + a.name + "' is not a coordinate or parameter of '" +
-                                     model.name + "'");
-            const std::size_t slot = kDirectionSlots + static_cast<std::size_t>(p - model.parameters.data());
-            feeds_.push_back({p->in_degrees ? Feed::ParamDeg : Feed::Param, slot});
+        if (const CoordinateInfo* c = find_coordinate(a.name)) {
+            const std::size_t slot = static_cast<std::size_t>(c->slot);
+            switch (c->encoding) {
+                case CoordinateEncoding::Degrees: feeds_.push_back({Feed::Degrees, slot}); break;
+                case CoordinateEncoding::Cosine: feeds_.push_back({Feed::Cosine, slot}); break;
+                case CoordinateEncoding::AzimuthOffset:
+                    feeds_.push_back({Feed::AzimuthOffset, slot});
+                    break;
+            }
+            continue;
         }
+        const ParameterInfo* p = model.find_parameter(a.name);
+        if (!p) throw InputError("axis '" + a.name + "' is not a coordinate or parameter of '" +
+                                 model.name + "'");
+        const std::size_t slot = kDirectionSlots + static_cast<std::size_t>(p - model.parameters.data());
+        feeds_.push_back({p->in_degrees ? Feed::Degrees : Feed::Plain, slot});
     }
 }
 
@@ -53,13 +56,10 @@ void CellPoints::point(std::size_t cell, double* out) const {
     for (std::size_t a = 0; a < feeds_.size(); ++a) {
         const double v = grid_.axes()[a].values[index[a]];
         switch (feeds_[a].feed) {
-            case Feed::ThetaDeg:
-            case Feed::PhiIDeg:
-            case Feed::PhiODeg:
-            case Feed::ParamDeg: out[feeds_[a].slot] = v * kDegToRad; break;
-            case Feed::Mu: out[feeds_[a].slot] = std::acos(v); break;
-            case Feed::PhiDDeg: phi_d = v * kDegToRad; break;
-            case Feed::Param: out[feeds_[a].slot] = v; break;
+            case Feed::Degrees: out[feeds_[a].slot] = v * kDegToRad; break;
+            case Feed::Cosine: out[feeds_[a].slot] = std::acos(v); break;
+            case Feed::AzimuthOffset: phi_d = v * kDegToRad; break;
+            case Feed::Plain: out[feeds_[a].slot] = v; break;
         }
     }
     // Same rule as PointBuilder: phi_o = phi_i + phi_d when phi_d is given.
@@ -124,7 +124,7 @@ GeneratedTable recombine(const RecombinedSpec& rs, const std::vector<GeneratedTa
     if (!have_stderr) d.stderr_.clear();
     d.name = rs.name;
     d.quantity = rs.name;
-    d.method = "recombined";
+    d.method = to_string(TableKind::Recombined);
     d.description = (rs.description.empty() ? "recombined table" : rs.description) +
                     "; stored values at " + rs.parameter + " = " + number_text(rs.stored_at);
     d.parameters["recombine"] = recipe;
@@ -244,7 +244,7 @@ GeneratedTable compare(const ErrorTableSpec& es, const std::vector<GeneratedTabl
     TableData& d = g.data;
     d.name = es.name;
     d.quantity = "error";
-    d.method = "error";
+    d.method = to_string(TableKind::Error);
     d.units = es.relative ? "1" : t.units;
     d.description = !es.description.empty()
                         ? es.description
@@ -324,7 +324,7 @@ GeneratedTable invert(const InvertedSpec& is, const std::vector<GeneratedTable>&
     d.name = is.name;
     d.quantity = xa.name;
     d.units = xa.unit;
-    d.method = "inverted";
+    d.method = to_string(TableKind::Inverted);
     d.description = !is.description.empty()
                         ? is.description
                         : xa.name + " as a function of " + is.axis.name + " (the inverse of '" +
@@ -401,13 +401,14 @@ std::vector<GeneratedTable> generate_tables(const Spec& spec, Backend& backend,
         d.axes = ts.axes;
         d.value = std::move(r.value);
         d.stderr_ = std::move(r.stderr_);
-        if (r.method != "closed-form") d.samples = std::move(r.samples);
-        d.method = r.method;
-        d.samples_requested = r.method == "closed-form"
+        const bool closed_form = r.method == Method::ClosedForm;
+        if (!closed_form) d.samples = std::move(r.samples);
+        d.method = to_string(r.method);
+        d.samples_requested = closed_form
                                   ? 1
                                   : (settings.tolerance > 0 ? settings.max_samples
                                                             : (settings.samples ? settings.samples : 4096));
-        d.tolerance_requested = r.method == "closed-form" ? 0 : settings.tolerance;
+        d.tolerance_requested = closed_form ? 0 : settings.tolerance;
         d.abs_floor = settings.abs_floor;
         d.tolerance_achieved = r.tolerance_achieved;
         d.seed = settings.seed;
@@ -419,7 +420,7 @@ std::vector<GeneratedTable> generate_tables(const Spec& spec, Backend& backend,
         d.total_samples = r.total_samples;
         d.stored_type = spec.output.stored_type;
         d.compression = spec.output.compression;
-        d.keep_stderr = spec.output.keep_stderr && r.method != "closed-form";
+        d.keep_stderr = spec.output.keep_stderr && !closed_form;
         g.cells_unconverged = r.cells_unconverged;
         out.push_back(std::move(g));
     }

@@ -28,9 +28,6 @@ namespace brdftab {
 
 namespace {
 
-const std::vector<std::string> kDirections = {"theta_i", "phi_i", "theta_o", "phi_o",
-                                              "phi_d",   "mu_i",  "mu_o"};
-
 // Per-cell sample counts and the kernel's cell index are 32-bit.
 constexpr std::uint64_t kMaxU32 = std::numeric_limits<std::uint32_t>::max();
 constexpr std::uint64_t kDefaultSamples = 4096;
@@ -70,11 +67,10 @@ std::string indexed(const std::string& prefix, std::size_t k) {
 }
 
 // Which group of mutually exclusive names a coordinate belongs to: theta and
-// mu describe the same direction, phi_d replaces phi_o.
+// mu describe the same direction, phi_d replaces phi_o (CoordinateInfo::direction);
+// a parameter is a group of its own.
 std::string group_of(const std::string& name) {
-    if (name == "theta_i" || name == "mu_i") return "theta_i";
-    if (name == "theta_o" || name == "mu_o") return "theta_o";
-    if (name == "phi_o" || name == "phi_d") return "phi_o";
+    if (const CoordinateInfo* c = find_coordinate(name)) return to_string(c->direction);
     return name;
 }
 
@@ -269,7 +265,7 @@ std::string Parser::allowed_names() const {
     std::vector<std::string> params, opts;
     for (const auto& p : model_->parameters) params.push_back(p.name);
     for (const auto& o : model_->options) opts.push_back(o.name);
-    std::string s = join(kDirections) + " (directions)";
+    std::string s = join(coordinate_names()) + " (directions)";
     if (!params.empty()) s += ", " + join(params) + " (parameters)";
     if (!opts.empty()) s += ", " + join(opts) + " (options)";
     return s;
@@ -354,7 +350,7 @@ Parser::AxisSrc Parser::parse_axis(const toml::table& t, const std::string& pref
         fail(npos, nkey, "'" + *name + "' is a categorical option and cannot be an axis; " +
                              "write one [[tables]] entry per choice instead");
     } else {
-        std::vector<std::string> names = kDirections;
+        std::vector<std::string> names = coordinate_names();
         for (const auto& q : model_->parameters) names.push_back(q.name);
         fail(npos, nkey, "'" + *name + "' is not a direction coordinate or continuous " +
                              "parameter of model '" + model_->name + "'; allowed: " + join(names));
@@ -371,9 +367,8 @@ Parser::AxisSrc Parser::parse_axis(const toml::table& t, const std::string& pref
     if (auto s = get_string(t, prefix, "spacing")) {
         try {
             spacing = parse_spacing(*s);
-        } catch (const InputError&) {
-            fail(pos_of(*t.get("spacing")), sub(prefix, "spacing"),
-                 "unknown spacing '" + *s + "'; allowed: linear, cos, log, quadratic, explicit");
+        } catch (const InputError& e) {
+            fail(pos_of(*t.get("spacing")), sub(prefix, "spacing"), e.what());
         }
     }
 
@@ -502,12 +497,11 @@ void Parser::parse_integration(const toml::table& t, IntegrationSettings& s) con
     check_keys(t, pre, {"method", "samples", "tolerance", "abs_floor", "max_samples", "seed",
                         "batch_size"});
     if (auto m = get_string(t, pre, "method")) {
-        if (*m != "auto" && *m != "closed-form" && *m != "quadrature" && *m != "mc" &&
-            *m != "rqmc")
+        const std::optional<Method> method = find_method(*m);
+        if (!method)
             fail(pos_of(*t.get("method")), sub(pre, "method"),
-                 "unknown method '" + *m +
-                     "'; allowed: auto, closed-form, quadrature, mc, rqmc");
-        s.method = *m;
+                 "unknown method '" + *m + "'; allowed: " + join(method_names()));
+        s.method = *method;
     }
     auto u64 = [&](const char* key, std::uint64_t lo, std::uint64_t hi) -> std::optional<std::uint64_t> {
         auto v = get_integer(t, pre, key);
@@ -688,9 +682,10 @@ TableSpec Parser::build_table(const toml::table& t, const std::string& prefix,
     std::set<std::string> have;
     for (const auto& [g, f] : fixed) have.insert(g);
     for (const AxisSrc& a : kept) have.insert(group_of(a.axis.name));
-    for (const char* dir : {"theta_i", "theta_o"}) {
-        const std::string d = dir;
-        const std::string mu = d == "theta_i" ? "mu_i" : "mu_o";
+    for (const CoordinateInfo& c : kCoordinates) {
+        if (c.encoding != CoordinateEncoding::Cosine) continue;
+        // A polar angle, given as theta or as its cosine mu.
+        const std::string d = to_string(c.direction), mu = c.name;
         if (depends_on(*q, d) && !have.count(d))
             fail(tpos, prefix,
                  "quantity '" + q->name + "' of " + tlabel + " needs '" + d + "': give " + d +
