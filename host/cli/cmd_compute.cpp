@@ -252,8 +252,10 @@ void register_generate(CLI::App& app) {
             std::cout << "  " << d.name << ": " << d.quantity << " [";
             for (std::size_t a = 0; a < d.axes.size(); ++a)
                 std::cout << (a ? " x " : "") << d.axes[a].name << " " << d.axes[a].count;
-            std::cout << "] = " << d.cell_count() << " cells, " << d.method;
-            if (d.method == "mc" || d.method == "rqmc" || d.method == "quadrature")
+            std::cout << "] = " << d.cell_count() << " cells, " << method_attribute(d);
+            if (d.kind == TableKind::Computed &&
+                (d.method == Method::MonteCarlo || d.method == Method::Rqmc ||
+                 d.method == Method::Quadrature))
                 std::cout << ", " << format_count(static_cast<double>(d.total_samples))
                           << " samples, max rel. stderr " << d.tolerance_achieved;
             std::cout << ", values in [" << lo << ", " << hi << "], "

@@ -85,10 +85,10 @@ void print_table_summary(const TableData& t, bool verbose) {
                   << a.max << "] " << a.unit << ", " << a.count << " nodes, "
                   << spacing_name(a.spacing) << "\n";
     std::cout << "    parameters: " << t.parameters.dump() << "\n";
-    std::cout << "    method: " << t.method;
-    if (t.method == "error" || t.method == "recombined" || t.method == "inverted") {
+    std::cout << "    method: " << method_attribute(t);
+    if (t.kind != TableKind::Computed) {
         std::cout << " (formed from other tables of the file; see parameters)";
-    } else if (t.method != "closed-form") {
+    } else if (t.method != Method::ClosedForm) {
         std::cout << ", samples/cell requested " << t.samples_requested;
         if (t.tolerance_requested > 0) std::cout << ", tolerance " << t.tolerance_requested;
         std::cout << ", achieved max rel. stderr " << t.tolerance_achieved << ", total samples "

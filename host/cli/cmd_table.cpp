@@ -254,14 +254,14 @@ void run_validate(const ValidateArgs& va) {
     if (!(va.rel_floor > 0 && va.rel_floor < 1))
         throw InputError("--rel-floor must be in (0, 1), got " + format_short(va.rel_floor));
     const LookupTable full = LookupTable::open(va.file, va.table);
-    if (full.table().method == "error") {
+    if (full.table().kind == TableKind::Error) {
         const nlohmann::json& e = full.table().parameters.value("comparison", nlohmann::json::object());
         throw InputError(va.file + ": table '" + full.table().name +
                          "' is an error table (no model quantity of its own); validate the "
                          "tables it compares: '" + e.value("table", std::string("?")) + "' and '" +
                          e.value("reference", std::string("?")) + "'");
     }
-    if (full.table().method == "inverted") {
+    if (full.table().kind == TableKind::Inverted) {
         const nlohmann::json& e = full.table().parameters.value("inverse_of", nlohmann::json::object());
         throw InputError(va.file + ": table '" + full.table().name +
                          "' is an inverted table (no model quantity of its own); validate the "
@@ -317,7 +317,9 @@ void run_validate(const ValidateArgs& va) {
     // seed differs from the table's so the reference noise is independent of
     // the table's noise.
     IntegrationSettings s;
-    s.method = t.method.empty() ? Method::Auto : parse_method(t.method);
+    // A recombined table has no method of its own: parse_method rejects its
+    // attribute ("integration method 'recombined' is not valid; ...").
+    s.method = t.kind == TableKind::Computed ? t.method : parse_method(method_attribute(t));
     if (va.samples) {
         s.samples = va.samples;
     } else if (t.tolerance_requested > 0) {

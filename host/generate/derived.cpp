@@ -169,7 +169,7 @@ GeneratedTable recombine(const RecombinedSpec& rs, const std::vector<GeneratedTa
     if (!have_stderr) d.stderr_.clear();
     d.name = rs.name;
     d.quantity = rs.name;
-    d.method = to_string(TableKind::Recombined);
+    d.kind = TableKind::Recombined;
     d.description = (rs.description.empty() ? "recombined table" : rs.description) +
                     "; stored values at " + rs.parameter + " = " + number_text(rs.stored_at);
     d.parameters["recombine"] = recipe;
@@ -192,7 +192,7 @@ GeneratedTable compare(const ErrorTableSpec& es, const std::vector<GeneratedTabl
     TableData& d = g.data;
     d.name = es.name;
     d.quantity = "error";
-    d.method = to_string(TableKind::Error);
+    d.kind = TableKind::Error;
     d.units = es.relative ? "1" : t.units;
     d.description = !es.description.empty()
                         ? es.description
@@ -271,7 +271,7 @@ GeneratedTable invert(const InvertedSpec& is, const std::vector<GeneratedTable>&
     d.name = is.name;
     d.quantity = xa.name;
     d.units = xa.unit;
-    d.method = to_string(TableKind::Inverted);
+    d.kind = TableKind::Inverted;
     d.description = !is.description.empty()
                         ? is.description
                         : xa.name + " as a function of " + is.axis.name + " (the inverse of '" +

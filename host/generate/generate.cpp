@@ -120,7 +120,7 @@ std::vector<GeneratedTable> generate_tables(const Spec& spec, Backend& backend,
         d.stderr_ = std::move(r.stderr_);
         const bool closed_form = r.method == Method::ClosedForm;
         if (!closed_form) d.samples = std::move(r.samples);
-        d.method = to_string(r.method);
+        d.method = r.method;
         d.samples_requested = closed_form
                                   ? 1
                                   : (settings.tolerance > 0 ? settings.max_samples
