@@ -72,13 +72,7 @@ Parser::AxisSrc Parser::parse_axis(const toml::table& t, const std::string& pref
         std::vector<double> vals;
         for (std::size_t k = 0; k < va->size(); ++k) {
             const toml::node& e = (*va)[k];
-            double x;
-            if (e.is_integer())
-                x = double(e.as_integer()->get());
-            else if (e.is_floating_point())
-                x = e.as_floating_point()->get();
-            else
-                fail(pos_of(e), indexed(vkey, k), "must be a number");
+            const double x = number(e, indexed(vkey, k));
             if (!accepts(x))
                 fail(pos_of(e), indexed(vkey, k),
                      "value " + num(x) + " is outside the allowed range of '" + *name +
@@ -106,15 +100,7 @@ Parser::AxisSrc Parser::parse_axis(const toml::table& t, const std::string& pref
     if (!ra || ra->size() != 2)
         fail(pos_of(*rn), rkey, "must be an array of two numbers [min, max]");
     double ends[2];
-    for (std::size_t k = 0; k < 2; ++k) {
-        const toml::node& e = (*ra)[k];
-        if (e.is_integer())
-            ends[k] = double(e.as_integer()->get());
-        else if (e.is_floating_point())
-            ends[k] = e.as_floating_point()->get();
-        else
-            fail(pos_of(e), indexed(rkey, k), "must be a number");
-    }
+    for (std::size_t k = 0; k < 2; ++k) ends[k] = number((*ra)[k], indexed(rkey, k));
     if (!(ends[0] < ends[1]))
         fail(pos_of(*rn), rkey,
              "min must be less than max, got [" + num(ends[0]) + ", " + num(ends[1]) + "]");

@@ -73,11 +73,6 @@ RecombinedSpec Parser::parse_recombined(const toml::table& t, const std::string&
         fail(tpos, sub(prefix, "parameter"), "missing; name the user parameter, e.g. \"rho\"");
     r.parameter = *param;
 
-    auto number = [&](const toml::node& e, const std::string& key) {
-        if (e.is_integer()) return double(e.as_integer()->get());
-        if (e.is_floating_point()) return e.as_floating_point()->get();
-        fail(pos_of(e), key, "must be a number");
-    };
     if (const toml::node* rn = t.get("range")) {
         const toml::array* ra = rn->as_array();
         const std::string rkey = sub(prefix, "range");

@@ -88,9 +88,13 @@ std::optional<double> TomlReader::get_number(const toml::table& t, const std::st
                                              const char* key) const {
     const toml::node* n = t.get(key);
     if (!n) return std::nullopt;
-    if (n->is_integer()) return double(n->as_integer()->get());
-    if (n->is_floating_point()) return n->as_floating_point()->get();
-    fail(pos_of(*n), sub(prefix, key), "must be a number");
+    return number(*n, sub(prefix, key));
+}
+
+double TomlReader::number(const toml::node& n, const std::string& key) const {
+    if (n.is_integer()) return double(n.as_integer()->get());
+    if (n.is_floating_point()) return n.as_floating_point()->get();
+    fail(pos_of(n), key, "must be a number");
 }
 
 std::optional<std::int64_t> TomlReader::get_integer(const toml::table& t,

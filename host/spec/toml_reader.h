@@ -53,6 +53,9 @@ public:
                                           const char* key) const;
     std::optional<double> get_number(const toml::table& t, const std::string& prefix,
                                      const char* key) const;
+    // The number a node holds (an integer or a float); `key` names it in the
+    // "must be a number" error.
+    double number(const toml::node& n, const std::string& key) const;
     std::optional<std::int64_t> get_integer(const toml::table& t, const std::string& prefix,
                                             const char* key) const;
     const toml::table* get_table(const toml::table& t, const std::string& prefix,
