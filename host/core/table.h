@@ -22,16 +22,6 @@ enum class StoredType { Float64, Float32, Float16 };
 const char* stored_type_name(StoredType t);            // "float64" | "float32" | "float16"
 StoredType parse_stored_type(const std::string& name);  // throws InputError
 
-struct TableData;
-// The `method` attribute of a stored table: the integration method's name for
-// a computed table ("closed-form", "mc", ...), the kind's name for a table
-// formed from others ("recombined", "error", "inverted").
-std::string method_attribute(const TableData& t);
-// Sets t.kind and t.method from a `method` attribute; an empty one (a file
-// that records none) reads as a computed table with method Auto.  Throws
-// InputError naming the allowed values.
-void set_method_attribute(TableData& t, const std::string& attribute);
-
 struct TableData {
     std::string name;      // HDF5 group name, e.g. "brdf"
     std::string model;     // e.g. "rough-dielectric"
@@ -73,5 +63,14 @@ struct TableData {
     // Row-major flat index of a multi-index.
     std::size_t flat_index(const std::vector<std::size_t>& index) const;
 };
+
+// The `method` attribute of a stored table: the integration method's name for
+// a computed table ("closed-form", "mc", ...), the kind's name for a table
+// formed from others ("recombined", "error", "inverted").
+std::string method_attribute(const TableData& t);
+// Sets t.kind and t.method from a `method` attribute; an empty one (a file
+// that records none) reads as a computed table with method Auto.  Throws
+// InputError naming the allowed values.
+void set_method_attribute(TableData& t, const std::string& attribute);
 
 }  // namespace brdftab
