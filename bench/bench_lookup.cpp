@@ -77,7 +77,7 @@ TableData make_table(bool five_d) {
         const auto x = grid.coordinates(c);
         t.value[c] = ggx_brdf(x[0], x[1], x[2], five_d ? x[3] : 0.3, five_d ? x[4] : 1.5);
     }
-    t.method = "closed-form";
+    t.method = Method::ClosedForm;
     return t;
 }
 

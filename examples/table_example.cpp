@@ -46,7 +46,7 @@ int main(int argc, char** argv) {
         const LookupTable lt = LookupTable::open(path, name);
         std::printf("table %s: model %s, quantity %s, units %s\n", name.c_str(),
                     lt.model().c_str(), lt.quantity().c_str(), lt.units().c_str());
-        std::printf("method %s, device %s, brdftab %s\n", lt.table().method.c_str(),
+        std::printf("method %s, device %s, brdftab %s\n", method_attribute(lt.table()).c_str(),
                     lt.table().device.c_str(), lt.table().version.c_str());
         for (const auto& a : lt.axes())
             std::printf("  axis %-8s [%g, %g] %s, %zu nodes, %s spacing\n", a.name.c_str(),

@@ -67,7 +67,7 @@ TEST_CASE("closed forms: OpenCL device agrees with the host reference") {
             IntegrationSettings s;
             auto a = f.run(*dev, "bsdf", pts, s, dist);
             auto b = f.run(*host, "bsdf", pts, s, dist);
-            REQUIRE(a.method == "closed-form");
+            REQUIRE(a.method == Method::ClosedForm);
             for (std::size_t k = 0; k < pts.size(); ++k) {
                 CAPTURE(dist);
                 CAPTURE(k);
@@ -90,14 +90,14 @@ TEST_CASE("integrals: device and host draw the same samples") {
         {{"theta_i", 60}, {"alpha", 0.5}, {"eta", 1.33}},
         {{"theta_i", 85}, {"alpha", 0.05}, {"eta", 2.0}},
     };
-    for (const char* method : {"mc", "rqmc"}) {
+    for (Method method : {Method::MonteCarlo, Method::Rqmc}) {
         IntegrationSettings s;
         s.method = method;
         s.samples = 512;
         auto a = f.run(*dev, "albedo_r", pts, s);
         auto b = f.run(*host, "albedo_r", pts, s);
         for (std::size_t k = 0; k < pts.size(); ++k) {
-            const std::string method_name = method;
+            const std::string method_name = to_string(method);
             CAPTURE(method_name);
             CHECK(a.samples[k] == b.samples[k]);
             CHECK(a.value[k] == doctest::Approx(b.value[k]).epsilon(1e-9));
@@ -127,7 +127,7 @@ TEST_CASE("float precision agrees with double") {
         {{"theta_i", 75}, {"alpha", 0.6}, {"eta", 1.2}}};
     IntegrationSettings si;
     si.samples = 1 << 14;
-    si.method = "mc";
+    si.method = Method::MonteCarlo;
     auto ia = f.run(*dbl, "albedo_t", apts, si);
     auto ib = f.run(*flt, "albedo_t", apts, si);
     for (std::size_t k = 0; k < apts.size(); ++k) {
@@ -142,9 +142,9 @@ TEST_CASE("determinism: same seed identical, slab size irrelevant, seed matters"
     std::vector<std::map<std::string, double>> pts;
     for (int k = 0; k < 37; ++k)
         pts.push_back({{"theta_i", 2.4 * k}, {"alpha", 0.05 + 0.02 * k}, {"eta", 1.5}});
-    for (const char* method : {"mc", "rqmc"}) {
+    for (Method method : {Method::MonteCarlo, Method::Rqmc}) {
         for (bool adaptive : {false, true}) {
-            const std::string method_name = method;
+            const std::string method_name = to_string(method);
             CAPTURE(method_name);
             CAPTURE(adaptive);
             IntegrationSettings s;
@@ -182,7 +182,7 @@ TEST_CASE("adaptive tolerance: every cell meets it, easy cells stop early") {
         {{"theta_i", 60}, {"alpha", 0.3}, {"eta", 1.1}},
     };
     IntegrationSettings s;
-    s.method = "rqmc";
+    s.method = Method::Rqmc;
     s.tolerance = 2e-4;
     s.samples = 1024;
     s.max_samples = 1 << 22;
@@ -223,11 +223,11 @@ TEST_CASE("reported standard errors are honest (coverage over independent seeds)
         {{"theta_i", 45}, {"alpha", 0.4}, {"eta", 1.5}}};
     // Reference: a long run, its own error 30x below the runs under test.
     IntegrationSettings ref_s;
-    ref_s.method = "mc";
+    ref_s.method = Method::MonteCarlo;
     ref_s.samples = 1 << 21;
     ref_s.seed = 999;
     const double ref = f.run(*dev, "albedo_t", pts, ref_s).value[0];
-    for (const char* method : {"mc", "rqmc"}) {
+    for (Method method : {Method::MonteCarlo, Method::Rqmc}) {
         int inside = 0;
         const int runs = 60;
         for (int seed = 1; seed <= runs; ++seed) {
@@ -238,7 +238,7 @@ TEST_CASE("reported standard errors are honest (coverage over independent seeds)
             auto r = f.run(*dev, "albedo_t", pts, s);
             if (std::fabs(r.value[0] - ref) <= 2 * r.stderr_[0]) ++inside;
         }
-        const std::string method_name = method;
+        const std::string method_name = to_string(method);
         CAPTURE(method_name);
         CAPTURE(inside);
         // Nominal 95 %; with 60 runs, fewer than 46 inside has probability
@@ -250,14 +250,16 @@ TEST_CASE("reported standard errors are honest (coverage over independent seeds)
 
 TEST_CASE("method resolution and errors") {
     Fixture f;
-    CHECK(resolve_method(f.model.quantity("brdf"), "auto") == "closed-form");
-    CHECK(resolve_method(f.model.quantity("albedo_r"), "auto") == "rqmc");
-    CHECK_THROWS_AS(resolve_method(f.model.quantity("brdf"), "mc"), InputError);
-    CHECK_THROWS_AS(resolve_method(f.model.quantity("albedo_r"), "closed-form"), InputError);
-    CHECK_THROWS_AS(resolve_method(f.model.quantity("albedo_r"), "simpson"), InputError);
-    CHECK(resolve_table_method(f.model.quantity("brdf"), "rqmc") == "closed-form");
-    CHECK(resolve_table_method(f.model.quantity("albedo_r"), "mc") == "mc");
-    CHECK_THROWS_AS(resolve_table_method(f.model.quantity("albedo_r"), "closed-form"), InputError);
+    CHECK(resolve_method(f.model.quantity("brdf"), Method::Auto) == Method::ClosedForm);
+    CHECK(resolve_method(f.model.quantity("albedo_r"), Method::Auto) == Method::Rqmc);
+    CHECK_THROWS_AS(resolve_method(f.model.quantity("brdf"), Method::MonteCarlo), InputError);
+    CHECK_THROWS_AS(resolve_method(f.model.quantity("albedo_r"), Method::ClosedForm), InputError);
+    CHECK_THROWS_AS(parse_method("simpson"), InputError);
+    CHECK(resolve_table_method(f.model.quantity("brdf"), Method::Rqmc) == Method::ClosedForm);
+    CHECK(resolve_table_method(f.model.quantity("albedo_r"), Method::MonteCarlo) ==
+          Method::MonteCarlo);
+    CHECK_THROWS_AS(resolve_table_method(f.model.quantity("albedo_r"), Method::ClosedForm),
+                    InputError);
     CHECK_THROWS_AS(make_backend("host", Precision::Float), InputError);
     CHECK_THROWS_AS(make_backend("no-such-device-xyz", Precision::Double), InputError);
 }

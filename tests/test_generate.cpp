@@ -44,7 +44,7 @@ TEST_CASE("generated table equals direct evaluation and round-trips through HDF5
     auto tables = generate_tables(spec, *device, spec.integration);
     REQUIRE(tables.size() == 1);
     const TableData& d = tables[0].data;
-    CHECK(d.method == "closed-form");
+    CHECK(d.method == Method::ClosedForm);
     CHECK(d.parameters["distribution"] == "beckmann");
     CHECK(d.parameters["eta"] == 1.5);
     CHECK(d.seed == 11);
@@ -94,7 +94,7 @@ samples = 2000
     auto device = make_backend("", Precision::Double);
     auto tables = generate_tables(spec, *device, spec.integration);
     const TableData& d = tables[0].data;
-    CHECK(d.method == "mc");
+    CHECK(d.method == Method::MonteCarlo);
     REQUIRE(d.samples.size() == 6);
     for (std::size_t c = 0; c < 6; ++c) {
         CHECK(d.samples[c] >= 2000);
@@ -129,7 +129,7 @@ coeffs = [0.0, 0.0, 4.0]
     const TableData& t = tables[1].data;
     const TableData& m = tables[2].data;
     CHECK(m.name == "mix");
-    CHECK(m.method == "recombined");
+    CHECK(m.kind == TableKind::Recombined);
     // At w = 0.5: (1 + 2 w) brdf + 4 w^2 btdf = 2 brdf + btdf.
     for (std::size_t c = 0; c < m.value.size(); ++c)
         CHECK(m.value[c] == doctest::Approx(2 * r.value[c] + t.value[c]).epsilon(1e-14));
@@ -178,7 +178,7 @@ measure = "absolute"
     const GeneratedTable& rel = tables[4];
     const GeneratedTable& abs = tables[5];
     REQUIRE(rel.error.has_value());
-    CHECK(rel.data.method == "error");
+    CHECK(rel.data.kind == TableKind::Error);
     CHECK(rel.data.units == "1");
     CHECK(abs.data.units == brdf.units);
     // 2 f against f: relative error exactly 1 where f > 0 (theta_o < 90), and
@@ -299,7 +299,7 @@ name = "kd"
     auto tables = generate_tables(spec, *device, spec.integration);
     REQUIRE(tables.size() == 2);
     const TableData& inv = tables[1].data;
-    CHECK(inv.method == "inverted");
+    CHECK(inv.kind == TableKind::Inverted);
     CHECK(inv.units == "1");
     REQUIRE(inv.axes.size() == 1);
     CHECK(inv.axes[0].name == "kd");

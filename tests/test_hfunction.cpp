@@ -288,7 +288,7 @@ TEST_CASE("device (double and float) and host agree through estimate()") {
                                 [&](std::size_t k, double* out) { builder.build(pts[k], out); }, s);
             };
             auto a = run(*dev), b = run(*host), f = run(*devf);
-            CHECK(a.method == "quadrature");
+            CHECK(a.method == Method::Quadrature);
             for (std::size_t k = 0; k < pts.size(); ++k) {
                 CAPTURE(qname);
                 CAPTURE(psi);

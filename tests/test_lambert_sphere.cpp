@@ -540,7 +540,7 @@ TEST_CASE("device vs host (double), float sanity, finite values at extremes") {
     const QuantityInfo& q = model.quantity("brdf_mc");
     PointBuilder builder(model, q);
     IntegrationSettings s;
-    s.method = "mc";
+    s.method = Method::MonteCarlo;
     s.samples = 2048;
     std::vector<std::map<std::string, double>> wp = {
         {{"theta_i", 30}, {"theta_o", 60}, {"phi_d", 30}, {"c", 0.9}},

@@ -47,9 +47,9 @@ ModelBuilder valid_builder() {
     b.parameter(kDirectionSlots + 1, parameter_info("b", "1", "second", 0, 1, 0.5));
     b.option(0, OptionInfo{"mode", "a mode", {"x", "y"}, "x"});
     b.quantity(QuantityInfo{"q0", 0, "first", "1", QuantityKind::ClosedForm, {"theta_i"}, {"mode"},
-                            "none", "closed-form", 0});
+                            "none", Method::ClosedForm, 0});
     b.quantity(QuantityInfo{"q1", 1, "second", "1", QuantityKind::ClosedForm, {}, {}, "none",
-                            "closed-form", 0});
+                            Method::ClosedForm, 0});
     return b;
 }
 
@@ -133,7 +133,7 @@ TEST_CASE("ModelBuilder puts parameters in slot order whatever the call order") 
     b.counts(2, 0, 1);
     b.parameter(kDirectionSlots + 1, parameter_info("second", "1", "", 0, 1, 0.5));
     b.parameter(kDirectionSlots + 0, parameter_info("first", "1", "", 0, 1, 0.5));
-    b.quantity(QuantityInfo{"q", 0, "", "1", QuantityKind::ClosedForm, {}, {}, "", "closed-form", 0});
+    b.quantity(QuantityInfo{"q", 0, "", "1", QuantityKind::ClosedForm, {}, {}, "", Method::ClosedForm, 0});
     const ModelInfo m = b.build();
     CHECK(m.parameters[0].name == "first");
     CHECK(m.parameters[1].name == "second");
@@ -186,27 +186,27 @@ TEST_CASE("ModelBuilder refuses descriptions that break the contract") {
     {
         ModelBuilder b = valid_builder();
         b.counts(2, 1, 3);
-        b.quantity(QuantityInfo{"q2", 1, "", "1", QuantityKind::ClosedForm, {}, {}, "", "closed-form", 0});
+        b.quantity(QuantityInfo{"q2", 1, "", "1", QuantityKind::ClosedForm, {}, {}, "", Method::ClosedForm, 0});
         refuses(b, "quantity id used twice");
     }
     {
         ModelBuilder b = valid_builder();
         b.counts(2, 1, 3);
-        b.quantity(QuantityInfo{"q0", 2, "", "1", QuantityKind::ClosedForm, {}, {}, "", "closed-form", 0});
+        b.quantity(QuantityInfo{"q0", 2, "", "1", QuantityKind::ClosedForm, {}, {}, "", Method::ClosedForm, 0});
         refuses(b, "quantity name used twice");
     }
     {
         ModelBuilder b = valid_builder();
         b.counts(2, 1, 3);
         b.quantity(QuantityInfo{"q2", 2, "", "1", QuantityKind::ClosedForm, {}, {"colour"}, "",
-                                "closed-form", 0});
+                                Method::ClosedForm, 0});
         refuses(b, "unknown option");
     }
     {
         ModelBuilder b = valid_builder();
         b.counts(2, 1, 3);
         b.quantity(QuantityInfo{"q2", 2, "", "1", QuantityKind::ClosedForm, {"phi_d"}, {}, "",
-                                "closed-form", 0});
+                                Method::ClosedForm, 0});
         refuses(b, "direction that is not a slot");
     }
     {
@@ -231,6 +231,13 @@ TEST_CASE("ModelBuilder refuses descriptions that break the contract") {
         ModelBuilder b = valid_builder();
         b.kernel("", "f", nullptr);
         refuses(b, "no kernel");
+    }
+    {
+        ModelBuilder b = valid_builder();
+        b.counts(2, 1, 3);
+        b.quantity(QuantityInfo{"q2", 2, "", "1", QuantityKind::ClosedForm, {}, {}, "",
+                                Method::Rqmc, 0});
+        refuses(b, "default method that does not suit the kind");
     }
 }
 

@@ -402,7 +402,7 @@ TEST_CASE("engine: albedo <= 1 at rho = 1, Lambert limit, device agrees with hos
         for (double sg : {0.0, 15.0, 30.0, 45.0, 60.0})
             pts.push_back({{"theta_i", ti}, {"sigma", sg}, {"rho", 1.0}});
     IntegrationSettings st;
-    st.method = "rqmc";
+    st.method = Method::Rqmc;
     st.samples = 1 << 15;
     auto ra = estimate(*dev, m, qa, opts, pts.size(),
                        [&](std::size_t c, double* out) { ba.build(pts[c], out); }, st);
@@ -425,7 +425,7 @@ TEST_CASE("engine: albedo <= 1 at rho = 1, Lambert limit, device agrees with hos
                       {"phi_d", 180 * u(rng)}, {"sigma", 60 * u(rng)}, {"rho", u(rng)},
                       {"nodes", 10}});
     IntegrationSettings sq;
-    sq.method = "quadrature";
+    sq.method = Method::Quadrature;
     auto pf = [&](std::size_t c, double* out) { bb.build(bp[c], out); };
     auto rd = estimate(*dev, m, qb, opts, bp.size(), pf, sq);
     auto rh = estimate(*host, m, qb, opts, bp.size(), pf, sq);
@@ -440,7 +440,7 @@ TEST_CASE("engine: albedo <= 1 at rho = 1, Lambert limit, device agrees with hos
     // Sampling estimator (RQMC, host) is unbiased: within 4 stderr of the
     // quadrature (which is ~1e-6 accurate at 10 nodes).
     IntegrationSettings sr;
-    sr.method = "rqmc";
+    sr.method = Method::Rqmc;
     sr.samples = 1 << 14;
     auto rr = estimate(*dev, m, qb, opts, bp.size(), pf, sr);
     for (std::size_t c = 0; c < bp.size(); ++c)

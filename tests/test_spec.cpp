@@ -139,7 +139,7 @@ TEST_CASE("a complete spec parses to the expected structures") {
     CHECK(e.options.at("distribution") == "beckmann");
     CHECK(e.axes.size() == 2);
 
-    CHECK(s.integration.method == "rqmc");
+    CHECK(s.integration.method == Method::Rqmc);
     CHECK(s.integration.samples == 1024);
     CHECK(s.integration.tolerance == 1e-3);
     CHECK(s.integration.abs_floor == 1e-7);

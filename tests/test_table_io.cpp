@@ -68,7 +68,7 @@ TableData smooth_table(std::size_t n0, std::size_t n1, std::size_t n2, StoredTyp
                 t.stderr_[c] = 1e-3 * t.value[c] + 1e-7;
                 t.samples[c] = static_cast<std::uint32_t>(1000 + c);
             }
-    t.method = "rqmc";
+    t.method = Method::Rqmc;
     t.samples_requested = 1ull << 40;  // beyond 32 bits on purpose
     t.tolerance_requested = 1e-3;
     t.abs_floor = 1e-6;
@@ -132,6 +132,7 @@ void check_metadata_equal(const TableData& a, const TableData& b) {
     CHECK(a.units == b.units);
     CHECK(a.description == b.description);
     CHECK(a.parameters == b.parameters);
+    CHECK(a.kind == b.kind);
     CHECK(a.method == b.method);
     CHECK(a.samples_requested == b.samples_requested);
     CHECK(a.tolerance_requested == b.tolerance_requested);

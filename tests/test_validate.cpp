@@ -39,7 +39,7 @@ std::string zero_table_file(const std::string& sub, nlohmann::json extra_paramet
               test::axis("theta_o", "deg", 0, 80, 4),
               test::axis("phi_d", "deg", 0, 180, 5)};
     t.value.assign(t.cell_count(), 0.0);
-    t.method = method;
+    set_method_attribute(t, method);  // "closed-form", or a derived kind such as "error"
     t.stored_type = StoredType::Float64;
     const fs::path p = test::scratch_dir(BT_BINARY_DIR, "test_validate", sub) / "t.h5";
     write_tables(p.string(), {t});

@@ -24,7 +24,7 @@ void ComputeOptions::add_to(CLI::App& app, bool with_integration) {
                    "(development)");
     if (!with_integration) return;
     app.add_option("--method", method, "integration method: auto, closed-form, quadrature, mc, rqmc (default: each quantity's own, see `brdftab models`)")
-        ->check(CLI::IsMember({"auto", "closed-form", "quadrature", "mc", "rqmc"}));
+        ->check(CLI::IsMember(method_names()));
     app.add_option("--samples", samples, "fixed sample budget per cell (default 4096)")
         ->check(CLI::PositiveNumber);
     app.add_option("--tolerance", tolerance,
@@ -44,7 +44,7 @@ void ComputeOptions::add_to(CLI::App& app, bool with_integration) {
 }
 
 IntegrationSettings ComputeOptions::apply(IntegrationSettings s) const {
-    if (!method.empty()) s.method = method;
+    if (!method.empty()) s.method = parse_method(method);
     if (samples) {
         s.samples = samples;
         if (tolerance <= 0) s.tolerance = 0;  // an explicit budget on the CLI wins

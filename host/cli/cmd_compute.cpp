@@ -64,17 +64,17 @@ void run_eval(const EvalArgs& st) {
                                 {"quantity", q.name},
                                 {"value", r.value[0]},
                                 {"stderr", r.stderr_[0]},
-                                {"samples", r.method == "closed-form" ? 1u : r.samples[0]},
-                                {"method", r.method},
+                                {"samples", r.method == Method::ClosedForm ? 1u : r.samples[0]},
+                                {"method", to_string(r.method)},
                                 {"units", q.units},
                                 {"device", backend->device_name()},
                                 {"precision", precision_name(backend->precision())}};
             std::cout << j.dump() << "\n";
         } else {
             std::cout << model.name << " " << q.name << " = " << format_double(r.value[0]);
-            if (r.method != "closed-form")
+            if (r.method != Method::ClosedForm)
                 std::cout << " ± " << r.stderr_[0] << " (1 stderr, " << r.samples[0]
-                          << " samples, " << r.method << ")";
+                          << " samples, " << to_string(r.method) << ")";
             else
                 std::cout << " (closed form)";
             std::cout << " [" << q.units << "]\n";
@@ -87,7 +87,7 @@ void run_eval(const EvalArgs& st) {
     for (std::size_t k = 0; k < file.rows.size(); ++k) {
         for (const auto& c : file.rows[k].cells) csv << c << ",";
         csv << format_double(r.value[k]) << "," << format_double(r.stderr_[k]) << ","
-            << (r.method == "closed-form" ? 1u : r.samples[k]) << "\n";
+            << (r.method == Method::ClosedForm ? 1u : r.samples[k]) << "\n";
     }
     if (st.output.empty()) {
         std::cout << csv.str();
@@ -206,8 +206,10 @@ void register_generate(CLI::App& app) {
             std::cout << "  " << d.name << ": " << d.quantity << " [";
             for (std::size_t a = 0; a < d.axes.size(); ++a)
                 std::cout << (a ? " x " : "") << d.axes[a].name << " " << d.axes[a].count;
-            std::cout << "] = " << d.cell_count() << " cells, " << d.method;
-            if (d.method == "mc" || d.method == "rqmc" || d.method == "quadrature")
+            std::cout << "] = " << d.cell_count() << " cells, " << method_attribute(d);
+            if (d.kind == TableKind::Computed &&
+                (d.method == Method::MonteCarlo || d.method == Method::Rqmc ||
+                 d.method == Method::Quadrature))
                 std::cout << ", " << format_count(static_cast<double>(d.total_samples))
                           << " samples, max rel. stderr " << d.tolerance_achieved;
             std::cout << ", values in [" << lo << ", " << hi << "], "

@@ -60,7 +60,7 @@ void register_models(CLI::App& app) {
             for (const auto& q : m.quantities) {
                 std::cout << "    " << std::left << std::setw(14) << q.name << "["
                           << (q.kind == QuantityKind::ClosedForm ? "closed form" : "integral, " +
-                                                                                       q.default_method)
+                                                                                       to_string(q.default_method))
                           << "; " << q.units << "; depends on:";
                 for (const auto& d : q.directions) std::cout << " " << d;
                 if (q.directions.empty()) std::cout << " no direction";
@@ -86,10 +86,10 @@ void print_table_summary(const TableData& t, bool verbose) {
                   << a.max << "] " << a.unit << ", " << a.count << " nodes, "
                   << spacing_name(a.spacing) << "\n";
     std::cout << "    parameters: " << t.parameters.dump() << "\n";
-    std::cout << "    method: " << t.method;
-    if (t.method == "error" || t.method == "recombined" || t.method == "inverted") {
+    std::cout << "    method: " << method_attribute(t);
+    if (t.kind != TableKind::Computed) {
         std::cout << " (formed from other tables of the file; see parameters)";
-    } else if (t.method != "closed-form") {
+    } else if (t.method != Method::ClosedForm) {
         std::cout << ", samples/cell requested " << t.samples_requested;
         if (t.tolerance_requested > 0) std::cout << ", tolerance " << t.tolerance_requested;
         std::cout << ", achieved max rel. stderr " << t.tolerance_achieved << ", total samples "

@@ -56,7 +56,7 @@ double measure(Backend& backend, const ModelInfo& model, const std::string& quan
     std::vector<int> options = resolve_options(model, nlohmann::json::object(), "");
     IntegrationSettings s;
     s.samples = samples;
-    s.method = q.kind == QuantityKind::ClosedForm ? "closed-form" : "mc";
+    s.method = q.kind == QuantityKind::ClosedForm ? Method::ClosedForm : Method::MonteCarlo;
     // Points are built before timing: the figure is the integrand's, not
     // the name-resolving PointBuilder's.
     const std::size_t stride = model.point_stride();

@@ -213,7 +213,7 @@ void run_validate(const ValidateArgs& va) {
     for (const auto& a : rep.axes) std::cout << " " << a.name << "(" << a.count << ")";
     std::cout << "\n  " << n << " random off-grid points (seed " << va.seed
               << ", uniform in each axis' warped coordinate)\n"
-              << "  reference: " << ref.method << " on " << rep.device << " ("
+              << "  reference: " << to_string(ref.method) << " on " << rep.device << " ("
               << precision_name(rep.precision) << "), ";
     if (noisy) std::cout << format_count(double(ref.total_samples)) << " samples, ";
     std::cout << format_seconds(ref.elapsed_seconds) << "\n";

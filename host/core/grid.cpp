@@ -49,26 +49,6 @@ double explicit_unwarp(const std::vector<double>& v, double x) {
 
 }  // namespace
 
-const char* spacing_name(Spacing s) {
-    switch (s) {
-        case Spacing::Linear: return "linear";
-        case Spacing::Cos: return "cos";
-        case Spacing::Log: return "log";
-        case Spacing::Quadratic: return "quadratic";
-        case Spacing::Explicit: return "explicit";
-    }
-    return "linear";
-}
-
-Spacing parse_spacing(const std::string& name) {
-    for (Spacing s : {Spacing::Linear, Spacing::Cos, Spacing::Log, Spacing::Quadratic,
-                      Spacing::Explicit}) {
-        if (name == spacing_name(s)) return s;
-    }
-    throw InputError("unknown spacing '" + name +
-                     "'; allowed: linear, cos, log, quadratic, explicit");
-}
-
 double Axis::warp(double t) const {
     // The end points are returned exactly: a table's first and last node must
     // be the user's min and max, not a rounding of acos(cos(min)) etc.

@@ -5,7 +5,7 @@
 // x -> t is what an interpolating reader needs to find the cell of an off-grid
 // point, so every spacing here has an exact closed-form inverse.
 //
-// Spacings (the name is stored in the file as the axis' `spacing` attribute):
+// Spacings (the enum and its names are in vocabulary.h):
 //   linear     x = min + t (max - min)
 //   cos        uniform in cos(x), x in degrees within [0, 180]:
 //              x = acos(cos(min) + t (cos(max) - cos(min)))
@@ -19,13 +19,9 @@
 #include <string>
 #include <vector>
 
+#include "vocabulary.h"
+
 namespace brdftab {
-
-enum class Spacing { Linear, Cos, Log, Quadratic, Explicit };
-
-const char* spacing_name(Spacing s);
-// Throws InputError naming the allowed spellings.
-Spacing parse_spacing(const std::string& name);
 
 struct Axis {
     std::string name;        // "theta_i", "phi_d", "mu_i", "alpha", ...

@@ -24,6 +24,36 @@ StoredType parse_stored_type(const std::string& name) {
                      "' (allowed: float64, float32, float16)");
 }
 
+std::string method_attribute(const TableData& t) {
+    return t.kind == TableKind::Computed ? to_string(t.method) : to_string(t.kind);
+}
+
+void set_method_attribute(TableData& t, const std::string& attribute) {
+    if (attribute.empty()) {
+        t.kind = TableKind::Computed;
+        t.method = Method::Auto;
+        return;
+    }
+    if (const std::optional<Method> m = find_method(attribute)) {
+        t.kind = TableKind::Computed;
+        t.method = *m;
+        return;
+    }
+    // "computed" alone says nothing a method name would not: not a value.
+    const std::optional<TableKind> k = find_table_kind(attribute);
+    if (k && *k != TableKind::Computed) {
+        t.kind = *k;
+        t.method = Method::Auto;
+        return;
+    }
+    std::string allowed;
+    for (const std::string& name : method_names()) allowed += name + ", ";
+    for (const auto& [kind, name] : kTableKindNames)
+        if (kind != TableKind::Computed) allowed += name + std::string(", ");
+    allowed.resize(allowed.size() - 2);
+    throw InputError("unknown method '" + attribute + "'; allowed: " + allowed);
+}
+
 std::size_t TableData::cell_count() const {
     std::size_t n = 1;  // a table without axes is a single value
     for (const Axis& a : axes) n *= a.count;

@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include "grid.h"
+#include "vocabulary.h"
 
 namespace brdftab {
 
@@ -35,7 +36,11 @@ struct TableData {
     std::vector<std::uint32_t> samples;  // samples used per cell (optional, may be empty)
 
     // Provenance (written as HDF5 attributes).
-    std::string method;            // "closed-form" | "mc" | "rqmc" | "quadrature"
+    // How the table came to be, and for a computed table the integration
+    // method (Auto: not recorded).  The file holds both in one `method`
+    // attribute, see method_attribute().
+    TableKind kind = TableKind::Computed;
+    Method method = Method::Auto;
     std::uint64_t samples_requested = 0;  // --samples budget, or max budget under --tolerance
     double tolerance_requested = 0;  // 0 when a fixed budget was used
     double abs_floor = 0;
@@ -58,5 +63,14 @@ struct TableData {
     // Row-major flat index of a multi-index.
     std::size_t flat_index(const std::vector<std::size_t>& index) const;
 };
+
+// The `method` attribute of a stored table: the integration method's name for
+// a computed table ("closed-form", "mc", ...), the kind's name for a table
+// formed from others ("recombined", "error", "inverted").
+std::string method_attribute(const TableData& t);
+// Sets t.kind and t.method from a `method` attribute; an empty one (a file
+// that records none) reads as a computed table with method Auto.  Throws
+// InputError naming the allowed values.
+void set_method_attribute(TableData& t, const std::string& attribute);
 
 }  // namespace brdftab

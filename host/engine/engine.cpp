@@ -234,10 +234,10 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
 
     EstimateResult result;
     result.method = resolve_method(quantity, settings.method);
-    const bool quadrature = result.method == "quadrature";
+    const bool quadrature = result.method == Method::Quadrature;
     // Quadrature runs like a closed form with two one-sample batches.
-    const bool closed = result.method == "closed-form" || quadrature;
-    const bool rqmc = result.method == "rqmc";
+    const bool closed = result.method == Method::ClosedForm || quadrature;
+    const bool rqmc = result.method == Method::Rqmc;
     const bool adaptive = !closed && settings.tolerance > 0;
     if (adaptive && !(settings.tolerance < 1))
         throw InputError("tolerance must be in (0, 1)");

@@ -21,6 +21,7 @@
 #include <string>
 #include <vector>
 
+#include "host/core/vocabulary.h"
 #include "host/models/registry.h"
 
 namespace brdftab {
@@ -30,7 +31,7 @@ const char* precision_name(Precision p);
 Precision parse_precision(const std::string& s);  // throws InputError
 
 struct IntegrationSettings {
-    std::string method = "auto";      // auto | closed-form | mc | rqmc
+    Method method = Method::Auto;     // Auto: the quantity's default (resolve_method)
     std::uint64_t samples = 0;        // fixed budget per cell (0 = default 4096) unless tolerance > 0
     double tolerance = 0;             // > 0: adaptive, relative
     double abs_floor = 1e-6;          // a cell is done when stderr <= max(tolerance*|mean|, abs_floor)
@@ -83,7 +84,7 @@ using ProgressFn = std::function<void(const Progress&)>;
 struct EstimateResult {
     std::vector<double> value, stderr_;
     std::vector<std::uint32_t> samples;
-    std::string method;
+    Method method = Method::ClosedForm;  // the resolved method, never Auto
     std::uint64_t total_samples = 0;
     // max over cells of stderr / max(|value|, F), F = abs_floor / tolerance
     // under a tolerance (so a cell that met its target scores <= tolerance),

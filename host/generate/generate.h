@@ -61,7 +61,9 @@ public:
     void point(std::size_t cell, double* out) const;
 
 private:
-    enum class Feed { ThetaDeg, Mu, PhiIDeg, PhiODeg, PhiDDeg, Param, ParamDeg };
+    // How an axis value reaches its kernel slot (CoordinateEncoding for
+    // directions; parameters are Plain, or Degrees when in_degrees).
+    enum class Feed { Degrees, Cosine, AzimuthOffset, Plain };
     struct AxisFeed {
         Feed feed;
         std::size_t slot;

@@ -41,14 +41,14 @@ LookupTable stored_table(const std::string& file, const std::string& table,
         throw InputError("the relative-error floor factor must be in (0, 1), got " +
                          number_text(options.rel_floor, 6));
     const LookupTable full = LookupTable::open(file, table);
-    if (full.table().method == "error") {
+    if (full.table().kind == TableKind::Error) {
         const nlohmann::json& e = full.table().parameters.value("comparison", nlohmann::json::object());
         throw InputError(file + ": table '" + full.table().name +
                          "' is an error table (no model quantity of its own); validate the "
                          "tables it compares: '" + e.value("table", std::string("?")) + "' and '" +
                          e.value("reference", std::string("?")) + "'");
     }
-    if (full.table().method == "inverted") {
+    if (full.table().kind == TableKind::Inverted) {
         const nlohmann::json& e = full.table().parameters.value("inverse_of", nlohmann::json::object());
         throw InputError(file + ": table '" + full.table().name +
                          "' is an inverted table (no model quantity of its own); validate the "
@@ -124,7 +124,9 @@ ValidationPlan::ValidationPlan(const std::string& file, const std::string& table
     // seed differs from the table's so the reference noise is independent of
     // the table's noise.
     IntegrationSettings& s = reference_settings_;
-    s.method = t.method.empty() ? "auto" : t.method;
+    // A recombined table has no method of its own: parse_method rejects its
+    // attribute ("integration method 'recombined' is not valid; ...").
+    s.method = t.kind == TableKind::Computed ? t.method : parse_method(method_attribute(t));
     if (options_.samples) {
         s.samples = options_.samples;
     } else if (t.tolerance_requested > 0) {
@@ -159,7 +161,7 @@ ValidationReport ValidationPlan::run(Backend& backend, const ProgressFn& progres
     rep.device = backend.device_name();
     rep.precision = backend.precision();
     const EstimateResult& ref = rep.reference;
-    const bool noisy = ref.method != "closed-form";
+    const bool noisy = ref.method != Method::ClosedForm;
     rep.noisy = noisy;
 
     // Relative errors use a floor: |diff| / max(|ref|, rel_floor * max|table|),
@@ -238,7 +240,7 @@ nlohmann::json to_json(const ValidationReport& rep) {
         {"relative_floor_factor", rep.rel_floor_factor},
         {"max_abs_table_value", rep.max_abs_table_value},
         {"reference",
-         {{"method", ref.method},
+         {{"method", to_string(ref.method)},
           {"device", rep.device},
           {"precision", precision_name(rep.precision)},
           {"total_samples", ref.total_samples},

@@ -222,7 +222,7 @@ void write_table(hid_t file, const TableData& t) {
     write_string_attr(group, "units", t.units);
     write_string_attr(group, "parameters", t.parameters.dump());
     write_string_attr(group, "axes", axis_names.dump());
-    write_string_attr(group, "method", t.method);
+    write_string_attr(group, "method", method_attribute(t));
     write_u64_attr(group, "samples_requested", t.samples_requested);
     write_double_attr(group, "tolerance_requested", t.tolerance_requested);
     write_double_attr(group, "abs_floor", t.abs_floor);
@@ -411,7 +411,11 @@ TableData read_table(const std::string& path, const std::string& name) {
     t.quantity = str("quantity");
     t.description = str("description");
     t.units = str("units");
-    t.method = str("method");
+    try {
+        set_method_attribute(t, str("method"));
+    } catch (const InputError& e) {
+        throw InputError(where + e.what());
+    }
     t.precision = str("precision");
     t.device = str("device");
     t.version = str("brdftab_version");

@@ -90,7 +90,7 @@ ModelInfo interfaced_lambertian_model() {
     const std::vector<std::string> sampled = {"distribution", "sampling"};
     auto q = [](const char* name, int id, const char* units, QuantityKind kind,
                 std::vector<std::string> dirs, std::vector<std::string> opts, const char* desc,
-                const char* eqs, const char* method, unsigned dims) {
+                const char* eqs, Method method, unsigned dims) {
         QuantityInfo x;
         x.name = name;
         x.id = id;
@@ -110,40 +110,40 @@ ModelInfo interfaced_lambertian_model() {
     b.quantity(q("body", IL_Q_BODY, "1", IN, all_dirs, sampled,
                  "integral of eq. 12 WITHOUT the prefactor Kd/(pi ni^2 (1 - ri Kd)): "
                  "int T(i,m) T(o,m) D G |i.m||o.m|/(|i.n||o.n|) dm",
-                 "eqs. 7, 12-21; sampling eqs. 29-31 or visible normals", "rqmc", 2));
+                 "eqs. 7, 12-21; sampling eqs. 29-31 or visible normals", Method::Rqmc, 2));
     b.quantity(q("brdf", IL_Q_BRDF, "1/sr", IN, all_dirs, sampled,
-                 "f = Kd/(pi ni^2 (1 - ri Kd)) * body + specular", "eqs. 3, 11, 12", "rqmc", 2));
+                 "f = Kd/(pi ni^2 (1 - ri Kd)) * body + specular", "eqs. 3, 11, 12", Method::Rqmc, 2));
     b.quantity(q("specular", IL_Q_SPECULAR, "1/sr", CF, all_dirs, shape,
                  "specular term F D G / (4 |i.n||o.n|)", "eq. 3 (denominator corrected), 7",
-                 "closed-form", 0));
+                 Method::ClosedForm, 0));
     b.quantity(q("re", IL_Q_RE, "1", CF, {}, {}, "external diffuse reflectance r_e (Molenaar)",
-                 "eq. 10", "closed-form", 0));
+                 "eq. 10", Method::ClosedForm, 0));
     b.quantity(q("ri", IL_Q_RI, "1", CF, {}, {},
                  "internal diffuse reflectance r_i = 1 - (1 - r_e)/ni^2", "eqs. 9-10",
-                 "closed-form", 0));
+                 Method::ClosedForm, 0));
     b.quantity(q("re_integral", IL_Q_RE_INTEGRAL, "1", QU, {}, {},
                  "r_e by Gauss-Legendre quadrature of int F(mu) 2 mu dmu", "eqs. 7, 9 (external)",
-                 "quadrature", 0));
+                 Method::Quadrature, 0));
     b.quantity(q("ri_integral", IL_Q_RI_INTEGRAL, "1", QU, {}, {},
                  "r_i by Gauss-Legendre quadrature of eq. 9 (internal Fresnel, total internal "
                  "reflection)",
-                 "eqs. 7, 9", "quadrature", 0));
+                 "eqs. 7, 9", Method::Quadrature, 0));
     b.quantity(q("Rs", IL_Q_RS, "1", CF, {}, {}, "specular sampling weight R_s = r_e", "§4.1",
-                 "closed-form", 0));
+                 Method::ClosedForm, 0));
     b.quantity(q("Rb", IL_Q_RB, "1", CF, {}, {},
                  "body sampling weight R_b = (1 - r_e)^2 Kd / (ni^2 (1 - Kd r_i))", "§4.1",
-                 "closed-form", 0));
+                 Method::ClosedForm, 0));
     b.quantity(q("albedo_body", IL_Q_ALBEDO_BODY, "1", IN, {"theta_i", "phi_i"}, sampled,
                  "directional albedo of the body term (with the Kd prefactor)", "eqs. 8, 12",
-                 "rqmc", 4));
+                 Method::Rqmc, 4));
     b.quantity(q("albedo_specular", IL_Q_ALBEDO_SPECULAR, "1", IN, {"theta_i", "phi_i"}, sampled,
-                 "directional albedo of the specular term", "eq. 3", "rqmc", 2));
+                 "directional albedo of the specular term", "eq. 3", Method::Rqmc, 2));
     b.quantity(q("vcavity", IL_Q_VCAVITY, "1/sr", IN, all_dirs,
                  {"distribution", "sampling", "interreflection"},
                  "body reflection with multiple bounces inside V-cavities (point estimator at o), "
                  "bounce order selected by `order` (0 = all); uses the chosen distribution with "
                  "V-cavity visibility whatever its GAF",
-                 "eqs. 8, 14, 22-23", "rqmc", 8));
+                 "eqs. 8, 14, 22-23", Method::Rqmc, 8));
     return b.build();
 }
 

@@ -61,17 +61,17 @@ ModelInfo hfunction_model() {
                             "H(mu) from eq. 16 (trapezoid in log t, error from the "
                             "half-resolution rule)",
                             "1", QuantityKind::Quadrature, none, psi, "eqs. 13-20 (d'Eon)",
-                            "quadrature", 0});
+                            Method::Quadrature, 0});
     b.quantity(
         QuantityInfo{"moment", HF_Q_MOMENT,
                      "alpha_n = int_0^1 mu^n H(mu) dmu (24-point Gauss-Legendre in sqrt(mu))", "1",
-                     QuantityKind::Quadrature, none, psi, "eqs. 13-20 (d'Eon)", "quadrature", 0});
+                     QuantityKind::Quadrature, none, psi, "eqs. 13-20 (d'Eon)", Method::Quadrature, 0});
     b.quantity(QuantityInfo{"H_inf", HF_Q_HINF, "H(inf) = 1/sqrt(K(0)) (inf when K(0) = 0)", "1",
-                            QuantityKind::ClosedForm, none, psi, "eq. 32 (d'Eon)", "closed-form",
+                            QuantityKind::ClosedForm, none, psi, "eq. 32 (d'Eon)", Method::ClosedForm,
                             0});
     b.quantity(QuantityInfo{"K", HF_Q_K, "K(t) at t = mu (diagnostic; closed forms or series)", "1",
                             QuantityKind::ClosedForm, none, psi, "eqs. 17-20 (d'Eon)",
-                            "closed-form", 0});
+                            Method::ClosedForm, 0});
     return b.build();
 }
 
@@ -177,13 +177,13 @@ ModelInfo lambert_sphere_model() {
                      {"theta_o"},
                      {},
                      "eq. 1",
-                     "closed-form",
+                     Method::ClosedForm,
                      0});
     b.quantity(QuantityInfo{"brdf_mc", LS_Q_BRDF_MC,
                             "exact BRDF: random walks with the exact phase function and next-event "
                             "estimation, per scattering order (parameters order, max_order, mode)",
                             "1/sr", QuantityKind::Integral, dirs, walk_opts,
-                            "eqs. 1, 5, 10 (order 1)", "mc", 8});
+                            "eqs. 1, 5, 10 (order 1)", Method::MonteCarlo, 8});
     b.quantity(QuantityInfo{"albedo_mc",
                             LS_Q_ALBEDO_MC,
                             "directional albedo E(mu_i) by random walks, per scattering order",
@@ -192,18 +192,18 @@ ModelInfo lambert_sphere_model() {
                             {"theta_i"},
                             walk_opts,
                             "eqs. 1, 5",
-                            "mc",
+                            Method::MonteCarlo,
                             8});
     b.quantity(
         QuantityInfo{"brdf_analytic", LS_Q_BRDF_ANALYTIC,
                      "d'Eon's model with exact H0, H1 (eq. 16) and exact (default) or fitted "
                      "constants l, m, A-F",
                      "1/sr", QuantityKind::Quadrature, dirs, an_opts,
-                     "eqs. 9-12, 16, 18-19, 22, 26-28, 30, 33-38", "quadrature", 0});
+                     "eqs. 9-12, 16, 18-19, 22, 26-28, 30, 33-38", Method::Quadrature, 0});
     b.quantity(QuantityInfo{"brdf_fit", LS_Q_BRDF_FIT,
                             "d'Eon's model entirely with fitted functions", "1/sr",
                             QuantityKind::ClosedForm, dirs, fit_opts,
-                            "eqs. 9-12, 22-31, 33-38 (29 with fm1=eq29)", "closed-form", 0});
+                            "eqs. 9-12, 22-31, 33-38 (29 with fm1=eq29)", Method::ClosedForm, 0});
     b.quantity(QuantityInfo{"brdf_fast",
                             LS_Q_BRDF_FAST,
                             "fast variant",
@@ -212,7 +212,7 @@ ModelInfo lambert_sphere_model() {
                             dirs,
                             {},
                             "eqs. 40, 41",
-                            "closed-form",
+                            Method::ClosedForm,
                             0});
     b.quantity(QuantityInfo{"brdf_single",
                             LS_Q_BRDF_SINGLE,
@@ -222,7 +222,7 @@ ModelInfo lambert_sphere_model() {
                             dirs,
                             {},
                             "eq. 10",
-                            "closed-form",
+                            Method::ClosedForm,
                             0});
     b.quantity(QuantityInfo{"kd_fit",
                             LS_Q_KD_FIT,
@@ -232,7 +232,7 @@ ModelInfo lambert_sphere_model() {
                             {},
                             {},
                             "eq. 40",
-                            "closed-form",
+                            Method::ClosedForm,
                             0});
     b.quantity(QuantityInfo{"kd_mc",
                             LS_Q_KD_MC,
@@ -242,7 +242,7 @@ ModelInfo lambert_sphere_model() {
                             {},
                             walk_opts,
                             "eqs. 1, 5",
-                            "mc",
+                            Method::MonteCarlo,
                             8});
     b.quantity(
         QuantityInfo{"brdf_three_term",
@@ -255,7 +255,7 @@ ModelInfo lambert_sphere_model() {
                      dirs,
                      {},
                      "eqs. 8-12, 16, 22, 30 + Horak-Chandrasekhar mode 2",
-                     "quadrature",
+                     Method::Quadrature,
                      0});
     b.quantity(
         QuantityInfo{"constant",
@@ -267,7 +267,7 @@ ModelInfo lambert_sphere_model() {
                      {},
                      {"constants", "constant"},
                      "eqs. 22, 26-27, 30, 33-37",
-                     "closed-form",
+                     Method::ClosedForm,
                      0});
     b.quantity(QuantityInfo{"c_fit",
                             LS_Q_C_FIT,
@@ -277,7 +277,7 @@ ModelInfo lambert_sphere_model() {
                             {},
                             {},
                             "eq. 39",
-                            "closed-form",
+                            Method::ClosedForm,
                             0});
     b.check_point(&check_lambert_sphere_point);
     return b.build();

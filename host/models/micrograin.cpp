@@ -110,7 +110,7 @@ ModelInfo micrograin_model() {
                      dir_i,
                      {},
                      "eqs. 10-12",
-                     "closed-form",
+                     Method::ClosedForm,
                      0});
     b.quantity(QuantityInfo{"alpha_x",
                             MG_Q_ALPHA_X,
@@ -120,7 +120,7 @@ ModelInfo micrograin_model() {
                             {},
                             {},
                             "eq. 28",
-                            "closed-form",
+                            Method::ClosedForm,
                             0});
     b.quantity(QuantityInfo{"alpha_y",
                             MG_Q_ALPHA_Y,
@@ -130,7 +130,7 @@ ModelInfo micrograin_model() {
                             {},
                             {},
                             "eq. 28",
-                            "closed-form",
+                            Method::ClosedForm,
                             0});
     b.quantity(QuantityInfo{
         "shadow_area",
@@ -143,7 +143,7 @@ ModelInfo micrograin_model() {
         dir_i,
         {},
         "Appendix A, §4.2 (det E^-1)",
-        "closed-form",
+        Method::ClosedForm,
         0});
     b.quantity(QuantityInfo{
         "overlap_area",
@@ -155,7 +155,7 @@ ModelInfo micrograin_model() {
         dir_io,
         {},
         "Appendix B (equivalent polar decomposition, see docs)",
-        "closed-form",
+        Method::ClosedForm,
         0});
     b.quantity(QuantityInfo{"g1_dist",
                             MG_Q_G1_DIST,
@@ -165,7 +165,7 @@ ModelInfo micrograin_model() {
                             dir_i,
                             {},
                             "eqs. 16, 9; anisotropic via E (§4.2)",
-                            "closed-form",
+                            Method::ClosedForm,
                             0});
     b.quantity(QuantityInfo{"g_dist",
                             MG_Q_G_DIST,
@@ -175,7 +175,7 @@ ModelInfo micrograin_model() {
                             dir_io,
                             {"correlation"},
                             "eq. 19 (correlation=direction) or eq. 17 (none)",
-                            "closed-form",
+                            Method::ClosedForm,
                             0});
     b.quantity(QuantityInfo{"pore_visibility",
                             MG_Q_PORE_VISIBILITY,
@@ -185,18 +185,18 @@ ModelInfo micrograin_model() {
                             dir_io,
                             {"correlation"},
                             "eq. 23, Appendix C",
-                            "closed-form",
+                            Method::ClosedForm,
                             0});
     b.quantity(QuantityInfo{
         "brdf", MG_Q_BRDF,
         "full BRDF tau0 f^S + Vp f^B; the diffuse-grain part (eq. 21) is a Monte Carlo "
         "integral over microfacet normals (constant samples when kd = 0 or grains are "
         "diffuse-free)",
-        "1/sr", I, dir_io, all_opts, "eqs. 20-23 (weighting=lucas2023: eqs. 1, 25)", "rqmc", 2});
+        "1/sr", I, dir_io, all_opts, "eqs. 20-23 (weighting=lucas2023: eqs. 1, 25)", Method::Rqmc, 2});
     b.quantity(
         QuantityInfo{"albedo", MG_Q_ALBEDO,
                      "directional albedo: integral of brdf cos(theta_o) over outgoing directions",
-                     "1", I, dir_i, all_opts, "eqs. 20-23 integrated over o", "rqmc", 6});
+                     "1", I, dir_i, all_opts, "eqs. 20-23 integrated over o", Method::Rqmc, 6});
     b.quantity(QuantityInfo{
         "explicit_g1",
         MG_Q_EXPLICIT_G1,
@@ -207,7 +207,7 @@ ModelInfo micrograin_model() {
         dir_i,
         {},
         "§5.1 simulation; compare eq. 16",
-        "mc",
+        Method::MonteCarlo,
         2});
     b.quantity(QuantityInfo{"explicit_g",
                             MG_Q_EXPLICIT_G,
@@ -217,7 +217,7 @@ ModelInfo micrograin_model() {
                             dir_io,
                             {},
                             "§5.1 simulation; compare eqs. 17-19",
-                            "mc",
+                            Method::MonteCarlo,
                             2});
     b.quantity(QuantityInfo{
         "explicit_brdf",
@@ -229,7 +229,7 @@ ModelInfo micrograin_model() {
         dir_io,
         {"grain", "base"},
         "§5.1 simulation; compare eqs. 20-23",
-        "mc",
+        Method::MonteCarlo,
         2});
     b.quantity(QuantityInfo{"p_bulk",
                             MG_Q_P_BULK,
@@ -239,7 +239,7 @@ ModelInfo micrograin_model() {
                             dir_i,
                             {},
                             "eq. 26",
-                            "closed-form",
+                            Method::ClosedForm,
                             0});
     b.quantity(QuantityInfo{"p_diffuse",
                             MG_Q_P_DIFFUSE,
@@ -249,7 +249,7 @@ ModelInfo micrograin_model() {
                             dir_i,
                             {"grain"},
                             "eq. 27",
-                            "closed-form",
+                            Method::ClosedForm,
                             0});
     b.quantity(QuantityInfo{
         "explicit_coverage",
@@ -261,7 +261,7 @@ ModelInfo micrograin_model() {
         {},
         {},
         "eqs. 7-9",
-        "mc",
+        Method::MonteCarlo,
         2});
     return b.build();
 }

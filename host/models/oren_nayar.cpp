@@ -89,9 +89,9 @@ ModelInfo oren_nayar_model() {
         q.directions = dirs;
         q.uses_options = std::move(opts);
         q.equations = eqs;
-        q.default_method = kind == QuantityKind::ClosedForm   ? "closed-form"
-                           : kind == QuantityKind::Quadrature ? "quadrature"
-                                                              : "rqmc";
+        q.default_method = kind == QuantityKind::ClosedForm   ? Method::ClosedForm
+                           : kind == QuantityKind::Quadrature ? Method::Quadrature
+                                                              : Method::Rqmc;
         q.dimensions = dims;
         return q;
     };

@@ -43,6 +43,26 @@ std::string join(const std::vector<std::string>& items, const char* sep = ", ") 
 
 std::string format_number(double v) { return number_text(v, 10); }
 
+// QuantityKind as `models --json` names it, and as messages describe it.
+struct QuantityKindNames {
+    QuantityKind kind;
+    const char* name;
+    const char* text;
+};
+constexpr QuantityKindNames kQuantityKindNames[] = {
+    {QuantityKind::ClosedForm, "closed-form", "a closed form"},
+    {QuantityKind::Integral, "integral", "an integral without closed form"},
+    {QuantityKind::Quadrature, "quadrature", "a quadrature"},
+};
+
+const QuantityKindNames& quantity_kind_row(QuantityKind kind) {
+    for (const auto& row : kQuantityKindNames)
+        if (row.kind == kind) return row;
+    throw Error("quantity kind " + std::to_string(static_cast<int>(kind)) + " has no name");
+}
+const char* quantity_kind_name(QuantityKind kind) { return quantity_kind_row(kind).name; }
+const char* quantity_kind_text(QuantityKind kind) { return quantity_kind_row(kind).text; }
+
 }  // namespace
 
 bool ParameterInfo::accepts(double v) const {
@@ -250,6 +270,9 @@ ModelInfo ModelBuilder::build() const {
                 fail("quantity '" + q.name + "' depends on '" + d + "', not a direction slot");
         for (const auto& o : q.uses_options)
             if (!m.find_option(o)) fail("quantity '" + q.name + "' uses unknown option '" + o + "'");
+        if (q.default_method == Method::Auto || !method_suits(q.kind, q.default_method))
+            fail("quantity '" + q.name + "' has default method '" + to_string(q.default_method) +
+                 "', which does not suit its kind");
         names.push_back(q.name);
     }
     require_unique(name, "quantity", names);
@@ -267,26 +290,27 @@ const ModelInfo& find_model(const std::string& name) {
 
 // ---------------------------------------------------------------- directions
 
-bool is_direction_coordinate(const std::string& n) {
-    return n == "theta_i" || n == "phi_i" || n == "theta_o" || n == "phi_o" ||
-           n == "phi_d" || n == "mu_i" || n == "mu_o";
+namespace {
+const CoordinateInfo& direction(const std::string& n) {
+    if (const CoordinateInfo* c = find_coordinate(n)) return *c;
+    throw Error("'" + n + "' is not a direction coordinate");
 }
+}  // namespace
 
-std::string direction_unit(const std::string& n) {
-    return (n == "mu_i" || n == "mu_o") ? "1" : "deg";
-}
+bool is_direction_coordinate(const std::string& n) { return find_coordinate(n) != nullptr; }
+
+std::string direction_unit(const std::string& n) { return direction(n).unit; }
 
 bool direction_accepts(const std::string& n, double v) {
-    if (!std::isfinite(v)) return false;
-    if (n == "theta_i" || n == "theta_o") return v >= 0 && v <= 180;
-    if (n == "mu_i" || n == "mu_o") return v >= -1 && v <= 1;
-    return v >= -360 && v <= 360;  // azimuths
+    const CoordinateInfo& c = direction(n);
+    return std::isfinite(v) && v >= c.min && v <= c.max;
 }
 
 std::string direction_range_text(const std::string& n) {
-    if (n == "theta_i" || n == "theta_o") return "[0, 180] deg";
-    if (n == "mu_i" || n == "mu_o") return "[-1, 1]";
-    return "[-360, 360] deg";
+    const CoordinateInfo& c = direction(n);
+    // e.g. "[0, 180] deg", "[-1, 1]" (cosines are unitless)
+    return "[" + format_number(c.min) + ", " + format_number(c.max) + "]" +
+           (std::string(c.unit) == "1" ? "" : std::string(" ") + c.unit);
 }
 
 ParameterInfo parameter_info(std::string name, std::string unit, std::string description,
@@ -423,30 +447,32 @@ std::vector<int> resolve_options(const ModelInfo& model, const nlohmann::json& g
     return out;
 }
 
-std::string resolve_method(const QuantityInfo& q, const std::string& requested) {
-    const char* allowed = q.kind == QuantityKind::ClosedForm   ? "auto, closed-form"
-                          : q.kind == QuantityKind::Quadrature ? "auto, quadrature, mc, rqmc"
-                                                               : "auto, mc, rqmc";
-    if (requested.empty() || requested == "auto") return q.default_method;
-    if (requested != "closed-form" && requested != "mc" && requested != "rqmc" &&
-        requested != "quadrature")
-        throw InputError("integration method '" + requested +
-                         "' is not valid; allowed: auto, closed-form, quadrature, mc, rqmc");
-    const bool ok = q.kind == QuantityKind::ClosedForm ? requested == "closed-form"
-                    : q.kind == QuantityKind::Quadrature
-                        ? requested != "closed-form"
-                        : (requested == "mc" || requested == "rqmc");
-    if (!ok)
-        throw InputError("method '" + requested + "' does not suit quantity '" + q.name + "' (" +
-                         (q.kind == QuantityKind::ClosedForm   ? "a closed form"
-                          : q.kind == QuantityKind::Quadrature ? "a quadrature"
-                                                               : "an integral without closed form") +
-                         "); allowed for it: " + allowed);
+bool method_suits(QuantityKind kind, Method method) {
+    switch (method) {
+        case Method::Auto: return true;
+        case Method::ClosedForm: return kind == QuantityKind::ClosedForm;
+        case Method::Quadrature: return kind == QuantityKind::Quadrature;
+        case Method::MonteCarlo:
+        case Method::Rqmc: return kind != QuantityKind::ClosedForm;
+    }
+    return false;
+}
+
+Method resolve_method(const QuantityInfo& q, Method requested) {
+    if (requested == Method::Auto) return q.default_method;
+    if (!method_suits(q.kind, requested)) {
+        std::string allowed;
+        for (const auto& [method, name] : kMethodNames)
+            if (method_suits(q.kind, method))
+                allowed += (allowed.empty() ? "" : ", ") + std::string(name);
+        throw InputError("method '" + to_string(requested) + "' does not suit quantity '" + q.name +
+                         "' (" + quantity_kind_text(q.kind) + "); allowed for it: " + allowed);
+    }
     return requested;
 }
 
-std::string resolve_table_method(const QuantityInfo& q, const std::string& requested) {
-    if (q.kind == QuantityKind::ClosedForm) return "closed-form";
+Method resolve_table_method(const QuantityInfo& q, Method requested) {
+    if (q.kind == QuantityKind::ClosedForm) return Method::ClosedForm;
     return resolve_method(q, requested);
 }
 
@@ -475,12 +501,10 @@ nlohmann::json describe_models() {
                 {{"name", q.name},
                  {"description", q.description},
                  {"units", q.units},
-                 {"kind", q.kind == QuantityKind::ClosedForm   ? "closed-form"
-                          : q.kind == QuantityKind::Quadrature ? "quadrature"
-                                                               : "integral"},
+                 {"kind", quantity_kind_name(q.kind)},
                  {"directions", q.directions},
                  {"options", q.uses_options},
-                 {"default_method", q.default_method},
+                 {"default_method", to_string(q.default_method)},
                  {"equations", q.equations}});
         models.push_back(jm);
     }

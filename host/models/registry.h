@@ -17,7 +17,8 @@
 // with angles in radians.  Categorical options go to the kernel as ints, by
 // slot, each the index of the chosen value in `choices`.
 //
-// User-facing coordinate names (CLI `eval`, spec axes), all in degrees except mu:
+// User-facing coordinate names (CLI `eval`, spec axes), all in degrees except mu,
+// are the table kCoordinates of host/core/vocabulary.h:
 //   theta_i, phi_i, theta_o, phi_o   polar angle in [0, 180] from the macro normal
 //                                    (> 90 = below the surface), azimuth
 //   phi_d                            phi_o - phi_i (phi_i then defaults to 0)
@@ -30,6 +31,8 @@
 #include <vector>
 
 #include <nlohmann/json.hpp>
+
+#include "host/core/vocabulary.h"
 
 // The sampler state of kernels/common/sampler.h; host code outside the engine
 // and the model files only passes pointers to it.
@@ -95,7 +98,7 @@ struct QuantityInfo {
     std::vector<std::string> directions;  // subset of theta_i, phi_i, theta_o, phi_o it depends on
     std::vector<std::string> uses_options;  // options that matter (others ignored)
     std::string equations;                  // e.g. "eqs. 20-21 (Walter 2007)"
-    std::string default_method = "closed-form";  // "closed-form" | "quadrature" | "rqmc" | "mc"
+    Method default_method = Method::ClosedForm;  // never Method::Auto
     unsigned dimensions = 0;  // random dimensions per sample (integrals)
 };
 
@@ -195,9 +198,11 @@ struct ModelRegistration {
 
 namespace brdftab {
 
-// Names that can be a spec axis or an `eval` argument for directions.
+// Names that can be a spec axis or an `eval` argument for directions (the
+// names of kCoordinates, host/core/vocabulary.h).
 bool is_direction_coordinate(const std::string& name);
 // Unit and allowed range of a direction coordinate ("deg", [0,180] etc.).
+// `name` must be a direction coordinate (brdftab::Error otherwise).
 std::string direction_unit(const std::string& name);
 bool direction_accepts(const std::string& name, double value);
 std::string direction_range_text(const std::string& name);
@@ -227,14 +232,18 @@ private:
 std::vector<int> resolve_options(const ModelInfo& model, const nlohmann::json& given,
                                  const std::string& where);
 
-// Resolve "auto" to the quantity's default; reject impossible combinations
-// (closed-form method for an integral) with InputError.
-// Methods: closed-form | quadrature | mc | rqmc (see engine.h).
-std::string resolve_method(const QuantityInfo& q, const std::string& requested);
+// Whether `method` can estimate a quantity of `kind` (Auto always can):
+//   ClosedForm  closed-form
+//   Quadrature  quadrature, mc, rqmc
+//   Integral    mc, rqmc
+bool method_suits(QuantityKind kind, Method method);
+// Resolve Auto to the quantity's default; reject impossible combinations
+// (closed-form method for an integral) with InputError.  Never returns Auto.
+Method resolve_method(const QuantityInfo& q, Method requested);
 // The same for a table of a spec, whose one [integration] method serves all its
 // tables: closed-form quantities ignore it (they have nothing to integrate),
 // every other quantity must suit it.
-std::string resolve_table_method(const QuantityInfo& q, const std::string& requested);
+Method resolve_table_method(const QuantityInfo& q, Method requested);
 
 // JSON description of every model (for `brdftab models --json` and docs).
 nlohmann::json describe_models();

@@ -76,7 +76,7 @@ ModelInfo rough_dielectric_model() {
         q.directions = all_dirs;
         q.uses_options = shape_opts;
         q.equations = eqs;
-        q.default_method = "closed-form";
+        q.default_method = Method::ClosedForm;
         return q;
     };
     auto integral = [&](const char* name, int id, const char* desc, const char* eqs,
@@ -91,7 +91,7 @@ ModelInfo rough_dielectric_model() {
         q.directions = std::move(dirs);
         q.uses_options = std::move(opts);
         q.equations = eqs;
-        q.default_method = "rqmc";
+        q.default_method = Method::Rqmc;
         q.dimensions = dims;
         return q;
     };

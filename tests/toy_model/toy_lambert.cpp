@@ -24,10 +24,10 @@ ModelInfo toy_lambert_model() {
     b.quantity(QuantityInfo{"brdf", TL_Q_BRDF, "albedo / pi above the surface", "1/sr",
                             QuantityKind::ClosedForm,
                             {"theta_i", "phi_i", "theta_o", "phi_o"}, {}, "f = albedo / pi",
-                            "closed-form", 0});
+                            Method::ClosedForm, 0});
     b.quantity(QuantityInfo{"albedo", TL_Q_ALBEDO, "directional albedo (equals the parameter)",
                             "1", QuantityKind::Integral, {"theta_i"}, {"sampling"},
-                            "int f cos(theta_o) dw_o", "mc", 1});
+                            "int f cos(theta_o) dw_o", Method::MonteCarlo, 1});
     return b.build();
 }
 
