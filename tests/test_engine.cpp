@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <cstdlib>
+#include <functional>
 #include <map>
 #include <random>
 
@@ -262,4 +263,129 @@ TEST_CASE("method resolution and errors") {
                     InputError);
     CHECK_THROWS_AS(make_backend("host", Precision::Float), InputError);
     CHECK_THROWS_AS(make_backend("no-such-device-xyz", Precision::Double), InputError);
+}
+
+namespace {
+
+// Counts launches, computing nothing: a refusal must come before the first.
+class CountingBackend final : public Backend {
+public:
+    std::string device_name() const override { return "counting"; }
+    Precision precision() const override { return Precision::Double; }
+    std::size_t preferred_slab() const override { return 1024; }
+    void run(const BatchLaunch& l, std::vector<double>& mean, std::vector<double>& m2) override {
+        ++launches;
+        mean.assign(l.cells.size(), 0.5);
+        m2.assign(l.cells.size(), 0.0);
+    }
+    int launches = 0;
+};
+
+std::string input_error_text(const std::function<void()>& f) {
+    try {
+        f();
+    } catch (const InputError& e) {
+        return e.what();
+    }
+    return "";
+}
+
+}  // namespace
+
+TEST_CASE("settings out of range are refused before any launch (issue #15, defect 4)") {
+    // Counts above 2^32 - 1 were truncated to 32 bits (2^44 ran 0 samples and
+    // reported value 0, stderr null, exit 0).
+    IntegrationSettings s;
+    s.samples = 17592186044416ull;  // 2^44
+    CHECK(input_error_text([&] { check_settings(s); }) ==
+          "samples 17592186044416 is out of range; allowed: integers in [1, 4294967295]");
+    s.samples = 4294967296ull;
+    CHECK_THROWS_AS(check_settings(s), InputError);
+    s.samples = 4294967295ull;  // the largest count: accepted
+    CHECK_NOTHROW(check_settings(s));
+    s = IntegrationSettings{};
+    s.max_samples = 0;
+    CHECK(input_error_text([&] { check_settings(s); }).find("max_samples 0 is out of range") == 0);
+    s.max_samples = 17592186044416ull;
+    CHECK_THROWS_AS(check_settings(s), InputError);
+    s = IntegrationSettings{};
+    for (double tol : {1.0, -0.1, 2.0, std::nan("")}) {
+        s.tolerance = tol;
+        CAPTURE(tol);
+        CHECK(input_error_text([&] { check_settings(s); }).find("allowed: (0, 1)") !=
+              std::string::npos);
+    }
+    s.tolerance = 0.5;
+    CHECK_NOTHROW(check_settings(s));
+    s = IntegrationSettings{};
+    s.abs_floor = 0;
+    CHECK_THROWS_AS(check_settings(s), InputError);
+
+    // estimate() runs the check itself: nothing reaches the backend.
+    Fixture f;
+    CountingBackend counting;
+    IntegrationSettings big;
+    big.method = Method::MonteCarlo;
+    big.samples = 17592186044416ull;
+    CHECK_THROWS_AS(f.run(counting, "albedo_r", {{{"theta_i", 30}, {"alpha", 0.3}, {"eta", 1.5}}},
+                          big),
+                    InputError);
+    CHECK(counting.launches == 0);
+}
+
+TEST_CASE("Phong needs alpha < 1: every cell checked before any launch (issue #15, defect 5)") {
+    // Walter's alpha_p = 2/alpha^2 - 2 is <= 0 from alpha = 1 on (oracle: the
+    // formula by hand); the albedos were 1.04 at alpha = 1 and 7.8e30 at 4.
+    Fixture f;
+    REQUIRE(static_cast<bool>(f.model.check_cell));
+    const QuantityInfo& q = f.model.quantity("albedo_avg");
+    IntegrationSettings s;
+    s.method = Method::MonteCarlo;
+    s.samples = 16;
+    auto cells = [](std::initializer_list<double> alphas) {
+        std::vector<std::map<std::string, double>> pts;
+        for (double a : alphas) pts.push_back({{"alpha", a}, {"eta", 1.5}});
+        return pts;
+    };
+    for (double bad : {1.0, 1.5, 4.0}) {
+        CountingBackend counting;
+        CAPTURE(bad);
+        // The bad cell is last: the check must still come before the first launch.
+        const std::string m = input_error_text(
+            [&] { f.run(counting, q.name, cells({0.5, 0.9, bad}), s, "phong"); });
+        CHECK(m.find("alpha = ") == 0);
+        CHECK(m.find("is out of range for distribution = phong; allowed: (0, 1)") !=
+              std::string::npos);
+        CHECK(counting.launches == 0);
+    }
+    CHECK(input_error_text([&] {
+              CountingBackend c;
+              f.run(c, q.name, cells({1.0}), s, "phong");
+          }).find("alpha = 1 ") == 0);
+    // Closed-form quantities too (the distribution is the same).
+    {
+        CountingBackend counting;
+        CHECK_THROWS_AS(f.run(counting, "brdf",
+                              {{{"theta_i", 30}, {"theta_o", 30}, {"alpha", 1.0}, {"eta", 1.5}}},
+                              IntegrationSettings{}, "phong"),
+                        InputError);
+        CHECK(counting.launches == 0);
+    }
+    // Below 1, and for the other distributions up to 4, the cells run.
+    for (const char* dist : {"phong", "ggx", "beckmann"}) {
+        CountingBackend counting;
+        const double top = std::string(dist) == "phong" ? 0.999 : 4.0;
+        CHECK_NOTHROW(f.run(counting, q.name, cells({0.1, 0.5, top}), s, dist));
+        CHECK(counting.launches > 0);
+    }
+    // The hook sees the kernel point and the option indices directly.
+    std::vector<double> point(f.model.point_stride(), 0.0);
+    const std::size_t alpha_slot =
+        kDirectionSlots + static_cast<std::size_t>(f.model.find_parameter("alpha") -
+                                                   f.model.parameters.data());
+    point[alpha_slot] = 0.5;
+    CHECK(f.model.check_cell(q, point.data(), f.options("phong")).empty());
+    point[alpha_slot] = 1.0;
+    CHECK_FALSE(f.model.check_cell(q, point.data(), f.options("phong")).empty());
+    CHECK(f.model.check_cell(q, point.data(), f.options("ggx")).empty());
 }

@@ -389,3 +389,40 @@ samples = 20000
         CHECK(inv.stderr_[k] > 0);
     }
 }
+
+TEST_CASE("resource estimate before computing: cells, disk bytes by hand, memory linear (issue #15)") {
+    // A closed-form table (value only) and a Monte Carlo one (value, stderr,
+    // samples) on the same 5 x 3 grid, stored as float64: disk is counted by
+    // hand from the datasets table_io writes.
+    const std::string text =
+        "model = \"rough-dielectric\"\n"
+        "[parameters]\nalpha = 0.3\ntheta_o = 10\n"
+        "[[axes]]\nname = \"theta_i\"\nrange = [0, 80]\ncount = 5\n"
+        "[[axes]]\nname = \"eta\"\nrange = [1.2, 1.8]\ncount = 3\n"
+        "[[tables]]\nquantity = \"brdf\"\n"
+        "[[tables]]\nquantity = \"albedo_r\"\n"
+        "[output]\ntype = \"float64\"\n";
+    Spec spec = parse_spec_string(text, "mem.toml");
+    ResourceEstimate r = estimate_resources(spec, spec.integration);
+    CHECK(r.cells == 30);
+    CHECK(r.largest_cells == 15);
+    CHECK(r.disk_bytes == 15 * 8 + 15 * (8 + 8 + 4));
+    // float16, no stderr kept: 2 B per value, samples still 4 B.
+    spec.output.stored_type = StoredType::Float16;
+    spec.output.keep_stderr = false;
+    r = estimate_resources(spec, spec.integration);
+    CHECK(r.disk_bytes == 15 * 2 + 15 * (2 + 4));
+
+    // Memory grows with the cells: 65536 x 65535 cells (the issue's bad_alloc)
+    // need hundreds of GiB; the count does not wrap.
+    const double small = estimate_resources(spec, spec.integration).memory_bytes;
+    spec.tables[0].axes[0].count = 65536;
+    spec.tables[0].axes[1].count = 65535;
+    r = estimate_resources(spec, spec.integration);
+    CHECK(r.largest_cells == 65536.0 * 65535.0);
+    CHECK(r.memory_bytes - small > 100.0 * 65536.0 * 65535.0);
+    for (auto& a : spec.tables[0].axes) a.count = 65536;
+    spec.tables[0].axes.push_back(spec.tables[0].axes[0]);
+    spec.tables[0].axes.push_back(spec.tables[0].axes[0]);
+    CHECK(estimate_resources(spec, spec.integration).cells > 1.8e19);  // 2^64: no wrap to 0
+}

@@ -146,10 +146,29 @@ TEST_CASE("a complete spec parses to the expected structures") {
     CHECK(s.integration.max_samples == 65536);
     CHECK(s.integration.seed == 7);
     CHECK(s.integration.batch_size == 128);
-    CHECK(s.output.path == "out/x.h5");
+    CHECK(s.output.path == "dir/out/x.h5");  // relative to the spec's directory
     CHECK(s.output.stored_type == StoredType::Float16);
     CHECK(s.output.compression == 0);
     CHECK(s.output.keep_stderr == false);
+}
+
+TEST_CASE("output.path: relative to the spec file's directory (issue #15)") {
+    auto with_path = [](const char* path) {
+        return lines({HEADER, "theta_o = 10", "[[axes]]", "name = \"theta_i\"", "range = [0, 45]",
+                      "count = 2", "[[tables]]", "quantity = \"brdf\"", "[output]"}) +
+               "path = \"" + path + "\"\n";
+    };
+    CHECK(parse_spec_string(with_path("x.h5"), "some/dir/s.toml").output.path == "some/dir/x.h5");
+    CHECK(parse_spec_string(with_path("out/x.h5"), "/abs/s.toml").output.path == "/abs/out/x.h5");
+    // ".." is resolved lexically against the spec's directory ...
+    CHECK(parse_spec_string(with_path("../x.h5"), "some/dir/s.toml").output.path == "some/x.h5");
+    CHECK(parse_spec_string(with_path("../../../x.h5"), "some/dir/s.toml").output.path ==
+          "../x.h5");
+    // ... an absolute path is kept, and a spec in the current directory (or
+    // parsed from a string) keeps the path as written.
+    CHECK(parse_spec_string(with_path("/tmp/x.h5"), "some/dir/s.toml").output.path == "/tmp/x.h5");
+    CHECK(parse_spec_string(with_path("../x.h5"), "s.toml").output.path == "../x.h5");
+    CHECK(parse_spec_string(with_path("x.h5"), "<string>").output.path == "x.h5");
 }
 
 TEST_CASE("defaults: output path from the spec file stem, integration and output settings") {
@@ -546,7 +565,17 @@ TEST_CASE("table names, integration and output settings") {
     expect_error(with("[integration]", "method = \"simpson\""), 16, "integration.method",
                  "auto, closed-form, quadrature, mc, rqmc");
     expect_error(with("[integration]", "seed = -1"), 16, "integration.seed", ">= 0");
-    expect_error(with("[integration]", "samples = 0"), 16, "integration.samples", "1 ..");
+    expect_error(with("[integration]", "samples = 0"), 16, "integration.samples",
+                 "[1, 4294967295]");
+    // Issue #15: counts above 2^32 - 1 were truncated (2^44 ran 0 samples).
+    expect_error(with("[integration]", "samples = 17592186044416"), 16, "integration.samples",
+                 "integers in [1, 4294967295]");
+    expect_error(with("[integration]", "samples = 4294967296"), 16, "integration.samples",
+                 "[1, 4294967295]");
+    expect_error(with("[integration]", "max_samples = 17592186044416"), 16,
+                 "integration.max_samples", "[1, 4294967295]");
+    CHECK(parse_spec_string(with("[integration]", "samples = 4294967295"), "spec.toml")
+              .integration.samples == 4294967295u);
     expect_error(with("[integration]", "tolerance = 1.5"), 16, "integration.tolerance",
                  "(0, 1)");
     expect_error(with("[integration]", "tolerance = 0"), 16, "integration.tolerance", "(0, 1)");
@@ -634,7 +663,7 @@ TEST_CASE("the annotated example in docs/spec.md parses as documented") {
     CHECK(s.tables[1].name == "E_r");
     CHECK(s.tables[1].options.at("g1") == "walter-fit");
     CHECK(s.tables[1].fixed.count("theta_o") == 0);
-    CHECK(s.output.path == "glass.h5");
+    CHECK(s.output.path == "dir/glass.h5");
     CHECK(s.integration.tolerance == 1e-3);
 }
 

@@ -2,6 +2,7 @@
 
 #include <unistd.h>
 
+#include <cctype>
 #include <cmath>
 #include <cstdlib>
 #include <iostream>
@@ -25,17 +26,27 @@ void ComputeOptions::add_to(CLI::App& app, bool with_integration) {
     if (!with_integration) return;
     app.add_option("--method", method, "integration method: auto, closed-form, quadrature, mc, rqmc (default: each quantity's own, see `brdftab models`)")
         ->check(CLI::IsMember(method_names()));
-    app.add_option("--samples", samples, "fixed sample budget per cell (default 4096)")
-        ->check(CLI::PositiveNumber);
+    // --samples, --tolerance and --max-samples are range-checked by apply(),
+    // which names the option and the range and exits with code 2.
+    app.add_option("--samples", samples,
+                   "fixed sample budget per cell, in [1, 4294967295] (default 4096)")
+        ->each([this](const std::string& text) {
+            samples_given = true;
+            samples_text = text;
+        });
     app.add_option("--tolerance", tolerance,
                    "adaptive: stop each cell when its standard error <= tolerance * |value| "
                    "(or <= --abs-floor); in (0, 1)")
-        ->check(CLI::Range(0.0, 1.0));
+        ->each([this](const std::string&) { tolerance_given = true; });
     app.add_option("--abs-floor", abs_floor,
                    "absolute standard-error floor for values near zero (default 1e-6)")
         ->check(CLI::PositiveNumber);
-    app.add_option("--max-samples", max_samples, "sample cap per cell under --tolerance")
-        ->check(CLI::PositiveNumber);
+    app.add_option("--max-samples", max_samples,
+                   "sample cap per cell under --tolerance, in [1, 4294967295]")
+        ->each([this](const std::string& text) {
+            max_samples_given = true;
+            max_samples_text = text;
+        });
     app.add_option("--seed", seed, "random seed (64-bit); same seed, same table")
         ->each([this](const std::string&) { seed_given = true; });
     app.add_option("--slab", slab,
@@ -44,14 +55,30 @@ void ComputeOptions::add_to(CLI::App& app, bool with_integration) {
 }
 
 IntegrationSettings ComputeOptions::apply(IntegrationSettings s) const {
+    // CLI11 reads "-1" as 2^64 - 1 and saturates overflows: judge the text too.
+    auto check_count = [](const char* option, std::uint64_t v, const std::string& text) {
+        const bool negative = text.find('-') != std::string::npos;
+        if (negative || v < 1 || v > kMaxSampleCount)
+            throw InputError(std::string(option) + " " + text +
+                             " is out of range; allowed: " + sample_count_range_text());
+    };
     if (!method.empty()) s.method = parse_method(method);
-    if (samples) {
+    if (samples_given) {
+        check_count("--samples", samples, samples_text);
         s.samples = samples;
-        if (tolerance <= 0) s.tolerance = 0;  // an explicit budget on the CLI wins
+        if (!tolerance_given) s.tolerance = 0;  // an explicit budget on the CLI wins
     }
-    if (tolerance > 0) s.tolerance = tolerance;
+    if (tolerance_given) {
+        if (!(tolerance > 0 && tolerance < 1))
+            throw InputError("--tolerance " + number_text(tolerance) +
+                             " is out of range; allowed: (0, 1)");
+        s.tolerance = tolerance;
+    }
     if (abs_floor > 0) s.abs_floor = abs_floor;
-    if (max_samples) s.max_samples = max_samples;
+    if (max_samples_given) {
+        check_count("--max-samples", max_samples, max_samples_text);
+        s.max_samples = max_samples;
+    }
     if (seed_given) s.seed = seed;
     if (slab) s.slab_work_items = slab;
     return s;
@@ -105,6 +132,43 @@ std::pair<std::string, std::string> split_assignment(const std::string& arg) {
     if (eq == std::string::npos || eq == 0 || eq + 1 == arg.size())
         throw InputError("argument '" + arg + "' is not of the form name=value");
     return {arg.substr(0, eq), arg.substr(eq + 1)};
+}
+
+std::uint64_t parse_byte_size(const std::string& text, const std::string& option) {
+    auto bad = [&] {
+        return InputError(option + " '" + text +
+                          "' is not a byte count; give a number with an optional suffix K, M, "
+                          "G or T (powers of 1024), e.g. 8G");
+    };
+    std::size_t used = 0;
+    double number = 0;
+    try {
+        number = std::stod(text, &used);
+    } catch (const std::exception&) {
+        throw bad();
+    }
+    std::string suffix = text.substr(used);
+    for (char& c : suffix) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+    if (suffix.size() > 1 && suffix.back() == 'B') suffix.pop_back();    // "GB"
+    if (suffix.size() > 1 && suffix.back() == 'I') suffix.pop_back();    // "GiB"
+    double scale = 1;
+    if (suffix == "K") scale = 1024.0;
+    else if (suffix == "M") scale = 1024.0 * 1024;
+    else if (suffix == "G") scale = 1024.0 * 1024 * 1024;
+    else if (suffix == "T") scale = 1024.0 * 1024 * 1024 * 1024;
+    else if (!suffix.empty() && suffix != "B") throw bad();
+    const double bytes = number * scale;
+    if (!std::isfinite(bytes) || !(bytes > 0) || bytes >= 1.8e19) throw bad();
+    return static_cast<std::uint64_t>(bytes);
+}
+
+std::string format_bytes(double bytes) {
+    const char* units[] = {"B", "KiB", "MiB", "GiB", "TiB", "PiB", "EiB"};
+    int u = 0;
+    while (bytes >= 1024 && u < 6) bytes /= 1024, ++u;
+    char buf[48];
+    std::snprintf(buf, sizeof buf, u ? "%.2f %s" : "%.0f %s", bytes, units[u]);
+    return buf;
 }
 
 std::string format_double(double v) { return number_text(v, 17); }

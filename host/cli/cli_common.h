@@ -28,10 +28,14 @@ struct ComputeOptions {
     std::uint64_t max_samples = 0;
     std::uint64_t seed = 0;
     bool seed_given = false;
+    bool samples_given = false, tolerance_given = false, max_samples_given = false;
+    std::string samples_text, max_samples_text;  // as typed (for messages: -1 wraps)
     std::size_t slab = 0;
 
     void add_to(CLI::App& app, bool with_integration = true);
-    // Apply CLI overrides on top of `base` (from a spec or defaults).
+    // Apply CLI overrides on top of `base` (from a spec or defaults).  Throws
+    // InputError naming the option when --samples / --max-samples are outside
+    // [1, 2^32 - 1] or --tolerance outside (0, 1).
     IntegrationSettings apply(IntegrationSettings base) const;
     std::unique_ptr<Backend> make_backend() const;
 };
@@ -54,6 +58,13 @@ private:
 // Split "name=value"; throws InputError naming the argument.  Numbers are
 // read with brdftab::parse_number (host/io/point_file.h).
 std::pair<std::string, std::string> split_assignment(const std::string& arg);
+
+// A byte count with an optional binary suffix: "1048576", "512M", "8G",
+// "1.5T" (K, M, G, T = powers of 1024; an optional trailing "B" or "iB").
+// Throws InputError naming `option`.
+std::uint64_t parse_byte_size(const std::string& text, const std::string& option);
+// "1.50 GiB" etc.
+std::string format_bytes(double bytes);
 
 // Full precision ("%.17g") and short ("%.6g") number formatting.
 std::string format_double(double v);

@@ -1,7 +1,11 @@
 // eval and generate: the commands that run the engine.  The work is done by
 // host/engine/evaluate.h and host/generate/generate.h; this file parses and
 // prints.
+#include <sys/statvfs.h>
+
 #include <cstdio>
+#include <filesystem>
+#include <fstream>
 #include <iostream>
 #include <memory>
 #include <sstream>
@@ -54,6 +58,7 @@ void run_eval(const EvalArgs& st) {
                                           : st.points_file + " row " + std::to_string(k + 1);
         });
     IntegrationSettings settings = st.compute.apply(IntegrationSettings{});
+    check_settings(settings);
     if (!st.output.empty()) check_output_writable(st.output);
     auto backend = st.compute.make_backend();
     EstimateResult r = estimate_at(*backend, model, q, options, kernel_points, settings);
@@ -152,13 +157,66 @@ void print_error_summary(const ErrorSummary& s, const TableData& d) {
 
 }  // namespace
 
+namespace {
+
+// MemAvailable of /proc/meminfo in bytes; 0 when unknown (not Linux).
+double available_memory() {
+    std::ifstream in("/proc/meminfo");
+    std::string key, unit;
+    double kib = 0;
+    while (in >> key >> kib) {
+        std::getline(in, unit);
+        if (key == "MemAvailable:") return kib * 1024;
+    }
+    return 0;
+}
+
+// Free bytes (for an unprivileged user) on the file system of `path`'s
+// directory; negative when unknown.
+double free_disk_space(const std::string& path) {
+    std::filesystem::path dir = std::filesystem::path(path).parent_path();
+    if (dir.empty()) dir = ".";
+    struct statvfs fs {};
+    if (statvfs(dir.c_str(), &fs) != 0) return -1;
+    return static_cast<double>(fs.f_bavail) * static_cast<double>(fs.f_frsize);
+}
+
+// Refuses (InputError, exit 2) a run whose estimated memory or disk use
+// exceeds what is available, before anything is computed.
+void check_resources(const Spec& spec, const IntegrationSettings& settings,
+                     const std::string& out_path, std::uint64_t max_memory) {
+    const ResourceEstimate need = estimate_resources(spec, settings);
+    const std::string cells = format_count(need.cells) + " cells (largest table " +
+                              format_count(need.largest_cells) + ")";
+    const double available = available_memory();
+    if (max_memory && need.memory_bytes > static_cast<double>(max_memory))
+        throw InputError(spec.file + ": the tables need about " + format_bytes(need.memory_bytes) +
+                         " of memory for " + cells + ", above --max-memory " +
+                         format_bytes(static_cast<double>(max_memory)) +
+                         "; reduce the axes' counts or split the spec into several");
+    if (available > 0 && need.memory_bytes > available)
+        throw InputError(spec.file + ": the tables need about " + format_bytes(need.memory_bytes) +
+                         " of memory for " + cells + ", but only " + format_bytes(available) +
+                         " is available (MemAvailable); reduce the axes' counts or split the "
+                         "spec into several");
+    const double free_space = free_disk_space(out_path);
+    if (free_space >= 0 && need.disk_bytes > free_space)
+        throw InputError(out_path + ": the tables need about " + format_bytes(need.disk_bytes) +
+                         " on disk before compression for " + cells + ", but only " +
+                         format_bytes(free_space) +
+                         " is free on its file system; write elsewhere (-o) or reduce the "
+                         "axes' counts");
+}
+
+}  // namespace
+
 void register_generate(CLI::App& app) {
     auto* cmd = app.add_subcommand(
         "generate",
         "compute every table of a TOML spec (see tables/ and docs/spec.md) and write them to "
         "one HDF5 file");
     struct State {
-        std::string spec_path, output;
+        std::string spec_path, output, max_memory;
         ComputeOptions compute;
         bool quiet = false;
     };
@@ -166,6 +224,11 @@ void register_generate(CLI::App& app) {
     cmd->add_option("SPEC", state->spec_path, "table specification (TOML)")->required();
     cmd->add_option("-o,--output", state->output, "output file (default: the spec's output.path)");
     cmd->add_flag("-q,--quiet", state->quiet, "no progress display");
+    cmd->add_option("--max-memory", state->max_memory,
+                    "refuse (exit 2) before computing when the estimated memory use exceeds "
+                    "BYTES (suffixes K, M, G, T: powers of 1024, e.g. 8G); the estimate is "
+                    "always checked against MemAvailable, and the estimated size on disk "
+                    "against the output file system's free space (docs/spec.md)");
     state->compute.add_to(*cmd);
     cmd->callback([state] {
         const State& st = *state;
@@ -173,6 +236,9 @@ void register_generate(CLI::App& app) {
         const std::string out_path = st.output.empty() ? spec.output.path : st.output;
         check_output_writable(out_path);
         const IntegrationSettings settings = st.compute.apply(spec.integration);
+        check_settings(settings);
+        check_resources(spec, settings, out_path,
+                        st.max_memory.empty() ? 0 : parse_byte_size(st.max_memory, "--max-memory"));
         auto backend = st.compute.make_backend();
         std::cerr << "brdftab: " << spec.model << ", " << spec.tables.size() << " table(s)";
         if (!spec.recombined.empty()) std::cerr << " + " << spec.recombined.size() << " recombined";
@@ -180,6 +246,8 @@ void register_generate(CLI::App& app) {
         if (!spec.inverted.empty()) std::cerr << " + " << spec.inverted.size() << " inverted";
         std::cerr << " from " << st.spec_path << " on " << backend->device_name()
                   << " (" << precision_name(backend->precision()) << ")\n";
+        std::cerr << "writing " << std::filesystem::absolute(out_path).lexically_normal().string()
+                  << "\n";
         std::unique_ptr<ProgressPrinter> printer;
         std::size_t current = static_cast<std::size_t>(-1);
         auto on_progress = [&](const GenerateEvent& e) {

@@ -22,6 +22,20 @@ Precision parse_precision(const std::string& s) {
     throw InputError("precision '" + s + "' is not valid; allowed: double, float");
 }
 
+void check_settings(const IntegrationSettings& s) {
+    auto out_of_range = [](const char* name, const std::string& value, const std::string& range) {
+        throw InputError(std::string(name) + " " + value + " is out of range; allowed: " + range);
+    };
+    if (s.samples > kMaxSampleCount)
+        out_of_range("samples", std::to_string(s.samples), sample_count_range_text());
+    if (s.max_samples < 1 || s.max_samples > kMaxSampleCount)
+        out_of_range("max_samples", std::to_string(s.max_samples), sample_count_range_text());
+    if (!(s.tolerance == 0 || (s.tolerance > 0 && s.tolerance < 1)))
+        out_of_range("tolerance", std::to_string(s.tolerance), "(0, 1)");
+    if (!(s.abs_floor > 0) || !std::isfinite(s.abs_floor))
+        out_of_range("abs_floor", std::to_string(s.abs_floor), "> 0");
+}
+
 namespace {
 
 // ------------------------------------------------------------ host backend
@@ -224,9 +238,21 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
                         const PointFn& point_of, const IntegrationSettings& settings,
                         const ProgressFn& progress) {
     if (!model.host_fn) throw Error("model '" + model.name + "' has no sample function");
+    check_settings(settings);
     if (cell_count > 0xFFFFFFFFull)
         throw InputError("table has " + std::to_string(cell_count) +
                          " cells; at most 2^32 - 1 are supported");
+    // The model's cross-checks of parameters and options (e.g. Phong needs
+    // alpha < 1) on every cell before anything runs: one point per cell, far
+    // cheaper than the kernel, and no launch computes a cell that is invalid.
+    if (model.check_cell) {
+        std::vector<double> cell_point(model.point_stride());
+        for (std::size_t c = 0; c < cell_count; ++c) {
+            point_of(c, cell_point.data());
+            const std::string problem = model.check_cell(quantity, cell_point.data(), options);
+            if (!problem.empty()) throw InputError(problem);
+        }
+    }
     const auto start = std::chrono::steady_clock::now();
     auto elapsed = [&] {
         return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

@@ -41,6 +41,22 @@ struct IntegrationSettings {
     std::size_t slab_work_items = 0;  // 0 = automatic; work items per device launch
 };
 
+// The largest per-cell sample count (and max_samples) the engine accepts:
+// per-cell counts are stored as uint32 in the tables.
+constexpr std::uint64_t kMaxSampleCount = 0xFFFFFFFFull;
+// The allowed range of samples and max_samples, as messages state it (inline:
+// the spec parser, which does not link the engine, uses it too).
+inline std::string sample_count_range_text() {
+    return "integers in [1, " + std::to_string(kMaxSampleCount) + "]";
+}
+
+// Throws InputError naming the setting ("samples", "max_samples",
+// "tolerance", "abs_floor") and its allowed range when a setting is out of
+// range.  samples = 0 and tolerance = 0 mean "not set" here (the defaults).
+// estimate() calls it first; the CLI and the spec parser check their own
+// values earlier so that their messages name the argument or file:line:key.
+void check_settings(const IntegrationSettings& settings);
+
 // One launch: `n_work` work items, each a (cell, batch) pair with its point.
 struct BatchLaunch {
     const ModelInfo* model = nullptr;

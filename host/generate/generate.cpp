@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <optional>
 
 #include "host/core/error.h"
@@ -67,6 +68,69 @@ void CellPoints::point(std::size_t cell, double* out) const {
     }
     // Same rule as PointBuilder: phi_o = phi_i + phi_d when phi_d is given.
     if (phi_o_from_phi_d_) out[3] = out[1] + phi_d;
+}
+
+namespace {
+
+// Bytes per cell, measured (docs/spec.md, "Memory and disk"): the engine's
+// state of the table being computed (CellState, the round's work lists and
+// the result vectors), and what a finished table holds (value and stderr
+// doubles, uint32 samples) times two, as the CLI copies the tables for the
+// write.
+constexpr double kEngineBytesPerCell = 100;
+constexpr double kHeldBytesPerValue = 2 * 8;
+constexpr double kHeldBytesPerCount = 2 * 4;
+// Fixed overhead: the program, libhdf5, the OpenCL runtime and its compiled
+// kernels (measured: 97 MiB resident for a 4-cell run on PoCL; rounded up).
+// With it the estimate is 120 B/cell for a closed-form table (measured 116)
+// and 144 B/cell for a Monte Carlo one (measured 136): docs/spec.md.
+constexpr double kBaseBytes = 128.0 * 1024 * 1024;
+
+double stored_size(StoredType t) {
+    switch (t) {
+        case StoredType::Float64: return 8;
+        case StoredType::Float32: return 4;
+        case StoredType::Float16: return 2;
+    }
+    return 8;
+}
+
+double grid_cells(const std::vector<Axis>& axes) {
+    double n = 1;
+    for (const Axis& a : axes) n *= static_cast<double>(a.count);
+    return n;
+}
+
+}  // namespace
+
+ResourceEstimate estimate_resources(const Spec& spec, const IntegrationSettings& settings) {
+    const ModelInfo& model = find_model(spec.model);
+    const double type_size = stored_size(spec.output.stored_type);
+    ResourceEstimate r;
+    double held = 0;
+    std::map<std::string, double> cells_of;  // computed table name -> cells
+    auto add_table = [&](double cells, bool has_stderr, bool has_samples) {
+        r.cells += cells;
+        held += cells * (kHeldBytesPerValue * (has_stderr ? 2 : 1) +
+                         (has_samples ? kHeldBytesPerCount : 0));
+        r.disk_bytes += cells * (type_size * (has_stderr && spec.output.keep_stderr ? 2 : 1) +
+                                 (has_samples ? 4 : 0));
+    };
+    for (const TableSpec& ts : spec.tables) {
+        const double cells = grid_cells(ts.axes);
+        cells_of[ts.name] = cells;
+        const Method m = resolve_table_method(model.quantity(ts.quantity), settings.method);
+        const bool closed = m == Method::ClosedForm;
+        add_table(cells, !closed, !closed);
+        r.largest_cells = std::max(r.largest_cells, cells);
+    }
+    // Derived tables live on their sources' grids (inverted: its new axis).
+    for (const RecombinedSpec& rs : spec.recombined)
+        add_table(rs.terms.empty() ? 0 : cells_of[rs.terms.front().first], true, false);
+    for (const ErrorTableSpec& es : spec.errors) add_table(cells_of[es.table], true, false);
+    for (const InvertedSpec& is : spec.inverted) add_table(static_cast<double>(is.axis.count), true, false);
+    r.memory_bytes = kBaseBytes + held + r.largest_cells * (kEngineBytesPerCell + type_size);
+    return r;
 }
 
 std::vector<GeneratedTable> generate_tables(const Spec& spec, Backend& backend,

@@ -50,6 +50,24 @@ std::vector<GeneratedTable> generate_tables(const Spec& spec, Backend& backend,
                                             const IntegrationSettings& settings,
                                             const GenerateProgressFn& progress = nullptr);
 
+// What generate_tables() and the final write will need, estimated from the
+// spec alone before anything is computed (issue #15: a 4e9-cell table failed
+// with bad_alloc after starting, a 30 M-cell one only when writing).  Counts
+// are doubles so that absurd grids (65536^4 cells) do not wrap.
+struct ResourceEstimate {
+    double cells = 0;         // cells of every table, derived ones included
+    double largest_cells = 0; // cells of the largest computed table
+    double memory_bytes = 0;  // peak resident memory of the tables
+    double disk_bytes = 0;    // datasets as stored, before compression
+};
+// Memory model (measured with /usr/bin/time -v, docs/spec.md "Memory and
+// disk"): every table's results stay in memory until the one final write
+// (value, stderr: 8 B each, samples: 4 B), and are copied once for it, plus
+// the engine's per-cell state of the table being computed and the write's
+// conversion buffer.  Disk: cells x stored type size for value and stderr
+// (kept, not closed form) plus 4 B for samples (estimated tables).
+ResourceEstimate estimate_resources(const Spec& spec, const IntegrationSettings& settings);
+
 // Kernel point of one table cell: fixed values + the cell's axis values.
 // The full PointBuilder (validation, defaults, name resolution) runs once, on
 // the first node; each cell then only rewrites the slots its axes feed, which

@@ -175,6 +175,12 @@ ModelBuilder& ModelBuilder::check_point(
     model_.check_point = fn;
     return *this;
 }
+ModelBuilder& ModelBuilder::check_cell(
+    std::string (*fn)(const QuantityInfo&, const double*, const std::vector<int>&)) {
+    model_.check_cell = fn;
+    return *this;
+}
+
 QuantityInfo& ModelBuilder::quantity_by_id(int id) {
     for (auto& q : model_.quantities)
         if (q.id == id) return q;

@@ -123,6 +123,15 @@ struct ModelInfo {
     // text, or empty when the point is valid.  PointBuilder::build calls it.
     std::string (*check_point)(const QuantityInfo& q,
                                const std::map<std::string, double>& params) = nullptr;
+    // Optional check of one cell as the kernel will see it, for rules that
+    // involve options (e.g. rough-dielectric: Phong needs alpha < 1).
+    // `point` is the kernel point (point_stride() values, parameters by slot,
+    // angles in radians), `options` the option indices; returns an error text
+    // naming the parameter, its value and the allowed range, or empty.  The
+    // engine (estimate()) runs it on every cell before any kernel launch, so
+    // eval, generate and validate refuse the same cells.
+    std::string (*check_cell)(const QuantityInfo& q, const double* point,
+                              const std::vector<int>& options) = nullptr;
 
     const QuantityInfo* find_quantity(const std::string& name) const;
     const ParameterInfo* find_parameter(const std::string& name) const;
@@ -167,6 +176,8 @@ public:
     ModelBuilder& quantity(QuantityInfo info) { return quantity(info.id, std::move(info)); }
     ModelBuilder& check_point(std::string (*fn)(const QuantityInfo&,
                                                 const std::map<std::string, double>&));
+    ModelBuilder& check_cell(std::string (*fn)(const QuantityInfo&, const double*,
+                                               const std::vector<int>&));
     // The quantity registered under `id` (to adjust it after a shared factory).
     QuantityInfo& quantity_by_id(int id);
     ModelInfo build() const;

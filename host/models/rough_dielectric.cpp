@@ -2,11 +2,29 @@
 // math in kernels/models/rough_dielectric.h, docs/models/rough-dielectric.md).
 #include "kernels/models/rough_dielectric.h"
 
+#include "host/core/text.h"
 #include "host/models/registry.h"
 
 namespace brdftab::detail {
 
 namespace {
+
+// Walter's Phong exponent alpha_p = 2/alpha^2 - 2 (section 5.2) is <= 0 for
+// alpha >= 1: eq. 30 then no longer describes a distribution peaked at the
+// normal (alpha = 1 is uniform in solid angle, alpha > sqrt(2) grows toward
+// grazing), the fitted G1 of eq. 31 is far from Smith's, and the albedos leave
+// [0, 1] (alpha = 1: 1.04, alpha = 4: 7.8e30).  So Phong is refused there,
+// for every quantity; Beckmann and GGX keep the whole range (0, 4].
+std::string check_phong_alpha(const QuantityInfo&, const double* point,
+                              const std::vector<int>& options) {
+    if (options.size() <= RD_OPT_DISTRIBUTION || options[RD_OPT_DISTRIBUTION] != BT_MF_PHONG)
+        return "";
+    const double alpha = point[RD_PARAM_ALPHA];
+    if (alpha > 0 && alpha < 1) return "";
+    return "alpha = " + number_text(alpha) +
+           " is out of range for distribution = phong; allowed: (0, 1) (the Phong exponent "
+           "2/alpha^2 - 2 must be > 0; beckmann and ggx allow (0, 4])";
+}
 
 ModelInfo rough_dielectric_model() {
     ModelBuilder b("rough-dielectric", 10);
@@ -118,6 +136,7 @@ ModelInfo rough_dielectric_model() {
                         "2 * int E(mu) mu dmu, for the chosen lobe(s) and side",
                         kAlbedoEqs, {},
                         {"distribution", "g1", "shadowing", "lobe", "side", "sampling"}, 3));
+    b.check_cell(&check_phong_alpha);
     return b.build();
 }
 

@@ -128,11 +128,13 @@ void Parser::parse_integration(const toml::table& t, IntegrationSettings& s) con
         if (!v) return std::nullopt;
         if (*v < 0 || std::uint64_t(*v) < lo || std::uint64_t(*v) > hi)
             fail(pos_of(*t.get(key)), sub(pre, key),
-                 "value " + std::to_string(*v) + " is out of range; allowed: integer " +
-                     std::to_string(lo) + " .. " + std::to_string(hi));
+                 "value " + std::to_string(*v) + " is out of range; allowed: " +
+                     (hi == kMaxSampleCount ? sample_count_range_text()
+                                            : "integer " + std::to_string(lo) + " .. " +
+                                                  std::to_string(hi)));
         return std::uint64_t(*v);
     };
-    const auto samples = u64("samples", 1, kMaxU32);
+    const auto samples = u64("samples", 1, kMaxSampleCount);
     if (samples) s.samples = *samples;
     if (auto tol = get_number(t, pre, "tolerance")) {
         if (!(*tol > 0 && *tol < 1))
@@ -146,7 +148,7 @@ void Parser::parse_integration(const toml::table& t, IntegrationSettings& s) con
                  "value " + num(*fl) + " is out of range; allowed: > 0");
         s.abs_floor = *fl;
     }
-    if (auto mx = u64("max_samples", 1, kMaxU32)) {
+    if (auto mx = u64("max_samples", 1, kMaxSampleCount)) {
         if (samples && *mx < *samples)
             fail(pos_of(*t.get("max_samples")), sub(pre, "max_samples"),
                  "max_samples " + std::to_string(*mx) + " is below samples " +
@@ -170,7 +172,14 @@ void Parser::parse_output(const toml::table& t, OutputSettings& o) const {
     check_keys(t, pre, {"path", "type", "compression", "keep_stderr"});
     if (auto p = get_string(t, pre, "path")) {
         if (p->empty()) fail(pos_of(*t.get("path")), sub(pre, "path"), "must not be empty");
-        o.path = *p;
+        // A relative path is relative to the spec file's directory, so a spec
+        // writes to the same place from any working directory (an absolute
+        // path, or one with "..", is kept; `generate` prints the result before
+        // computing).  Specs parsed from a string have no directory.
+        const std::filesystem::path given(*p), dir = std::filesystem::path(file_).parent_path();
+        o.path = given.is_absolute() || dir.empty() || file_.front() == '<'
+                     ? *p
+                     : (dir / given).lexically_normal().string();
     }
     if (auto ty = get_string(t, pre, "type")) {
         if (*ty == "float64")
