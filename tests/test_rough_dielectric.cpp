@@ -461,19 +461,63 @@ TEST_CASE("Phong, alpha < 1 (issue #15): D normalised, sampler follows D |m.n|, 
     for (double alpha : {0.1, 0.5, 0.9, 0.99}) {
         const bt_microfacet mf = bt_microfacet_make(BT_MF_PHONG, 0, 0, alpha, alpha);
         Stat small, large;
+        int nonfinite = 0;
         for (int k = 0; k < 80000; ++k) {
             const double mu = std::max(std::sqrt(uni(rng)), 1e-9);
             const bt_vec3 i = bt_v3(std::sqrt(1 - mu * mu), 0.0, mu);
             double wr = 0, wt = 0;
             const double u0 = uni(rng), u1 = uni(rng);
             rd_albedo_weights(&mf, i, 1.5, RD_SAMPLING_WALTER, u0, u1, 1, &wr, &wt);
-            REQUIRE(std::isfinite(wr));
+            nonfinite += !std::isfinite(wr);
             if (k < 20000) small.add(wr);
             large.add(wr);
         }
         INFO("alpha " << alpha << " F=1 average albedo " << large.mean << " +- " << large.se());
+        CHECK(nonfinite == 0);
         CHECK(large.mean <= 1 + 4 * large.se());
         CHECK(large.mean > 0.5);
         CHECK(large.se() / small.se() == doctest::Approx(0.5).epsilon(0.3));
     }
+}
+
+TEST_CASE("Phong near alpha = 1 (issue #15): R + T above 1 is the fitted G1, not the estimator")
+{
+    // Per sample, w_r + w_t = |i.m|/(|i.n| |m.n|) (F G(i,o_r,m) + (1 - F)
+    // G(i,o_t,m)) <= |i.m| G1(i) / (|i.n| |m.n|), so with m ~ D |m.n|
+    //   R + T <= B(i) = G1(i) int (i.m)+ D(m) dm / (i.n).
+    // For the Smith G1 of D, B = 1 (Smith's identity); Phong's G1 is Walter's
+    // Beckmann fit (eq. 31 with eq. 27), and B, computed here by midpoint
+    // quadrature over the hemisphere of m (independent of the sampler),
+    // exceeds 1: 1.10 at alpha 0.9 and 1.17 at 0.99 for theta_i = 45 deg,
+    // 1.27 and 1.41 at 70 deg.  The estimates stay below B: what exceeds 1 is
+    // the model (docs/models/rough-dielectric.md, departure 3).
+    for (double alpha : {0.9, 0.99})
+        for (double ti_deg : {45.0, 70.0, 85.0}) {
+            const bt_microfacet mf = bt_microfacet_make(BT_MF_PHONG, 0, 0, alpha, alpha);
+            const bt_vec3 i = bt_v3(std::sin(ti_deg * kDeg), 0.0, std::cos(ti_deg * kDeg));
+            const int nu = 1000, nphi = 1000;
+            double q = 0;
+            for (int a = 0; a < nu; ++a) {
+                const double u = (a + 0.5) / nu, st = std::sqrt(1 - u * u);
+                for (int b = 0; b < nphi; ++b) {
+                    const double phi = 2 * kPi * (b + 0.5) / nphi;
+                    const bt_vec3 m = bt_v3(st * std::cos(phi), st * std::sin(phi), u);
+                    q += std::max(0.0, bt_v3_dot(i, m)) * bt_mf_d(&mf, m);
+                }
+            }
+            q *= (1.0 / nu) * (2 * kPi / nphi);
+            const double bound = bt_mf_g1_nochi(&mf, i) * q / i.z;
+            int o[8] = {BT_MF_PHONG, 0, 0, 0, 0, RD_SAMPLING_WALTER};
+            double p[6] = {ti_deg * kDeg, 0, 0, 0, alpha, 1.5};
+            Stat st;
+            for (int k = 0; k < 20000; ++k) {
+                bt_sampler s = mc(77, (uint)k);
+                st.add(rough_dielectric_sample(p, o, RD_Q_ALBEDO_R, &s) +
+                       rough_dielectric_sample(p, o, RD_Q_ALBEDO_T, &s));
+            }
+            INFO("alpha " << alpha << " theta_i " << ti_deg << " R+T " << st.mean << " +- "
+                          << st.se() << " bound " << bound);
+            CHECK(bound > 1.05);  // the fitted G1 breaks Smith's identity here
+            CHECK(st.mean <= bound + 4 * st.se());
+        }
 }
