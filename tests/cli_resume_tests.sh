@@ -108,6 +108,10 @@ same_tables() { "$PY" same.py "$1" "$2"; }
 now() { date +%s.%N; }
 seconds_since() { awk -v a="$1" -v b="$(now)" 'BEGIN { printf "%.2f", b - a }'; }
 
+expect_exit 0 "generate --help" -- "$BT" generate --help
+expect_grep "--resume" out.txt "generate --help explains --resume"
+expect_grep "--checkpoint-interval" out.txt "generate --help explains --checkpoint-interval"
+
 # --- the reference: one uninterrupted run --------------------------------------
 start=$(now)
 expect_exit 0 "uninterrupted run" -- "$BT" "${GEN[@]}" -o ref.h5

@@ -173,7 +173,8 @@ void register_generate(CLI::App& app) {
                   "continue an interrupted run from its checkpoint (OUTPUT.checkpoint/, written "
                   "while tables are computed and removed once the output is written); the "
                   "result is bit-identical to an uninterrupted run. Refused when the spec or "
-                  "a setting that changes values differs");
+                  "a setting that changes values differs. See docs/spec.md, \"Interrupted "
+                  "runs\"");
     cmd->add_option("--checkpoint-interval", state->checkpoint_interval,
                     "seconds between checkpoints of a table in progress (default 60; 0: "
                     "checkpoint finished tables only)")
@@ -206,7 +207,10 @@ void register_generate(CLI::App& app) {
             checkpoint = std::make_unique<Checkpoint>(
                 out_path, checkpoint_key(spec, settings, *backend, st.compute.kernel_dir),
                 st.resume, st.checkpoint_interval);
-            if (st.resume)
+            if (st.resume && presence == CheckpointPresence::None)
+                std::cerr << "brdftab: no checkpoint to resume from; starting from the "
+                             "beginning\n";
+            else if (st.resume)
                 std::cerr << "brdftab: resuming from " << checkpoint->directory() << ": "
                           << checkpoint->resumed_summary() << "\n";
         }

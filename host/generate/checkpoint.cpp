@@ -206,18 +206,26 @@ std::string encode_table_state(const EstimateState& state, std::size_t index,
     out += fp;
     put<std::uint64_t>(out, name.size());
     out += name;
+    // The cells (most of the bytes) into a buffer sized once.
+    const std::size_t head = out.size();
+    out.resize(head + stored * kCellBytes);
+    char* p = &out[head];
+    auto store = [&p](auto v) {
+        std::memcpy(p, &v, sizeof v);
+        p += sizeof v;
+    };
     for (std::size_t c = 0; c < stored; ++c) {
         const CellState& s = state.cells[c];
-        put<double>(out, s.first_batch);
-        put<double>(out, s.second_batch);
-        put<double>(out, s.mean);
-        put<double>(out, s.m2);
-        put<double>(out, s.batch_mean);
-        put<double>(out, s.batch_m2);
-        put<std::uint64_t>(out, s.samples);
-        put<std::uint32_t>(out, s.batches);
-        put<std::uint8_t>(out, s.done ? 1 : 0);
-        put<std::uint32_t>(out, state.round_target[c]);
+        store(s.first_batch);
+        store(s.second_batch);
+        store(s.mean);
+        store(s.m2);
+        store(s.batch_mean);
+        store(s.batch_m2);
+        store(s.samples);
+        store(s.batches);
+        store(static_cast<std::uint8_t>(s.done ? 1 : 0));
+        store(state.round_target[c]);
     }
     put<std::uint64_t>(out, fnv1a(out.data(), out.size()));
     return out;
@@ -390,21 +398,26 @@ EstimateCheckpoint Checkpoint::table(std::size_t index, const std::string& name,
     if (std::find(stored_.begin(), stored_.end(), index) != stored_.end())
         hooks.resume = decode_table_state(read_whole_file(path), index, name, key_.fingerprint(),
                                           cell_count, path, &restored_finished);
-    const std::string fingerprint = key_.fingerprint();
-    const double interval = interval_;
     double last_write = seconds_now(), write_cost = 0;
     hooks.save = [=](const EstimateState& state, bool finished) mutable {
         if (finished) {
             if (restored_finished) return;  // already stored as it is
+            // A table computed in less than ten times the time its state
+            // takes to write is cheaper to compute again than to store.
+            const double bytes = static_cast<double>(state.cells.size() * kCellBytes);
+            if (state.elapsed_seconds < 10 * bytes / write_rate_) return;
         } else {
             const double since = seconds_now() - last_write;
             // Writing never takes more than a tenth of the run.
-            if (interval <= 0 || since < std::max(interval, 10 * write_cost)) return;
+            if (interval_ <= 0 || since < std::max(interval_, 10 * write_cost)) return;
         }
         const double start = seconds_now();
-        write_bytes_atomically(path, encode_table_state(state, index, name, fingerprint, finished));
+        const std::string bytes =
+            encode_table_state(state, index, name, key_.fingerprint(), finished);
+        write_bytes_atomically(path, bytes);
         last_write = seconds_now();
         write_cost = last_write - start;
+        if (write_cost > 0) write_rate_ = std::max(1e6, static_cast<double>(bytes.size()) / write_cost);
     };
     return hooks;
 }

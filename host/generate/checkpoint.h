@@ -53,7 +53,9 @@ public:
     // starts from nothing.  Without `resume` the directory must not exist.
     // `interval_seconds`: least time between two states of a table in progress
     // (0: store finished tables only); a write never takes more than a tenth
-    // of the time between writes.
+    // of the time between writes, and a finished table that took less than
+    // ten times as long as writing its state is not stored (it is computed
+    // again on resume).
     Checkpoint(const std::string& output_path, CheckpointKey key, bool resume,
                double interval_seconds);
     ~Checkpoint();
@@ -77,6 +79,7 @@ private:
     std::string dir_;
     CheckpointKey key_;
     double interval_;
+    double write_rate_ = 100e6;  // bytes per second of state writes (measured)
     int lock_fd_ = -1;
     std::size_t resumed_finished_ = 0, resumed_partial_ = 0;
     std::vector<std::size_t> stored_;  // indices of tables with a state file
