@@ -339,6 +339,8 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
             }
         };
         advance_to_work();
+        // No early exit when the round has no work: continued from a stored
+        // state, it may only lack the stopping rule below.
         while (cell_cursor < cell_count) {
             launch.cells.clear();
             launch.batches.clear();
