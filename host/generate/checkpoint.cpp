@@ -399,7 +399,8 @@ EstimateCheckpoint Checkpoint::table(std::size_t index, const std::string& name,
         hooks.resume = decode_table_state(read_whole_file(path), index, name, key_.fingerprint(),
                                           cell_count, path, &restored_finished);
     double last_write = seconds_now(), write_cost = 0;
-    hooks.save = [=](const EstimateState& state, bool finished) mutable {
+    hooks.save = [this, index, name, path, restored_finished, last_write,
+                  write_cost](const EstimateState& state, bool finished) mutable {
         if (finished) {
             if (restored_finished) return;  // already stored as it is
             // A table computed in less than ten times the time its state
