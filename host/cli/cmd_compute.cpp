@@ -11,6 +11,7 @@
 #include "host/cli/commands.h"
 #include "host/core/error.h"
 #include "host/engine/evaluate.h"
+#include "host/generate/checkpoint.h"
 #include "host/generate/generate.h"
 #include "host/io/point_file.h"
 #include "host/spec/spec.h"
@@ -161,11 +162,23 @@ void register_generate(CLI::App& app) {
         std::string spec_path, output;
         ComputeOptions compute;
         bool quiet = false;
+        bool resume = false;
+        double checkpoint_interval = 60;
     };
     auto state = std::make_shared<State>();  // owned by the callback
     cmd->add_option("SPEC", state->spec_path, "table specification (TOML)")->required();
     cmd->add_option("-o,--output", state->output, "output file (default: the spec's output.path)");
     cmd->add_flag("-q,--quiet", state->quiet, "no progress display");
+    cmd->add_flag("--resume", state->resume,
+                  "continue an interrupted run from its checkpoint (OUTPUT.checkpoint/, written "
+                  "while tables are computed and removed once the output is written); the "
+                  "result is bit-identical to an uninterrupted run. Refused when the spec or "
+                  "a setting that changes values differs. See docs/spec.md, \"Interrupted "
+                  "runs\"");
+    cmd->add_option("--checkpoint-interval", state->checkpoint_interval,
+                    "seconds between checkpoints of a table in progress (default 60; 0: "
+                    "checkpoint finished tables only)")
+        ->check(CLI::NonNegativeNumber);
     state->compute.add_to(*cmd);
     cmd->callback([state] {
         const State& st = *state;
@@ -180,6 +193,27 @@ void register_generate(CLI::App& app) {
         if (!spec.inverted.empty()) std::cerr << " + " << spec.inverted.size() << " inverted";
         std::cerr << " from " << st.spec_path << " on " << backend->device_name()
                   << " (" << precision_name(backend->precision()) << ")\n";
+        // Checkpoint (host/generate/checkpoint.h): one beside the output,
+        // unless an older one is there and --resume was not given.
+        std::unique_ptr<Checkpoint> checkpoint;
+        const CheckpointPresence presence = checkpoint_presence(out_path);
+        if (presence != CheckpointPresence::None && !st.resume) {
+            std::cerr << "brdftab: a checkpoint of "
+                      << (presence == CheckpointPresence::InUse ? "a running" : "an interrupted")
+                      << " run exists (" << checkpoint_directory(out_path)
+                      << "); add --resume to continue it. This run starts from the beginning, "
+                         "writes no checkpoint and leaves that one alone.\n";
+        } else {
+            checkpoint = std::make_unique<Checkpoint>(
+                out_path, checkpoint_key(spec, settings, *backend, st.compute.kernel_dir),
+                st.resume, st.checkpoint_interval);
+            if (st.resume && presence == CheckpointPresence::None)
+                std::cerr << "brdftab: no checkpoint to resume from; starting from the "
+                             "beginning\n";
+            else if (st.resume)
+                std::cerr << "brdftab: resuming from " << checkpoint->directory() << ": "
+                          << checkpoint->resumed_summary() << "\n";
+        }
         std::unique_ptr<ProgressPrinter> printer;
         std::size_t current = static_cast<std::size_t>(-1);
         auto on_progress = [&](const GenerateEvent& e) {
@@ -193,12 +227,19 @@ void register_generate(CLI::App& app) {
             }
             (*printer)(e.progress);
         };
-        std::vector<GeneratedTable> tables = generate_tables(spec, *backend, settings, on_progress);
+        std::vector<GeneratedTable> tables = generate_tables(spec, *backend, settings, on_progress,
+                                                             checkpoint.get());
         if (printer) printer->finish();
         std::vector<TableData> data;
         for (auto& t : tables) data.push_back(t.data);
         write_tables(out_path, data);
         std::cout << "wrote " << out_path << "\n";
+        if (checkpoint) {
+            const std::string why = checkpoint->remove();
+            if (!why.empty())
+                std::cerr << "brdftab: warning: cannot remove the checkpoint "
+                          << checkpoint->directory() << ": " << why << "\n";
+        }
         for (const auto& t : tables) {
             const TableData& d = t.data;
             double lo = d.value.empty() ? 0 : d.value[0], hi = lo;
