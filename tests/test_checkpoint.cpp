@@ -161,7 +161,7 @@ TEST_CASE("an estimate continued from any stored state equals the uninterrupted 
     std::vector<Case> cases;
     for (const char* method : {"mc", "rqmc"}) {
         IntegrationSettings fixed;
-        fixed.method = method;
+        fixed.method = parse_method(method);
         fixed.samples = 1024;
         fixed.batch_size = 128;  // several batches per cell, straddling launches
         fixed.slab_work_items = 3;
@@ -274,7 +274,7 @@ TEST_CASE("the key holds every setting that changes values, and only those") {
         change(s);
         return checkpoint_key(spec, s, *host, "").fingerprint() != f0;
     };
-    CHECK(differs([](IntegrationSettings& s) { s.method = "mc"; }));
+    CHECK(differs([](IntegrationSettings& s) { s.method = Method::MonteCarlo; }));
     CHECK(differs([](IntegrationSettings& s) { s.samples = 100; }));
     CHECK(differs([](IntegrationSettings& s) { s.tolerance = 0.01; }));
     CHECK(differs([](IntegrationSettings& s) { s.abs_floor = 1e-7; }));
