@@ -29,6 +29,7 @@
 namespace {
 
 using namespace brdftab;
+using namespace brdftab::cli;
 
 TableData make_table(const std::string& name, std::vector<Axis> axes) {
     TableData t;
@@ -94,8 +95,10 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         std::map<std::string, double> coords;
         std::istringstream lines(text);
         for (std::string arg; std::getline(lines, arg);) {
-            auto [name, value_text] = cli::split_assignment(arg);
-            const double v = cli::parse_number(value_text, "argument '" + name + "'");
+            // Unqualified: parse_number is brdftab::cli's or brdftab's
+            // (host/io/point_file.h), depending on where the CLI keeps it.
+            auto [name, value_text] = split_assignment(arg);
+            const double v = parse_number(value_text, "argument '" + name + "'");
             if (!coords.emplace(name, v).second)
                 throw InputError("argument '" + name + "' is given twice");
         }
