@@ -3,8 +3,7 @@
 # build-sanitize/ (CMake option BRDFTAB_SANITIZE) and run the unit tests
 # there (CTest label `sanitize`).  Any ASan or UBSan report fails the test
 # that triggered it.  The device tests run their kernels in PoCL inside the
-# test process; tests/fuzz/lsan.supp keeps PoCL's and the OpenCL loader's
-# one-off allocations out of the leak report.  Details: docs/contributing.md,
+# test process, which needs no special options.  Details: docs/contributing.md,
 # "Fuzzing and sanitizers".  Environment: BUILD_DIR (default
 # build-sanitize), JOBS (parallel compile jobs, default: all cores), CC/CXX
 # (default: the system compiler; GCC and clang both work).
