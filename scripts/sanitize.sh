@@ -3,7 +3,8 @@
 # build-sanitize/ (CMake option BRDFTAB_SANITIZE) and run the unit tests
 # there (CTest label `sanitize`).  Any ASan or UBSan report fails the test
 # that triggered it.  The device tests run their kernels in PoCL inside the
-# test process, which needs no special options.  Details: docs/contributing.md,
+# test process; tests/fuzz/lsan.supp drops the leaks of PoCL's LLVM from the
+# leak report.  Details: docs/contributing.md,
 # "Fuzzing and sanitizers".  Environment: BUILD_DIR (default
 # build-sanitize), JOBS (parallel compile jobs, default: all cores), CC/CXX
 # (default: the system compiler; GCC and clang both work).

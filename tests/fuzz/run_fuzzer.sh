@@ -8,9 +8,10 @@
 # (libhdf5 1.10 segfaults and loops on some corrupted files: issue #15,
 # defect 10) must not stop the run nor fail it.  The fuzzer then runs in
 # fork mode, keeps going after crashes, and every crashing input is replayed
-# and classified: a SEGV/BUS signal, a stack overflow or a timeout whose
-# innermost frame (past the sanitizer, libFuzzer and libc) lies in LIB is
-# counted as known; anything else (any ASan/UBSan memory or UB report, a
+# and classified: a SEGV/BUS signal, a stack overflow, a timeout, a huge
+# allocation or a memory error on LIB's own heap whose innermost frame (past
+# the sanitizer, libFuzzer, libc and the allocator) lies in LIB is counted as
+# known; anything else (any ASan/UBSan memory or UB report, a
 # crash in our code, an unexpected exception, a leak) fails the run.
 set -uo pipefail
 fuzzer=$1 seconds=${BRDFTAB_FUZZ_SECONDS:-$2} corpus=$3 artifacts=$4
@@ -78,6 +79,8 @@ for f in $(find "$artifacts" -type f -newer "$marker" | sort); do
   if [[ $inner == *"$known_lib"* ]]; then
     case $kind in
       SEGV|BUS|stack-overflow|timeout|deadly-signal|memcpy-param-overlap|negative-size-param|unknown-crash) is_known=1 ;;
+      # Sizes read from the corrupted file (ASan: allocation-size-too-big).
+      requested|allocation-size-too-big|out-of-memory) is_known=1 ;;
       # Heap memory libhdf5 allocated, or a wild pointer (no allocation).
       heap-buffer-overflow|heap-use-after-free)
         [[ -z $allocated || $origin == *"$known_lib"* ]] && is_known=1 ;;
