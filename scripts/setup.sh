@@ -2,7 +2,20 @@
 # Installs the Debian 12 packages brdftab needs to build, test and run, if any
 # are missing.  Non-interactive.  When not root, prints the command instead of
 # running it (prefix with sudo yourself).
+#
+# Optional groups, installed only when asked:
+#   --fuzz   clang and its sanitizer/libFuzzer runtimes (scripts/fuzz.sh)
+# (scripts/sanitize.sh needs nothing more: GCC's ASan/UBSan runtimes come
+# with build-essential.)
 set -euo pipefail
+
+with_fuzz=0
+for arg in "$@"; do
+  case $arg in
+    --fuzz) with_fuzz=1 ;;
+    *) echo "setup: unknown option '$arg' (known: --fuzz)" >&2; exit 2 ;;
+  esac
+done
 
 packages=(
   build-essential cmake pkg-config
@@ -13,6 +26,9 @@ packages=(
   doctest-dev libtomlplusplus-dev libcli11-dev nlohmann-json3-dev
   python3-h5py python3-numpy                                # format tests read files with h5py
 )
+if [ $with_fuzz -eq 1 ]; then
+  packages+=(clang libclang-rt-dev)
+fi
 
 missing=()
 for p in "${packages[@]}"; do

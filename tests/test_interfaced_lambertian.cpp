@@ -7,15 +7,15 @@
 //    from the paper; brute-force midpoint quadrature of eq. 12 over the
 //    hemisphere of normals.
 //  - r_e / r_i: direct quadrature of eq. 9 with the s/p Fresnel; r_e(1.5) =
-//    0.0918 (paper / MODELS.md).
+//    0.0918 (the paper; docs/models/interfaced-lambertian.md).
 //  - Limits: sigma -> 0 gives the flat interfaced Lambertian T(i) T(o);
-//    ni = 1 with Gaussian + TS gives Oren-Nayar's direct term (MODELS.md §1,
+//    ni = 1 with Gaussian + TS gives Oren-Nayar's direct term (docs/models/oren-nayar.md,
 //    evaluated here by 2-D quadrature, GAF = max(0, min(1, X, Y))).
 //  - Energy: flat surface with Kd = 1 has body + specular albedo exactly 1;
 //    rough ones stay <= 1.  V-cavities with ni = 1, Kd = 1 lose no energy:
 //    the all-order albedo is 1.
 //  - V-cavity: order 1 = body integral with TS GAF times the prefactor;
-//    ni = 1 order 2 = Oren-Nayar's L2 (MODELS.md §1, IF closed form,
+//    ni = 1 order 2 = Oren-Nayar's L2 (docs/models/oren-nayar.md, IF closed form,
 //    quadrature here); order 0 = sum of orders.
 //  - Symmetries: reciprocity, isotropy (value depends on phi_o - phi_i only),
 //    anisotropic swap (alpha_x, alpha_y, phi) <-> (alpha_y, alpha_x, phi + 90).
@@ -112,7 +112,7 @@ double body_quadrature(const Surf& s, V i, V o, double ni, int nt = 500, int np 
     return sum * ht * hp;
 }
 
-// Oren-Nayar direct term / (rho/pi) and two-bounce term (rho = 1), MODELS.md §1.
+// Oren-Nayar direct term / (rho/pi) and two-bounce term (rho = 1), docs/models/oren-nayar.md.
 void oren_nayar_terms(double sigma, V s, V v, double* direct, double* two, int nt = 400,
                       int np = 800)
 {

@@ -15,6 +15,7 @@
 #include "host/cli/commands.h"
 #include "host/core/error.h"
 #include "host/engine/evaluate.h"
+#include "host/generate/checkpoint.h"
 #include "host/generate/generate.h"
 #include "host/io/point_file.h"
 #include "host/spec/spec.h"
@@ -219,6 +220,8 @@ void register_generate(CLI::App& app) {
         std::string spec_path, output, max_memory;
         ComputeOptions compute;
         bool quiet = false;
+        bool resume = false;
+        double checkpoint_interval = 60;
     };
     auto state = std::make_shared<State>();  // owned by the callback
     cmd->add_option("SPEC", state->spec_path, "table specification (TOML)")->required();
@@ -229,6 +232,16 @@ void register_generate(CLI::App& app) {
                     "BYTES (suffixes K, M, G, T: powers of 1024, e.g. 8G); the estimate is "
                     "always checked against MemAvailable, and the estimated size on disk "
                     "against the output file system's free space (docs/spec.md)");
+    cmd->add_flag("--resume", state->resume,
+                  "continue an interrupted run from its checkpoint (OUTPUT.checkpoint/, written "
+                  "while tables are computed and removed once the output is written); the "
+                  "result is bit-identical to an uninterrupted run. Refused when the spec or "
+                  "a setting that changes values differs. See docs/spec.md, \"Interrupted "
+                  "runs\"");
+    cmd->add_option("--checkpoint-interval", state->checkpoint_interval,
+                    "seconds between checkpoints of a table in progress (default 60; 0: "
+                    "checkpoint finished tables only)")
+        ->check(CLI::NonNegativeNumber);
     state->compute.add_to(*cmd);
     cmd->callback([state] {
         const State& st = *state;
@@ -248,6 +261,27 @@ void register_generate(CLI::App& app) {
                   << " (" << precision_name(backend->precision()) << ")\n";
         std::cerr << "writing " << std::filesystem::absolute(out_path).lexically_normal().string()
                   << "\n";
+        // Checkpoint (host/generate/checkpoint.h): one beside the output,
+        // unless an older one is there and --resume was not given.
+        std::unique_ptr<Checkpoint> checkpoint;
+        const CheckpointPresence presence = checkpoint_presence(out_path);
+        if (presence != CheckpointPresence::None && !st.resume) {
+            std::cerr << "brdftab: a checkpoint of "
+                      << (presence == CheckpointPresence::InUse ? "a running" : "an interrupted")
+                      << " run exists (" << checkpoint_directory(out_path)
+                      << "); add --resume to continue it. This run starts from the beginning, "
+                         "writes no checkpoint and leaves that one alone.\n";
+        } else {
+            checkpoint = std::make_unique<Checkpoint>(
+                out_path, checkpoint_key(spec, settings, *backend, st.compute.kernel_dir),
+                st.resume, st.checkpoint_interval);
+            if (st.resume && presence == CheckpointPresence::None)
+                std::cerr << "brdftab: no checkpoint to resume from; starting from the "
+                             "beginning\n";
+            else if (st.resume)
+                std::cerr << "brdftab: resuming from " << checkpoint->directory() << ": "
+                          << checkpoint->resumed_summary() << "\n";
+        }
         std::unique_ptr<ProgressPrinter> printer;
         std::size_t current = static_cast<std::size_t>(-1);
         auto on_progress = [&](const GenerateEvent& e) {
@@ -261,12 +295,19 @@ void register_generate(CLI::App& app) {
             }
             (*printer)(e.progress);
         };
-        std::vector<GeneratedTable> tables = generate_tables(spec, *backend, settings, on_progress);
+        std::vector<GeneratedTable> tables = generate_tables(spec, *backend, settings, on_progress,
+                                                             checkpoint.get());
         if (printer) printer->finish();
         std::vector<TableData> data;
         for (auto& t : tables) data.push_back(t.data);
         write_tables(out_path, data);
         std::cout << "wrote " << out_path << "\n";
+        if (checkpoint) {
+            const std::string why = checkpoint->remove();
+            if (!why.empty())
+                std::cerr << "brdftab: warning: cannot remove the checkpoint "
+                          << checkpoint->directory() << ": " << why << "\n";
+        }
         for (const auto& t : tables) {
             const TableData& d = t.data;
             double lo = d.value.empty() ? 0 : d.value[0], hi = lo;

@@ -178,16 +178,6 @@ private:
     std::map<std::string, cl::Kernel> kernels_;
 };
 
-// Running statistics of one cell across batches.
-struct CellState {
-    double first_batch = 0, second_batch = 0;  // quadrature: accurate, coarse rule
-    std::uint64_t samples = 0;
-    std::uint32_t batches = 0;
-    double mean = 0, m2 = 0;              // sample level (Chan merge)
-    double batch_mean = 0, batch_m2 = 0;  // batch-mean level (Welford)
-    bool done = false;
-};
-
 void merge_batch(CellState& c, double mean, double m2, std::uint32_t batch_size) {
     // Chan, Golub & LeVeque: combine (n_a, mean_a, M2_a) with (n_b, mean_b, M2_b).
     if (c.batches == 0) c.first_batch = mean;
@@ -220,6 +210,28 @@ std::uint32_t floor_pow2(std::uint64_t x) {
     return p;
 }
 
+// Continue from `from`: each cell's next batch index is its merged count and
+// its remaining work this round is what its target still lacks.  Returns the
+// time spent before.  Throws Error on a state that cannot have come from a
+// run of this table.
+double restore_state(EstimateState& state, EstimateState&& from,
+                     std::vector<std::uint32_t>& wanted, std::vector<std::uint32_t>& issued) {
+    const std::size_t n = state.cells.size();
+    if (from.cells.size() != n || from.round_target.size() != n)
+        throw Error("stored estimator state has " + std::to_string(from.cells.size()) +
+                    " cells, the table " + std::to_string(n));
+    for (std::size_t c = 0; c < n; ++c) {
+        const CellState& s = from.cells[c];
+        if (from.round_target[c] < s.batches || (s.done && from.round_target[c] != s.batches))
+            throw Error("stored estimator state of cell " + std::to_string(c) +
+                        " is inconsistent (batches beyond the round's target)");
+        issued[c] = s.batches;
+        wanted[c] = from.round_target[c] - s.batches;
+    }
+    state.cells = std::move(from.cells);
+    return from.elapsed_seconds;
+}
+
 }  // namespace
 
 std::unique_ptr<Backend> make_backend(const std::string& device_selector, Precision precision,
@@ -236,7 +248,7 @@ std::unique_ptr<Backend> make_backend(const std::string& device_selector, Precis
 EstimateResult estimate(Backend& backend, const ModelInfo& model, const QuantityInfo& quantity,
                         const std::vector<int>& options, std::size_t cell_count,
                         const PointFn& point_of, const IntegrationSettings& settings,
-                        const ProgressFn& progress) {
+                        const ProgressFn& progress, EstimateCheckpoint* checkpoint) {
     if (!model.host_fn) throw Error("model '" + model.name + "' has no sample function");
     check_settings(settings);
     if (cell_count > 0xFFFFFFFFull)
@@ -306,7 +318,9 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
         static_cast<std::uint32_t>(std::min<std::uint64_t>(max_samples / batch_size, 0xFFFFFFFFu));
     launch.batch_size = batch_size;
 
-    std::vector<CellState> cells(cell_count);
+    EstimateState state;
+    std::vector<CellState>& cells = state.cells;
+    cells.resize(cell_count);
     const std::size_t slab = settings.slab_work_items ? settings.slab_work_items
                                                        : backend.preferred_slab();
     std::vector<double> slab_mean, slab_m2;
@@ -321,8 +335,25 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
     std::vector<std::uint32_t> issued(cell_count, 0);
     std::uint64_t total_work_estimate = static_cast<std::uint64_t>(cell_count) * first_batches;
     std::uint64_t work_done = 0;
+    double elapsed_before = 0;
+    if (checkpoint && checkpoint->resume) {
+        elapsed_before = restore_state(state, std::move(*checkpoint->resume), wanted, issued);
+        checkpoint->resume.reset();
+        total_work_estimate = 0;
+        for (std::uint32_t w : wanted) total_work_estimate += w;
+    }
+    auto save_state = [&](bool finished) {
+        if (!checkpoint || !checkpoint->save) return;
+        state.elapsed_seconds = elapsed_before + elapsed();
+        checkpoint->save(state, finished);
+    };
 
     for (int round = 0;; ++round) {
+        if (checkpoint) {
+            state.round_target.resize(cell_count);
+            for (std::size_t c = 0; c < cell_count; ++c)
+                state.round_target[c] = issued[c] + wanted[c];
+        }
         // Work list of this round, ordered by (cell, batch), so every cell
         // merges its batches in batch order whatever the slab size.
         std::size_t cell_cursor = 0;
@@ -334,7 +365,8 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
             }
         };
         advance_to_work();
-        if (cell_cursor >= cell_count) break;
+        // No early exit when the round has no work: continued from a stored
+        // state, it may only lack the stopping rule below.
         while (cell_cursor < cell_count) {
             launch.cells.clear();
             launch.batches.clear();
@@ -355,6 +387,7 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
             for (std::size_t w = 0; w < launch.cells.size(); ++w)
                 merge_batch(cells[launch.cells[w]], slab_mean[w], slab_m2[w], batch_size);
             work_done += launch.cells.size();
+            save_state(false);
             if (progress) {
                 // Without a tolerance every cell is finished once its batches
                 // are merged: the cursor counts them.
@@ -405,6 +438,7 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
         total_work_estimate = work_done + next_work;
         if (next_work == 0) break;
     }
+    save_state(true);
 
     result.value.resize(cell_count);
     result.stderr_.resize(cell_count);
@@ -434,7 +468,7 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
     }
     result.tolerance_achieved = worst;
     result.cells_unconverged = unconverged;
-    result.elapsed_seconds = elapsed();
+    result.elapsed_seconds = elapsed_before + elapsed();
     if (progress) {
         prog.cells_done = cell_count;
         prog.fraction = 1.0;

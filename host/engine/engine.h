@@ -18,6 +18,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -114,10 +115,41 @@ struct EstimateResult {
 // Supplies the kernel point of a cell (stride = model.point_stride()).
 using PointFn = std::function<void(std::size_t cell, double* point)>;
 
+// Running statistics of one cell across batches (merged in batch order).
+struct CellState {
+    double first_batch = 0, second_batch = 0;  // quadrature: accurate, coarse rule
+    std::uint64_t samples = 0;
+    std::uint32_t batches = 0;
+    double mean = 0, m2 = 0;              // sample level (Chan merge)
+    double batch_mean = 0, batch_m2 = 0;  // batch-mean level (Welford)
+    bool done = false;
+};
+
+// What estimate() needs to stop between two launches and continue later
+// (host/generate/checkpoint.h stores it).  Work runs in rounds: every cell
+// gets batches up to its round_target, then the stopping rule, which reads
+// only that cell's state, sets the next target or marks it done.  A cell's
+// batches are numbered from its merged count, so a continued run draws the
+// same samples in the same order as an uninterrupted one.
+struct EstimateState {
+    std::vector<CellState> cells;               // one per cell
+    std::vector<std::uint32_t> round_target;    // batches each cell is to have this round
+    double elapsed_seconds = 0;                 // time spent before (and in) this run
+};
+struct EstimateCheckpoint {
+    // Continue from here instead of from no samples (moved from; sizes
+    // must equal the cell count, targets must not be below the merged counts).
+    std::optional<EstimateState> resume;
+    // Called after every launch (finished = false), and once when every cell
+    // is done (finished = true); decides itself whether to store the state.
+    std::function<void(const EstimateState&, bool finished)> save;
+};
+
 EstimateResult estimate(Backend& backend, const ModelInfo& model,
                         const QuantityInfo& quantity, const std::vector<int>& options,
                         std::size_t cell_count, const PointFn& point_of,
                         const IntegrationSettings& settings,
-                        const ProgressFn& progress = nullptr);
+                        const ProgressFn& progress = nullptr,
+                        EstimateCheckpoint* checkpoint = nullptr);
 
 }  // namespace brdftab

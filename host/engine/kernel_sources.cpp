@@ -3,7 +3,7 @@
 //
 // Why textual inclusion instead of clCompileProgram with a header list: PoCL
 // never caches programs built from in-memory headers, and `-I` cannot carry
-// paths with spaces (PLATFORM-NOTES.md).  One flat source with `#line`
+// paths with spaces (docs/contributing.md).  One flat source with `#line`
 // markers builds from PoCL's cache and still reports errors against the real
 // file and line.
 #include "host/engine/kernel_sources.h"

@@ -9,6 +9,8 @@
 #include <optional>
 
 #include "host/core/error.h"
+#include "host/core/text.h"
+#include "host/generate/checkpoint.h"
 #include "host/generate/derived.h"
 
 #ifndef BRDFTAB_VERSION
@@ -135,7 +137,8 @@ ResourceEstimate estimate_resources(const Spec& spec, const IntegrationSettings&
 
 std::vector<GeneratedTable> generate_tables(const Spec& spec, Backend& backend,
                                             const IntegrationSettings& settings,
-                                            const GenerateProgressFn& progress) {
+                                            const GenerateProgressFn& progress,
+                                            Checkpoint* checkpoint) {
     const ModelInfo& model = find_model(spec.model);
     std::vector<GeneratedTable> out;
     for (std::size_t t = 0; t < spec.tables.size(); ++t) {
@@ -162,9 +165,12 @@ std::vector<GeneratedTable> generate_tables(const Spec& spec, Backend& backend,
             };
         IntegrationSettings table_settings = settings;
         table_settings.method = resolve_table_method(q, settings.method);
+        EstimateCheckpoint stored;
+        if (checkpoint) stored = checkpoint->table(t, ts.name, points.cell_count());
         EstimateResult r = estimate(
             backend, model, q, options, points.cell_count(),
-            [&](std::size_t cell, double* p) { points.point(cell, p); }, table_settings, cb);
+            [&](std::size_t cell, double* p) { points.point(cell, p); }, table_settings, cb,
+            checkpoint ? &stored : nullptr);
 
         GeneratedTable g;
         TableData& d = g.data;

@@ -43,12 +43,17 @@ struct GeneratedTable {
     std::optional<ErrorSummary> error;  // set for [[errors]] tables
 };
 
+class Checkpoint;
+
 // Computes every table of `spec` with `settings` (then its [[recombined]],
 // [[errors]] and [[inverted]] tables, in that order) (the spec's integration
 // settings with any command-line overrides applied).
+// With `checkpoint` (host/generate/checkpoint.h), each table's estimator
+// state is stored while it is computed and continued from where stored.
 std::vector<GeneratedTable> generate_tables(const Spec& spec, Backend& backend,
                                             const IntegrationSettings& settings,
-                                            const GenerateProgressFn& progress = nullptr);
+                                            const GenerateProgressFn& progress = nullptr,
+                                            Checkpoint* checkpoint = nullptr);
 
 // What generate_tables() and the final write will need, estimated from the
 // spec alone before anything is computed (issue #15: a 4e9-cell table failed

@@ -86,8 +86,8 @@ void export_exr_slice(const TableData& table, const std::string& out_path,
                         " but " + std::to_string(a.values.size()) + " node values");
 
     // Every slice key must name an axis.
-    for (const auto& [key, value] : options.slice) {
-        (void)value;
+    for (const auto& entry : options.slice) {
+        const std::string& key = entry.first;  // (C++17 lambdas cannot capture a structured binding)
         bool known = std::any_of(axes.begin(), axes.end(),
                                  [&](const Axis& a) { return a.name == key; });
         if (!known) {

@@ -1,0 +1,98 @@
+// checkpoint.h — checkpoint and resume of `brdftab generate`.
+//
+// While a spec is computed, the estimator state of each table (per cell: the
+// running sums of host/engine/engine.h CellState and the round's batch
+// target) is stored in a directory beside the output, `<output>.checkpoint/`:
+//   manifest.json     the settings the state is valid for, and their hash
+//   table-<k>.state   table k: finished, or in progress (rewritten at most
+//                     every `interval` seconds)
+//   lock              held (flock) by the process writing the directory
+// Every file is replaced atomically (host/core/atomic_file.h), so a killed
+// run leaves the previous complete state.  Random numbers depend only on
+// (seed, cell, batch, sample), and a cell's batches continue from its stored
+// count, so a resumed run computes bit-identical tables.  The state files are
+// binary in the machine's byte order: resume on the machine that wrote them.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "host/engine/engine.h"
+#include "host/spec/spec.h"
+
+namespace brdftab {
+
+// The settings a checkpoint belongs to: everything that can change a value
+// (spec text, integration settings, precision, device, kernels, version), as
+// (name, text) pairs in a fixed order, plus their hash.
+struct CheckpointKey {
+    std::vector<std::pair<std::string, std::string>> settings;
+    std::string fingerprint() const;  // 16 hex digits (FNV-1a 64 of the pairs)
+};
+
+// `kernel_dir`: the --kernel-dir in use ("" = kernels embedded in the binary).
+CheckpointKey checkpoint_key(const Spec& spec, const IntegrationSettings& settings,
+                             const Backend& backend, const std::string& kernel_dir);
+
+// `<resolved output path>.checkpoint`.
+std::string checkpoint_directory(const std::string& output_path);
+
+enum class CheckpointPresence { None, Interrupted, InUse };
+// Whether a checkpoint directory exists for the output, and whether a running
+// process holds it.
+CheckpointPresence checkpoint_presence(const std::string& output_path);
+
+class Checkpoint {
+public:
+    // Opens the checkpoint of `output_path` and locks it.  With `resume`, the
+    // stored state is used when its settings equal `key` (else InputError
+    // listing every setting that differs); a missing or empty checkpoint
+    // starts from nothing.  Without `resume` the directory must not exist.
+    // `interval_seconds`: least time between two states of a table in progress
+    // (0: store finished tables only); a write never takes more than a tenth
+    // of the time between writes, and a finished table that took less than
+    // ten times as long as writing its state is not stored (it is computed
+    // again on resume).
+    Checkpoint(const std::string& output_path, CheckpointKey key, bool resume,
+               double interval_seconds);
+    ~Checkpoint();
+    Checkpoint(const Checkpoint&) = delete;
+    Checkpoint& operator=(const Checkpoint&) = delete;
+
+    const std::string& directory() const { return dir_; }
+    // "2 finished table(s), 1 in progress" (what a resume starts from).
+    std::string resumed_summary() const;
+
+    // The hooks estimate() takes for table `index` (`cell_count` cells): its
+    // stored state, if any (InputError if damaged or of another shape), and
+    // the function that stores new states.  The Checkpoint must outlive them.
+    EstimateCheckpoint table(std::size_t index, const std::string& name, std::size_t cell_count);
+
+    // Deletes the directory (after the output file is written); returns
+    // why it could not, or "".
+    std::string remove();
+
+private:
+    std::string dir_;
+    CheckpointKey key_;
+    double interval_;
+    double write_rate_ = 100e6;  // bytes per second of state writes (measured)
+    int lock_fd_ = -1;
+    std::size_t resumed_finished_ = 0, resumed_partial_ = 0;
+    std::vector<std::size_t> stored_;  // indices of tables with a state file
+};
+
+// Bytes of a table's state file, and back (exposed for the tests).  `reading`
+// names the file in messages; read throws InputError on damage.
+std::string encode_table_state(const EstimateState& state, std::size_t index,
+                               const std::string& name, const std::string& fingerprint,
+                               bool finished);
+EstimateState decode_table_state(const std::string& bytes, std::size_t index,
+                                 const std::string& name, const std::string& fingerprint,
+                                 std::size_t cell_count, const std::string& reading,
+                                 bool* finished = nullptr);
+
+}  // namespace brdftab
