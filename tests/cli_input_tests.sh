@@ -210,6 +210,37 @@ expect_grep "need about [0-9.]+ [GT]iB of memory for 4.29G cells .*available \(M
   err.txt "huge table: the estimate and MemAvailable"
 [ $(($(date +%s) - start)) -lt 30 ] && ok || bad "huge table refused quickly"
 expect_no_file huge.h5 "no huge table written"
+# --max-memory replaces MemAvailable as the limit; then the disk check: an
+# albedo table of 65536 x 65535 cells stored as float64 needs ~340 GiB on disk
+# (value, stderr, samples and the checkpoint).  Run only where the work
+# directory's file system has less free space (else the run would compute).
+cat >disk.toml <<'EOF'
+model = "rough-dielectric"
+[parameters]
+alpha = 0.3
+[[axes]]
+name = "theta_i"
+range = [0, 89]
+count = 65536
+[[axes]]
+name = "eta"
+range = [1.1, 2.0]
+count = 65535
+[[tables]]
+quantity = "albedo_r"
+[output]
+path = "disk.h5"
+type = "float64"
+EOF
+if "$PY" -c 'import os, sys; s = os.statvfs("."); sys.exit(0 if s.f_bavail * s.f_frsize < 3.0e11 else 1)'; then
+  expect_exit 2 "generate 4.3e9 cells with --max-memory 100000T" -- "$BT" generate disk.toml -q \
+    --max-memory 100000T
+  expect_grep "disk.h5: the tables need about [0-9.]+ GiB on disk before compression for 4.29G cells .*but only .* is free on its file system" \
+    err.txt "disk refusal gives the numbers"
+  expect_no_file disk.h5 "no table past the free disk space"
+else
+  echo "note: more than 300 GB free here; the disk refusal is not exercised"
+fi
 # generate --help documents the option.
 expect_exit 0 "generate --help" -- "$BT" generate --help
 expect_grep "--max-memory" out.txt "generate --help documents --max-memory"

@@ -406,12 +406,13 @@ TEST_CASE("resource estimate before computing: cells, disk bytes by hand, memory
     ResourceEstimate r = estimate_resources(spec, spec.integration);
     CHECK(r.cells == 30);
     CHECK(r.largest_cells == 15);
-    CHECK(r.disk_bytes == 15 * 8 + 15 * (8 + 8 + 4));
+    // + the checkpoint's 65 B per computed cell (host/generate/checkpoint.cpp).
+    CHECK(r.disk_bytes == 15 * 8 + 15 * (8 + 8 + 4) + 30 * 65);
     // float16, no stderr kept: 2 B per value, samples still 4 B.
     spec.output.stored_type = StoredType::Float16;
     spec.output.keep_stderr = false;
     r = estimate_resources(spec, spec.integration);
-    CHECK(r.disk_bytes == 15 * 2 + 15 * (2 + 4));
+    CHECK(r.disk_bytes == 15 * 2 + 15 * (2 + 4) + 30 * 65);
 
     // Memory grows with the cells: 65536 x 65535 cells (the issue's bad_alloc)
     // need hundreds of GiB; the count does not wrap.

@@ -189,12 +189,14 @@ void check_resources(const Spec& spec, const IntegrationSettings& settings,
     const ResourceEstimate need = estimate_resources(spec, settings);
     const std::string cells = format_count(need.cells) + " cells (largest table " +
                               format_count(need.largest_cells) + ")";
-    const double available = available_memory();
+    // --max-memory, when given, replaces MemAvailable as the limit (the
+    // estimate is an upper bound, measured about 1.5x to 2x the real peak).
     if (max_memory && need.memory_bytes > static_cast<double>(max_memory))
         throw InputError(spec.file + ": the tables need about " + format_bytes(need.memory_bytes) +
                          " of memory for " + cells + ", above --max-memory " +
                          format_bytes(static_cast<double>(max_memory)) +
                          "; reduce the axes' counts or split the spec into several");
+    const double available = max_memory ? 0 : available_memory();
     if (available > 0 && need.memory_bytes > available)
         throw InputError(spec.file + ": the tables need about " + format_bytes(need.memory_bytes) +
                          " of memory for " + cells + ", but only " + format_bytes(available) +
@@ -228,9 +230,9 @@ void register_generate(CLI::App& app) {
     cmd->add_option("-o,--output", state->output, "output file (default: the spec's output.path)");
     cmd->add_flag("-q,--quiet", state->quiet, "no progress display");
     cmd->add_option("--max-memory", state->max_memory,
-                    "refuse (exit 2) before computing when the estimated memory use exceeds "
-                    "BYTES (suffixes K, M, G, T: powers of 1024, e.g. 8G); the estimate is "
-                    "always checked against MemAvailable, and the estimated size on disk "
+                    "memory limit: refuse (exit 2) before computing when the estimated memory "
+                    "use exceeds BYTES (suffixes K, M, G, T: powers of 1024, e.g. 8G). Default: "
+                    "MemAvailable of /proc/meminfo. The estimated size on disk is checked "
                     "against the output file system's free space (docs/spec.md)");
     cmd->add_flag("--resume", state->resume,
                   "continue an interrupted run from its checkpoint (OUTPUT.checkpoint/, written "

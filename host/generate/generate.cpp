@@ -84,9 +84,15 @@ constexpr double kHeldBytesPerValue = 2 * 8;
 constexpr double kHeldBytesPerCount = 2 * 4;
 // Fixed overhead: the program, libhdf5, the OpenCL runtime and its compiled
 // kernels (measured: 97 MiB resident for a 4-cell run on PoCL; rounded up).
-// With it the estimate is 120 B/cell for a closed-form table (measured 116)
-// and 144 B/cell for a Monte Carlo one (measured 136): docs/spec.md.
+// With it (and the checkpoint buffer below) the estimate is 201 B/cell for a
+// closed-form table (measured 111) and 209 B/cell for a Monte Carlo one
+// (measured 136): docs/spec.md.
 constexpr double kBaseBytes = 128.0 * 1024 * 1024;
+// The checkpoint beside the output (host/generate/checkpoint.cpp, kCellBytes):
+// 65 B per cell of every computed table's state on disk until the output is
+// written, and a buffer of that size for the table being saved.  Counted for
+// every table (an upper bound: quick closed forms are not stored).
+constexpr double kCheckpointBytesPerCell = 65;
 
 double stored_size(StoredType t) {
     switch (t) {
@@ -113,8 +119,8 @@ ResourceEstimate estimate_resources(const Spec& spec, const IntegrationSettings&
     std::map<std::string, double> cells_of;  // computed table name -> cells
     auto add_table = [&](double cells, bool has_stderr, bool has_samples) {
         r.cells += cells;
-        held += cells * (kHeldBytesPerValue * (has_stderr ? 2 : 1) +
-                         (has_samples ? kHeldBytesPerCount : 0));
+        // In memory every table has value and stderr (zeros for closed forms).
+        held += cells * (2 * kHeldBytesPerValue + (has_samples ? kHeldBytesPerCount : 0));
         r.disk_bytes += cells * (type_size * (has_stderr && spec.output.keep_stderr ? 2 : 1) +
                                  (has_samples ? 4 : 0));
     };
@@ -124,6 +130,7 @@ ResourceEstimate estimate_resources(const Spec& spec, const IntegrationSettings&
         const Method m = resolve_table_method(model.quantity(ts.quantity), settings.method);
         const bool closed = m == Method::ClosedForm;
         add_table(cells, !closed, !closed);
+        r.disk_bytes += cells * kCheckpointBytesPerCell;
         r.largest_cells = std::max(r.largest_cells, cells);
     }
     // Derived tables live on their sources' grids (inverted: its new axis).
@@ -131,7 +138,8 @@ ResourceEstimate estimate_resources(const Spec& spec, const IntegrationSettings&
         add_table(rs.terms.empty() ? 0 : cells_of[rs.terms.front().first], true, false);
     for (const ErrorTableSpec& es : spec.errors) add_table(cells_of[es.table], true, false);
     for (const InvertedSpec& is : spec.inverted) add_table(static_cast<double>(is.axis.count), true, false);
-    r.memory_bytes = kBaseBytes + held + r.largest_cells * (kEngineBytesPerCell + type_size);
+    r.memory_bytes = kBaseBytes + held +
+                     r.largest_cells * (kEngineBytesPerCell + type_size + kCheckpointBytesPerCell);
     return r;
 }
 

@@ -68,9 +68,10 @@ struct ResourceEstimate {
 // Memory model (measured with /usr/bin/time -v, docs/spec.md "Memory and
 // disk"): every table's results stay in memory until the one final write
 // (value, stderr: 8 B each, samples: 4 B), and are copied once for it, plus
-// the engine's per-cell state of the table being computed and the write's
-// conversion buffer.  Disk: cells x stored type size for value and stderr
-// (kept, not closed form) plus 4 B for samples (estimated tables).
+// the engine's per-cell state of the table being computed, its checkpoint
+// buffer and the write's conversion buffer.  Disk: cells x stored type size
+// for value and stderr (kept, not closed form) plus 4 B for samples
+// (estimated tables), plus the checkpoint's 65 B per computed cell.
 ResourceEstimate estimate_resources(const Spec& spec, const IntegrationSettings& settings);
 
 // Kernel point of one table cell: fixed values + the cell's axis values.
