@@ -9,6 +9,7 @@
 
 #include "kernels/common/estimator.h"
 #include "host/core/error.h"
+#include "host/core/text.h"
 #include "host/engine/kernel_sources.h"
 #include "host/engine/opencl_runtime.h"
 
@@ -31,9 +32,9 @@ void check_settings(const IntegrationSettings& s) {
     if (s.max_samples < 1 || s.max_samples > kMaxSampleCount)
         out_of_range("max_samples", std::to_string(s.max_samples), sample_count_range_text());
     if (!(s.tolerance == 0 || (s.tolerance > 0 && s.tolerance < 1)))
-        out_of_range("tolerance", std::to_string(s.tolerance), "(0, 1)");
+        out_of_range("tolerance", number_text(s.tolerance), "(0, 1)");
     if (!(s.abs_floor > 0) || !std::isfinite(s.abs_floor))
-        out_of_range("abs_floor", std::to_string(s.abs_floor), "> 0");
+        out_of_range("abs_floor", number_text(s.abs_floor), "> 0");
 }
 
 namespace {
@@ -276,9 +277,7 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
     // Quadrature runs like a closed form with two one-sample batches.
     const bool closed = result.method == Method::ClosedForm || quadrature;
     const bool rqmc = result.method == Method::Rqmc;
-    const bool adaptive = !closed && settings.tolerance > 0;
-    if (adaptive && !(settings.tolerance < 1))
-        throw InputError("tolerance must be in (0, 1)");
+    const bool adaptive = !closed && settings.tolerance > 0;  // < 1: check_settings
 
     BatchLaunch launch;
     launch.model = &model;
