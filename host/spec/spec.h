@@ -19,7 +19,8 @@
 namespace brdftab {
 
 struct OutputSettings {
-    std::string path;  // relative paths are relative to the current directory
+    std::string path;  // a relative output.path is resolved against the spec file's
+                       // directory; the default (<stem>.h5) is in the current directory
     StoredType stored_type = StoredType::Float32;
     int compression = 6;  // deflate level 0..9
     bool keep_stderr = true;
