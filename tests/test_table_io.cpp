@@ -16,6 +16,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <ctime>
 #include <filesystem>
 #include <fstream>
@@ -25,6 +26,7 @@
 #include <set>
 #include <sstream>
 #include <string>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include "host/core/error.h"
@@ -541,3 +543,156 @@ TEST_CASE("h5py reads the file (scripts/read_table.py)") {
     want << "value[0,0,0]: " << v000;
     CHECK(has(want.str()));
 }
+
+// ------------------------------------------------- hostile and damaged files
+// Files edited through the HDF5 C API the way a foreign tool (or an attacker)
+// could: every case must be an InputError naming the file and the object,
+// never a crash, an overrun or a silently different table.
+
+namespace {
+
+// Replace attribute `name` of object `obj_path` in `file` by a 1-D array of
+// `n` elements of `type`, every element `v` (converted by HDF5).
+void set_array_attr(const std::string& file, const char* obj_path, const char* name, hid_t type,
+                    hsize_t n, double v) {
+    hid_t f = H5Fopen(file.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+    REQUIRE(f >= 0);
+    hid_t o = H5Oopen(f, obj_path, H5P_DEFAULT);
+    REQUIRE(o >= 0);
+    if (H5Aexists(o, name) > 0) REQUIRE(H5Adelete(o, name) >= 0);
+    hid_t sp = H5Screate_simple(1, &n, nullptr);
+    hid_t at = H5Acreate2(o, name, type, sp, H5P_DEFAULT, H5P_DEFAULT);
+    REQUIRE(at >= 0);
+    std::vector<double> data(n, v);
+    REQUIRE(H5Awrite(at, H5T_NATIVE_DOUBLE, data.data()) >= 0);
+    H5Aclose(at);
+    H5Sclose(sp);
+    H5Oclose(o);
+    H5Fclose(f);
+}
+
+// Scalar variant (n = 0 means H5S_SCALAR).
+void set_scalar_attr(const std::string& file, const char* obj_path, const char* name, hid_t type,
+                     double v) {
+    hid_t f = H5Fopen(file.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+    REQUIRE(f >= 0);
+    hid_t o = H5Oopen(f, obj_path, H5P_DEFAULT);
+    REQUIRE(o >= 0);
+    if (H5Aexists(o, name) > 0) REQUIRE(H5Adelete(o, name) >= 0);
+    hid_t sp = H5Screate(H5S_SCALAR);
+    hid_t at = H5Acreate2(o, name, type, sp, H5P_DEFAULT, H5P_DEFAULT);
+    REQUIRE(at >= 0);
+    REQUIRE(H5Awrite(at, H5T_NATIVE_DOUBLE, &v) >= 0);
+    H5Aclose(at);
+    H5Sclose(sp);
+    H5Oclose(o);
+    H5Fclose(f);
+}
+
+// Replace dataset `ds_path` by a 1-D float64 dataset of `n` nodes 0, 1, ...
+void replace_axis_dataset(const std::string& file, const char* ds_path, hsize_t n) {
+    hid_t f = H5Fopen(file.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+    REQUIRE(f >= 0);
+    REQUIRE(H5Ldelete(f, ds_path, H5P_DEFAULT) >= 0);
+    hid_t sp = H5Screate_simple(1, &n, nullptr);
+    hid_t ds = H5Dcreate2(f, ds_path, H5T_IEEE_F64LE, sp, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+    REQUIRE(ds >= 0);
+    std::vector<double> nodes(n);
+    for (hsize_t k = 0; k < n; ++k) nodes[k] = double(k);
+    if (n) REQUIRE(H5Dwrite(ds, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, nodes.data()) >= 0);
+    H5Dclose(ds);
+    H5Sclose(sp);
+    H5Fclose(f);
+}
+
+// The message of the InputError `f` throws ("" when it throws nothing or
+// something else, which fails the caller's checks).
+template <class F>
+std::string input_error(F&& f) {
+    try {
+        f();
+    } catch (const InputError& e) {
+        return e.what();
+    } catch (...) {
+        return "(not an InputError)";
+    }
+    return "";
+}
+
+bool contains(const std::string& s, const std::string& part) {
+    return s.find(part) != std::string::npos;
+}
+
+}  // namespace
+
+TEST_CASE("numeric attributes stored as arrays are refused, naming file, object, attribute") {
+    fs::path d = scratch_dir("attr_arrays");
+    const std::string good = (d / "good.h5").string();
+    write_tables(good, {smooth_table(2, 3, 4, StoredType::Float64)});
+    struct Case {
+        const char* object;
+        const char* attr;
+        hid_t type;
+        hsize_t n;
+    };
+    // The reproducer (64 x int64 for the format version) and its
+    // 2-element variants, which used to overwrite the stack silently.
+    const Case cases[] = {{"/", "brdftab_format", H5T_STD_I64LE, 64},
+                          {"/", "brdftab_format", H5T_STD_I64LE, 2},
+                          {"/brdf", "seed", H5T_STD_U64LE, 2},
+                          {"/brdf", "samples_requested", H5T_STD_U64LE, 1000},
+                          {"/brdf", "abs_floor", H5T_IEEE_F64LE, 2},
+                          {"/brdf", "tolerance_achieved", H5T_IEEE_F64LE, 4096},
+                          {"/brdf/theta_i", "min", H5T_IEEE_F64LE, 2},
+                          {"/brdf/phi_d", "max", H5T_IEEE_F32LE, 8}};
+    for (const Case& c : cases) {
+        CAPTURE(c.object);
+        CAPTURE(c.attr);
+        CAPTURE(c.n);
+        const std::string p = (d / "bad.h5").string();
+        fs::copy_file(good, p, fs::copy_options::overwrite_existing);
+        set_array_attr(p, c.object, c.attr, c.type, c.n, 1.0);
+        const std::string msg = input_error([&] { read_table(p, "brdf"); });
+        CHECK(contains(msg, p));
+        CHECK(contains(msg, std::string("attribute '") + c.attr + "'"));
+        CHECK(contains(msg, std::to_string(c.n) + " elements"));
+        if (std::string(c.object) != "/") CHECK(contains(msg, c.object));
+    }
+    // A 1-element array is one value: accepted.
+    const std::string p = (d / "one.h5").string();
+    fs::copy_file(good, p, fs::copy_options::overwrite_existing);
+    set_array_attr(p, "/brdf", "seed", H5T_STD_U64LE, 1, 42.0);
+    CHECK(read_table(p, "brdf").seed == 42);
+    // Wrong class or sign: a float seed, a negative count.
+    set_scalar_attr(p, "/brdf", "seed", H5T_IEEE_F64LE, 42.5);
+    CHECK(contains(input_error([&] { read_table(p, "brdf"); }), "attribute 'seed'"));
+    set_scalar_attr(p, "/brdf", "seed", H5T_STD_U64LE, 7.0);
+    set_scalar_attr(p, "/brdf", "total_samples", H5T_STD_I64LE, -5.0);
+    CHECK(contains(input_error([&] { read_table(p, "brdf"); }), "non-negative"));
+    // An integer where a double belongs converts exactly: accepted.
+    set_scalar_attr(p, "/brdf", "total_samples", H5T_STD_I64LE, 5.0);
+    set_scalar_attr(p, "/brdf", "abs_floor", H5T_STD_I32LE, 3.0);
+    CHECK(read_table(p, "brdf").abs_floor == 3.0);
+    // String attributes: an array of strings where one belongs.
+    {
+        hid_t f = H5Fopen(p.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+        hid_t g = H5Gopen2(f, "brdf", H5P_DEFAULT);
+        H5Adelete(g, "model");
+        hid_t st = H5Tcopy(H5T_C_S1);
+        H5Tset_size(st, H5T_VARIABLE);
+        const hsize_t n = 3;
+        hid_t sp = H5Screate_simple(1, &n, nullptr);
+        hid_t at = H5Acreate2(g, "model", st, sp, H5P_DEFAULT, H5P_DEFAULT);
+        const char* strs[3] = {"a", "b", "c"};
+        REQUIRE(H5Awrite(at, st, strs) >= 0);
+        H5Aclose(at);
+        H5Sclose(sp);
+        H5Tclose(st);
+        H5Gclose(g);
+        H5Fclose(f);
+    }
+    const std::string msg = input_error([&] { read_table(p, "brdf"); });
+    CHECK(contains(msg, "attribute 'model'"));
+    CHECK(contains(msg, "3 elements"));
+}
+
