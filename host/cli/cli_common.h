@@ -59,6 +59,10 @@ std::pair<std::string, std::string> split_assignment(const std::string& arg);
 std::string format_double(double v);
 std::string format_short(double v);
 
+// Check for output-path options: an empty path (`-o ""`) is an error (exit
+// code 2), never a silent fall-back to a default path or to stdout.
+CLI::Validator non_empty_path();
+
 // Human formatting.
 std::string format_seconds(double s);
 std::string format_count(double n);
