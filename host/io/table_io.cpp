@@ -289,14 +289,17 @@ Handle open_brdftab_file(const std::string& path) {
 }
 
 // Run `body`; an HDF5 failure (Error) or an allocation failure while reading
-// a file is bad input (exit code 2), reported with `where` (the file and the
-// object) in front of HDF5's own message.
+// file `path` is bad input (exit code 2), reported with `where` (the file and
+// the object) in front of HDF5's own message.  An InputError that does not
+// name the file yet (e.g. an unknown stored_type spelling) gets `where` too.
 template <class F>
-auto as_input_error(const std::string& where, F&& body) -> decltype(body()) {
+auto as_input_error(const std::string& path, const std::string& where, F&& body)
+    -> decltype(body()) {
     try {
         return body();
-    } catch (const InputError&) {
-        throw;
+    } catch (const InputError& e) {
+        if (std::string(e.what()).find("'" + path + "'") != std::string::npos) throw;
+        throw InputError(where + e.what());
     } catch (const Error& e) {
         throw InputError(where + "damaged file or not written by brdftab (" + e.what() + ")");
     } catch (const std::bad_alloc&) {
@@ -614,7 +617,8 @@ struct TableReader::Impl {
 
 TableReader::TableReader(const std::string& path) : impl_(std::make_unique<Impl>()) {
     impl_->path = path;
-    impl_->file = as_input_error("'" + path + "': ", [&] { return open_brdftab_file(path); });
+    impl_->file = as_input_error(path, "'" + path + "': ",
+                                   [&] { return open_brdftab_file(path); });
 }
 TableReader::~TableReader() = default;
 TableReader::TableReader(TableReader&&) noexcept = default;
@@ -623,16 +627,17 @@ TableReader& TableReader::operator=(TableReader&&) noexcept = default;
 const std::string& TableReader::path() const { return impl_->path; }
 
 std::vector<std::string> TableReader::table_names() const {
-    return as_input_error("'" + impl_->path + "': ", [&] { return group_names(impl_->file); });
+    return as_input_error(impl_->path, "'" + impl_->path + "': ",
+                          [&] { return group_names(impl_->file); });
 }
 
 TableData TableReader::read(const std::string& name) const {
-    return as_input_error("'" + impl_->path + "', table '" + name + "': ",
+    return as_input_error(impl_->path, "'" + impl_->path + "', table '" + name + "': ",
                           [&] { return read_group(impl_->file, impl_->path, name); });
 }
 
 nlohmann::json TableReader::file_attributes() const {
-    return as_input_error("'" + impl_->path + "': ", [&] {
+    return as_input_error(impl_->path, "'" + impl_->path + "': ", [&] {
         nlohmann::json out = nlohmann::json::object();
         for (const std::string& a : attr_names(impl_->file)) out[a] = attr_to_json(impl_->file, a);
         return out;
