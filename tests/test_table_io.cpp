@@ -621,19 +621,7 @@ void replace_axis_dataset(const std::string& file, const char* ds_path, hsize_t 
     H5Fclose(f);
 }
 
-// The message of the InputError `f` throws ("" when it throws nothing or
-// something else, which fails the caller's checks).
-template <class F>
-std::string input_error(F&& f) {
-    try {
-        f();
-    } catch (const InputError& e) {
-        return e.what();
-    } catch (...) {
-        return "(not an InputError)";
-    }
-    return "";
-}
+using test::input_error;
 
 bool contains(const std::string& s, const std::string& part) {
     return s.find(part) != std::string::npos;
