@@ -73,6 +73,13 @@ void guard_table_file(const std::string& path) {
         std::this_thread::sleep_for(pause);
         pause = std::min(pause * 2, decltype(pause)(20000));
     }
+    // The child ends by _exit(0) or _exit(3) only; any other exit status
+    // means something ended it abnormally inside the library (a sanitizer's
+    // report, a library's own abort path).
+    if (WIFEXITED(status) && WEXITSTATUS(status) != 0 && WEXITSTATUS(status) != 3)
+        throw InputError("reading '" + path + "' failed inside the HDF5 library (exit status " +
+                         std::to_string(WEXITSTATUS(status)) +
+                         "); the file is damaged (docs/format.md, \"Reading untrusted files\")");
     if (WIFSIGNALED(status))
         throw InputError("reading '" + path + "' crashed the HDF5 library (signal " +
                          std::to_string(WTERMSIG(status)) + ", " + strsignal(WTERMSIG(status)) +

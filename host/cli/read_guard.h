@@ -20,8 +20,8 @@ constexpr double kDefaultReadTimeout = 60;
 double read_timeout_seconds();
 
 // Read every table and attribute of `path` in a child process; throws
-// InputError when the child does not finish within read_timeout_seconds() or
-// dies from a signal.  Errors the reader reports cleanly are left to the
+// InputError when the child does not finish within read_timeout_seconds(),
+// dies from a signal or exits other than through its own two exits.  Errors the reader reports cleanly are left to the
 // caller's own read, which reports them again.  Call before the process
 // starts threads (OpenCL): fork copies only the calling thread.
 void guard_table_file(const std::string& path);
