@@ -153,6 +153,13 @@ PYEOF
   fi
 done
 [ "$bad_exits" -eq 0 ] && ok || bad "random flips: $bad_exits runs neither succeeded nor exited 2"
+# The fuzzer's libhdf5 findings (hang, SIGSEGV, failed open) and the file
+# whose `created` is not UTF-8: each is a clean exit 2 from `info`.
+FINDINGS="$(realpath "$2")/tests/fuzz/findings/fuzz_table"
+for f in "$FINDINGS"/*.h5; do
+  [ -e "$f" ] || continue
+  BRDFTAB_READ_TIMEOUT=5 expect_exit 2 "fuzz finding $(basename "$f")" -- timeout 60 "$BT" info "$f"
+done
 # The guard changes nothing for an intact file.
 BRDFTAB_READ_TIMEOUT=0 expect_exit 0 "query without the guard" -- "$BT" "${Q[0]}" t.h5 "${Q[@]:1}"
 cmp -s out.txt query_intact.txt && ok || bad "query differs without the guard"

@@ -905,3 +905,27 @@ TEST_CASE("TableReader reads everything through one open file") {
     CHECK(reader.file_attributes().contains("brdftab_version"));
     CHECK(list_tables(p) == std::vector<std::string>{"other"});
 }
+
+TEST_CASE("string attributes that are not UTF-8 are shown with U+FFFD, not a JSON error") {
+    // The fuzzer's finding (tests/fuzz/findings): a damaged `created` held
+    // "2026-11-3\x89HDF\r\n", and serialising the attributes threw.
+    fs::path d = scratch_dir("utf8");
+    const std::string p = (d / "t.h5").string();
+    write_tables(p, {smooth_table(2, 2, 2, StoredType::Float32)});
+    hid_t f = H5Fopen(p.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+    REQUIRE(f >= 0);
+    H5Adelete(f, "created");
+    const std::string bytes = std::string("2026-11-3\x89HDF\r\n", 15) + "\xCE\xBC";  // + valid µ
+    hid_t st = H5Tcopy(H5T_C_S1);
+    H5Tset_size(st, bytes.size());
+    hid_t sp = H5Screate(H5S_SCALAR);
+    hid_t at = H5Acreate2(f, "created", st, sp, H5P_DEFAULT, H5P_DEFAULT);
+    REQUIRE(H5Awrite(at, st, bytes.data()) >= 0);
+    H5Aclose(at);
+    H5Sclose(sp);
+    H5Tclose(st);
+    H5Fclose(f);
+    const nlohmann::json attrs = read_file_attributes(p);
+    CHECK_NOTHROW((void)attrs.dump());
+    CHECK(attrs["created"].get<std::string>() == "2026-11-3\xEF\xBF\xBDHDF\r\n\xCE\xBC");
+}

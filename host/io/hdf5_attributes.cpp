@@ -69,6 +69,40 @@ std::string attr_location(hid_t obj, const std::string& name) {
 
 namespace {
 
+// `s` with every byte that does not start or continue a well-formed UTF-8
+// sequence (RFC 3629: no overlong forms, no surrogates, at most U+10FFFF)
+// replaced by U+FFFD.  A damaged file can hold any bytes in a string
+// attribute, and nlohmann::json refuses to serialise invalid UTF-8.
+std::string valid_utf8(const std::string& s) {
+    std::string out;
+    out.reserve(s.size());
+    std::size_t i = 0;
+    while (i < s.size()) {
+        const auto b = static_cast<unsigned char>(s[i]);
+        std::size_t len = b < 0x80 ? 1 : (b >> 5) == 0x6 ? 2 : (b >> 4) == 0xE ? 3
+                                   : (b >> 3) == 0x1E ? 4 : 0;
+        bool ok = len > 0 && i + len <= s.size();
+        std::uint32_t cp = len == 1 ? b : len == 2 ? (b & 0x1F) : len == 3 ? (b & 0x0F) : (b & 0x07);
+        for (std::size_t k = 1; ok && k < len; ++k) {
+            const auto c = static_cast<unsigned char>(s[i + k]);
+            ok = (c >> 6) == 0x2;
+            cp = (cp << 6) | (c & 0x3F);
+        }
+        if (ok) {
+            static const std::uint32_t min_for_len[5] = {0, 0, 0x80, 0x800, 0x10000};
+            ok = cp >= min_for_len[len] && cp <= 0x10FFFF && !(cp >= 0xD800 && cp <= 0xDFFF);
+        }
+        if (ok) {
+            out.append(s, i, len);
+            i += len;
+        } else {
+            out += "\xEF\xBF\xBD";  // U+FFFD REPLACEMENT CHARACTER
+            ++i;
+        }
+    }
+    return out;
+}
+
 // Number of elements of an attribute's dataspace (1 for a scalar).
 hssize_t attr_elements(hid_t attr, hid_t obj, const std::string& name) {
     Handle space(H5Aget_space(attr), H5Sclose, "H5Aget_space", name);
@@ -159,8 +193,9 @@ nlohmann::json attr_to_json(hid_t obj, const std::string& name) {
     hssize_t n = H5Sget_simple_extent_npoints(space);
     int rank = H5Sget_simple_extent_ndims(space);
     if (n < 0 || rank < 0 || rank > 1) return nullptr;
-    if (cls == H5T_STRING) return n == 1 ? nlohmann::json(read_string_attr(obj, name.c_str()))
-                                         : nlohmann::json(nullptr);
+    if (cls == H5T_STRING)
+        return n == 1 ? nlohmann::json(valid_utf8(read_string_attr(obj, name.c_str())))
+                      : nlohmann::json(nullptr);
     nlohmann::json out;
     if (cls == H5T_INTEGER) {
         if (H5Tget_sign(ftype) == H5T_SGN_NONE) {

@@ -34,8 +34,9 @@ std::string read_string_attr(hid_t obj, const char* name);
 double read_double_attr(hid_t obj, const char* name);
 // Integer class only; a negative signed value is refused.
 std::uint64_t read_u64_attr(hid_t obj, const char* name);
-// A single string, or a scalar or 1-D integer/float attribute as JSON
-// (others, string arrays included: null).
+// A single string (bytes that are not UTF-8 replaced by U+FFFD), or a scalar
+// or 1-D integer/float attribute as JSON (others, string arrays included:
+// null).
 nlohmann::json attr_to_json(hid_t obj, const std::string& name);
 // Names of all attributes of `obj`, in name order.
 std::vector<std::string> attr_names(hid_t obj);
