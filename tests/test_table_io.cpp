@@ -758,6 +758,13 @@ TEST_CASE("a cell count that overflows is refused before anything is allocated")
     axes.pop_back();
     CHECK(checked_cell_count(axes) == (std::size_t(1) << 48));
     CHECK(checked_cell_count({}) == 1);
+    // TableData's own count refuses the wrap-around too.
+    TableData big;
+    big.axes = std::vector<Axis>(4);
+    for (Axis& a : big.axes) a.count = 65536;
+    CHECK_THROWS_AS(big.cell_count(), InputError);
+    big.axes.pop_back();
+    CHECK(big.cell_count() == (std::size_t(1) << 48));
 }
 
 TEST_CASE("data whose shape differs from the axes is refused") {
