@@ -268,3 +268,19 @@ TEST_CASE("unwritable output is an Error, not a crash") {
     CHECK_THROWS_AS(export_exr_slice(t, (d / "missing" / "x.exr").string(), o), Error);
     CHECK(fs::is_empty(d));
 }
+
+TEST_CASE("an axis without nodes is an InputError, not a crash") {
+    // #15: `export` on a table with a 0-node axis took .front() of an empty
+    // node list.  (The reader refuses such files; this guards in-memory use.)
+    fs::path d = scratch_dir("empty_axis");
+    TableData t;
+    t.name = "albedo";
+    t.axes = {axis("alpha", "1", 0.1, 0.9, 3), axis("mu_i", "1", 0.0, 1.0, 5)};
+    Axis empty;
+    empty.name = "eta";
+    t.axes.insert(t.axes.begin(), empty);
+    ExrExportOptions o;
+    o.slice["eta"] = 1.5;
+    CHECK(input_error_message([&] { export_exr_slice(t, (d / "a.exr").string(), o); })
+              .find("'eta' has no nodes") != std::string::npos);
+}

@@ -544,3 +544,35 @@ TEST_CASE("file round trip through write_tables / LookupTable::open") {
     CHECK_THROWS_AS(LookupTable::open(path, "nope"), InputError);
     std::remove(path.c_str());
 }
+
+TEST_CASE("hostile shapes: an overflowing cell count and min/max off the node list") {
+    // 4 axes of 65 536 nodes: 2^64 cells, which wrapped to 0 and crashed
+    // every lookup (#15).  Refused before any value is touched.
+    TableData t;
+    t.name = "huge";
+    for (const char* n : {"a", "b", "c", "d"}) t.axes.push_back(axis(n, "1", 0.0, 1.0, 65536));
+    bool refused = false;
+    try {
+        LookupTable lt(t);
+    } catch (const InputError& e) {
+        refused = std::string(e.what()).find("65536 x 65536 x 65536 x 65536") != std::string::npos;
+    }
+    CHECK(refused);
+
+    // min/max that disagree with the end nodes would shift every lookup
+    // (interpolation warps between them): refused, naming the axis.
+    TableData s;
+    s.name = "small";
+    s.axes = {axis("x", "1", 0.0, 1.0, 3)};
+    s.value = {0.0, 1.0, 2.0};
+    CHECK(LookupTable(s).eval({0.5}) == doctest::Approx(1.0));
+    s.axes[0].max = 2.0;
+    std::string msg;
+    try {
+        LookupTable lt(s);
+    } catch (const InputError& e) {
+        msg = e.what();
+    }
+    CHECK(msg.find("axis 'x'") != std::string::npos);
+    CHECK(msg.find("min/max") != std::string::npos);
+}

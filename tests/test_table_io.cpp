@@ -16,6 +16,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <ctime>
 #include <filesystem>
 #include <fstream>
@@ -25,6 +26,7 @@
 #include <set>
 #include <sstream>
 #include <string>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include "host/core/error.h"
@@ -351,7 +353,15 @@ TEST_CASE("layout seen through the HDF5 C API: dimension scales, types, chunks")
         CHECK(bytes <= (1u << 20));
         CHECK(chunk[1] == 300);
         CHECK(chunk[2] == 300);
-        CHECK(H5Pget_nfilters(dcpl) == 2);  // shuffle + deflate
+        // shuffle + deflate, then the Fletcher-32 checksum of the stored bytes.
+        REQUIRE(H5Pget_nfilters(dcpl) == 3);
+        unsigned flags = 0;
+        CHECK(H5Pget_filter2(dcpl, 0, &flags, nullptr, nullptr, 0, nullptr, nullptr) ==
+              H5Z_FILTER_SHUFFLE);
+        CHECK(H5Pget_filter2(dcpl, 1, &flags, nullptr, nullptr, 0, nullptr, nullptr) ==
+              H5Z_FILTER_DEFLATE);
+        CHECK(H5Pget_filter2(dcpl, 2, &flags, nullptr, nullptr, 0, nullptr, nullptr) ==
+              H5Z_FILTER_FLETCHER32);
         H5Tclose(ty);
         H5Pclose(dcpl);
         H5Dclose(ds);
@@ -362,6 +372,14 @@ TEST_CASE("layout seen through the HDF5 C API: dimension scales, types, chunks")
     CHECK(H5Aexists(ax, "spacing") > 0);
     CHECK(H5Aexists(ax, "min") > 0);
     CHECK(H5Aexists(ax, "max") > 0);
+    {  // the node list is checksummed too (chunked, not compressed)
+        hid_t dcpl = H5Dget_create_plist(ax);
+        REQUIRE(H5Pget_nfilters(dcpl) == 1);
+        unsigned flags = 0;
+        CHECK(H5Pget_filter2(dcpl, 0, &flags, nullptr, nullptr, 0, nullptr, nullptr) ==
+              H5Z_FILTER_FLETCHER32);
+        H5Pclose(dcpl);
+    }
     hid_t a = H5Aopen(ax, "spacing", H5P_DEFAULT);
     hid_t at = H5Aget_type(a);
     CHECK(H5Tis_variable_str(at) > 0);     // variable-length ...
@@ -540,4 +558,381 @@ TEST_CASE("h5py reads the file (scripts/read_table.py)") {
     want.precision(17);
     want << "value[0,0,0]: " << v000;
     CHECK(has(want.str()));
+}
+
+// ------------------------------------------------- hostile and damaged files
+// Files edited through the HDF5 C API the way a foreign tool (or an attacker)
+// could: every case must be an InputError naming the file and the object,
+// never a crash, an overrun or a silently different table.
+
+namespace {
+
+// Replace attribute `name` of object `obj_path` in `file` by a 1-D array of
+// `n` elements of `type`, every element `v` (converted by HDF5).
+void set_array_attr(const std::string& file, const char* obj_path, const char* name, hid_t type,
+                    hsize_t n, double v) {
+    hid_t f = H5Fopen(file.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+    REQUIRE(f >= 0);
+    hid_t o = H5Oopen(f, obj_path, H5P_DEFAULT);
+    REQUIRE(o >= 0);
+    if (H5Aexists(o, name) > 0) REQUIRE(H5Adelete(o, name) >= 0);
+    hid_t sp = H5Screate_simple(1, &n, nullptr);
+    hid_t at = H5Acreate2(o, name, type, sp, H5P_DEFAULT, H5P_DEFAULT);
+    REQUIRE(at >= 0);
+    std::vector<double> data(n, v);
+    REQUIRE(H5Awrite(at, H5T_NATIVE_DOUBLE, data.data()) >= 0);
+    H5Aclose(at);
+    H5Sclose(sp);
+    H5Oclose(o);
+    H5Fclose(f);
+}
+
+// Scalar variant (n = 0 means H5S_SCALAR).
+void set_scalar_attr(const std::string& file, const char* obj_path, const char* name, hid_t type,
+                     double v) {
+    hid_t f = H5Fopen(file.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+    REQUIRE(f >= 0);
+    hid_t o = H5Oopen(f, obj_path, H5P_DEFAULT);
+    REQUIRE(o >= 0);
+    if (H5Aexists(o, name) > 0) REQUIRE(H5Adelete(o, name) >= 0);
+    hid_t sp = H5Screate(H5S_SCALAR);
+    hid_t at = H5Acreate2(o, name, type, sp, H5P_DEFAULT, H5P_DEFAULT);
+    REQUIRE(at >= 0);
+    REQUIRE(H5Awrite(at, H5T_NATIVE_DOUBLE, &v) >= 0);
+    H5Aclose(at);
+    H5Sclose(sp);
+    H5Oclose(o);
+    H5Fclose(f);
+}
+
+// Replace dataset `ds_path` by a 1-D float64 dataset of `n` nodes 0, 1, ...
+void replace_axis_dataset(const std::string& file, const char* ds_path, hsize_t n) {
+    hid_t f = H5Fopen(file.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+    REQUIRE(f >= 0);
+    REQUIRE(H5Ldelete(f, ds_path, H5P_DEFAULT) >= 0);
+    hid_t sp = H5Screate_simple(1, &n, nullptr);
+    hid_t ds = H5Dcreate2(f, ds_path, H5T_IEEE_F64LE, sp, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+    REQUIRE(ds >= 0);
+    std::vector<double> nodes(n);
+    for (hsize_t k = 0; k < n; ++k) nodes[k] = double(k);
+    if (n) REQUIRE(H5Dwrite(ds, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, nodes.data()) >= 0);
+    H5Dclose(ds);
+    H5Sclose(sp);
+    H5Fclose(f);
+}
+
+using test::input_error;
+
+bool contains(const std::string& s, const std::string& part) {
+    return s.find(part) != std::string::npos;
+}
+
+}  // namespace
+
+TEST_CASE("numeric attributes stored as arrays are refused, naming file, object, attribute") {
+    fs::path d = scratch_dir("attr_arrays");
+    const std::string good = (d / "good.h5").string();
+    write_tables(good, {smooth_table(2, 3, 4, StoredType::Float64)});
+    struct Case {
+        const char* object;
+        const char* attr;
+        hid_t type;
+        hsize_t n;
+    };
+    // The issue's reproducer (64 x int64 for the format version) and its
+    // 2-element variants, which used to overwrite the stack silently.
+    const Case cases[] = {{"/", "brdftab_format", H5T_STD_I64LE, 64},
+                          {"/", "brdftab_format", H5T_STD_I64LE, 2},
+                          {"/brdf", "seed", H5T_STD_U64LE, 2},
+                          {"/brdf", "samples_requested", H5T_STD_U64LE, 1000},
+                          {"/brdf", "abs_floor", H5T_IEEE_F64LE, 2},
+                          {"/brdf", "tolerance_achieved", H5T_IEEE_F64LE, 4096},
+                          {"/brdf/theta_i", "min", H5T_IEEE_F64LE, 2},
+                          {"/brdf/phi_d", "max", H5T_IEEE_F32LE, 8}};
+    for (const Case& c : cases) {
+        CAPTURE(c.object);
+        CAPTURE(c.attr);
+        CAPTURE(c.n);
+        const std::string p = (d / "bad.h5").string();
+        fs::copy_file(good, p, fs::copy_options::overwrite_existing);
+        set_array_attr(p, c.object, c.attr, c.type, c.n, 1.0);
+        const std::string msg = input_error([&] { read_table(p, "brdf"); });
+        CHECK(contains(msg, p));
+        CHECK(contains(msg, std::string("attribute '") + c.attr + "'"));
+        CHECK(contains(msg, std::to_string(c.n) + " elements"));
+        if (std::string(c.object) != "/") CHECK(contains(msg, c.object));
+    }
+    // A 1-element array is one value: accepted.
+    const std::string p = (d / "one.h5").string();
+    fs::copy_file(good, p, fs::copy_options::overwrite_existing);
+    set_array_attr(p, "/brdf", "seed", H5T_STD_U64LE, 1, 42.0);
+    CHECK(read_table(p, "brdf").seed == 42);
+    // Wrong class or sign: a float seed, a negative count.
+    set_scalar_attr(p, "/brdf", "seed", H5T_IEEE_F64LE, 42.5);
+    CHECK(contains(input_error([&] { read_table(p, "brdf"); }), "attribute 'seed'"));
+    set_scalar_attr(p, "/brdf", "seed", H5T_STD_U64LE, 7.0);
+    set_scalar_attr(p, "/brdf", "total_samples", H5T_STD_I64LE, -5.0);
+    CHECK(contains(input_error([&] { read_table(p, "brdf"); }), "non-negative"));
+    // An integer where a double belongs converts exactly: accepted.
+    set_scalar_attr(p, "/brdf", "total_samples", H5T_STD_I64LE, 5.0);
+    set_scalar_attr(p, "/brdf", "abs_floor", H5T_STD_I32LE, 3.0);
+    CHECK(read_table(p, "brdf").abs_floor == 3.0);
+    // String attributes: an array of strings where one belongs.
+    {
+        hid_t f = H5Fopen(p.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+        hid_t g = H5Gopen2(f, "brdf", H5P_DEFAULT);
+        H5Adelete(g, "model");
+        hid_t st = H5Tcopy(H5T_C_S1);
+        H5Tset_size(st, H5T_VARIABLE);
+        const hsize_t n = 3;
+        hid_t sp = H5Screate_simple(1, &n, nullptr);
+        hid_t at = H5Acreate2(g, "model", st, sp, H5P_DEFAULT, H5P_DEFAULT);
+        const char* strs[3] = {"a", "b", "c"};
+        REQUIRE(H5Awrite(at, st, strs) >= 0);
+        H5Aclose(at);
+        H5Sclose(sp);
+        H5Tclose(st);
+        H5Gclose(g);
+        H5Fclose(f);
+    }
+    const std::string msg = input_error([&] { read_table(p, "brdf"); });
+    CHECK(contains(msg, "attribute 'model'"));
+    CHECK(contains(msg, "3 elements"));
+}
+
+TEST_CASE("a cell count that overflows is refused before anything is allocated") {
+    fs::path d = scratch_dir("overflow");
+    // The issue's table: 4 axes of 65 536 nodes, 2^64 cells (wraps to 0).
+    const std::string p = (d / "huge.h5").string();
+    {
+        hid_t f = H5Fcreate(p.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+        REQUIRE(f >= 0);
+        hid_t sp0 = H5Screate(H5S_SCALAR);
+        hid_t fa = H5Acreate2(f, "brdftab_format", H5T_STD_I32LE, sp0, H5P_DEFAULT, H5P_DEFAULT);
+        const int fmt = 1;
+        H5Awrite(fa, H5T_NATIVE_INT, &fmt);
+        H5Aclose(fa);
+        hid_t g = H5Gcreate2(f, "t", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+        const char* names[4] = {"a", "b", "c", "d"};
+        const hsize_t n = 65536;
+        std::vector<double> nodes(n);
+        for (hsize_t k = 0; k < n; ++k) nodes[k] = double(k);
+        for (const char* nm : names) {
+            hid_t sp = H5Screate_simple(1, &n, nullptr);
+            hid_t ds = H5Dcreate2(g, nm, H5T_IEEE_F64LE, sp, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+            REQUIRE(ds >= 0);
+            H5Dwrite(ds, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, nodes.data());
+            H5Dclose(ds);
+            H5Sclose(sp);
+        }
+        hid_t st = H5Tcopy(H5T_C_S1);
+        H5Tset_size(st, H5T_VARIABLE);
+        hid_t aa = H5Acreate2(g, "axes", st, sp0, H5P_DEFAULT, H5P_DEFAULT);
+        const char* axes_json = "[\"a\",\"b\",\"c\",\"d\"]";
+        H5Awrite(aa, st, &axes_json);
+        H5Aclose(aa);
+        H5Tclose(st);
+        // The value dataset with the axes' shape: chunked, never written, so
+        // the file stays tiny.  (HDF5 may refuse a 2^64-element extent; the
+        // reader must refuse the axes either way.)
+        const hsize_t dims[4] = {n, n, n, n}, chunk[4] = {1, 1, 1, n};
+        hid_t sp = H5Screate_simple(4, dims, nullptr);
+        hid_t dcpl = H5Pcreate(H5P_DATASET_CREATE);
+        H5Pset_chunk(dcpl, 4, chunk);
+        hid_t v = H5Dcreate2(g, "value", H5T_IEEE_F64LE, sp, H5P_DEFAULT, dcpl, H5P_DEFAULT);
+        if (v >= 0) H5Dclose(v);
+        H5Eclear2(H5E_DEFAULT);
+        H5Pclose(dcpl);
+        H5Sclose(sp);
+        H5Sclose(sp0);
+        H5Gclose(g);
+        H5Fclose(f);
+    }
+    const std::string msg = input_error([&] { read_table(p, "t"); });
+    CHECK(contains(msg, p));
+    CHECK(contains(msg, "65536 x 65536 x 65536 x 65536"));
+    // The helper itself, against the exact product and the wrap-around.
+    std::vector<Axis> axes(4);
+    for (Axis& a : axes) a.count = 65536;
+    CHECK_THROWS_AS(checked_cell_count(axes), InputError);
+    axes.pop_back();
+    CHECK(checked_cell_count(axes) == (std::size_t(1) << 48));
+    CHECK(checked_cell_count({}) == 1);
+    // TableData's own count refuses the wrap-around too.
+    TableData big;
+    big.axes = std::vector<Axis>(4);
+    for (Axis& a : big.axes) a.count = 65536;
+    CHECK_THROWS_AS(big.cell_count(), InputError);
+    big.axes.pop_back();
+    CHECK(big.cell_count() == (std::size_t(1) << 48));
+}
+
+TEST_CASE("data whose shape differs from the axes is refused") {
+    fs::path d = scratch_dir("shape");
+    const std::string p = (d / "t.h5").string();
+    write_tables(p, {smooth_table(2, 3, 4, StoredType::Float32)});
+    hid_t f = H5Fopen(p.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+    REQUIRE(H5Ldelete(f, "brdf/stderr", H5P_DEFAULT) >= 0);
+    const hsize_t dims[3] = {2, 4, 3};  // same cell count, wrong shape
+    hid_t sp = H5Screate_simple(3, dims, nullptr);
+    hid_t ds = H5Dcreate2(f, "brdf/stderr", H5T_IEEE_F32LE, sp, H5P_DEFAULT, H5P_DEFAULT,
+                          H5P_DEFAULT);
+    H5Dclose(ds);
+    H5Sclose(sp);
+    H5Fclose(f);
+    const std::string msg = input_error([&] { read_table(p, "brdf"); });
+    CHECK(contains(msg, "'stderr' shape does not match the axes"));
+    CHECK(contains(msg, p));
+}
+
+TEST_CASE("axes need at least 2 increasing nodes when read, as when written") {
+    fs::path d = scratch_dir("short_axes");
+    const std::string good = (d / "good.h5").string();
+    write_tables(good, {smooth_table(2, 3, 4, StoredType::Float32)});
+    for (hsize_t n : {0u, 1u}) {
+        CAPTURE(n);
+        const std::string p = (d / "bad.h5").string();
+        fs::copy_file(good, p, fs::copy_options::overwrite_existing);
+        replace_axis_dataset(p, "brdf/phi_d", n);
+        const std::string msg = input_error([&] { read_table(p, "brdf"); });
+        CHECK(contains(msg, "axis 'phi_d'"));
+        CHECK(contains(msg, "at least 2"));
+    }
+    // Writing such a table is refused too (it could not be read back).
+    TableData t = smooth_table(2, 3, 4, StoredType::Float32);
+    t.axes[2] = axis("phi_d", "deg", 0, 0, 1);
+    t.value.resize(6);
+    t.stderr_.resize(6);
+    t.samples.resize(6);
+    CHECK_THROWS_AS(write_tables((d / "w.h5").string(), {t}), Error);
+}
+
+TEST_CASE("axis min/max attributes must agree with the node list") {
+    fs::path d = scratch_dir("minmax");
+    const std::string p = (d / "t.h5").string();
+    TableData t = smooth_table(2, 3, 4, StoredType::Float64);
+    write_tables(p, {t});
+    // Untouched: the node list's ends, exactly.
+    TableData r = read_table(p, "brdf");
+    CHECK(r.axes[1].min == t.axes[1].values.front());
+    CHECK(r.axes[1].max == t.axes[1].values.back());
+    // Tampered max (the issue: it silently changed query results).
+    set_scalar_attr(p, "/brdf/theta_i", "max", H5T_IEEE_F64LE, 60.0);
+    const std::string msg = input_error([&] { read_table(p, "brdf"); });
+    CHECK(contains(msg, "axis 'theta_i'"));
+    CHECK(contains(msg, "min/max"));
+    CHECK(contains(msg, p));
+}
+
+TEST_CASE("a flipped byte inside a dataset is a checksum error, not a wrong value") {
+    fs::path d = scratch_dir("fletcher");
+    const std::string p = (d / "t.h5").string();
+    TableData t;
+    t.name = "brdf";
+    t.axes = {axis("alpha", "1", 0.1, 0.9, 3), axis("mu", "1", 0.0, 1.0, 4)};
+    // Distinctive doubles, stored raw (float64, no compression), so the test
+    // can find their bytes in the file without any HDF5 knowledge.
+    for (int k = 0; k < 12; ++k) t.value.push_back(0.123456789012345 + k * 1e-3);
+    t.stored_type = StoredType::Float64;
+    t.compression = 0;
+    t.keep_stderr = false;
+    write_tables(p, {t});
+    CHECK(read_table(p, "brdf").value == t.value);
+
+    std::string bytes = slurp(p);
+    std::string needle(sizeof(double), '\0');
+    std::memcpy(needle.data(), &t.value[5], sizeof(double));
+    const std::size_t at = bytes.find(needle);
+    REQUIRE(at != std::string::npos);
+    REQUIRE(bytes.find(needle, at + 1) == std::string::npos);
+    bytes[at + 3] = static_cast<char>(bytes[at + 3] ^ 0x10);  // one bit of the mantissa
+    std::ofstream(p, std::ios::binary | std::ios::trunc) << bytes;
+
+    const std::string msg = input_error([&] { read_table(p, "brdf"); });
+    CHECK(contains(msg, p));
+    CHECK(contains(msg, "table 'brdf'"));
+    CHECK(contains(msg, "value"));
+
+    // The same for the node list of an axis (0.1, 0.5, 0.9: 0.5 is unique).
+    write_tables(p, {t});
+    bytes = slurp(p);
+    const double half = 0.5;
+    std::memcpy(needle.data(), &half, sizeof(double));
+    const std::size_t at2 = bytes.find(needle);
+    REQUIRE(at2 != std::string::npos);
+    bytes[at2 + 6] = static_cast<char>(bytes[at2 + 6] ^ 0x01);
+    std::ofstream(p, std::ios::binary | std::ios::trunc) << bytes;
+    CHECK(contains(input_error([&] { read_table(p, "brdf"); }), "alpha"));
+}
+
+TEST_CASE("malformed data is an InputError naming file and table, not an HDF5 Error") {
+    fs::path d = scratch_dir("malformed");
+    const std::string p = (d / "t.h5").string();
+    write_tables(p, {smooth_table(2, 3, 4, StoredType::Float32)});
+    // `value` replaced by strings of the right shape: HDF5 cannot convert.
+    hid_t f = H5Fopen(p.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+    REQUIRE(H5Ldelete(f, "brdf/value", H5P_DEFAULT) >= 0);
+    const hsize_t dims[3] = {2, 3, 4};
+    hid_t sp = H5Screate_simple(3, dims, nullptr);
+    hid_t st = H5Tcopy(H5T_C_S1);
+    H5Tset_size(st, 8);
+    hid_t ds = H5Dcreate2(f, "brdf/value", st, sp, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+    REQUIRE(ds >= 0);
+    H5Dclose(ds);
+    H5Tclose(st);
+    H5Sclose(sp);
+    H5Fclose(f);
+    const std::string msg = input_error([&] { read_table(p, "brdf"); });
+    CHECK(contains(msg, p));
+    CHECK(contains(msg, "table 'brdf'"));
+    CHECK(contains(msg, "value"));
+    // Not a regular file (a FIFO would block HDF5's probe forever).
+    const std::string fifo = (d / "fifo.h5").string();
+    fs::remove(fifo);
+    REQUIRE(mkfifo(fifo.c_str(), 0600) == 0);
+    CHECK(contains(input_error([&] { list_tables(fifo); }), "not a regular file"));
+}
+
+TEST_CASE("TableReader reads everything through one open file") {
+    fs::path d = scratch_dir("reader");
+    const std::string p = (d / "t.h5").string();
+    TableData a = smooth_table(2, 3, 4, StoredType::Float64);
+    TableData b = a;
+    b.name = "albedo";
+    write_tables(p, {a, b});
+    const TableReader reader(p);
+    // Another run replaces the file (atomically, by rename) meanwhile: the
+    // open reader keeps seeing the file it opened, whole.
+    TableData c = a;
+    c.name = "other";
+    write_tables(p, {c});
+    CHECK(reader.table_names() == std::vector<std::string>{"albedo", "brdf"});
+    CHECK(reader.read("albedo").value == a.value);
+    CHECK(reader.read("brdf").value == a.value);
+    CHECK(reader.file_attributes().contains("brdftab_version"));
+    CHECK(list_tables(p) == std::vector<std::string>{"other"});
+}
+
+TEST_CASE("string attributes that are not UTF-8 are shown with U+FFFD, not a JSON error") {
+    // The fuzzer's finding (tests/fuzz/findings): a damaged `created` held
+    // "2026-11-3\x89HDF\r\n", and serialising the attributes threw.
+    fs::path d = scratch_dir("utf8");
+    const std::string p = (d / "t.h5").string();
+    write_tables(p, {smooth_table(2, 2, 2, StoredType::Float32)});
+    hid_t f = H5Fopen(p.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+    REQUIRE(f >= 0);
+    H5Adelete(f, "created");
+    const std::string bytes = std::string("2026-11-3\x89HDF\r\n", 15) + "\xCE\xBC";  // + valid µ
+    hid_t st = H5Tcopy(H5T_C_S1);
+    H5Tset_size(st, bytes.size());
+    hid_t sp = H5Screate(H5S_SCALAR);
+    hid_t at = H5Acreate2(f, "created", st, sp, H5P_DEFAULT, H5P_DEFAULT);
+    REQUIRE(H5Awrite(at, st, bytes.data()) >= 0);
+    H5Aclose(at);
+    H5Sclose(sp);
+    H5Tclose(st);
+    H5Fclose(f);
+    const nlohmann::json attrs = read_file_attributes(p);
+    CHECK_NOTHROW((void)attrs.dump());
+    CHECK(attrs["created"].get<std::string>() == "2026-11-3\xEF\xBF\xBDHDF\r\n\xCE\xBC");
 }

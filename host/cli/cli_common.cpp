@@ -200,4 +200,12 @@ std::string format_count(double n) {
     return buf;
 }
 
+CLI::Validator non_empty_path() {
+    return CLI::Validator(
+        [](std::string& path) {
+            return path.empty() ? std::string("an empty path is not a file name") : std::string();
+        },
+        "PATH");
+}
+
 }  // namespace brdftab::cli

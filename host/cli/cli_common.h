@@ -70,6 +70,10 @@ std::string format_bytes(double bytes);
 std::string format_double(double v);
 std::string format_short(double v);
 
+// Check for output-path options: an empty path (`-o ""`) is an error (exit
+// code 2), never a silent fall-back to a default path or to stdout.
+CLI::Validator non_empty_path();
+
 // Human formatting.
 std::string format_seconds(double s);
 std::string format_count(double n);

@@ -121,7 +121,8 @@ void register_eval(CLI::App& app) {
     cmd->add_option("--points", st->points_file,
                     "CSV file with a header row of coordinate/parameter names and one point per "
                     "row; all rows are evaluated in one device launch");
-    cmd->add_option("-o,--output", st->output, "with --points: write the CSV here instead of stdout");
+    cmd->add_option("-o,--output", st->output, "with --points: write the CSV here instead of stdout")
+        ->check(non_empty_path());
     st->compute.add_to(*cmd);
     cmd->callback([st] { run_eval(*st); });
 }
@@ -227,7 +228,8 @@ void register_generate(CLI::App& app) {
     };
     auto state = std::make_shared<State>();  // owned by the callback
     cmd->add_option("SPEC", state->spec_path, "table specification (TOML)")->required();
-    cmd->add_option("-o,--output", state->output, "output file (default: the spec's output.path)");
+    cmd->add_option("-o,--output", state->output, "output file (default: the spec's output.path)")
+        ->check(non_empty_path());
     cmd->add_flag("-q,--quiet", state->quiet, "no progress display");
     cmd->add_option("--max-memory", state->max_memory,
                     "memory limit: refuse (exit 2) before computing when the estimated memory "

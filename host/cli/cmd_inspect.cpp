@@ -5,6 +5,7 @@
 
 #include "host/cli/cli_common.h"
 #include "host/cli/commands.h"
+#include "host/cli/read_guard.h"
 #include "host/core/error.h"
 #include "host/engine/opencl_runtime.h"
 #include "host/io/table_io.h"
@@ -121,13 +122,19 @@ void register_info(CLI::App& app) {
     cmd->callback([state] {
         const std::string& path = state->path;
         const bool values = state->values;
-        const auto names = list_tables(path);
-        const auto attrs = read_file_attributes(path);
+        guard_table_file(path);
+        // One open file for the listing and every table: a file replaced
+        // meanwhile (atomically, by another run) is read whole, old or new.
+        const TableReader reader(path);
+        const auto names = reader.table_names();
+        const auto attrs = reader.file_attributes();
+        std::vector<TableData> tables;
+        for (const auto& n : names) tables.push_back(reader.read(n));
         std::cout << path << ": " << names.size() << " table(s)";
-        if (attrs.contains("brdftab_version"))
+        if (attrs.contains("brdftab_version") && attrs["brdftab_version"].is_string())
             std::cout << ", written by brdftab " << attrs["brdftab_version"].get<std::string>();
         std::cout << "\n";
-        for (const auto& n : names) print_table_summary(read_table(path, n), values);
+        for (const auto& t : tables) print_table_summary(t, values);
     });
 }
 

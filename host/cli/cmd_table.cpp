@@ -16,6 +16,7 @@
 #include "host/io/point_file.h"
 #include "host/lookup/lookup.h"
 #include "host/cli/plot_png.h"
+#include "host/cli/read_guard.h"
 
 namespace brdftab::cli {
 
@@ -95,6 +96,7 @@ void run_query(const std::string& file, const std::string& table,
     if (points_file.empty() && !output.empty())
         throw InputError("-o/--output needs --points (a single point is printed)");
     if (!output.empty()) check_output_writable(output);
+    guard_table_file(file);
     const LookupTable lt = LookupTable::open(file, table);
     const auto se_table = stderr_lookup(lt);
     const char* interp_name = cubic ? "cubic" : "linear";
@@ -166,6 +168,7 @@ struct ValidateArgs {
     std::size_t points = 1000;
     std::uint64_t seed = 1;
     std::uint64_t samples = 0;
+    std::uint64_t max_samples = ValidateOptions{}.max_samples;
     double rel_floor = 1e-3;
     std::size_t worst = 5;
     bool json = false, quiet = false;
@@ -176,8 +179,10 @@ void run_validate(const ValidateArgs& va) {
     if (va.points < 1) throw InputError("--points must be >= 1");
     if (!(va.rel_floor > 0 && va.rel_floor < 1))
         throw InputError("--rel-floor must be in (0, 1), got " + format_short(va.rel_floor));
+    guard_table_file(va.file);  // before the backend starts threads
     ValidateOptions options;
     options.points = va.points;
+    options.max_samples = va.max_samples;
     options.seed = va.seed;
     options.samples = va.samples;
     options.rel_floor = va.rel_floor;
@@ -217,6 +222,10 @@ void run_validate(const ValidateArgs& va) {
               << precision_name(rep.precision) << "), ";
     if (noisy) std::cout << format_count(double(ref.total_samples)) << " samples, ";
     std::cout << format_seconds(ref.elapsed_seconds) << "\n";
+    if (rep.samples_capped)
+        std::cout << "  note: the table asks for " << rep.table_budget
+                  << " samples per point; the reference is capped at " << rep.sample_cap
+                  << " (--max-samples)\n";
     if (rep.recombination_skipped)
         std::cout << "  note: the stored table is validated; its recombination recipe is not "
                      "applied\n";
@@ -273,6 +282,7 @@ std::string axis_label(const Axis& a) {
 void run_plot(const PlotArgs& pa) {
     if (pa.output.empty()) throw InputError("plot needs -o OUT.png");
     check_output_writable(pa.output);
+    guard_table_file(pa.file);
     const LookupTable lt = LookupTable::open(pa.file, pa.table);
     const auto& axes = lt.axes();
     const auto names = lt.coordinate_names();
@@ -445,7 +455,8 @@ void register_table_commands(CLI::App& app) {
                         "CSV with a header row of coordinate names and one point per row; "
                         "name=value arguments supply columns the CSV lacks");
         cmd->add_option("-o,--output", st->output,
-                        "with --points: write the CSV here (atomically) instead of stdout");
+                        "with --points: write the CSV here (atomically) instead of stdout")
+            ->check(non_empty_path());
         cmd->add_flag("--json", st->json, "single point: print one JSON object");
         cmd->callback([st] {
             run_query(st->file, st->table, st->assignments, st->cubic, st->reject, st->points,
@@ -467,6 +478,11 @@ void register_table_commands(CLI::App& app) {
                         "integrals: fixed sample budget per reference point (default: the "
                         "table's own budget / tolerance)")
             ->check(CLI::PositiveNumber);
+        cmd->add_option("--max-samples", st->max_samples,
+                        "integrals: cap on the table's own budget per reference point (default "
+                        "2^22 = 4194304), so a table asking for unbounded work cannot make "
+                        "validate run forever; an explicit --samples is not capped")
+            ->check(CLI::PositiveNumber);
         cmd->add_option("--rel-floor", st->rel_floor,
                         "relative errors divide by max(|reference|, F * max|table value|); "
                         "default F = 1e-3");
@@ -487,7 +503,9 @@ void register_table_commands(CLI::App& app) {
         cmd->add_option("--slice", st->slices,
                         "name=value fixing an axis (repeat); one free axis gives curves, two a "
                         "colour map");
-        cmd->add_option("-o,--output", st->output, "PNG file to write")->required();
+        cmd->add_option("-o,--output", st->output, "PNG file to write")
+            ->required()
+            ->check(non_empty_path());
         cmd->add_option("--x", st->x_axis, "free axis for the horizontal direction");
         cmd->add_option("--curves", st->curves_axis,
                         "with two free axes: one curve per node of this axis (at most 10) "

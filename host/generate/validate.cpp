@@ -127,13 +127,19 @@ ValidationPlan::ValidationPlan(const std::string& file, const std::string& table
     // A recombined table has no method of its own: parse_method rejects its
     // attribute ("integration method 'recombined' is not valid; ...").
     s.method = t.kind == TableKind::Computed ? t.method : parse_method(method_attribute(t));
+    // The table's budget comes from the file, which may be hostile: capped.
+    if (options_.max_samples < 1) throw InputError("--max-samples must be >= 1");
+    const std::uint64_t cap = options_.max_samples;
+    table_budget_ = t.samples_requested;
     if (options_.samples) {
         s.samples = options_.samples;
     } else if (t.tolerance_requested > 0) {
         s.tolerance = t.tolerance_requested;
-        s.max_samples = std::max<std::uint64_t>(t.samples_requested, 1);
+        s.max_samples = std::min(std::max<std::uint64_t>(t.samples_requested, 1), cap);
+        samples_capped_ = t.samples_requested > cap;
     } else {
-        s.samples = t.samples_requested > 1 ? t.samples_requested : 0;
+        s.samples = t.samples_requested > 1 ? std::min(t.samples_requested, cap) : 0;
+        samples_capped_ = t.samples_requested > 1 && t.samples_requested > cap;
     }
     if (t.abs_floor > 0) s.abs_floor = t.abs_floor;
     s.seed = t.seed * 0x9E3779B97F4A7C15ull + options_.seed + 0x5EED;
@@ -151,6 +157,9 @@ ValidationReport ValidationPlan::run(Backend& backend, const ProgressFn& progres
     rep.axes = t.axes;
     rep.quantity_units = quantity_->units;
     rep.recombination_skipped = recombination_skipped_;
+    rep.samples_capped = samples_capped_;
+    rep.table_budget = table_budget_;
+    rep.sample_cap = options_.max_samples;
     rep.points = n;
     rep.seed = options_.seed;
     rep.coords = coords_;
@@ -244,6 +253,9 @@ nlohmann::json to_json(const ValidationReport& rep) {
           {"device", rep.device},
           {"precision", precision_name(rep.precision)},
           {"total_samples", ref.total_samples},
+          {"samples_capped", rep.samples_capped},
+          {"sample_cap", rep.sample_cap},
+          {"table_samples_requested", rep.table_budget},
           {"seconds", ref.elapsed_seconds},
           {"stderr", stats_json(rep.reference_noise)}}},
     };

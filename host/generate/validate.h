@@ -26,6 +26,13 @@ struct ValidateOptions {
     std::size_t points = 1000;   // random points
     std::uint64_t seed = 1;      // of the points (and offset of the reference's seed)
     std::uint64_t samples = 0;   // integrals: fixed budget per reference point; 0 = the table's own
+    // Cap on the table's own budget per reference point (its samples_requested,
+    // or its max_samples under a tolerance), so that a file declaring
+    // unbounded work (2^40 samples, tolerance 1e-12) cannot make validate run
+    // forever: at most points x max_samples samples in all.  An explicit
+    // `samples` is not capped.  The default is the engine's own cap under a
+    // tolerance (IntegrationSettings::max_samples), above every preset.
+    std::uint64_t max_samples = std::uint64_t{1} << 22;
     double rel_floor = 1e-3;     // relative errors divide by max(|ref|, rel_floor * max|table|)
     std::size_t worst = 5;       // worst points kept per interpolation
 };
@@ -54,6 +61,10 @@ struct ValidationReport {
     std::vector<Axis> axes;
     std::string quantity_units;  // units of the model quantity (the registry's)
     bool recombination_skipped = false;  // the table has a recipe that was not applied
+    // The table's own per-point budget was above ValidateOptions::max_samples
+    // and the reference used the cap instead (table_budget: what it asked).
+    bool samples_capped = false;
+    std::uint64_t table_budget = 0, sample_cap = 0;
     std::size_t points = 0;
     std::uint64_t seed = 0;
     std::vector<double> coords;  // points * axes.size(), axis order
@@ -98,6 +109,8 @@ private:
     std::vector<int> model_options_;
     std::vector<double> coords_, kernel_points_;
     IntegrationSettings reference_settings_;
+    bool samples_capped_ = false;
+    std::uint64_t table_budget_ = 0;
 };
 
 // The report as JSON (`brdftab validate --json`).

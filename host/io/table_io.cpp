@@ -21,7 +21,11 @@
 #include <ctime>
 #include <fcntl.h>
 #include <filesystem>
+#include <limits>
+#include <memory>
+#include <new>
 #include <set>
+#include <stdexcept>
 #include <unistd.h>
 
 #include "host/core/error.h"
@@ -73,12 +77,16 @@ void validate_table(const TableData& t) {
                              "' is reserved (value, stderr, samples are dataset names)");
         if (!seen.insert(a.name).second)
             throw InputError(where + "axis '" + a.name + "' appears twice");
-        if (a.count == 0) throw Error(where + "axis '" + a.name + "' has no nodes");
+        // The reader refuses axes of fewer than 2 nodes (make_axis never
+        // makes them); refuse to write what could not be read back.
+        if (a.count < 2)
+            throw Error(where + "axis '" + a.name + "' has " + std::to_string(a.count) +
+                        " node(s); an axis needs at least 2");
         if (a.values.size() != a.count)
             throw Error(where + "axis '" + a.name + "' has count " + std::to_string(a.count) +
                         " but " + std::to_string(a.values.size()) + " node values");
     }
-    const std::size_t n = t.cell_count();
+    const std::size_t n = checked_cell_count(t.axes, where);
     if (t.value.size() != n)
         throw Error(where + "value has " + std::to_string(t.value.size()) +
                     " entries, the axes need " + std::to_string(n));
@@ -129,6 +137,10 @@ Handle create_dataset(hid_t group, const char* name, hid_t file_type,
             check(H5Pset_deflate(dcpl, static_cast<unsigned>(compression)), "H5Pset_deflate",
                   name);
         }
+        // Last in the pipeline, so the checksum covers the bytes as stored:
+        // HDF5 verifies it on every read of a chunk and fails the read on a
+        // mismatch, so a flipped bit is an error, not a wrong value.
+        check(H5Pset_fletcher32(dcpl), "H5Pset_fletcher32", name);
     }
     return Handle(H5Dcreate2(group, name, file_type, space, H5P_DEFAULT, dcpl, H5P_DEFAULT),
                   H5Dclose, "H5Dcreate2", name);
@@ -179,10 +191,9 @@ void write_table(hid_t file, const TableData& t) {
     nlohmann::json axis_names = nlohmann::json::array();
     for (const Axis& a : t.axes) {
         const hsize_t n = a.count;
-        Handle space(H5Screate_simple(1, &n, nullptr), H5Sclose, "H5Screate_simple", a.name);
-        Handle ds(H5Dcreate2(group, a.name.c_str(), H5T_IEEE_F64LE, space, H5P_DEFAULT,
-                             H5P_DEFAULT, H5P_DEFAULT),
-                  H5Dclose, "H5Dcreate2", a.name);
+        // Chunked (one chunk up to 1 MiB) so that the node list carries a
+        // checksum too; not compressed, as before.
+        Handle ds = create_dataset(group, a.name.c_str(), H5T_IEEE_F64LE, {n}, 0);
         check(H5Dwrite(ds, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, a.values.data()),
               "H5Dwrite", a.name);
         write_string_attr(ds, "unit", a.unit);
@@ -238,6 +249,13 @@ void write_table(hid_t file, const TableData& t) {
 }
 
 // ---------------------------------------------------------------- reading ---
+//
+// Every file read here may come from elsewhere and may be damaged or hostile:
+// each attribute is checked for type and size (hdf5_attributes.cpp), each
+// dataset's shape against the axes before anything is allocated, the cell
+// count for overflow, and every failure becomes an InputError naming the file
+// and the object.  What this cannot catch is libhdf5 itself looping or
+// crashing on damaged metadata (docs/format.md, "Reading untrusted files").
 
 Handle open_brdftab_file(const std::string& path) {
     silence_hdf5();
@@ -246,6 +264,9 @@ Handle open_brdftab_file(const std::string& path) {
         throw InputError("table file '" + path + "' does not exist");
     if (std::filesystem::is_directory(path, ec))
         throw InputError("table file '" + path + "' is a directory");
+    // A FIFO or a device would block or stream forever inside HDF5's probe.
+    if (!std::filesystem::is_regular_file(path, ec))
+        throw InputError("table file '" + path + "' is not a regular file");
     htri_t is_h5 = H5Fis_hdf5(path.c_str());
     H5Eclear2(H5E_DEFAULT);
     if (is_h5 <= 0)
@@ -265,6 +286,76 @@ Handle open_brdftab_file(const std::string& path) {
         throw InputError("'" + path + "' has brdftab_format " + std::to_string(fmt) +
                          "; this build reads format " + std::to_string(kFormatVersion));
     return file;
+}
+
+// Run `body`; an HDF5 failure (Error) or an allocation failure while reading
+// file `path` is bad input (exit code 2), reported with `where` (the file and
+// the object) in front of HDF5's own message.  An InputError that does not
+// name the file yet (e.g. an unknown stored_type spelling) gets `where` too.
+template <class F>
+auto as_input_error(const std::string& path, const std::string& where, F&& body)
+    -> decltype(body()) {
+    try {
+        return body();
+    } catch (const InputError& e) {
+        if (std::string(e.what()).find("'" + path + "'") != std::string::npos) throw;
+        throw InputError(where + e.what());
+    } catch (const Error& e) {
+        throw InputError(where + "damaged file or not written by brdftab (" + e.what() + ")");
+    } catch (const std::bad_alloc&) {
+        throw InputError(where + "too large to read into memory");
+    } catch (const std::length_error&) {
+        throw InputError(where + "too large to read into memory");
+    }
+}
+
+// Refuse to read `count` elements of `bytes` each when they cannot fit in
+// this machine's physical memory: a few bytes of header can declare an
+// enormous (sparse) dataset, and filling the buffer would exhaust memory.
+void check_fits_in_memory(std::size_t count, std::size_t bytes, const std::string& where) {
+    const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGE_SIZE);
+    if (pages <= 0 || page <= 0) return;
+    const double have = double(pages) * double(page), need = double(count) * double(bytes);
+    if (need > have) {
+        char buf[160];
+        std::snprintf(buf, sizeof buf,
+                      "%zu cells need %.3g GiB to read, more than this machine's %.3g GiB of "
+                      "memory",
+                      count, need / double(1u << 30), have / double(1u << 30));
+        throw InputError(where + buf);
+    }
+}
+
+// Axis checks on read, the rules make_axis applies when a table is made: at
+// least 2 nodes, finite and strictly increasing.  Lookups interpolate over
+// the node list (and warp between its end nodes), so the `min`/`max`
+// attributes must agree with the end nodes; a mismatch means the file was
+// edited and is refused rather than silently shifting every lookup.
+void check_read_axis(Axis& a, const std::string& where) {
+    const std::string what = where + "axis '" + a.name + "': ";
+    if (a.count < 2)
+        throw InputError(what + "has " + std::to_string(a.count) +
+                         " node(s); an axis needs at least 2");
+    for (std::size_t k = 0; k < a.count; ++k) {
+        if (!std::isfinite(a.values[k]))
+            throw InputError(what + "node #" + std::to_string(k) + " is not finite");
+        if (k > 0 && !(a.values[k] > a.values[k - 1]))
+            throw InputError(what + "nodes must be strictly increasing (node #" +
+                             std::to_string(k) + " is not above node #" +
+                             std::to_string(k - 1) + ")");
+    }
+    const double first = a.values.front(), last = a.values.back();
+    const double tol = 1e-9 * (last - first);
+    if (!(std::fabs(a.min - first) <= tol) || !(std::fabs(a.max - last) <= tol)) {
+        char buf[200];
+        std::snprintf(buf, sizeof buf,
+                      "attributes min/max = [%.17g, %.17g] disagree with the node list, which "
+                      "runs from %.17g to %.17g",
+                      a.min, a.max, first, last);
+        throw InputError(what + buf);
+    }
+    a.min = first;
+    a.max = last;
 }
 
 herr_t collect_link(hid_t, const char* name, const H5L_info_t*, void* data) noexcept {
@@ -350,8 +441,9 @@ bool has_link(hid_t loc, const std::string& name) {
 
 void write_tables(const std::string& path, const std::vector<TableData>& tables) {
     silence_hdf5();
-    if (H5Zfilter_avail(H5Z_FILTER_DEFLATE) <= 0 || H5Zfilter_avail(H5Z_FILTER_SHUFFLE) <= 0)
-        throw Error("this HDF5 library lacks the deflate or shuffle filter");
+    if (H5Zfilter_avail(H5Z_FILTER_DEFLATE) <= 0 || H5Zfilter_avail(H5Z_FILTER_SHUFFLE) <= 0 ||
+        H5Zfilter_avail(H5Z_FILTER_FLETCHER32) <= 0)
+        throw Error("this HDF5 library lacks the deflate, shuffle or fletcher32 filter");
 
     AtomicOutput tmp(path);
     {
@@ -378,13 +470,10 @@ void write_tables(const std::string& path, const std::vector<TableData>& tables)
     tmp.commit();
 }
 
-std::vector<std::string> list_tables(const std::string& path) {
-    Handle file = open_brdftab_file(path);
-    return group_names(file);
-}
+namespace {
 
-TableData read_table(const std::string& path, const std::string& name) {
-    Handle file = open_brdftab_file(path);
+// One table of an open file; throws InputError (callers wrap HDF5 failures).
+TableData read_group(hid_t file, const std::string& path, const std::string& name) {
     if (name.empty() || name.find('/') != std::string::npos || !has_link(file, name) ||
         [&] {
             Handle o(H5Oopen(file, name.c_str(), H5P_DEFAULT), H5Oclose, "H5Oopen", name);
@@ -453,6 +542,10 @@ TableData read_table(const std::string& path, const std::string& name) {
         Axis a;
         a.name = aname;
         a.count = d[0];
+        if (a.count < 2)  // before reading: a 0-node axis has no end nodes
+            throw InputError(where + "axis '" + aname + "' has " + std::to_string(a.count) +
+                             " node(s); an axis needs at least 2");
+        check_fits_in_memory(a.count, sizeof(double), where + "axis '" + aname + "': ");
         a.values = read_real(ds, aname, a.count);
         a.unit = has_attr(ds, "unit") ? read_string_attr(ds, "unit") : std::string();
         a.spacing = Spacing::Explicit;  // the node list alone still defines the axis
@@ -463,14 +556,14 @@ TableData read_table(const std::string& path, const std::string& name) {
                 throw InputError(where + "axis '" + aname + "': " + e.what());
             }
         }
-        a.min = has_attr(ds, "min") ? read_double_attr(ds, "min")
-                                    : (a.values.empty() ? 0.0 : a.values.front());
-        a.max = has_attr(ds, "max") ? read_double_attr(ds, "max")
-                                    : (a.values.empty() ? 0.0 : a.values.back());
+        a.min = has_attr(ds, "min") ? read_double_attr(ds, "min") : a.values.front();
+        a.max = has_attr(ds, "max") ? read_double_attr(ds, "max") : a.values.back();
+        check_read_axis(a, where);
         t.axes.push_back(std::move(a));
     }
     const std::vector<std::size_t> shape = t.shape();
-    const std::size_t n = t.cell_count();
+    const std::size_t n = checked_cell_count(t.axes, where);
+    check_fits_in_memory(n, sizeof(double), where);
 
     auto read_cells = [&](const char* dname, auto&& reader) {
         Handle ds(H5Dopen2(group, dname, H5P_DEFAULT), H5Dclose, "H5Dopen2", dname);
@@ -499,11 +592,68 @@ TableData read_table(const std::string& path, const std::string& name) {
     return t;
 }
 
+}  // namespace
+
+std::size_t checked_cell_count(const std::vector<Axis>& axes, const std::string& where) {
+    std::size_t n = 1;  // a table without axes is a single value
+    for (const Axis& a : axes) {
+        if (a.count != 0 && n > std::numeric_limits<std::size_t>::max() / a.count) {
+            std::string dims;
+            for (const Axis& b : axes) dims += (dims.empty() ? "" : " x ") + std::to_string(b.count);
+            throw InputError(where + "the axes' node counts (" + dims +
+                             ") multiply to more cells than this machine can address");
+        }
+        n *= a.count;
+    }
+    return n;
+}
+
+// ------------------------------------------------------------ TableReader --
+
+struct TableReader::Impl {
+    std::string path;
+    Handle file;
+};
+
+TableReader::TableReader(const std::string& path) : impl_(std::make_unique<Impl>()) {
+    impl_->path = path;
+    impl_->file = as_input_error(path, "'" + path + "': ",
+                                   [&] { return open_brdftab_file(path); });
+}
+TableReader::~TableReader() = default;
+TableReader::TableReader(TableReader&&) noexcept = default;
+TableReader& TableReader::operator=(TableReader&&) noexcept = default;
+
+const std::string& TableReader::path() const { return impl_->path; }
+
+std::vector<std::string> TableReader::table_names() const {
+    return as_input_error(impl_->path, "'" + impl_->path + "': ",
+                          [&] { return group_names(impl_->file); });
+}
+
+TableData TableReader::read(const std::string& name) const {
+    return as_input_error(impl_->path, "'" + impl_->path + "', table '" + name + "': ",
+                          [&] { return read_group(impl_->file, impl_->path, name); });
+}
+
+nlohmann::json TableReader::file_attributes() const {
+    return as_input_error(impl_->path, "'" + impl_->path + "': ", [&] {
+        nlohmann::json out = nlohmann::json::object();
+        for (const std::string& a : attr_names(impl_->file)) out[a] = attr_to_json(impl_->file, a);
+        return out;
+    });
+}
+
+std::vector<std::string> list_tables(const std::string& path) {
+    return TableReader(path).table_names();
+}
+
+TableData read_table(const std::string& path, const std::string& name) {
+    return TableReader(path).read(name);
+}
+
 nlohmann::json read_file_attributes(const std::string& path) {
-    Handle file = open_brdftab_file(path);
-    nlohmann::json out = nlohmann::json::object();
-    for (const std::string& a : attr_names(file)) out[a] = attr_to_json(file, a);
-    return out;
+    return TableReader(path).file_attributes();
 }
 
 }  // namespace brdftab

@@ -5,6 +5,7 @@
 // provenance as attributes.  Files are readable by h5py without our code.
 #pragma once
 
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -17,12 +18,50 @@ namespace brdftab {
 // leaves a partial file nor damages an existing one.  Throws Error.
 void write_tables(const std::string& path, const std::vector<TableData>& tables);
 
+// Number of cells of a table with these axes (the product of their node
+// counts), or InputError, prefixed by `where`, when the product overflows.
+std::size_t checked_cell_count(const std::vector<Axis>& axes, const std::string& where = {});
+
+// A table file opened once for reading: the listing, the file attributes and
+// any number of tables come from the same open file, so a file replaced
+// meanwhile (atomically, by another `generate`) is never read half old, half
+// new.  Every check of read_table applies.  A malformed or damaged file is an
+// InputError naming the file and the object, never a crash in our code; but
+// libhdf5 itself may loop or crash on damaged metadata (docs/format.md,
+// "Reading untrusted files").
+class TableReader {
+public:
+    // Opens the file and checks that it is a brdftab file of a format this
+    // build reads.  Throws InputError.
+    explicit TableReader(const std::string& path);
+    ~TableReader();
+    TableReader(TableReader&&) noexcept;
+    TableReader& operator=(TableReader&&) noexcept;
+
+    const std::string& path() const;
+    // Names of the tables (groups), in name order.
+    std::vector<std::string> table_names() const;
+    // One table, as read_table.
+    TableData read(const std::string& name) const;
+    // File-level attributes, as read_file_attributes.
+    nlohmann::json file_attributes() const;
+
+private:
+    struct Impl;
+    std::unique_ptr<Impl> impl_;
+};
+
 // Names of the tables (groups) in a file.  Throws InputError if the file is
 // missing or not a brdftab file.
 std::vector<std::string> list_tables(const std::string& path);
 
 // Read one table back (values converted to double whatever the stored type).
-// Throws InputError naming the file and the table if absent.
+// Throws InputError naming the file and the table if absent, and for a
+// malformed file: attributes of the wrong type or size, axes with fewer than
+// 2 nodes, not strictly increasing, or whose min/max attributes disagree with
+// their node list (the node list is used), a cell count that overflows or
+// does not fit in memory, data whose shape differs from the axes' lengths,
+// and data whose Fletcher-32 checksum does not match.
 TableData read_table(const std::string& path, const std::string& name);
 
 // File-level attributes (brdftab version, spec text, creation time) as JSON.

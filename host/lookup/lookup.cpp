@@ -21,7 +21,6 @@ namespace {
 void check_table(TableData& t) {
     const std::string where = "table '" + t.name + "'";
     if (t.axes.empty()) throw InputError(where + ": has no axes");
-    std::size_t cells = 1;
     for (auto& a : t.axes) {
         if (a.count < 2)
             throw InputError(where + ": axis '" + a.name + "' needs at least 2 nodes");
@@ -36,8 +35,15 @@ void check_table(TableData& t) {
         for (std::size_t k = 1; k < a.count; ++k)
             if (!(a.values[k] > a.values[k - 1]))
                 throw InputError(where + ": axis '" + a.name + "' nodes must increase");
-        cells *= a.count;
+        // Interpolation warps between min and max; they must be the end nodes.
+        const double tol = 1e-9 * (a.values.back() - a.values.front());
+        if (!(std::fabs(a.min - a.values.front()) <= tol) ||
+            !(std::fabs(a.max - a.values.back()) <= tol))
+            throw InputError(where + ": axis '" + a.name + "' has min/max [" + fmt_num(a.min) +
+                             ", " + fmt_num(a.max) + "] but nodes from " +
+                             fmt_num(a.values.front()) + " to " + fmt_num(a.values.back()));
     }
+    const std::size_t cells = checked_cell_count(t.axes, where + ": ");
     if (t.value.size() != cells)
         throw InputError(where + ": value has " + std::to_string(t.value.size()) +
                          " entries, axes need " + std::to_string(cells));
@@ -100,12 +106,14 @@ LookupTable LookupTable::from_tables(const std::vector<TableData>& tables,
 }
 
 LookupTable LookupTable::open(const std::string& path, const std::string& table) {
+    // One open file for the head table and the tables its recipe names.
+    const TableReader reader(path);
     std::vector<TableData> tables;
-    tables.push_back(read_table(path, table));
+    tables.push_back(reader.read(table));
     for (const auto& n : recombine_tables(tables.front())) {
         bool have = false;
         for (const auto& t : tables) have = have || t.name == n;
-        if (!have) tables.push_back(read_table(path, n));
+        if (!have) tables.push_back(reader.read(n));
     }
     try {
         return from_tables(tables, table);
