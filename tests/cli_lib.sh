@@ -3,6 +3,21 @@
 # which prints "N passed, M failed" and sets the exit status.
 passed=0
 failed=0
+
+# cli_setup BRDFTAB SOURCE_DIR: the common start of every CLI test script.
+# Sets BT (the binary), SRC (the source tree), DATA (tests/data), WORK (a
+# scratch directory, removed on exit, made the current directory), PY (the
+# Debian python3, which has h5py and numpy) and a PoCL cache directory.
+cli_setup() {
+  BT=$(realpath "$1")
+  SRC=$(realpath "$2")
+  DATA="$SRC/tests/data"
+  WORK=$(mktemp -d)
+  trap 'rm -rf "$WORK"' EXIT
+  cd "$WORK" || exit 1
+  export POCL_CACHE_DIR="${POCL_CACHE_DIR:-$WORK/pocl-cache}"
+  PY=/usr/bin/python3
+}
 ok() { passed=$((passed + 1)); }
 bad() { failed=$((failed + 1)); echo "FAIL: $*"; }
 

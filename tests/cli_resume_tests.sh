@@ -6,17 +6,12 @@
 # uninterrupted run, compared through h5py (every dataset byte for byte, every
 # attribute except the timings).  Usage: cli_resume_tests.sh BRDFTAB SOURCE_DIR
 set -u
-BT=$(realpath "$1")
+# The script may be run from anywhere, with relative paths.
 HERE=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
-WORK=$(mktemp -d)
-trap 'rm -rf "$WORK"' EXIT
-cd "$WORK"
-export POCL_CACHE_DIR="${POCL_CACHE_DIR:-$WORK/pocl-cache}"
-
 # shellcheck source=cli_lib.sh
 source "$HERE/cli_lib.sh"
+cli_setup "$1" "$2"
 
-PY=/usr/bin/python3
 if ! { [ -x "$PY" ] && "$PY" -c "import h5py" 2>/dev/null; }; then
   echo "SKIP: $PY with h5py is needed to compare tables"
   exit 0

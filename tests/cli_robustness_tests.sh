@@ -7,16 +7,12 @@
 # code with brdftab) and by flipping or zeroing bytes.
 # Usage: cli_robustness_tests.sh BRDFTAB SOURCE_DIR
 set -u
-BT=$(realpath "$1")
-DATA="$(realpath "$2")/tests/data"  # shared spec fixtures
-WORK=$(mktemp -d)
-trap 'rm -rf "$WORK"' EXIT
-cd "$WORK"
-export POCL_CACHE_DIR="${POCL_CACHE_DIR:-$WORK/pocl-cache}"
-PY=/usr/bin/python3
-
+# The script may be run from anywhere, with relative paths.
+HERE=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 # shellcheck source=cli_lib.sh
-source "$(dirname "${BASH_SOURCE[0]}")/cli_lib.sh"
+source "$HERE/cli_lib.sh"
+cli_setup "$1" "$2"
+
 # expect_refused DESCRIPTION PATTERN -- command...: exit 2 and PATTERN in stderr.
 expect_refused() {
   local what=$1 pattern=$2

@@ -5,16 +5,12 @@
 # expectation that a refined grid interpolates better.
 # Usage: cli_table_tests.sh BRDFTAB SOURCE_DIR
 set -u
-BT=$(realpath "$1")
-DATA="$(realpath "$2")/tests/data"  # shared spec fixtures
-WORK=$(mktemp -d)
-trap 'rm -rf "$WORK"' EXIT
-cd "$WORK"
-export POCL_CACHE_DIR="${POCL_CACHE_DIR:-$WORK/pocl-cache}"
-PY=/usr/bin/python3
-
+# The script may be run from anywhere, with relative paths.
+HERE=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 # shellcheck source=cli_lib.sh
-source "$(dirname "${BASH_SOURCE[0]}")/cli_lib.sh"
+source "$HERE/cli_lib.sh"
+cli_setup "$1" "$2"
+
 json_field() {  # json_field FILE KEY -> prints the number
   "$PY" -c 'import json,sys; print(repr(float(json.load(open(sys.argv[1]))[sys.argv[2]])))' "$1" "$2"
 }

@@ -3,18 +3,12 @@
 # no partial output on failure, determinism of generated files, CSV batches,
 # inspection and EXR export.  Usage: cli_tests.sh BRDFTAB SOURCE_DIR
 set -u
-BT=$(realpath "$1")
-SRC=$(realpath "$2")
-DATA="$SRC/tests/data"  # shared spec fixtures
-WORK=$(mktemp -d)
-trap 'rm -rf "$WORK"' EXIT
-cd "$WORK"
-export POCL_CACHE_DIR="${POCL_CACHE_DIR:-$WORK/pocl-cache}"
-
+# The script may be run from anywhere, with relative paths.
+HERE=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 # shellcheck source=cli_lib.sh
-source "$(dirname "${BASH_SOURCE[0]}")/cli_lib.sh"
+source "$HERE/cli_lib.sh"
+cli_setup "$1" "$2"
 
-PY=/usr/bin/python3
 have_h5py() { [ -x "$PY" ] && "$PY" -c "import h5py" 2>/dev/null; }
 
 # --- help and listing ---------------------------------------------------------
