@@ -169,15 +169,25 @@ Axis make_axis(const std::string& name, const std::string& unit, double min, dou
     return a;
 }
 
+std::size_t checked_cell_count(const std::vector<Axis>& axes, const std::string& where) {
+    std::size_t n = 1;  // a table without axes is a single value
+    for (const Axis& a : axes) {
+        if (a.count != 0 && n > std::numeric_limits<std::size_t>::max() / a.count) {
+            std::string dims;
+            for (const Axis& b : axes) dims += (dims.empty() ? "" : " x ") + std::to_string(b.count);
+            throw InputError(where + "the axes' node counts (" + dims +
+                             ") multiply to more cells than this machine can address");
+        }
+        n *= a.count;
+    }
+    return n;
+}
+
 Grid::Grid(std::vector<Axis> axes) : axes_(std::move(axes)) {
-    cell_count_ = 1;
-    for (const Axis& a : axes_) {
+    for (const Axis& a : axes_)
         if (a.count == 0 || a.values.size() != a.count)
             throw Error("grid: axis '" + a.name + "' has no nodes (build it with make_axis)");
-        if (cell_count_ > std::numeric_limits<std::size_t>::max() / a.count)
-            throw InputError("grid: the product of the axis counts overflows");
-        cell_count_ *= a.count;
-    }
+    cell_count_ = checked_cell_count(axes_, "grid: ");
 }
 
 std::vector<std::size_t> Grid::index_of(std::size_t flat) const {

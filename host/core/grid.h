@@ -44,6 +44,13 @@ Axis make_axis(const std::string& name, const std::string& unit, double min,
                double max, std::size_t count, Spacing spacing,
                const std::vector<double>& explicit_values = {});
 
+// Number of cells of a table with these axes (the product of their node
+// counts), or InputError, prefixed by `where`, when the product overflows
+// (4 axes of 65 536 nodes wrap to 0 in 64 bits).  Every cell count of the
+// library goes through it: Grid, TableData, the HDF5 reader and writer, the
+// lookup table and the EXR export.
+std::size_t checked_cell_count(const std::vector<Axis>& axes, const std::string& where = {});
+
 // A Cartesian product of axes, row-major with the last axis fastest.
 class Grid {
 public:

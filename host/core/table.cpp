@@ -1,8 +1,6 @@
 // table.cpp — small helpers of the in-memory table (see table.h).
 #include "host/core/table.h"
 
-#include <limits>
-
 #include <string>
 
 #include "host/core/error.h"
@@ -57,16 +55,7 @@ void set_method_attribute(TableData& t, const std::string& attribute) {
 }
 
 std::size_t TableData::cell_count() const {
-    std::size_t n = 1;  // a table without axes is a single value
-    for (const Axis& a : axes) {
-        // A wrapped product would size every array wrongly (issue 15: 4 axes
-        // of 65 536 nodes gave 0 cells); files are refused earlier, by
-        // checked_cell_count in host/io, with the file's name.
-        if (a.count != 0 && n > std::numeric_limits<std::size_t>::max() / a.count)
-            throw InputError("table '" + name + "': the product of its axis lengths overflows");
-        n *= a.count;
-    }
-    return n;
+    return checked_cell_count(axes, "table '" + name + "': ");
 }
 
 std::vector<std::size_t> TableData::shape() const {

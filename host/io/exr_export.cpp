@@ -16,7 +16,6 @@
 #include <algorithm>
 #include <cerrno>
 #include <cmath>
-#include <limits>
 #include <cstdio>
 #include <cstring>
 #include <exception>
@@ -81,14 +80,7 @@ void export_exr_slice(const TableData& table, const std::string& out_path,
     // A 0-node axis has no node to slice at (and would make the table empty).
     for (const Axis& a : axes)
         if (a.count == 0) throw InputError(where + "axis '" + a.name + "' has no nodes");
-    // bt_exr does not link the reader (table_io.h's checked_cell_count): the
-    // same overflow-checked product here.
-    std::size_t cells = 1;
-    for (const Axis& a : axes) {
-        if (cells > std::numeric_limits<std::size_t>::max() / a.count)
-            throw InputError(where + "the axes' node counts multiply past the addressable size");
-        cells *= a.count;
-    }
+    const std::size_t cells = checked_cell_count(axes, where);
     if (table.value.size() != cells)
         throw Error(where + "value has " + std::to_string(table.value.size()) +
                     " entries, the axes need " + std::to_string(cells));

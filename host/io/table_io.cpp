@@ -21,7 +21,6 @@
 #include <ctime>
 #include <fcntl.h>
 #include <filesystem>
-#include <limits>
 #include <memory>
 #include <new>
 #include <set>
@@ -593,20 +592,6 @@ TableData read_group(hid_t file, const std::string& path, const std::string& nam
 }
 
 }  // namespace
-
-std::size_t checked_cell_count(const std::vector<Axis>& axes, const std::string& where) {
-    std::size_t n = 1;  // a table without axes is a single value
-    for (const Axis& a : axes) {
-        if (a.count != 0 && n > std::numeric_limits<std::size_t>::max() / a.count) {
-            std::string dims;
-            for (const Axis& b : axes) dims += (dims.empty() ? "" : " x ") + std::to_string(b.count);
-            throw InputError(where + "the axes' node counts (" + dims +
-                             ") multiply to more cells than this machine can address");
-        }
-        n *= a.count;
-    }
-    return n;
-}
 
 // ------------------------------------------------------------ TableReader --
 

@@ -18,10 +18,6 @@ namespace brdftab {
 // leaves a partial file nor damages an existing one.  Throws Error.
 void write_tables(const std::string& path, const std::vector<TableData>& tables);
 
-// Number of cells of a table with these axes (the product of their node
-// counts), or InputError, prefixed by `where`, when the product overflows.
-std::size_t checked_cell_count(const std::vector<Axis>& axes, const std::string& where = {});
-
 // A table file opened once for reading: the listing, the file attributes and
 // any number of tables come from the same open file, so a file replaced
 // meanwhile (atomically, by another `generate`) is never read half old, half
