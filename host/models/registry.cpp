@@ -248,8 +248,7 @@ ModelInfo ModelBuilder::build() const {
     std::vector<int> ids;
     for (const auto& q : m.quantities) ids.push_back(q.id);
     // Quantities keep their listing order; their ids must cover 0..count-1.
-    std::vector<int> id_slots = ids;
-    order_by_slot(name, "quantity", id_slots, ids, 0, declared_quantities_, 1 << 30);
+    order_by_slot(name, "quantity", ids, ids, 0, declared_quantities_, 1 << 30);
 
     std::vector<std::string> names;
     for (const auto& p : m.parameters) {
