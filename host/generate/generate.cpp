@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <map>
 #include <optional>
 
@@ -189,9 +190,12 @@ std::vector<GeneratedTable> generate_tables(const Spec& spec, Backend& backend,
         d.description = ts.description.empty() ? q.description : ts.description;
         nlohmann::json params = nlohmann::json::object();
         for (const auto& [k, v] : ts.fixed) params[k] = v;
-        // Record every option actually used (defaults included), by name.
+        // Record every option actually used (defaults included), by name;
+        // options the quantity ignores are left out (a "side" default would
+        // misstate a table of light from inside).
         for (std::size_t k = 0; k < model.options.size(); ++k)
-            params[model.options[k].name] = model.options[k].choices[options[k]];
+            if (std::count(q.uses_options.begin(), q.uses_options.end(), model.options[k].name))
+                params[model.options[k].name] = model.options[k].choices[options[k]];
         d.parameters = params;
         d.axes = ts.axes;
         d.value = std::move(r.value);
@@ -199,7 +203,7 @@ std::vector<GeneratedTable> generate_tables(const Spec& spec, Backend& backend,
         const bool closed_form = r.method == Method::ClosedForm;
         if (!closed_form) d.samples = std::move(r.samples);
         d.method = r.method;
-        d.samples_requested = closed_form
+        d.samples_requested = closed_form || r.method == Method::Quadrature
                                   ? 1
                                   : (settings.tolerance > 0 ? settings.max_samples
                                                             : (settings.samples ? settings.samples : 4096));
@@ -210,7 +214,9 @@ std::vector<GeneratedTable> generate_tables(const Spec& spec, Backend& backend,
         d.precision = precision_name(backend.precision());
         d.device = backend.device_name();
         d.version = BRDFTAB_VERSION;
-        d.spec_file = spec.file;
+        // The spec's name without the machine's directories, and its text.
+        d.spec_file = std::filesystem::path(spec.file).filename().string();
+        d.spec_text = spec.text;
         d.elapsed_seconds = r.elapsed_seconds;
         d.total_samples = r.total_samples;
         d.stored_type = spec.output.stored_type;
