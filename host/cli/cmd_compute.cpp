@@ -245,7 +245,7 @@ void register_generate(CLI::App& app) {
     cmd->add_option("--checkpoint-interval", state->checkpoint_interval,
                     "seconds between checkpoints of a table in progress (default 60; 0: "
                     "checkpoint finished tables only)")
-        ->check(CLI::NonNegativeNumber);
+        ->check(number_in(0, true, 1e308, "seconds >= 0"));
     state->compute.add_to(*cmd);
     cmd->callback([state] {
         const State& st = *state;

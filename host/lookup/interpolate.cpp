@@ -28,6 +28,7 @@ double resolve(const Axis& a, double x, OutOfRange mode, const std::string& tabl
     if (std::isnan(x))
         throw InputError("table '" + table + "': axis '" + a.name + "' value is NaN");
     const double tol = 1e-9 * (a.max - a.min);
+    x = fold_periodic(a, x);
     if (x < a.min || x > a.max) {
         if (mode == OutOfRange::Reject && (x < a.min - tol || x > a.max + tol))
             throw InputError("table '" + table + "': axis '" + a.name + "' value " +
