@@ -108,8 +108,8 @@ if spec_file != "inside.toml":
     print("spec_file is %r, want the bare name" % spec_file); ok = False
 if spec != open("specs/sub/inside.toml").read():
     print("stored spec text differs from the file"); ok = False
-if "side" in params:
-    print("parameters record a side the quantity ignores:", params); ok = False
+if params.get("side") != "inside":
+    print("parameters do not record the real side (inside):", params); ok = False
 sys.exit(0 if ok else 1)
 EOF
 then ok; else bad "spec text / spec_file / side metadata"; fi

@@ -21,6 +21,30 @@
 namespace brdftab {
 
 namespace {
+constexpr double kRadPerDeg = 3.14159265358979323846 / 180.0;
+// Where the light comes from when the incident direction says so: "inside"
+// when every theta_i > 90 (mu_i < 0), "outside" when every theta_i <= 90;
+// null when the table spans both or has no incident direction.
+const char* incident_side(const TableSpec& ts) {
+    double lo = 0, hi = 0;  // as mu_i
+    if (ts.fixed.count("theta_i")) lo = hi = std::cos(ts.fixed.at("theta_i") * kRadPerDeg);
+    if (ts.fixed.count("mu_i")) lo = hi = ts.fixed.at("mu_i");
+    bool found = ts.fixed.count("theta_i") || ts.fixed.count("mu_i");
+    for (const Axis& a : ts.axes)
+        if (a.name == "theta_i" || a.name == "mu_i") {
+            const bool mu = a.name == "mu_i";
+            lo = mu ? a.min : std::cos(a.max * kRadPerDeg);
+            hi = mu ? a.max : std::cos(a.min * kRadPerDeg);
+            found = true;
+        }
+    if (!found) return nullptr;
+    if (hi < 0) return "inside";
+    if (lo >= -1e-12) return "outside";
+    return nullptr;
+}
+}  // namespace
+
+namespace {
 constexpr double kDegToRad = 3.14159265358979323846 / 180.0;
 }
 
@@ -196,6 +220,9 @@ std::vector<GeneratedTable> generate_tables(const Spec& spec, Backend& backend,
         for (std::size_t k = 0; k < model.options.size(); ++k)
             if (std::count(q.uses_options.begin(), q.uses_options.end(), model.options[k].name))
                 params[model.options[k].name] = model.options[k].choices[options[k]];
+        // A model with a "side" option: state the side the table's light comes from.
+        if (model.find_option("side") && !params.contains("side") && incident_side(ts))
+            params["side"] = incident_side(ts);
         d.parameters = params;
         d.axes = ts.axes;
         d.value = std::move(r.value);
