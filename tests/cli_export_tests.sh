@@ -83,8 +83,8 @@ EOF
   for type in float half uint16; do
     expect_exit 0 "export --header --type $type" -- \
       "$BT" export brdf.h5 --table brdf --header "lut_$type.h" --name lut --type "$type"
-    if "$CC_BIN" -std=c99 -pedantic -Wall -Wextra -Werror -Wno-unused-function \
-         -Wno-unused-variable -O2 "-DHEADER=\"lut_$type.h\"" probe.c -o "probe_$type" -lm \
+    if "$CC_BIN" -std=c99 -pedantic -Wall -Wextra -Werror \
+         -O2 "-DHEADER=\"lut_$type.h\"" probe.c -o "probe_$type" -lm \
          2>cc.txt; then ok; else bad "header ($type) does not compile as C99"; cat cc.txt; fi
     "./probe_$type" <points.csv >"header_$type.txt"
     # Bounds (docs/format.md): float storage of a float32 table is exact, so

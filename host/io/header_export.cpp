@@ -280,13 +280,14 @@ void export_c_header(const TableData& table, const std::string& out_path,
     array(c_type + " " + id + "_values[" + id + "_CELLS]", items);
     h += "\n";
 
-    // Functions.  `static` so that several headers (different ids) and
-    // several translation units can include them.
+    // Functions: `static inline`, so that several headers (different ids) and
+    // several translation units can include them, and unused ones draw no
+    // warning.
     h += "/* Node value i (flat row-major index) as a double. */\n";
-    h += "static double " + id + "_value(size_t i) {\n" + decode + "}\n\n";
+    h += "static inline double " + id + "_value(size_t i) {\n" + decode + "}\n\n";
     h += "/* Normalised coordinate t of x on axis k (node j at t = j / (count - 1));\n"
          "   the end nodes map to exactly 0 and 1. */\n";
-    h += "static double " + id + "_unwarp(int k, double x) {\n"
+    h += "static inline double " + id + "_unwarp(int k, double x) {\n"
          "    const double lo = " + id + "_min[k], hi = " + id + "_max[k];\n"
          "    const double rad = 3.14159265358979323846 / 180.0; /* cos spacing: degrees */\n"
          "    if (" + id + "_spacing[k] != " + id + "_SPACING_EXPLICIT) {\n"
@@ -319,7 +320,7 @@ void export_c_header(const TableData& table, const std::string& out_path,
          "        return (x - lo) / (hi - lo);\n"
          "    }\n"
          "}\n\n";
-    h += "static double " + id + "_contract_(const size_t* cell, const double* s, int d,\n"
+    h += "static inline double " + id + "_contract_(const size_t* cell, const double* s, int d,\n"
          "                                  size_t offset) {\n"
          "    double sum = 0, w0, w1;\n"
          "    if (d == " + D + ") return " + id + "_value(offset);\n"
@@ -331,7 +332,7 @@ void export_c_header(const TableData& table, const std::string& out_path,
          id + "_stride[d]);\n"
          "    return sum;\n"
          "}\n\n";
-    h += "static double " + id + "_eval(const double x[" + D + "]) {\n"
+    h += "static inline double " + id + "_eval(const double x[" + D + "]) {\n"
          "    size_t cell[" + D + "];\n"
          "    double s[" + D + "];\n"
          "    int k;\n"
