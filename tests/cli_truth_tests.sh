@@ -10,6 +10,8 @@ cli_setup "$1" "$2"
 expect_exit 2 "unknown subcommand" -- "$BT" exprt
 expect_grep "unknown command 'exprt'" err.txt "the unknown word is named"
 expect_grep "did you mean 'export'" err.txt "the closest subcommand is suggested"
+expect_exit 2 "help is not a command" -- "$BT" help
+expect_grep "brdftab --help" err.txt "'help' points to --help"
 expect_exit 2 "unknown subcommand, nothing close" -- "$BT" zzzzzzzz
 expect_grep "unknown command 'zzzzzzzz'" err.txt "the unknown word is named"
 if grep -q "did you mean" err.txt; then bad "no suggestion for a word unlike any command"; else ok; fi

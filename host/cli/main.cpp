@@ -50,6 +50,11 @@ bool known_subcommand(CLI::App& app, int argc, char** argv) {
     for (const CLI::App* sub : app.get_subcommands([](CLI::App*) { return true; }))
         names.push_back(sub->get_name());
     if (std::find(names.begin(), names.end(), word) != names.end()) return true;
+    if (word == "help") {  // what a newcomer types first
+        std::cerr << "brdftab: error: there is no 'help' command; use `brdftab --help`, or "
+                     "`brdftab COMMAND --help`\n";
+        return false;
+    }
     std::string best;
     std::size_t best_distance = 0;
     for (const auto& n : names) {
