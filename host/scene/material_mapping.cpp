@@ -331,11 +331,12 @@ MappedMaterial map_pbrt(const SceneMaterial& m) {
             return mp.unsupported("smooth coating (alpha below 1e-3): the interfaced-Lambertian "
                                   "model describes rough facets only");
         mp.tabulated("interfaced-lambertian",
-                     "pbrt-v4 coateddiffuse approximated by interfaced Lambertian microfacets "
-                     "(GGX + Smith, ni = eta, Kd = reflectance): pbrt simulates a layer with a "
-                     "random walk between a dielectric interface and a diffuse base, which this "
-                     "model replaces by facets that are each an interface over a Lambertian "
-                     "substrate");
+                     "pbrt-v4 coateddiffuse, approximated by interfaced Lambertian microfacets "
+                     "(GGX + Smith, ni = eta, Kd = reflectance)");
+        mp.out().notes.push_back("approximation: pbrt simulates a layer with a random walk "
+                                 "between a dielectric interface and a diffuse base; this "
+                                 "model makes every facet an interface over a Lambertian "
+                                 "substrate");
         mp.set("alpha", alpha);
         mp.set("ni", r.number("eta", 1.5));
         mp.out().options = {{"distribution", "ggx-smith"}, {"sampling", "visible"}};
@@ -439,10 +440,12 @@ MappedMaterial map_mitsuba(const SceneMaterial& m) {
         double eta_value = 0;
         const Value ni = eta_of("polypropylene", eta_value);
         mp.tabulated("interfaced-lambertian",
-                     "Mitsuba roughplastic approximated by interfaced Lambertian microfacets (" +
-                         dist + " + Smith, ni = int_ior / ext_ior, Kd = diffuse_reflectance): "
-                                "Mitsuba adds a specular microfacet lobe to a diffuse base "
-                                "attenuated by the rough interface's transmission");
+                     "Mitsuba roughplastic, approximated by interfaced Lambertian microfacets (" +
+                         dist + " + Smith, ni = int_ior / ext_ior, Kd = diffuse_reflectance)");
+        mp.out().notes.push_back("approximation: Mitsuba adds a specular microfacet lobe to a "
+                                 "diffuse base attenuated by the rough interface's "
+                                 "transmission; this model makes every facet an interface "
+                                 "over a Lambertian substrate");
         mp.set("alpha", alpha);
         mp.set("ni", ni);
         mp.out().options = {{"distribution", dist + "-smith"}, {"sampling", "visible"}};
