@@ -69,12 +69,7 @@ public:
     std::vector<SceneMaterial> materials;
 
     void read_file(const std::string& path, int depth) {
-        if (depth > 32) throw InputError(path + ": <include> nested more than 32 deep");
-        std::ifstream in(path, std::ios::binary);
-        if (!in) throw InputError("cannot read scene file '" + path + "'");
-        std::ostringstream ss;
-        ss << in.rdbuf();
-        const std::string text = ss.str();
+        const std::string text = read_scene_text(path, depth, "<include>");
         pugi::xml_document doc;
         pugi::xml_parse_result result = doc.load_buffer(text.data(), text.size());
         if (!result) {

@@ -171,12 +171,7 @@ public:
     std::vector<SceneMaterial> materials;
 
     void read_file(const std::string& path, int depth) {
-        if (depth > 32) throw InputError(path + ": Include/Import nested more than 32 deep");
-        std::ifstream in(path, std::ios::binary);
-        if (!in) throw InputError("cannot read scene file '" + path + "'");
-        std::ostringstream ss;
-        ss << in.rdbuf();
-        Tokenizer tok(ss.str(), path);
+        Tokenizer tok(read_scene_text(path, depth, "Include/Import"), path);
         parse(tok, depth);
     }
 

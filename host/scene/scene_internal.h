@@ -8,6 +8,10 @@
 
 namespace brdftab::scene_detail {
 
+// The text of a scene file, or InputError naming it; `depth` counts the
+// includes that led here (more than 32: an include cycle, refused).
+std::string read_scene_text(const std::string& path, int depth, const char* include_directive);
+
 std::vector<SceneMaterial> read_pbrt_scene(const std::string& path);
 std::vector<SceneMaterial> read_mitsuba_scene(const std::string& path);
 std::vector<SceneMaterial> read_native_materials(const std::string& path);

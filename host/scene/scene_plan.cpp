@@ -11,6 +11,7 @@
 // integration tolerance of the estimated tables only.
 #include <algorithm>
 #include <cmath>
+#include <fstream>
 #include <set>
 #include <sstream>
 
@@ -234,6 +235,19 @@ std::string spec_text(const SceneTableSet& set, const MappedMaterial& m, const S
 }
 
 }  // namespace
+
+namespace scene_detail {
+std::string read_scene_text(const std::string& path, int depth, const char* include_directive) {
+    if (depth > 32)
+        throw InputError(path + ": " + include_directive +
+                         " nested more than 32 deep (an include cycle?)");
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw InputError("cannot read scene file '" + path + "'");
+    std::ostringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+}
+}  // namespace scene_detail
 
 std::vector<SceneMaterial> read_scene_materials(const std::string& path, const std::string& format) {
     std::string f = format;
