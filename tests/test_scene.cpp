@@ -7,6 +7,8 @@
 #include <doctest/doctest.h>
 
 #include <png.h>
+#include <ImfRgbaFile.h>
+#include <ImfArray.h>
 #include <unistd.h>
 
 #include <cmath>
@@ -254,6 +256,46 @@ TEST_CASE("a PNG roughness texture becomes an axis over the values it holds") {
     for (const SceneTableSet& set : plan.sets)
         if (contains(set.spec_text, "name = \"alpha\"")) found = true;
     CHECK(found);
+}
+
+TEST_CASE("Mitsuba bitmap textures (PNG raw, EXR) become axes over their values") {
+    Scratch s;
+    png_image image{};
+    image.version = PNG_IMAGE_VERSION;
+    image.width = 3;
+    image.height = 1;
+    image.format = PNG_FORMAT_GRAY;
+    const png_byte pixels[3] = {102, 26, 153};  // 0.4, 0.10196, 0.6 as raw (linear) values
+    REQUIRE(png_image_write_to_file(&image, (s.dir / "a.png").c_str(), 0, pixels, 0, nullptr));
+    {
+        // A 2x2 half-float EXR holding alphas 0.05 .. 0.5 in its R channel.
+        Imf::Array2D<Imf::Rgba> px(2, 2);
+        const float values[4] = {0.05f, 0.5f, 0.25f, 0.125f};
+        for (int k = 0; k < 4; ++k) px[k / 2][k % 2] = Imf::Rgba(values[k], 0, 0, 1);
+        Imf::RgbaOutputFile out((s.dir / "a.exr").c_str(), 2, 2, Imf::WRITE_RGBA);
+        out.setFrameBuffer(&px[0][0], 1, 2);
+        out.writePixels(2);
+    }
+    const std::string scene = s.write(
+        "t.xml",
+        "<scene version=\"3.0.0\">"
+        "<bsdf type=\"roughdielectric\" id=\"png\"><texture type=\"bitmap\" name=\"alpha\">"
+        "<string name=\"filename\" value=\"a.png\"/><boolean name=\"raw\" value=\"true\"/>"
+        "</texture></bsdf>"
+        "<bsdf type=\"roughdielectric\" id=\"exr\"><texture type=\"bitmap\" name=\"alpha\">"
+        "<string name=\"filename\" value=\"a.exr\"/></texture></bsdf>"
+        "<shape type=\"sphere\"><ref id=\"png\"/></shape>"
+        "<shape type=\"sphere\"><ref id=\"exr\"/></shape></scene>");
+    const ScenePlan plan = plan_scene_tables(read_scene_materials(scene), ScenePlanSettings{});
+    const auto& png_range = by_name(plan, "png").parameter_ranges.at("alpha");
+    CHECK(png_range.first == doctest::Approx(26 / 255.0).epsilon(1e-12));
+    CHECK(png_range.second == doctest::Approx(153 / 255.0).epsilon(1e-12));
+    const auto& exr_range = by_name(plan, "exr").parameter_ranges.at("alpha");
+    // half precision of 0.05 and 0.5
+    CHECK(exr_range.first == doctest::Approx(0.05).epsilon(1e-3));
+    CHECK(exr_range.second == 0.5);
+    // Different textures: different tables.
+    CHECK(set_of(plan, "png", "bsdf") != set_of(plan, "exr", "bsdf"));
 }
 
 TEST_CASE("bad input names the file and line, the XML element, or the material") {
