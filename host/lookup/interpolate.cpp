@@ -138,6 +138,16 @@ double LookupTable::eval(const std::vector<double>& coords, Interpolation interp
     return combine(pv, p);
 }
 
+void LookupTable::eval_many(const double* coords, std::size_t count, double* out,
+                            Interpolation interp, OutOfRange mode) const {
+    const std::size_t width = axes().size() + (terms_.empty() ? 0 : 1);
+    std::vector<double> row(width);
+    for (std::size_t k = 0; k < count; ++k) {
+        row.assign(coords + k * width, coords + (k + 1) * width);
+        out[k] = eval(row, interp, mode);
+    }
+}
+
 double LookupTable::eval(const std::map<std::string, double>& coords, Interpolation interp,
                          OutOfRange mode) const {
     const auto names = coordinate_names();
