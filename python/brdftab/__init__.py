@@ -87,7 +87,7 @@ class Table:
     # --- interpolation --------------------------------------------------
     def _eval(self, coords, interpolation, out_of_range, of_stderr):
         names = list(coords)
-        order = self._t._check_names(names)
+        order = self._t._order(names)
         rows, shape = _rows(coords, order, names)
         fn = self._t._eval_stderr_rows if of_stderr else self._t._eval_rows
         return _shaped(fn(rows, interpolation, out_of_range), shape)

@@ -222,25 +222,15 @@ PYBIND11_MODULE(_brdftab, m) {
         .def("_eval_stderr_rows",
              [](const PyTable& t, const py::array& points, const std::string& interp,
                 const std::string& mode) { return t.eval_rows(points, interp, mode, true); })
-        .def("_check_names",
+        .def("_order",
              [](const PyTable& t, const std::vector<std::string>& names) {
-                 // The library's own messages for a missing or unknown name:
-                 // evaluate once at the axis minima (never out of range).
-                 const auto want = t.lookup->coordinate_names();
+                 // Which given name goes to each coordinate; unknown or missing
+                 // names raise the library's message (as `brdftab query`).
                  std::map<std::string, double> probe;
-                 for (const auto& n : names) probe[n] = 0.0;
-                 for (std::size_t d = 0; d < t.lookup->axes().size(); ++d)
-                     if (probe.count(want[d])) probe[want[d]] = t.lookup->axes()[d].min;
-                 if (probe.size() != names.size())
-                     throw InputError("table '" + t.lookup->table().name +
-                                      "': a coordinate is given twice");
-                 bool same = names.size() == want.size();
-                 for (const auto& n : want) same = same && probe.count(n);
-                 if (!same) t.lookup->eval(probe, Interpolation::Linear, OutOfRange::Clamp);
+                 for (std::size_t k = 0; k < names.size(); ++k) probe[names[k]] = double(k);
                  std::vector<std::size_t> order;
-                 for (const auto& n : want)
-                     order.push_back(std::size_t(
-                         std::find(names.begin(), names.end(), n) - names.begin()));
+                 for (double k : t.lookup->ordered_coordinates(probe, "arguments"))
+                     order.push_back(std::size_t(k));
                  return order;
              })
         .def("_bind",
