@@ -7,6 +7,22 @@ set -euo pipefail
 python=$1 build=$2 cli=$3
 shift 3
 here=$(cd "$(dirname "$0")" && pwd)
+if [ ! -x "$python" ]; then
+  echo "SKIPPED: no Python at $python (for the mitsuba tests: bash scripts/setup.sh --mitsuba)"
+  exit 77
+fi
+if [[ " $* " == *" test_mitsuba.py "* ]]; then
+  llvm=${DRJIT_LIBLLVM_PATH:-/usr/lib/x86_64-linux-gnu/libLLVM-19.so}
+  if ! "$python" -c "import mitsuba" 2>/dev/null; then
+    echo "SKIPPED: $python cannot import mitsuba (bash scripts/setup.sh --mitsuba)"
+    exit 77
+  fi
+  if [ ! -e "$llvm" ]; then
+    echo "SKIPPED: $llvm is missing: Mitsuba's llvm_* variants need LLVM 19 (apt-get install libllvm19)"
+    exit 77
+  fi
+  export DRJIT_LIBLLVM_PATH=$llvm
+fi
 if ! "$python" -c "import pytest" 2>/dev/null; then
   echo "SKIPPED: $python has no pytest (Debian: apt-get install python3-pytest)"
   exit 77

@@ -1,0 +1,198 @@
+# The Mitsuba 3 plugin (python/brdftab/mitsuba.py): Mitsuba's own chi^2 BSDF
+# test (mitsuba.chi2, what its developers run on every BSDF) on small tables
+# of four models in llvm_ad_rgb, and the plugin's eval/sample/pdf against the
+# Python module in llvm_ad_rgb and scalar_rgb.  CTest label `mitsuba`; needs
+# the venv of `scripts/setup.sh --mitsuba` and libLLVM-19 (run_pytest.sh
+# skips otherwise).  mitsuba.chi2 does not run in scalar variants.
+import math
+
+import numpy as np
+import pytest
+
+import brdftab
+from conftest import OREN_NAYAR
+
+mi = pytest.importorskip("mitsuba")
+dr = pytest.importorskip("drjit")
+
+# Angular axes shared by the chi^2 tables: theta_o must reach 90 (sampling
+# covers the hemisphere).
+ANGLES = """
+    [[axes]]
+    name = "theta_i"
+    range = [0.0, 80.0]
+    count = 6
+    [[axes]]
+    name = "theta_o"
+    range = [0.0, 90.0]
+    count = 7
+    spacing = "cos"
+    [[axes]]
+    name = "phi_d"
+    range = [0.0, 180.0]
+    count = 7
+"""
+
+SPECS = {
+    # model: (spec, plugin parameters beyond filename/table)
+    "oren-nayar": (OREN_NAYAR, {"sigma": 20.0, "rho": 0.8}),
+    "interfaced-lambertian": ("""
+        model = "interfaced-lambertian"
+        [parameters]
+        distribution = "ggx-smith"
+        ni = 1.5
+        kd = 0.6
+    """ + ANGLES + """
+        [[axes]]
+        name = "alpha"
+        range = [0.3, 0.6]
+        count = 2
+        [[tables]]
+        name = "brdf"
+        quantity = "brdf"
+        [integration]
+        method = "rqmc"
+        samples = 128
+    """, {"alpha": 0.45}),
+    "lambert-sphere": ("""
+        model = "lambert-sphere"
+        [parameters]
+        c = 0.8
+        max_order = 40
+    """ + ANGLES + """
+        [[tables]]
+        name = "brdf"
+        quantity = "brdf_mc"
+        [integration]
+        method = "mc"
+        samples = 256
+    """, {}),
+    "micrograin": ("""
+        model = "micrograin"
+        [parameters]
+        grain = "diffuse"
+        kd = 0.5
+        base = "lambertian"
+        base_albedo = 0.5
+        correlation = "direction"
+    """ + ANGLES + """
+        [[axes]]
+        name = "tau0"
+        range = [0.2, 0.5]
+        count = 2
+        [[tables]]
+        name = "brdf"
+        quantity = "brdf"
+        [integration]
+        method = "rqmc"
+        samples = 128
+    """, {"tau0": 0.3}),
+}
+
+
+def plugin_dict(path, params, table="brdf", **extra):
+    d = {"type": "brdftab", "filename": path, "table": table}
+    d.update(params)
+    d.update(extra)
+    return d
+
+
+def set_variant(name):
+    mi.set_variant(name)
+    import brdftab.mitsuba
+    brdftab.mitsuba.register()
+
+
+def incidence(theta_deg, phi=0.3):
+    t = math.radians(theta_deg)
+    return [math.sin(t) * math.cos(phi), math.sin(t) * math.sin(phi), math.cos(t)]
+
+
+# Points per cell side in the chi^2 test's integration of the pdf (default
+# 4): the table's density is piecewise constant, and the trapezoid rule on a
+# cell that a jump crosses is off by up to a jump times a sub-cell; 4 points
+# leave a bias of 0.3 % of the total that 400k samples resolve.
+IRES = 12
+
+
+@pytest.mark.parametrize("model", list(SPECS))
+def test_chi2(tables, model, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)  # a failing run writes chi2_data.py here
+    from mitsuba.chi2 import BSDFAdapter, ChiSquareTest, SphericalDomain
+    set_variant("llvm_ad_rgb")
+    spec, params = SPECS[model]
+    path = tables.generate(model.replace("-", "_") + "_mi", spec)
+    p_values = []
+    for theta in (15.0, 62.0):
+        sample, pdf = BSDFAdapter("brdftab", plugin_dict(path, params), wi=incidence(theta))
+        chi2 = ChiSquareTest(domain=SphericalDomain(), sample_func=sample, pdf_func=pdf,
+                             sample_dim=3, sample_count=400000, res=61, ires=IRES)
+        passed = chi2.run()
+        p_values.append(chi2.p_value)
+        assert passed, f"{model}, theta_i = {theta}: {chi2.messages}"
+    print(f"chi2 {model}: p = " + ", ".join("%.3g" % p for p in p_values))
+
+
+def module_reference(path, name, wi, wo, **params):
+    bound = brdftab.open(path).tables[name].bind(**params)
+    return bound.eval(wi, wo), bound.pdf(wi, wo)
+
+
+@pytest.mark.parametrize("variant", ["llvm_ad_rgb", "scalar_rgb"])
+def test_plugin_matches_module(tables, variant):
+    set_variant(variant)
+    path = tables.generate("oren_nayar", OREN_NAYAR)
+    bsdf = mi.load_dict(plugin_dict(path, {"sigma": 20.0, "rho": 0.8}))
+    coloured = mi.load_dict(plugin_dict(path, {"sigma": 20.0},
+                                        reflectance={"type": "rgb", "value": [0.9, 0.5, 0.2]}))
+    ctx = mi.BSDFContext()
+    rng = np.random.default_rng(5)
+    wi = np.array(incidence(40.0))
+    for _ in range(5 if variant.startswith("scalar") else 1):
+        u = rng.random((64, 2))
+        si = dr.zeros(mi.SurfaceInteraction3f)
+        si.wi = mi.Vector3f(*map(float, wi))
+        if variant.startswith("scalar"):
+            u = u[:1]
+            bs, weight = bsdf.sample(ctx, si, 0.5, mi.Point2f(*u[0]))
+            wo = np.array([[bs.wo[0], bs.wo[1], bs.wo[2]]])
+            weight, pdf = np.array([weight[0]]), np.array([bs.pdf])
+            f = np.array([bsdf.eval(ctx, si, bs.wo)[0]])
+            p = np.array([bsdf.pdf(ctx, si, bs.wo)])
+            fc = np.array(coloured.eval(ctx, si, bs.wo)).reshape(3, 1)
+        else:
+            bs, weight = bsdf.sample(ctx, si, mi.Float(0.5), mi.Point2f(u[:, 0], u[:, 1]))
+            wo = np.stack([np.array(bs.wo.x), np.array(bs.wo.y), np.array(bs.wo.z)], axis=1)
+            weight, pdf = np.array(weight[0]), np.array(bs.pdf)
+            f = np.array(bsdf.eval(ctx, si, bs.wo)[0])
+            p = np.array(bsdf.pdf(ctx, si, bs.wo))
+            fc = np.array(coloured.eval(ctx, si, bs.wo))
+        ref_f, ref_p = module_reference(path, "brdf", wi, wo, sigma=20.0, rho=0.8)
+        cos_o = np.abs(wo[:, 2])
+        # Mitsuba's eval includes |cos theta_o|; single precision in the plugin.
+        np.testing.assert_allclose(f, ref_f * cos_o, rtol=2e-6)
+        np.testing.assert_allclose(p, ref_p, rtol=2e-6)
+        np.testing.assert_allclose(pdf, ref_p, rtol=2e-6)
+        np.testing.assert_allclose(weight, ref_f * cos_o / ref_p, rtol=2e-6)
+        # reflectance texture: rho per channel.
+        for c, rho in enumerate([0.9, 0.5, 0.2]):
+            ref_c, _ = module_reference(path, "brdf", wi, wo, sigma=20.0, rho=rho)
+            np.testing.assert_allclose(fc[c], ref_c * cos_o, rtol=2e-6)
+    # Below the surface: a reflection table gives nothing.
+    si = dr.zeros(mi.SurfaceInteraction3f)
+    si.wi = mi.Vector3f(*map(float, incidence(40.0)))
+    below = mi.Vector3f(0.3, 0.0, -0.9)
+    assert np.all(np.array(bsdf.eval(ctx, si, below)) == 0)
+    assert np.all(np.array(bsdf.pdf(ctx, si, below)) == 0)
+
+
+def test_bad_parameters(tables):
+    set_variant("scalar_rgb")
+    path = tables.generate("oren_nayar", OREN_NAYAR)
+    with pytest.raises(Exception, match="needs parameter 'sigma'"):
+        mi.load_dict(plugin_dict(path, {"rho": 0.5}))
+    with pytest.raises(Exception, match="recombined in 'rho'"):
+        mi.load_dict(plugin_dict(path, {"sigma": 20.0}))
+    with pytest.raises(Exception, match="not a factored"):
+        mi.load_dict(plugin_dict(path, {"sigma": 20.0}, table="brdf_direct",
+                                 reflectance={"type": "rgb", "value": [0.5, 0.5, 0.5]}))
