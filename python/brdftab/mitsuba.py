@@ -54,8 +54,13 @@ def _lanes(*values):
 
 
 def _vectors(v):
+    """(n, 3) numpy directions; rows of inactive lanes (zero or NaN vectors)
+    become +z and are masked out by _valid()."""
     x, y, z = _lanes(v.x, v.y, v.z)
-    return np.ascontiguousarray(np.stack([x, y, z], axis=1))
+    w = np.stack([x, y, z], axis=1)
+    bad = ~(np.einsum("ij,ij->i", w, w) > 0)
+    w[bad] = (0.0, 0.0, 1.0)
+    return w, bad
 
 
 def _polynomial(coeffs, p):
@@ -166,8 +171,8 @@ class _TableBSDF:
         return self.table.eval(theta_i=theta_i, phi_i=phi_i, theta_o=theta_o, phi_o=phi_o,
                                **self.params)
 
-    def _valid(self, wi, wo=None):
-        ok = np.ones(len(wi), dtype=bool)
+    def _valid(self, wi, wo=None, bad=None):
+        ok = np.ones(len(wi), dtype=bool) if bad is None else ~bad
         if not self.lit_from_below:
             ok &= wi[:, 2] > 0
         if wo is not None and not self.transmits:
@@ -201,29 +206,31 @@ class _TableBSDF:
         return mi.Spectrum(self._float(rgb[0]), self._float(rgb[1]), self._float(rgb[2]))
 
     # ---- the BSDF interface ---------------------------------------------------
-    def eval(self, ctx, si, wo, active=True):
-        wi_np, wo_np = _vectors(si.wi), _vectors(wo)
+    def _pair(self, wi, wo):
+        (wi_np, bad_i), (wo_np, bad_o) = _vectors(wi), _vectors(wo)
         n = max(len(wi_np), len(wo_np))
-        wi_np, wo_np = np.broadcast_to(wi_np, (n, 3)), np.broadcast_to(wo_np, (n, 3))
+        bad = np.broadcast_to(bad_i, (n,)) | np.broadcast_to(bad_o, (n,))
+        return np.broadcast_to(wi_np, (n, 3)), np.broadcast_to(wo_np, (n, 3)), bad
+
+    def eval(self, ctx, si, wo, active=True):
+        wi_np, wo_np, bad = self._pair(si.wi, wo)
         f = self._f_rgb(si, wi_np, wo_np, active) * np.abs(wo_np[:, 2])
-        f = np.where(self._valid(wi_np, wo_np), f, 0.0)
+        f = np.where(self._valid(wi_np, wo_np, bad), f, 0.0)
         return dr.select(active, self._spectrum(f), 0.0)
 
     def pdf(self, ctx, si, wo, active=True):
-        wi_np, wo_np = _vectors(si.wi), _vectors(wo)
-        n = max(len(wi_np), len(wo_np))
-        wi_np, wo_np = np.broadcast_to(wi_np, (n, 3)), np.broadcast_to(wo_np, (n, 3))
-        p = np.where(self._valid(wi_np, wo_np), self._pdf_np(wi_np, wo_np), 0.0)
+        wi_np, wo_np, bad = self._pair(si.wi, wo)
+        p = np.where(self._valid(wi_np, wo_np, bad), self._pdf_np(wi_np, wo_np), 0.0)
         return dr.select(active, self._float(p), 0.0)
 
     def eval_pdf(self, ctx, si, wo, active=True):
         return self.eval(ctx, si, wo, active), self.pdf(ctx, si, wo, active)
 
     def sample(self, ctx, si, sample1, sample2, active=True):
-        wi_np = _vectors(si.wi)
+        wi_np, bad = _vectors(si.wi)
         u1, u2 = _lanes(sample2[0], sample2[1])
         n = max(len(wi_np), len(u1))
-        wi_np = np.broadcast_to(wi_np, (n, 3))
+        wi_np, bad = np.broadcast_to(wi_np, (n, 3)), np.broadcast_to(bad, (n,))
         u = np.stack(np.broadcast_arrays(u1, u2), axis=1)
         u = np.broadcast_to(u, (n, 2))
         if self.sampler is None:
@@ -232,7 +239,7 @@ class _TableBSDF:
             pdf = self._pdf_np(wi_np, wo_np)
         else:
             wo_np, _, pdf = self.sampler.sample(wi_np, np.minimum(u, 1 - 1e-12))
-        valid = self._valid(wi_np, wo_np) & (pdf > 0)
+        valid = self._valid(wi_np, wo_np, bad) & (pdf > 0)
         f = self._f_rgb(si, wi_np, wo_np, active) * np.abs(wo_np[:, 2])
         weight = np.where(valid, f / np.where(valid, pdf, 1.0), 0.0)
 
