@@ -65,7 +65,7 @@ OREN_NAYAR = """
     [[axes]]
     name = "theta_o"
     range = [0.0, 90.0]
-    count = 9
+    count = 7
     spacing = "cos"
     [[axes]]
     name = "phi_d"

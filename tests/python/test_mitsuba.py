@@ -87,6 +87,30 @@ SPECS = {
         method = "rqmc"
         samples = 128
     """, {"tau0": 0.3}),
+    # Reflection and transmission: theta_o up to 180 degrees.
+    "rough-dielectric": ("""
+        model = "rough-dielectric"
+        [parameters]
+        distribution = "ggx"
+        alpha = 0.5
+        eta = 1.5
+        [[axes]]
+        name = "theta_i"
+        range = [0.0, 80.0]
+        count = 6
+        [[axes]]
+        name = "theta_o"
+        range = [0.0, 180.0]
+        count = 13
+        spacing = "cos"
+        [[axes]]
+        name = "phi_d"
+        range = [0.0, 180.0]
+        count = 7
+        [[tables]]
+        name = "brdf"
+        quantity = "bsdf"
+    """, {}),
 }
 
 
@@ -103,16 +127,21 @@ def set_variant(name):
     brdftab.mitsuba.register()
 
 
-def incidence(theta_deg, phi=0.3):
+def incidence(theta_deg, phi=0.0):
     t = math.radians(theta_deg)
     return [math.sin(t) * math.cos(phi), math.sin(t) * math.sin(phi), math.cos(t)]
 
 
-# Points per cell side in the chi^2 test's integration of the pdf (default
-# 4): the table's density is piecewise constant, and the trapezoid rule on a
-# cell that a jump crosses is off by up to a jump times a sub-cell; 4 points
-# leave a bias of 0.3 % of the total that 400k samples resolve.
-IRES = 12
+# The chi^2 test integrates the pdf over its cells with the trapezoid rule
+# (mitsuba.chi2.ChiSquareTest.tabulate_pdf).  The table's density is
+# constant on each table cell in (cos theta_o, phi), so a chi^2 cell that a
+# table cell boundary crosses gets a biased expected count (measured: 0.3 %
+# of the total with the default 4 x 4 points, enough to reject at 400k
+# samples).  Aligned grids make the expected counts exact: theta_o axes with
+# "cos" spacing in steps of 1/6 in cos theta, phi_d in 30-degree steps, wi at
+# azimuth 0, and the test's cells 1/24 in cos theta (res = 48) by 15 degrees
+# in phi (res/2 = 24 columns).
+CHI2_RES = 48
 
 
 @pytest.mark.parametrize("model", list(SPECS))
@@ -126,7 +155,7 @@ def test_chi2(tables, model, tmp_path, monkeypatch):
     for theta in (15.0, 62.0):
         sample, pdf = BSDFAdapter("brdftab", plugin_dict(path, params), wi=incidence(theta))
         chi2 = ChiSquareTest(domain=SphericalDomain(), sample_func=sample, pdf_func=pdf,
-                             sample_dim=3, sample_count=400000, res=61, ires=IRES)
+                             sample_dim=3, sample_count=400000, res=CHI2_RES)
         passed = chi2.run()
         p_values.append(chi2.p_value)
         assert passed, f"{model}, theta_i = {theta}: {chi2.messages}"
@@ -242,7 +271,7 @@ def test_anisotropic_table(tables, tmp_path, monkeypatch):
     # Sampling (cosine-weighted for anisotropic tables) against its pdf.
     sample, pdf = BSDFAdapter("brdftab", plugin_dict(path, {}), wi=incidence(50.0, 2.0))
     chi2 = ChiSquareTest(domain=SphericalDomain(), sample_func=sample, pdf_func=pdf,
-                         sample_dim=3, sample_count=200000, res=41, ires=IRES)
+                         sample_dim=3, sample_count=200000, res=CHI2_RES)
     assert chi2.run(), chi2.messages
     # eval against the module at the angles, phi_i in (90, 180) mirrored to
     # 180 - phi_i (and phi_o to 180 - phi_o), phi_i < 0 to -phi_i.
