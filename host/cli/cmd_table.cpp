@@ -65,28 +65,12 @@ void warn_if_clamped(const LookupTable& lt, const std::vector<double>& coords,
 }
 
 // Coordinates in coordinate_names() order from a name -> value map; unknown
-// or missing names are InputErrors.
+// or missing names are InputErrors (the library's message, shared with the
+// Python module).
 std::vector<double> ordered_coords(const LookupTable& lt,
                                    const std::map<std::string, double>& values,
                                    const std::string& where) {
-    const auto names = lt.coordinate_names();
-    for (const auto& kv : values)
-        if (std::find(names.begin(), names.end(), kv.first) == names.end())
-            throw InputError(where + ": '" + kv.first + "' is not a coordinate of table '" +
-                             lt.table().name + "' (coordinates: " + names_text(names) + ")");
-    std::vector<double> out;
-    std::vector<std::string> missing;
-    for (const auto& n : names) {
-        auto it = values.find(n);
-        if (it == values.end())
-            missing.push_back(n);
-        else
-            out.push_back(it->second);
-    }
-    if (!missing.empty())
-        throw InputError(where + ": missing " + names_text(missing) + " (table '" +
-                         lt.table().name + "' needs " + names_text(names) + ")");
-    return out;
+    return lt.ordered_coordinates(values, where);
 }
 
 // ---------------------------------------------------------------- query

@@ -98,6 +98,7 @@ int main(int argc, char** argv) {
     cli::register_info(app);
     cli::register_export(app);
     cli::register_bench(app);
+    cli::register_scene(app);
     cli::register_table_commands(app);
 
     if (!known_subcommand(app, argc, argv)) return 2;
