@@ -43,6 +43,7 @@ int main(int argc, char** argv) {
     cli::register_export(app);
     cli::register_bench(app);
     cli::register_table_commands(app);
+    cli::register_plan(app);
 
     try {
         app.parse(argc, argv);
