@@ -109,7 +109,15 @@ std::vector<double> interpolate_line(const Axis& axis, const std::vector<double>
     return out;
 }
 
-void fit_axis(AxisFit& fit) {
+PowerFit anchored_fit(const PowerFit& f, double x_anchor, double y_anchor, double p_min, double p_max) {
+    PowerFit g = f;
+    if (!f.valid || !(x_anchor > 0 && y_anchor > 0)) return g;
+    g.p = std::clamp(f.p, p_min, p_max);
+    g.c = y_anchor / std::pow(x_anchor, g.p);
+    return g;
+}
+
+void fit_axis(AxisFit& fit, double max_exponent) {
     std::vector<double> h, max_abs, rms_abs, max_rel, rms_rel;
     for (const LevelErrors& l : fit.levels) {
         // Below 3x the reference's noise the measured error is the noise's.
@@ -122,6 +130,14 @@ void fit_axis(AxisFit& fit) {
     fit.rms_abs = fit_power_law(h, rms_abs);
     fit.max_rel = fit_power_law(h, max_rel);
     fit.rms_rel = fit_power_law(h, rms_rel);
+    if (max_exponent > 0 && !h.empty()) {
+        // Levels are coarsest first: the last usable one is the finest.
+        const double lo = -std::numeric_limits<double>::infinity();
+        fit.max_abs = anchored_fit(fit.max_abs, h.back(), max_abs.back(), lo, max_exponent);
+        fit.rms_abs = anchored_fit(fit.rms_abs, h.back(), rms_abs.back(), lo, max_exponent);
+        fit.max_rel = anchored_fit(fit.max_rel, h.back(), max_rel.back(), lo, max_exponent);
+        fit.rms_rel = anchored_fit(fit.rms_rel, h.back(), rms_rel.back(), lo, max_exponent);
+    }
 }
 
 // --------------------------------------------------------------- storage rounding
@@ -139,8 +155,8 @@ StorageRounding storage_rounding(StoredType type) {
 
 // --------------------------------------------------------------- pilot
 
-std::vector<std::size_t> pilot_counts(std::size_t count) {
-    const std::size_t b = std::clamp<std::size_t>((count + 1) / 2, 4, 17);
+std::vector<std::size_t> pilot_counts(std::size_t count, std::size_t max_base) {
+    const std::size_t b = std::clamp<std::size_t>((count + 1) / 2, 4, std::max<std::size_t>(max_base, 4));
     return {b, 2 * b - 1, 4 * b - 3};
 }
 
@@ -192,13 +208,14 @@ TablePilot run_pilot(const Spec& spec, std::size_t table_index, Backend& backend
     std::vector<std::map<std::string, double>> named;
     std::vector<LineBlock> blocks;
     std::vector<std::vector<std::size_t>> level_counts(dims);
+    const bool integral = ctx.quantity->kind == QuantityKind::Integral;
     for (std::size_t a = 0; a < dims; ++a) {
         const Axis& axis = ts.axes[a];
         level_counts[a] = axis.spacing == Spacing::Explicit ? std::vector<std::size_t>{axis.count}
-                                                            : pilot_counts(axis.count);
+                                                            : pilot_counts(axis.count, integral ? options.integral_max_base : 17);
         // The lines: the other coordinates at random nodes of the spec's axes,
         // the same for every level so the levels differ only in h.
-        std::vector<std::map<std::string, double>> lines(options.lines, ctx.fixed);
+        std::vector<std::map<std::string, double>> lines(integral ? options.integral_lines : options.lines, ctx.fixed);
         for (auto& line : lines)
             for (std::size_t b = 0; b < dims; ++b)
                 if (b != a) line[ts.axes[b].name] = ts.axes[b].values[rng.below(ts.axes[b].count)];
@@ -241,11 +258,17 @@ TablePilot run_pilot(const Spec& spec, std::size_t table_index, Backend& backend
         return [&progress, name](const Progress& p) { progress(name, p); };
     };
 
-    // Launch overhead: a one-point run, after a first one that builds the kernel.
-    const std::vector<double> one(points.begin(), points.begin() + ctx.model->point_stride());
-    estimate_at(backend, *ctx.model, *ctx.quantity, ctx.options, one, ref);
-    const EstimateResult single = estimate_at(backend, *ctx.model, *ctx.quantity, ctx.options, one, ref);
-    pilot.overhead_seconds = single.elapsed_seconds;
+    // Launch overhead: the fastest of three one-point runs, after a first one
+    // that builds (or loads) the kernel.  Minima, because the machine may be
+    // shared: the fastest run is the one least disturbed.
+    const std::size_t stride = ctx.model->point_stride();
+    const std::vector<double> one(points.begin(), points.begin() + stride);
+    pilot.startup_seconds = estimate_at(backend, *ctx.model, *ctx.quantity, ctx.options, one, ref).elapsed_seconds;
+    pilot.overhead_seconds = std::numeric_limits<double>::infinity();
+    for (int k = 0; k < 3; ++k)
+        pilot.overhead_seconds = std::min(
+            pilot.overhead_seconds,
+            estimate_at(backend, *ctx.model, *ctx.quantity, ctx.options, one, ref).elapsed_seconds);
 
     const EstimateResult r = estimate_at(backend, *ctx.model, *ctx.quantity, ctx.options, points, ref,
                                          stage(ts.name + ": interpolation pilot"));
@@ -288,18 +311,25 @@ TablePilot run_pilot(const Spec& spec, std::size_t table_index, Backend& backend
                 e.max_abs = sa.max, e.rms_abs = sa.rms, e.max_rel = sr.max, e.rms_rel = sr.rms;
                 fits[a].levels.push_back(e);
             }
-            fit_axis(fits[a]);
+            fit_axis(fits[a], m == 0 ? 2.0 : 3.0);
         }
     }
 
     // ---- cost per cell (closed form, quadrature) and integration error.
-    const double per_cell = named.size() > 1
-                                ? std::max(0.0, r.elapsed_seconds - pilot.overhead_seconds) / named.size()
-                                : r.elapsed_seconds;
     if (ctx.quantity->kind == QuantityKind::ClosedForm) {
+        // Cost per cell: a batch large enough that the cells, not the launch,
+        // dominate (the pilot's points repeated to >= 16384), fastest of two.
+        std::vector<double> batch;
+        while (batch.size() / stride < 16384) batch.insert(batch.end(), points.begin(), points.end());
+        const std::size_t m = batch.size() / stride;
+        double t = std::numeric_limits<double>::infinity();
+        for (int k = 0; k < 2; ++k)
+            t = std::min(t, estimate_at(backend, *ctx.model, *ctx.quantity, ctx.options, batch, ref,
+                                        stage(ts.name + ": cost pilot")).elapsed_seconds);
+        pilot.pilot_evaluations += 2 * m;
         IntegrationFit f;
         f.method = Method::ClosedForm;
-        f.seconds_per_cell = per_cell;
+        f.seconds_per_cell = std::max(t - pilot.overhead_seconds, 0.5 * t) / double(m);
         pilot.integration.push_back(f);
     } else {
         // Random cells of the spec's grid.
@@ -339,8 +369,13 @@ TablePilot run_pilot(const Spec& spec, std::size_t table_index, Backend& backend
             }
             if (method != Method::Quadrature) {
                 std::vector<double> x(f.samples.begin(), f.samples.end());
+                // RQMC: q within [0.5, 1] (no worse than MC, no better than
+                // the rate of smooth integrands in low dimension), through
+                // the largest budget's measurement.
                 auto fit = [&](const std::vector<double>& y) {
-                    return method == Method::MonteCarlo ? fit_power_law_fixed(x, y, -0.5) : fit_power_law(x, y);
+                    return method == Method::MonteCarlo
+                               ? fit_power_law_fixed(x, y, -0.5)
+                               : anchored_fit(fit_power_law(x, y), x.back(), y.back(), -1.0, -0.5);
                 };
                 f.fit_max_abs = fit(f.max_abs), f.fit_rms_abs = fit(f.rms_abs);
                 f.fit_max_rel = fit(f.max_rel), f.fit_rms_rel = fit(f.rms_rel);
@@ -667,7 +702,8 @@ nlohmann::json pilot_json(const TablePilot& p) {
     }
     return {{"table", p.table}, {"quantity", p.quantity}, {"max_value", p.max_value},
             {"relative_floor", p.rel_floor}, {"axes", axes}, {"integration", integ},
-            {"overhead_seconds", p.overhead_seconds}, {"pilot_seconds", p.pilot_seconds},
+            {"overhead_seconds", p.overhead_seconds}, {"startup_seconds", p.startup_seconds},
+            {"pilot_seconds", p.pilot_seconds},
             {"pilot_evaluations", p.pilot_evaluations}};
 }
 

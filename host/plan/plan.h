@@ -92,8 +92,17 @@ struct AxisFit {
     PowerFit max_abs, rms_abs, max_rel, rms_rel;
 };
 
-// Fits the four measures over the levels (noise rule above).
-void fit_axis(AxisFit& fit);
+// Fits the four measures over the levels (noise rule above).  With
+// max_exponent > 0 the fitted p is capped there (the interpolation's order:
+// 2 for linear, 3 for Catmull-Rom), so that a pre-asymptotic steep decrease
+// is not extrapolated beyond what the method can deliver.  C is then set so
+// the law passes through the finest usable level: extrapolation starts from
+// the best measurement, not from the coarse levels' average.
+void fit_axis(AxisFit& fit, double max_exponent = 0);
+
+// The exponent of `f` limited to [p_min, p_max] and its c re-anchored so
+// that f(x_anchor) = y_anchor.
+PowerFit anchored_fit(const PowerFit& f, double x_anchor, double y_anchor, double p_min, double p_max);
 
 // --------------------------------------------------------------- storage rounding
 
@@ -128,14 +137,19 @@ struct TablePilot {
     std::vector<AxisFit> linear, cubic;  // per axis
     std::vector<IntegrationFit> integration;  // closed form: one entry with the cost per cell
     double overhead_seconds = 0;   // fixed cost of one engine run (one launch)
+    double startup_seconds = 0;    // the first run: kernel build or cache load (not predicted)
     double pilot_seconds = 0;      // wall time of this table's pilot
     std::size_t pilot_evaluations = 0;  // direct evaluations made
 };
 
 struct PilotOptions {
     std::size_t lines = 8;              // random lines per axis (other coordinates at nodes)
+    // Integrals pay reference_samples per probe: fewer lines and coarser
+    // levels (base count at most 9: levels 9, 17, 33).
+    std::size_t integral_lines = 4;
+    std::size_t integral_max_base = 9;
     std::size_t cells = 32;             // random cells for the integration pilot
-    std::uint64_t reference_samples = 1u << 15;  // per reference point of integrals
+    std::uint64_t reference_samples = 1u << 14;  // per reference point of integrals
     std::vector<std::uint64_t> integration_samples = {1024, 4096, 16384};
     std::uint64_t seed = 1;
     // Relative errors divide by max(|value|, floor): abs_floor when > 0,
@@ -148,8 +162,8 @@ struct PilotOptions {
 using PilotProgressFn = std::function<void(const std::string& stage, const Progress&)>;
 
 // The pilot counts of an axis with `count` nodes in the spec: three nested
-// resolutions b, 2b - 1, 4b - 3 (halving h), b = clamp((count + 1) / 2, 4, 17).
-std::vector<std::size_t> pilot_counts(std::size_t count);
+// resolutions b, 2b - 1, 4b - 3 (halving h), b = clamp((count + 1) / 2, 4, max_base).
+std::vector<std::size_t> pilot_counts(std::size_t count, std::size_t max_base = 17);
 
 // Runs the pilot of spec table `table_index` on `backend`.  Throws InputError
 // for tables the planner cannot handle.
