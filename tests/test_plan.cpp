@@ -174,7 +174,7 @@ TEST_CASE("storage rounding bounds the stored types' real rounding") {
     for (int i = 0; i < 20000; ++i) {
         const double v = std::ldexp(1.0 + std::generate_canonical<double, 53>(rng), int(e(rng)));
         const double err = std::fabs(half_to_double(half_bits(v)) - v);
-        CHECK(err <= h.rel * v + h.abs);
+        CHECK(err <= std::max(h.rel * v, h.abs));
         if (v > 1e-4) worst_ratio = std::max(worst_ratio, err / v);
     }
     CHECK(worst_ratio > 0.9 * h.rel);  // the bound is reached, not loose
@@ -267,9 +267,15 @@ TEST_CASE("balanced counts and predictions follow the fits") {
     CHECK(tp.storage_max == doctest::Approx(std::ldexp(1.0, -24)));
     CHECK(tp.error_max == doctest::Approx(tp.interpolation_max + tp.storage_max));
     CHECK(tp.seconds == doctest::Approx(double(n[0] * n[1]) * 1e-6));
-    // float16 of values up to 2 with a floor of 2e-3: 2^-11 + 2^-25 / 2e-3.
+    // float16 of values up to 2 with a floor of 2e-3: no value is subnormal
+    // relative to the floor (2^-25 / 2e-3 < 2^-11): 2^-11.
     const TablePlan th = predict_table(p, t, n, Method::ClosedForm, 0, StoredType::Float16);
-    CHECK(th.storage_max == doctest::Approx(std::ldexp(1.0, -11) + std::ldexp(1.0, -25) / 2e-3));
+    CHECK(th.storage_max == std::ldexp(1.0, -11));
+    // A floor of 1e-6 lets subnormals count: 2^-25 / 1e-6 = 0.0298.
+    p.rel_floor = 1e-6;
+    CHECK(predict_table(p, t, n, Method::ClosedForm, 0, StoredType::Float16).storage_max ==
+          doctest::Approx(std::ldexp(1.0, -25) / 1e-6));
+    p.rel_floor = 2e-3;
     p.max_value = 1e5;  // beyond float16's range
     CHECK(std::isinf(predict_table(p, t, n, Method::ClosedForm, 0, StoredType::Float16).error_max));
 }

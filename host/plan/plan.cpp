@@ -274,7 +274,11 @@ TablePilot run_pilot(const Spec& spec, std::size_t table_index, Backend& backend
                                          stage(ts.name + ": interpolation pilot"));
     pilot.pilot_evaluations = named.size();
     const bool noisy = r.method != Method::ClosedForm;
-    for (double v : r.value) pilot.max_value = std::max(pilot.max_value, std::fabs(v));
+    pilot.min_value = std::numeric_limits<double>::infinity();
+    for (double v : r.value) {
+        pilot.max_value = std::max(pilot.max_value, std::fabs(v));
+        pilot.min_value = std::min(pilot.min_value, std::fabs(v));
+    }
     pilot.rel_floor = options.abs_floor > 0 ? options.abs_floor : options.rel_floor_factor * pilot.max_value;
     if (!(pilot.rel_floor > 0)) pilot.rel_floor = 1e-300;
 
@@ -473,15 +477,15 @@ TablePlan predict_table(const TablePilot& pilot, const PlanTarget& target,
     if (f->method == Method::Quadrature) {
         tp.integration_max = target.absolute ? f->max_abs.front() : f->max_rel.front();
         tp.integration_rms = target.absolute ? f->rms_abs.front() : f->rms_rel.front();
-        tp.seconds = pilot.overhead_seconds + tp.cells * f->seconds_per_cell;
+        tp.seconds = pilot.startup_seconds + pilot.overhead_seconds + tp.cells * f->seconds_per_cell;
     } else if (f->method == Method::ClosedForm) {
-        tp.seconds = pilot.overhead_seconds + tp.cells * f->seconds_per_cell;
+        tp.seconds = pilot.startup_seconds + pilot.overhead_seconds + tp.cells * f->seconds_per_cell;
     } else {
         const double z = std::sqrt(std::max(1.0, 2 * std::log(std::max(tp.cells, 1.0))));
         const double n = double(samples);
         tp.integration_max = z * (target.absolute ? f->fit_max_abs : f->fit_max_rel).eval(n);
         tp.integration_rms = (target.absolute ? f->fit_rms_abs : f->fit_rms_rel).eval(n);
-        tp.seconds = pilot.overhead_seconds + tp.cells * n * f->seconds_per_sample;
+        tp.seconds = pilot.startup_seconds + pilot.overhead_seconds + tp.cells * n * f->seconds_per_sample;
     }
 
     // Storage: half an ulp of the stored value (relative), or of the floor.
@@ -489,8 +493,11 @@ TablePlan predict_table(const TablePilot& pilot, const PlanTarget& target,
     if (pilot.max_value > s.max_value)
         tp.storage_max = std::numeric_limits<double>::infinity();
     else
-        tp.storage_max = target.absolute ? s.rel * pilot.max_value + s.abs
-                                         : s.rel + s.abs / pilot.rel_floor;
+        // Relative: a subnormal's abs error counts against max(|v|, floor),
+        // and no |v| below the pilot's smallest is expected.
+        tp.storage_max = target.absolute
+                             ? std::max(s.rel * pilot.max_value, s.abs)
+                             : std::max(s.rel, s.abs / std::max(pilot.rel_floor, pilot.min_value));
     // Sum of the maxima: a bound at the worst point.  RMS: the terms are
     // independent over the domain (interpolation: the function's shape;
     // integration: random; rounding: uniform within +-half ulp, RMS ulp/(2 sqrt 3)).
@@ -700,7 +707,7 @@ nlohmann::json pilot_json(const TablePilot& p) {
         }
         integ.push_back(j);
     }
-    return {{"table", p.table}, {"quantity", p.quantity}, {"max_value", p.max_value},
+    return {{"table", p.table}, {"quantity", p.quantity}, {"max_value", p.max_value}, {"min_value", p.min_value},
             {"relative_floor", p.rel_floor}, {"axes", axes}, {"integration", integ},
             {"overhead_seconds", p.overhead_seconds}, {"startup_seconds", p.startup_seconds},
             {"pilot_seconds", p.pilot_seconds},

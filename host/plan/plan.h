@@ -106,9 +106,9 @@ PowerFit anchored_fit(const PowerFit& f, double x_anchor, double y_anchor, doubl
 
 // --------------------------------------------------------------- storage rounding
 
-// Worst-case rounding of a stored value v: |round(v) - v| <= rel |v| + abs
-// (round to nearest; float16 values below 2^-14 are subnormal, spaced 2^-24,
-// so their error is at most 2^-25 absolute).  `max_value` = largest finite
+// Worst-case rounding of a stored value v: |round(v) - v| <= max(rel |v|, abs)
+// (round to nearest: half an ulp; float16 values below 2^-14 are subnormal,
+// spaced 2^-24, so their error is at most abs = 2^-25).  `max_value` = largest finite
 // stored magnitude (65504 for float16).
 struct StorageRounding {
     double rel = 0, abs = 0, max_value = 0;
@@ -133,11 +133,13 @@ struct TablePilot {
     QuantityKind kind = QuantityKind::ClosedForm;
     std::vector<Axis> axes;        // as the spec has them
     double max_value = 0;          // largest |value| seen by the pilot
+    double min_value = 0;          // smallest |value| seen by the pilot
     double rel_floor = 0;          // relative errors divide by max(|value|, rel_floor)
     std::vector<AxisFit> linear, cubic;  // per axis
     std::vector<IntegrationFit> integration;  // closed form: one entry with the cost per cell
     double overhead_seconds = 0;   // fixed cost of one engine run (one launch)
-    double startup_seconds = 0;    // the first run: kernel build or cache load (not predicted)
+    double startup_seconds = 0;    // the first run: kernel build or cache load, which
+                                   // a `generate` process pays again: part of the prediction
     double pilot_seconds = 0;      // wall time of this table's pilot
     std::size_t pilot_evaluations = 0;  // direct evaluations made
 };
