@@ -22,6 +22,7 @@
 #include <vector>
 
 #include "host/core/error.h"
+#include "host/engine/engine.h"
 #include "host/io/half_float.h"
 #include "host/plan/plan.h"
 #include "host/spec/spec.h"
@@ -352,4 +353,32 @@ TEST_CASE("anchored fits cap the exponent and pass through the finest level") {
     fit_axis(noisy, 2.0);
     CHECK(noisy.max_abs.points == 1);
     CHECK_FALSE(noisy.max_abs.valid);
+}
+
+TEST_CASE("pilot on the host backend: a smooth closed form converges at the interpolation's order") {
+    // The GGX BRDF in the plane of incidence is smooth on [0, 80] deg: the
+    // fitted exponents must be the interpolations' orders (2; Catmull-Rom
+    // pre-asymptotic, between 2 and its order 3).
+    const Spec spec = parse_spec_file(std::string(BT_SOURCE_DIR) + "/tests/data/plan_rough_dielectric.toml");
+    auto backend = make_backend("host", Precision::Double);
+    const TablePilot p = run_pilot(spec, 0, *backend, PilotOptions{});
+    REQUIRE(p.linear.size() == 2);
+    for (std::size_t a = 0; a < 2; ++a) {
+        CHECK(p.linear[a].levels.size() == 3);
+        REQUIRE(p.linear[a].max_rel.valid);
+        CHECK(p.linear[a].max_rel.p == doctest::Approx(2.0).epsilon(0.1));
+        REQUIRE(p.cubic[a].max_rel.valid);
+        CHECK(p.cubic[a].max_rel.p > 2.3);
+        CHECK(p.cubic[a].max_rel.p <= 3.0);
+    }
+    REQUIRE(p.integration.size() == 1);
+    CHECK(p.integration[0].seconds_per_cell > 0);
+    PlanTarget t;
+    t.accuracy = 1e-2;
+    const std::vector<Candidate> front = pareto_front(make_candidates({p}, t));
+    const auto choice = choose_plan(front, t);
+    REQUIRE(choice);
+    CHECK(front[*choice].error_max <= 1e-2);
+    // Finer than the spec's 9 x 9 (whose measured linear error is ~4e-2).
+    CHECK(front[*choice].tables[0].counts[0] > 9);
 }

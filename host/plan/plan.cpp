@@ -215,10 +215,22 @@ TablePilot run_pilot(const Spec& spec, std::size_t table_index, Backend& backend
                                                             : pilot_counts(axis.count, integral ? options.integral_max_base : 17);
         // The lines: the other coordinates at random nodes of the spec's axes,
         // the same for every level so the levels differ only in h.
+        // Stratified: along each other axis the L lines take nodes spread
+        // evenly from the first to the last (the ends, e.g. grazing angles,
+        // are often where a quantity changes fastest), in a random order
+        // per axis so that lines do not all pair first with first.
         std::vector<std::map<std::string, double>> lines(integral ? options.integral_lines : options.lines, ctx.fixed);
-        for (auto& line : lines)
-            for (std::size_t b = 0; b < dims; ++b)
-                if (b != a) line[ts.axes[b].name] = ts.axes[b].values[rng.below(ts.axes[b].count)];
+        const std::size_t nl = lines.size();
+        for (std::size_t b = 0; b < dims; ++b) {
+            if (b == a) continue;
+            const Axis& other = ts.axes[b];
+            std::vector<std::size_t> idx(nl);
+            for (std::size_t l = 0; l < nl; ++l)
+                idx[l] = nl == 1 ? rng.below(other.count)
+                                 : static_cast<std::size_t>(std::lround(double(l) * double(other.count - 1) / double(nl - 1)));
+            for (std::size_t l = nl; l > 1; --l) std::swap(idx[l - 1], idx[rng.below(l)]);  // Fisher-Yates
+            for (std::size_t l = 0; l < nl; ++l) lines[l][other.name] = other.values[idx[l]];
+        }
         for (std::size_t l = 0; l < level_counts[a].size(); ++l) {
             const std::size_t n = level_counts[a][l];
             const Axis ax = axis.spacing == Spacing::Explicit ? axis : remade(axis, n);
