@@ -16,6 +16,7 @@
 //   - Pareto fronts and choices worked out by hand.
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 #include <string>
@@ -381,4 +382,22 @@ TEST_CASE("pilot on the host backend: a smooth closed form converges at the inte
     CHECK(front[*choice].error_max <= 1e-2);
     // Finer than the spec's 9 x 9 (whose measured linear error is ~4e-2).
     CHECK(front[*choice].tables[0].counts[0] > 9);
+}
+
+TEST_CASE("expected_max_error: the median of the largest of M normal errors") {
+    // One cell: the median of |N(0, s^2)| is 0.6745 s.
+    CHECK(expected_max_error({2.0}, 1) == doctest::Approx(2 * 0.6744897501960817).epsilon(1e-6));
+    // 1000 cells with two stderr levels, against a simulation.
+    const std::vector<double> sigma = {1.0, 0.1};
+    std::mt19937_64 rng(11);
+    std::normal_distribution<double> g(0, 1);
+    std::vector<double> maxima;
+    for (int trial = 0; trial < 2001; ++trial) {
+        double m = 0;
+        for (int c = 0; c < 1000; ++c) m = std::max(m, std::fabs(g(rng) * sigma[c % 2]));
+        maxima.push_back(m);
+    }
+    std::nth_element(maxima.begin(), maxima.begin() + 1000, maxima.end());
+    CHECK(expected_max_error(sigma, 1000) == doctest::Approx(maxima[1000]).epsilon(0.02));
+    CHECK(expected_max_error({0.0, 0.0}, 10) == 0);
 }

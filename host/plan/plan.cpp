@@ -109,6 +109,28 @@ std::vector<double> interpolate_line(const Axis& axis, const std::vector<double>
     return out;
 }
 
+double expected_max_error(const std::vector<double>& sigma, double cells) {
+    double hi = 0;
+    for (double s : sigma) hi = std::max(hi, s);
+    if (!(hi > 0) || sigma.empty()) return 0;
+    const double weight = std::max(cells, 1.0) / double(sigma.size());
+    // log P(max <= x); increasing in x.
+    auto log_p = [&](double x) {
+        double sum = 0;
+        for (double s : sigma)
+            if (s > 0) sum += weight * std::log1p(-std::erfc(x / (s * std::sqrt(2.0))));
+        return sum;
+    };
+    double lo = 0;
+    hi *= 2;
+    while (log_p(hi) < std::log(0.5)) hi *= 2;
+    for (int k = 0; k < 100; ++k) {
+        const double mid = 0.5 * (lo + hi);
+        (log_p(mid) < std::log(0.5) ? lo : hi) = mid;
+    }
+    return hi;
+}
+
 PowerFit anchored_fit(const PowerFit& f, double x_anchor, double y_anchor, double p_min, double p_max) {
     PowerFit g = f;
     if (!f.valid || !(x_anchor > 0 && y_anchor > 0)) return g;
@@ -131,12 +153,18 @@ void fit_axis(AxisFit& fit, double max_exponent) {
     fit.max_rel = fit_power_law(h, max_rel);
     fit.rms_rel = fit_power_law(h, rms_rel);
     if (max_exponent > 0 && !h.empty()) {
-        // Levels are coarsest first: the last usable one is the finest.
+        // Levels are coarsest first: the last usable ones are the finest.
         const double lo = -std::numeric_limits<double>::infinity();
-        fit.max_abs = anchored_fit(fit.max_abs, h.back(), max_abs.back(), lo, max_exponent);
-        fit.rms_abs = anchored_fit(fit.rms_abs, h.back(), rms_abs.back(), lo, max_exponent);
-        fit.max_rel = anchored_fit(fit.max_rel, h.back(), max_rel.back(), lo, max_exponent);
-        fit.rms_rel = anchored_fit(fit.rms_rel, h.back(), rms_rel.back(), lo, max_exponent);
+        auto finest = [&](const PowerFit& all, const std::vector<double>& y) {
+            const std::size_t n = h.size();
+            PowerFit f = n >= 2 ? fit_power_law({h[n - 2], h[n - 1]}, {y[n - 2], y[n - 1]}) : all;
+            if (!f.valid) f = all;
+            return anchored_fit(f, h.back(), y.back(), lo, max_exponent);
+        };
+        fit.max_abs = finest(fit.max_abs, max_abs);
+        fit.rms_abs = finest(fit.rms_abs, rms_abs);
+        fit.max_rel = finest(fit.max_rel, max_rel);
+        fit.rms_rel = finest(fit.rms_rel, rms_rel);
     }
 }
 
@@ -377,6 +405,8 @@ TablePilot run_pilot(const Spec& spec, std::size_t table_index, Backend& backend
                 f.max_abs.push_back(sa.max), f.rms_abs.push_back(sa.rms);
                 f.max_rel.push_back(sr.max), f.rms_rel.push_back(sr.rms);
                 f.seconds.push_back(e.elapsed_seconds);
+                f.cell_abs = e.stderr_;
+                f.cell_rel = rel;
                 const double work = std::max(0.0, e.elapsed_seconds - pilot.overhead_seconds);
                 if (method == Method::Quadrature)
                     f.seconds_per_cell = work / cells.size();
@@ -475,9 +505,8 @@ TablePlan predict_table(const TablePilot& pilot, const PlanTarget& target,
     }
     tp.interpolation_rms = std::sqrt(interp_rms2);
 
-    // Integration: stderr of the worst pilot cell times the expected maximum
-    // of `cells` standard normals, sqrt(2 ln cells); the quadrature's two-rule
-    // difference is an error estimate, not a standard deviation: taken as is.
+    // Integration: the quadrature's two-rule difference is an error
+    // estimate, not a standard deviation: its maximum is taken as is.
     const IntegrationFit* f = nullptr;
     for (const IntegrationFit& g : pilot.integration)
         if (g.method == method || pilot.kind == QuantityKind::ClosedForm) f = &g;
@@ -493,9 +522,16 @@ TablePlan predict_table(const TablePilot& pilot, const PlanTarget& target,
     } else if (f->method == Method::ClosedForm) {
         tp.seconds = pilot.startup_seconds + pilot.overhead_seconds + tp.cells * f->seconds_per_cell;
     } else {
-        const double z = std::sqrt(std::max(1.0, 2 * std::log(std::max(tp.cells, 1.0))));
+        // Every pilot cell's stderr scaled from the largest pilot budget with
+        // the fitted rate, then the median of the largest error over the
+        // table's cells (expected_max_error).
         const double n = double(samples);
-        tp.integration_max = z * (target.absolute ? f->fit_max_abs : f->fit_max_rel).eval(n);
+        const PowerFit& fm = target.absolute ? f->fit_max_abs : f->fit_max_rel;
+        const std::vector<double>& cell = target.absolute ? f->cell_abs : f->cell_rel;
+        const double scale = fm.valid ? std::pow(n / double(f->samples.back()), fm.p) : 1.0;
+        std::vector<double> sigma(cell.size());
+        for (std::size_t k = 0; k < cell.size(); ++k) sigma[k] = cell[k] * scale;
+        tp.integration_max = expected_max_error(sigma, tp.cells);
         tp.integration_rms = (target.absolute ? f->fit_rms_abs : f->fit_rms_rel).eval(n);
         tp.seconds = pilot.startup_seconds + pilot.overhead_seconds + tp.cells * n * f->seconds_per_sample;
     }

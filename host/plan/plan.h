@@ -93,12 +93,20 @@ struct AxisFit {
 };
 
 // Fits the four measures over the levels (noise rule above).  With
-// max_exponent > 0 the fitted p is capped there (the interpolation's order:
+// max_exponent > 0, p is the slope between the two finest usable levels
+// (the closest to the asymptotic regime; least squares over all levels is
+// biased by the coarse, pre-asymptotic ones), capped (the interpolation's order:
 // 2 for linear, 3 for Catmull-Rom), so that a pre-asymptotic steep decrease
 // is not extrapolated beyond what the method can deliver.  C is then set so
 // the law passes through the finest usable level: extrapolation starts from
 // the best measurement, not from the coarse levels' average.
 void fit_axis(AxisFit& fit, double max_exponent = 0);
+
+// The median of the largest |error| over `cells` cells whose errors are
+// independent normal with the standard deviations `sigma` (a sample of the
+// table's cells, each standing for cells / sigma.size() of them): the x with
+// prod_k (1 - erfc(x / (sigma_k sqrt 2)))^(cells / K) = 1/2.
+double expected_max_error(const std::vector<double>& sigma, double cells);
 
 // The exponent of `f` limited to [p_min, p_max] and its c re-anchored so
 // that f(x_anchor) = y_anchor.
@@ -124,6 +132,8 @@ struct IntegrationFit {
     std::vector<double> max_abs, rms_abs, max_rel, rms_rel;  // stderr over pilot cells, per budget
     std::vector<double> seconds;         // engine time per budget
     PowerFit fit_max_abs, fit_rms_abs, fit_max_rel, fit_rms_rel;  // stderr(N) = c N^-q
+    // Per pilot cell at the largest budget (quadrature: its difference).
+    std::vector<double> cell_abs, cell_rel;
     double seconds_per_sample = 0;       // from the largest budget
     double seconds_per_cell = 0;         // closed form / quadrature
 };
