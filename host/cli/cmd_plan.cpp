@@ -182,11 +182,26 @@ void run_plan(const PlanArgs& pa) {
                 }
             }
         }
-        std::cout << "Pareto plans (" << front.size() << " of " << all.size() << " candidates):\n";
-        std::cout << "   # nodes                method        type     err max   err rms   seconds\n";
+        // A small table: about 12 rows spread over the front, the first and
+        // last, and the choice with its neighbours (--json lists every plan).
+        const std::size_t step = (front.size() + 11) / 12;
+        auto shown = [&](std::size_t i) {
+            if (i == 0 || i + 1 == front.size() || i % std::max<std::size_t>(step, 1) == 0) return true;
+            return choice && i + 1 >= *choice && i <= *choice + 1;
+        };
+        std::cout << "Pareto plans (" << front.size() << " of " << all.size() << " candidates"
+                  << (step > 1 ? "; a selection, --json lists all" : "") << "):\n";
+        std::cout << "   #  nodes                 method        type     err max   err rms   seconds\n";
+        bool gap = false;
         for (std::size_t i = 0; i < front.size(); ++i) {
+            if (!shown(i)) {
+                if (!gap) std::cout << "   ...\n";
+                gap = true;
+                continue;
+            }
+            gap = false;
             const Candidate& c = front[i];
-            std::cout << (choice && *choice == i ? " * " : "   ") << std::left << std::setw(2) << i
+            std::cout << (choice && *choice == i ? " * " : "   ") << std::left << std::setw(3) << i
                       << std::setw(22) << counts_text(c, pilots) << " " << std::setw(13)
                       << method_text(c) << " " << std::setw(8) << stored_type_name(c.stored_type)
                       << std::right << " " << sci(c.error_max) << "  " << sci(c.error_rms) << "  "

@@ -361,10 +361,13 @@ TablePilot run_pilot(const Spec& spec, std::size_t table_index, Backend& backend
 
     // ---- cost per cell (closed form, quadrature) and integration error.
     if (ctx.quantity->kind == QuantityKind::ClosedForm) {
-        // Cost per cell: a batch large enough that the cells, not the launch,
-        // dominate (the pilot's points repeated to >= 16384), fastest of two.
+        // Cost per cell: one full launch of the backend's preferred size, as
+        // `generate` runs them (the pilot's points repeated; 16384 <= cells
+        // <= 131072), fastest of two.  A smaller batch measured 4x too little
+        // per cell on PoCL: the cost per cell grows with the launch size.
+        const std::size_t want = std::clamp<std::size_t>(backend.preferred_slab(), 16384, 131072);
         std::vector<double> batch;
-        while (batch.size() / stride < 16384) batch.insert(batch.end(), points.begin(), points.end());
+        while (batch.size() / stride < want) batch.insert(batch.end(), points.begin(), points.end());
         const std::size_t m = batch.size() / stride;
         double t = std::numeric_limits<double>::infinity();
         for (int k = 0; k < 2; ++k)
