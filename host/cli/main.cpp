@@ -100,6 +100,7 @@ int main(int argc, char** argv) {
     cli::register_bench(app);
     cli::register_scene(app);
     cli::register_table_commands(app);
+    cli::register_plan(app);
 
     if (!known_subcommand(app, argc, argv)) return 2;
     try {

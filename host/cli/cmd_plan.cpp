@@ -1,0 +1,265 @@
+// plan: pilot runs, error and cost model, Pareto table and choice
+// (host/plan/plan.h, docs/planning.md).
+#include <chrono>
+#include <cmath>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <memory>
+#include <sstream>
+
+#include "host/cli/cli_common.h"
+#include "host/cli/commands.h"
+#include "host/core/atomic_file.h"
+#include "host/core/error.h"
+#include "host/core/text.h"
+#include "host/plan/plan.h"
+#include "host/spec/spec.h"
+
+namespace brdftab::cli {
+
+namespace {
+
+struct PlanArgs {
+    std::string spec, output, table;
+    std::optional<double> accuracy, budget;
+    bool absolute = false, json = false, quiet = false;
+    double abs_floor = 0;
+    std::string interpolation = "linear";
+    ComputeOptions compute;
+};
+
+std::string sci(double v) {
+    if (!std::isfinite(v)) return "inf";
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.2e", v);
+    return buf;
+}
+
+std::string fit_text(const PowerFit& f) {
+    if (!f.valid) return "no fit (exact or below noise)";
+    char buf[64];
+    std::snprintf(buf, sizeof buf, "C=%.3g p=%.2f", f.c, f.p);
+    return buf;
+}
+
+std::string counts_text(const Candidate& c, const std::vector<TablePilot>& pilots) {
+    std::string s;
+    for (std::size_t i = 0; i < c.tables.size(); ++i) {
+        if (i) s += "; ";
+        if (pilots.size() > 1) s += c.tables[i].table + ":";
+        for (std::size_t a = 0; a < c.tables[i].counts.size(); ++a)
+            s += (a ? "x" : "") + std::to_string(c.tables[i].counts[a]);
+    }
+    return s;
+}
+
+std::string method_text(const Candidate& c) {
+    if (c.method == Method::MonteCarlo || c.method == Method::Rqmc)
+        return to_string(c.method) + " " + std::to_string(c.samples);
+    return to_string(c.method);
+}
+
+void run_plan(const PlanArgs& pa) {
+    PlanTarget target;
+    target.absolute = pa.absolute;
+    target.accuracy = pa.accuracy;
+    target.budget = pa.budget;
+    target.interpolation = pa.interpolation == "cubic" ? Interpolation::Cubic : Interpolation::Linear;
+    check_target(target);
+    if (pa.abs_floor < 0 || !std::isfinite(pa.abs_floor))
+        throw InputError("--abs-floor must be a finite number >= 0, got " + number_text(pa.abs_floor, 6));
+    if (!pa.output.empty() && !target.accuracy && !target.budget)
+        throw InputError("-o needs a target to choose a plan: give --accuracy E or --budget SECONDS");
+
+    const Spec spec = parse_spec_file(pa.spec);
+    if (!spec.recombined.empty() || !spec.errors.empty() || !spec.inverted.empty())
+        throw InputError(pa.spec + ": plan does not handle [[recombined]], [[errors]] or [[inverted]] "
+                         "tables yet (their tables must share nodes); plan a copy of the spec without them");
+    std::vector<std::size_t> indices;
+    for (std::size_t i = 0; i < spec.tables.size(); ++i)
+        if (pa.table.empty() || spec.tables[i].name == pa.table) indices.push_back(i);
+    if (indices.empty()) {
+        std::string names;
+        for (const TableSpec& t : spec.tables) names += (names.empty() ? "" : ", ") + t.name;
+        throw InputError(pa.spec + ": no table '" + pa.table + "'; tables: " + names);
+    }
+    if (!pa.table.empty() && !pa.output.empty() && spec.tables.size() > 1)
+        throw InputError("-o with --table: the written spec would keep the other tables unplanned; "
+                         "plan the whole spec, or a copy with that table only");
+
+    auto backend = pa.compute.make_backend();
+    PilotOptions po;
+    po.abs_floor = pa.abs_floor;
+    // Progress only for stages that last: a line every 2 s after the first 2 s.
+    double last_shown = 0;
+    const PilotProgressFn progress = [&](const std::string& stage, const Progress& p) {
+        if (pa.quiet || p.elapsed_seconds < 2 || p.elapsed_seconds - last_shown < 2) return;
+        last_shown = p.elapsed_seconds;
+        std::cerr << "plan: " << stage << ": " << static_cast<int>(100 * p.fraction) << "% "
+                  << format_seconds(p.elapsed_seconds) << "\n";
+    };
+    std::vector<TablePilot> pilots;
+    for (std::size_t i : indices) {
+        last_shown = 0;
+        pilots.push_back(run_pilot(spec, i, *backend, po, progress));
+    }
+    const std::vector<Candidate> all = make_candidates(pilots, target);
+    const std::vector<Candidate> front = pareto_front(all);
+    const std::optional<std::size_t> choice = choose_plan(front, target);
+    const char* measure = target.absolute ? "absolute" : "relative";
+
+    std::string text;
+    if (choice && !pa.output.empty()) {
+        const Candidate& c = front[*choice];
+        std::vector<std::string> header = {
+            "Planned by `brdftab plan` from " + pa.spec + " for " +
+                (target.accuracy ? "max total " + std::string(measure) + " error <= " + sci(*target.accuracy)
+                                 : "a time budget of " + sci(*target.budget) + " s") +
+                " (" + pa.interpolation + " interpolation, device " + backend->device_name() + ").",
+            "Predicted: max total error " + sci(c.error_max) + ", RMS " + sci(c.error_rms) + " (" +
+                measure + "), engine time " + sci(c.seconds) + " s.  docs/planning.md"};
+        text = planned_spec_text(spec, indices, c, header);
+        parse_spec_string(text, pa.output);  // the written spec must parse (throws: nothing written)
+    }
+
+    if (pa.json) {
+        nlohmann::json j;
+        j["spec"] = pa.spec;
+        j["device"] = backend->device_name();
+        j["measure"] = measure;
+        j["interpolation"] = pa.interpolation;
+        if (target.accuracy) j["accuracy"] = *target.accuracy;
+        if (target.budget) j["budget"] = *target.budget;
+        j["pilots"] = nlohmann::json::array();
+        for (const TablePilot& p : pilots) j["pilots"].push_back(pilot_json(p));
+        j["plans"] = nlohmann::json::array();
+        for (const Candidate& c : front) j["plans"].push_back(candidate_json(c, pilots));
+        if (choice) {
+            j["choice"] = candidate_json(front[*choice], pilots);
+            j["choice"]["index"] = *choice;
+            j["predicted_error"] = front[*choice].error_max;
+            j["predicted_seconds"] = front[*choice].seconds;
+        } else {
+            j["choice"] = nullptr;
+        }
+        std::cout << j.dump(2) << "\n";
+    } else {
+        std::cout << "plan " << pa.spec << " on " << backend->device_name() << ": " << measure
+                  << " errors, " << pa.interpolation << " interpolation\n";
+        for (const TablePilot& p : pilots) {
+            std::cout << "pilot '" << p.table << "' (" << p.quantity << "): " << p.pilot_evaluations
+                      << " direct evaluations, " << format_seconds(p.pilot_seconds) << "; max |value| "
+                      << sci(p.max_value) << ", relative floor " << sci(p.rel_floor) << "\n";
+            const std::vector<AxisFit>& fits =
+                target.interpolation == Interpolation::Linear ? p.linear : p.cubic;
+            for (const AxisFit& f : fits) {
+                std::cout << "  axis " << std::left << std::setw(8) << f.axis << std::right;
+                if (!f.planned) std::cout << " explicit nodes (kept)";
+                std::cout << " counts";
+                for (const LevelErrors& l : f.levels) std::cout << " " << l.count;
+                std::cout << ": max " << measure << " error";
+                for (const LevelErrors& l : f.levels)
+                    std::cout << " " << sci(target.absolute ? l.max_abs : l.max_rel);
+                std::cout << "  -> " << fit_text(target.absolute ? f.max_abs : f.max_rel) << "\n";
+            }
+            for (const IntegrationFit& f : p.integration) {
+                if (f.method == Method::ClosedForm) {
+                    std::cout << "  closed form: " << sci(f.seconds_per_cell) << " s per cell, "
+                              << sci(p.overhead_seconds) << " s per run\n";
+                } else if (f.method == Method::Quadrature) {
+                    std::cout << "  quadrature: two-rule difference max "
+                              << sci(target.absolute ? f.max_abs.front() : f.max_rel.front()) << ", "
+                              << sci(f.seconds_per_cell) << " s per cell\n";
+                } else {
+                    const PowerFit& q = target.absolute ? f.fit_max_abs : f.fit_max_rel;
+                    std::cout << "  " << to_string(f.method) << ": max stderr";
+                    for (std::size_t k = 0; k < f.samples.size(); ++k)
+                        std::cout << " " << sci(target.absolute ? f.max_abs[k] : f.max_rel[k]) << "@"
+                                  << f.samples[k];
+                    std::cout << "  -> q=" << (q.valid ? number_text(-q.p, 3) : "?") << ", "
+                              << sci(f.seconds_per_sample) << " s per sample\n";
+                }
+            }
+        }
+        // A small table: about 12 rows spread over the front, the first and
+        // last, and the choice with its neighbours (--json lists every plan).
+        const std::size_t step = (front.size() + 11) / 12;
+        auto shown = [&](std::size_t i) {
+            if (i == 0 || i + 1 == front.size() || i % std::max<std::size_t>(step, 1) == 0) return true;
+            return choice && i + 1 >= *choice && i <= *choice + 1;
+        };
+        std::cout << "Pareto plans (" << front.size() << " of " << all.size() << " candidates"
+                  << (step > 1 ? "; a selection, --json lists all" : "") << "):\n";
+        std::cout << "   #  nodes                 method        type     err max   err rms   seconds\n";
+        bool gap = false;
+        for (std::size_t i = 0; i < front.size(); ++i) {
+            if (!shown(i)) {
+                if (!gap) std::cout << "   ...\n";
+                gap = true;
+                continue;
+            }
+            gap = false;
+            const Candidate& c = front[i];
+            std::cout << (choice && *choice == i ? " * " : "   ") << std::left << std::setw(3) << i
+                      << std::setw(22) << counts_text(c, pilots) << " " << std::setw(13)
+                      << method_text(c) << " " << std::setw(8) << stored_type_name(c.stored_type)
+                      << std::right << " " << sci(c.error_max) << "  " << sci(c.error_rms) << "  "
+                      << sci(c.seconds) << "\n";
+        }
+        if (choice) {
+            const Candidate& c = front[*choice];
+            std::cout << "choice #" << *choice << ": nodes " << counts_text(c, pilots) << ", "
+                      << method_text(c) << ", " << stored_type_name(c.stored_type)
+                      << "; predicted max total error " << sci(c.error_max) << " (RMS "
+                      << sci(c.error_rms) << "), predicted time " << sci(c.seconds) << " s\n";
+        }
+    }
+    if ((target.accuracy || target.budget) && !choice)
+        throw Error(target.accuracy
+                        ? "no candidate plan is predicted to reach a max total error of " +
+                              sci(*target.accuracy) + " (smallest predicted: see the table)"
+                        : "no candidate plan is predicted to finish within " + sci(*target.budget) + " s");
+    if (!text.empty()) {
+        AtomicOutput out(pa.output);
+        {
+            std::ofstream f(out.path());
+            f << text;
+            if (!f) throw Error("cannot write " + pa.output);
+        }
+        out.commit();
+        if (!pa.json) std::cout << "wrote " << pa.output << "\n";
+    }
+}
+
+}  // namespace
+
+void register_plan(CLI::App& app) {
+    auto* cmd = app.add_subcommand(
+        "plan",
+        "measure a spec's error terms and cost with short pilot runs, predict the error and time "
+        "of candidate plans, and choose one for an accuracy target or a time budget");
+    auto st = std::make_shared<PlanArgs>();
+    cmd->add_option("SPEC", st->spec, "table specification (TOML)")->required();
+    cmd->add_option("--accuracy", st->accuracy,
+                    "choose the fastest plan whose predicted max total error <= E (relative, "
+                    "with --abs-floor; absolute with --abs)");
+    cmd->add_option("--budget", st->budget,
+                    "choose the most accurate plan predicted to finish within SECONDS");
+    cmd->add_flag("--abs", st->absolute, "errors are absolute (default: relative)");
+    cmd->add_option("--abs-floor", st->abs_floor,
+                    "relative errors divide by max(|value|, floor); default: 1e-3 x the largest "
+                    "|value| the pilot saw (as `validate`)");
+    cmd->add_option("--interpolation", st->interpolation,
+                    "the interpolation the tables will be read with: linear (default) or cubic")
+        ->check(CLI::IsMember({"linear", "cubic"}));
+    cmd->add_option("--table", st->table, "plan this table only (default: every table)");
+    cmd->add_option("-o,--output", st->output, "write the chosen plan as a spec")
+        ->check(non_empty_path());
+    cmd->add_flag("--json", st->json, "print pilots, Pareto plans and the choice as JSON");
+    cmd->add_flag("-q,--quiet", st->quiet, "no progress display");
+    st->compute.add_to(*cmd, false);
+    cmd->callback([st] { run_plan(*st); });
+}
+
+}  // namespace brdftab::cli

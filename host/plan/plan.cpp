@@ -1,0 +1,791 @@
+// plan.cpp — error and cost model, pilot, candidates and choice (plan.h).
+#include "host/plan/plan.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <sstream>
+
+#include <toml++/toml.h>
+
+#include "host/core/error.h"
+#include "host/core/text.h"
+#include "host/engine/evaluate.h"
+#include "host/generate/validate.h"
+#include "host/models/registry.h"
+
+namespace brdftab {
+
+namespace {
+
+// splitmix64: the pilot's random lines and cells depend only on the seed.
+struct SplitMix {
+    std::uint64_t s;
+    std::uint64_t next() {
+        std::uint64_t z = (s += 0x9E3779B97F4A7C15ull);
+        z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+        z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+        return z ^ (z >> 31);
+    }
+    std::size_t below(std::size_t n) { return static_cast<std::size_t>(next() % n); }
+};
+
+constexpr std::size_t kMinCount = 4, kMaxCount = 65536;
+constexpr double kMaxCells = 4294967295.0;  // the kernels' 32-bit cell index
+
+Axis remade(const Axis& axis, std::size_t count) {
+    return make_axis(axis.name, axis.unit, axis.min, axis.max, count, axis.spacing);
+}
+
+double now_seconds() {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+}  // namespace
+
+// ------------------------------------------------------------ convergence fits
+
+double PowerFit::eval(double x) const { return valid ? c * std::pow(x, p) : 0.0; }
+
+PowerFit fit_power_law(const std::vector<double>& x, const std::vector<double>& y) {
+    PowerFit f;
+    double sx = 0, sy = 0, sxx = 0, sxy = 0;
+    std::size_t n = 0;
+    for (std::size_t k = 0; k < std::min(x.size(), y.size()); ++k) {
+        if (!(x[k] > 0 && y[k] > 0 && std::isfinite(x[k]) && std::isfinite(y[k]))) continue;
+        const double lx = std::log(x[k]), ly = std::log(y[k]);
+        sx += lx, sy += ly, sxx += lx * lx, sxy += lx * ly, ++n;
+    }
+    f.points = n;
+    const double den = n * sxx - sx * sx;
+    if (n < 2 || !(std::fabs(den) > 1e-300)) return f;
+    f.p = (n * sxy - sx * sy) / den;
+    f.c = std::exp((sy - f.p * sx) / n);
+    f.valid = true;
+    return f;
+}
+
+PowerFit fit_power_law_fixed(const std::vector<double>& x, const std::vector<double>& y, double p) {
+    PowerFit f;
+    double s = 0;
+    std::size_t n = 0;
+    for (std::size_t k = 0; k < std::min(x.size(), y.size()); ++k) {
+        if (!(x[k] > 0 && y[k] > 0 && std::isfinite(x[k]) && std::isfinite(y[k]))) continue;
+        s += std::log(y[k]) - p * std::log(x[k]), ++n;
+    }
+    f.points = n;
+    if (n < 1) return f;
+    f.p = p;
+    f.c = std::exp(s / n);
+    f.valid = true;
+    return f;
+}
+
+// ------------------------------------------------------------ interpolation probes
+
+std::vector<double> probe_positions(std::size_t count) {
+    std::vector<double> t;
+    const double h = 1.0 / static_cast<double>(count - 1);
+    for (std::size_t k = 0; k + 1 < count; ++k)
+        for (double s : kProbeFractions) t.push_back((k + s) * h);
+    return t;
+}
+
+std::vector<double> interpolate_line(const Axis& axis, const std::vector<double>& node_values,
+                                     const std::vector<double>& probes, Interpolation interp) {
+    TableData t;
+    t.name = "line";
+    t.units = "1";
+    t.axes = {axis.spacing == Spacing::Explicit ? axis : remade(axis, node_values.size())};
+    t.value = node_values;
+    const LookupTable lt(std::move(t));
+    const Axis& a = lt.axes().front();
+    std::vector<double> out;
+    out.reserve(probes.size());
+    for (double tp : probes)
+        out.push_back(lt.eval({std::clamp(a.warp(tp), a.min, a.max)}, interp, OutOfRange::Clamp));
+    return out;
+}
+
+double expected_max_error(const std::vector<double>& sigma, double cells) {
+    double hi = 0;
+    for (double s : sigma) hi = std::max(hi, s);
+    if (!(hi > 0) || sigma.empty()) return 0;
+    const double weight = std::max(cells, 1.0) / double(sigma.size());
+    // log P(max <= x); increasing in x.
+    auto log_p = [&](double x) {
+        double sum = 0;
+        for (double s : sigma)
+            if (s > 0) sum += weight * std::log1p(-std::erfc(x / (s * std::sqrt(2.0))));
+        return sum;
+    };
+    double lo = 0;
+    hi *= 2;
+    while (log_p(hi) < std::log(0.5)) hi *= 2;
+    for (int k = 0; k < 100; ++k) {
+        const double mid = 0.5 * (lo + hi);
+        (log_p(mid) < std::log(0.5) ? lo : hi) = mid;
+    }
+    return hi;
+}
+
+PowerFit anchored_fit(const PowerFit& f, double x_anchor, double y_anchor, double p_min, double p_max) {
+    PowerFit g = f;
+    if (!f.valid || !(x_anchor > 0 && y_anchor > 0)) return g;
+    g.p = std::clamp(f.p, p_min, p_max);
+    g.c = y_anchor / std::pow(x_anchor, g.p);
+    return g;
+}
+
+void fit_axis(AxisFit& fit, double max_exponent) {
+    std::vector<double> h, max_abs, rms_abs, max_rel, rms_rel;
+    for (const LevelErrors& l : fit.levels) {
+        // Below 3x the reference's noise the measured error is the noise's.
+        if (l.noise > 0 && l.max_abs < 3 * l.noise) continue;
+        h.push_back(l.h);
+        max_abs.push_back(l.max_abs), rms_abs.push_back(l.rms_abs);
+        max_rel.push_back(l.max_rel), rms_rel.push_back(l.rms_rel);
+    }
+    fit.max_abs = fit_power_law(h, max_abs);
+    fit.rms_abs = fit_power_law(h, rms_abs);
+    fit.max_rel = fit_power_law(h, max_rel);
+    fit.rms_rel = fit_power_law(h, rms_rel);
+    if (max_exponent > 0 && !h.empty()) {
+        // Levels are coarsest first: the last usable ones are the finest.
+        const double lo = -std::numeric_limits<double>::infinity();
+        auto finest = [&](const PowerFit& all, const std::vector<double>& y) {
+            const std::size_t n = h.size();
+            PowerFit f = n >= 2 ? fit_power_law({h[n - 2], h[n - 1]}, {y[n - 2], y[n - 1]}) : all;
+            if (!f.valid) f = all;
+            return anchored_fit(f, h.back(), y.back(), lo, max_exponent);
+        };
+        fit.max_abs = finest(fit.max_abs, max_abs);
+        fit.rms_abs = finest(fit.rms_abs, rms_abs);
+        fit.max_rel = finest(fit.max_rel, max_rel);
+        fit.rms_rel = finest(fit.rms_rel, rms_rel);
+    }
+}
+
+// --------------------------------------------------------------- storage rounding
+
+StorageRounding storage_rounding(StoredType type) {
+    switch (type) {
+    case StoredType::Float64: return {std::ldexp(1.0, -53), 0.0, std::numeric_limits<double>::max()};
+    case StoredType::Float32:
+        // Subnormal float32 (below 2^-126) is far below any floor that matters.
+        return {std::ldexp(1.0, -24), std::ldexp(1.0, -150), 3.4028234663852886e38};
+    case StoredType::Float16: return {std::ldexp(1.0, -11), std::ldexp(1.0, -25), 65504.0};
+    }
+    return {};
+}
+
+// --------------------------------------------------------------- pilot
+
+std::vector<std::size_t> pilot_counts(std::size_t count, std::size_t max_base) {
+    const std::size_t b = std::clamp<std::size_t>((count + 1) / 2, 4, std::max<std::size_t>(max_base, 4));
+    return {b, 2 * b - 1, 4 * b - 3};
+}
+
+namespace {
+
+struct PilotContext {
+    const ModelInfo* model = nullptr;
+    const QuantityInfo* quantity = nullptr;
+    std::vector<int> options;
+    std::map<std::string, double> fixed;
+    std::string where;
+};
+
+std::vector<double> kernel_points(const PilotContext& ctx,
+                                  const std::vector<std::map<std::string, double>>& named) {
+    return build_kernel_points(*ctx.model, *ctx.quantity, named,
+                               [&](std::size_t) { return ctx.where; });
+}
+
+// One axis' lines at one level: indices into the batch of reference points.
+struct LineBlock {
+    std::size_t axis = 0, level = 0, first_node = 0, first_probe = 0;
+};
+
+}  // namespace
+
+TablePilot run_pilot(const Spec& spec, std::size_t table_index, Backend& backend,
+                     const PilotOptions& options, const PilotProgressFn& progress) {
+    const double start = now_seconds();
+    if (table_index >= spec.tables.size()) throw InputError("plan: no table " + std::to_string(table_index));
+    const TableSpec& ts = spec.tables[table_index];
+    PilotContext ctx;
+    ctx.model = &find_model(spec.model);
+    ctx.quantity = &ctx.model->quantity(ts.quantity);
+    ctx.where = spec.file + ": table '" + ts.name + "'";
+    ctx.options = resolve_options(*ctx.model, ts.options, ctx.where);
+    ctx.fixed = ts.fixed;
+    if (options.lines < 1 || options.cells < 1) throw InputError("plan: the pilot needs lines and cells >= 1");
+
+    TablePilot pilot;
+    pilot.table = ts.name;
+    pilot.quantity = ts.quantity;
+    pilot.kind = ctx.quantity->kind;
+    pilot.axes = ts.axes;
+    const std::size_t dims = ts.axes.size();
+    SplitMix rng{options.seed * 0x9E3779B97F4A7C15ull + table_index + 1};
+
+    // ---- interpolation: every axis, level and line in one batch of points.
+    std::vector<std::map<std::string, double>> named;
+    std::vector<LineBlock> blocks;
+    std::vector<std::vector<std::size_t>> level_counts(dims);
+    const bool integral = ctx.quantity->kind == QuantityKind::Integral;
+    for (std::size_t a = 0; a < dims; ++a) {
+        const Axis& axis = ts.axes[a];
+        level_counts[a] = axis.spacing == Spacing::Explicit ? std::vector<std::size_t>{axis.count}
+                                                            : pilot_counts(axis.count, integral ? options.integral_max_base : 17);
+        // The lines: the other coordinates at random nodes of the spec's axes,
+        // the same for every level so the levels differ only in h.
+        // Stratified: along each other axis the L lines take nodes spread
+        // evenly from the first to the last (the ends, e.g. grazing angles,
+        // are often where a quantity changes fastest), in a random order
+        // per axis so that lines do not all pair first with first.
+        std::vector<std::map<std::string, double>> lines(integral ? options.integral_lines : options.lines, ctx.fixed);
+        const std::size_t nl = lines.size();
+        for (std::size_t b = 0; b < dims; ++b) {
+            if (b == a) continue;
+            const Axis& other = ts.axes[b];
+            std::vector<std::size_t> idx(nl);
+            for (std::size_t l = 0; l < nl; ++l)
+                idx[l] = nl == 1 ? rng.below(other.count)
+                                 : static_cast<std::size_t>(std::lround(double(l) * double(other.count - 1) / double(nl - 1)));
+            for (std::size_t l = nl; l > 1; --l) std::swap(idx[l - 1], idx[rng.below(l)]);  // Fisher-Yates
+            for (std::size_t l = 0; l < nl; ++l) lines[l][other.name] = other.values[idx[l]];
+        }
+        for (std::size_t l = 0; l < level_counts[a].size(); ++l) {
+            const std::size_t n = level_counts[a][l];
+            const Axis ax = axis.spacing == Spacing::Explicit ? axis : remade(axis, n);
+            const std::vector<double> probes = probe_positions(n);
+            for (const auto& line : lines) {
+                LineBlock blk{a, l, named.size(), 0};
+                for (double x : ax.values) {
+                    named.push_back(line);
+                    named.back()[axis.name] = x;
+                }
+                blk.first_probe = named.size();
+                for (double t : probes) {
+                    named.push_back(line);
+                    // An explicit axis is piecewise linear in t between its nodes.
+                    const double x = axis.spacing == Spacing::Explicit
+                                         ? [&] {
+                                               const double u = t * (ax.count - 1);
+                                               const std::size_t k = std::min<std::size_t>(
+                                                   static_cast<std::size_t>(u), ax.count - 2);
+                                               return ax.values[k] + (u - k) * (ax.values[k + 1] - ax.values[k]);
+                                           }()
+                                         : std::clamp(ax.warp(t), ax.min, ax.max);
+                    named.back()[axis.name] = x;
+                }
+                blocks.push_back(blk);
+            }
+        }
+    }
+    const std::vector<double> points = kernel_points(ctx, named);
+
+    IntegrationSettings ref;
+    ref.method = resolve_method(*ctx.quantity, Method::Auto);
+    if (ctx.quantity->kind == QuantityKind::Integral) ref.samples = options.reference_samples;
+    ref.seed = options.seed + 0x5EED;
+    auto stage = [&](const std::string& name) -> ProgressFn {
+        if (!progress) return nullptr;
+        return [&progress, name](const Progress& p) { progress(name, p); };
+    };
+
+    // Launch overhead: the fastest of three one-point runs, after a first one
+    // that builds (or loads) the kernel.  Minima, because the machine may be
+    // shared: the fastest run is the one least disturbed.
+    const std::size_t stride = ctx.model->point_stride();
+    const std::vector<double> one(points.begin(), points.begin() + stride);
+    pilot.startup_seconds = estimate_at(backend, *ctx.model, *ctx.quantity, ctx.options, one, ref).elapsed_seconds;
+    pilot.overhead_seconds = std::numeric_limits<double>::infinity();
+    for (int k = 0; k < 3; ++k)
+        pilot.overhead_seconds = std::min(
+            pilot.overhead_seconds,
+            estimate_at(backend, *ctx.model, *ctx.quantity, ctx.options, one, ref).elapsed_seconds);
+
+    const EstimateResult r = estimate_at(backend, *ctx.model, *ctx.quantity, ctx.options, points, ref,
+                                         stage(ts.name + ": interpolation pilot"));
+    pilot.pilot_evaluations = named.size();
+    const bool noisy = r.method != Method::ClosedForm;
+    pilot.min_value = std::numeric_limits<double>::infinity();
+    for (double v : r.value) {
+        pilot.max_value = std::max(pilot.max_value, std::fabs(v));
+        pilot.min_value = std::min(pilot.min_value, std::fabs(v));
+    }
+    pilot.rel_floor = options.abs_floor > 0 ? options.abs_floor : options.rel_floor_factor * pilot.max_value;
+    if (!(pilot.rel_floor > 0)) pilot.rel_floor = 1e-300;
+
+    for (int m = 0; m < 2; ++m) {
+        const Interpolation interp = m == 0 ? Interpolation::Linear : Interpolation::Cubic;
+        std::vector<AxisFit>& fits = m == 0 ? pilot.linear : pilot.cubic;
+        fits.resize(dims);
+        for (std::size_t a = 0; a < dims; ++a) {
+            fits[a].axis = ts.axes[a].name;
+            fits[a].planned = ts.axes[a].spacing != Spacing::Explicit;
+            for (std::size_t l = 0; l < level_counts[a].size(); ++l) {
+                const std::size_t n = level_counts[a][l];
+                LevelErrors e;
+                e.count = n;
+                e.h = 1.0 / static_cast<double>(n - 1);
+                std::vector<double> abs_err, rel_err;
+                for (const LineBlock& blk : blocks) {
+                    if (blk.axis != a || blk.level != l) continue;
+                    const std::vector<double> nodes(r.value.begin() + blk.first_node,
+                                                    r.value.begin() + blk.first_node + n);
+                    const Axis ax = ts.axes[a].spacing == Spacing::Explicit ? ts.axes[a] : remade(ts.axes[a], n);
+                    const std::vector<double> probes = probe_positions(n);
+                    const std::vector<double> got = interpolate_line(ax, nodes, probes, interp);
+                    for (std::size_t k = 0; k < probes.size(); ++k) {
+                        const double want = r.value[blk.first_probe + k];
+                        abs_err.push_back(got[k] - want);
+                        rel_err.push_back((got[k] - want) / std::max(std::fabs(want), pilot.rel_floor));
+                    }
+                    if (noisy)
+                        for (std::size_t k = blk.first_node; k < blk.first_probe + probes.size(); ++k)
+                            e.noise = std::max(e.noise, r.stderr_[k]);
+                }
+                const ErrorStats sa = error_stats(abs_err), sr = error_stats(rel_err);
+                e.max_abs = sa.max, e.rms_abs = sa.rms, e.max_rel = sr.max, e.rms_rel = sr.rms;
+                fits[a].levels.push_back(e);
+            }
+            fit_axis(fits[a], m == 0 ? 2.0 : 3.0);
+        }
+    }
+
+    // ---- cost per cell (closed form, quadrature) and integration error.
+    if (ctx.quantity->kind == QuantityKind::ClosedForm) {
+        // Cost per cell: one full launch of the backend's preferred size, as
+        // `generate` runs them (the pilot's points repeated; 16384 <= cells
+        // <= 131072), fastest of two.  A smaller batch measured 4x too little
+        // per cell on PoCL: the cost per cell grows with the launch size.
+        const std::size_t want = std::clamp<std::size_t>(backend.preferred_slab(), 16384, 131072);
+        std::vector<double> batch;
+        while (batch.size() / stride < want) batch.insert(batch.end(), points.begin(), points.end());
+        const std::size_t m = batch.size() / stride;
+        double t = std::numeric_limits<double>::infinity();
+        for (int k = 0; k < 2; ++k)
+            t = std::min(t, estimate_at(backend, *ctx.model, *ctx.quantity, ctx.options, batch, ref,
+                                        stage(ts.name + ": cost pilot")).elapsed_seconds);
+        pilot.pilot_evaluations += 2 * m;
+        IntegrationFit f;
+        f.method = Method::ClosedForm;
+        f.seconds_per_cell = std::max(t - pilot.overhead_seconds, 0.5 * t) / double(m);
+        pilot.integration.push_back(f);
+    } else {
+        // Random cells of the spec's grid.
+        std::vector<std::map<std::string, double>> cells(options.cells, ctx.fixed);
+        for (auto& c : cells)
+            for (const Axis& ax : ts.axes) c[ax.name] = ax.values[rng.below(ax.count)];
+        const std::vector<double> cell_points = kernel_points(ctx, cells);
+        const std::vector<Method> methods =
+            ctx.quantity->kind == QuantityKind::Quadrature ? std::vector<Method>{Method::Quadrature}
+                                                           : std::vector<Method>{Method::MonteCarlo, Method::Rqmc};
+        for (Method method : methods) {
+            IntegrationFit f;
+            f.method = method;
+            const std::vector<std::uint64_t> budgets =
+                method == Method::Quadrature ? std::vector<std::uint64_t>{0} : options.integration_samples;
+            for (std::uint64_t n : budgets) {
+                IntegrationSettings s;
+                s.method = method;
+                s.samples = n;
+                s.seed = options.seed + 17;
+                const EstimateResult e = estimate_at(
+                    backend, *ctx.model, *ctx.quantity, ctx.options, cell_points, s,
+                    stage(ts.name + ": " + to_string(method) + " pilot, " + std::to_string(n) + " samples"));
+                std::vector<double> rel(e.stderr_.size());
+                for (std::size_t k = 0; k < rel.size(); ++k)
+                    rel[k] = e.stderr_[k] / std::max(std::fabs(e.value[k]), pilot.rel_floor);
+                const ErrorStats sa = error_stats(e.stderr_), sr = error_stats(rel);
+                f.samples.push_back(n);
+                f.max_abs.push_back(sa.max), f.rms_abs.push_back(sa.rms);
+                f.max_rel.push_back(sr.max), f.rms_rel.push_back(sr.rms);
+                f.seconds.push_back(e.elapsed_seconds);
+                f.cell_abs = e.stderr_;
+                f.cell_rel = rel;
+                const double work = std::max(0.0, e.elapsed_seconds - pilot.overhead_seconds);
+                if (method == Method::Quadrature)
+                    f.seconds_per_cell = work / cells.size();
+                else
+                    f.seconds_per_sample = work / (double(cells.size()) * double(n));
+            }
+            if (method != Method::Quadrature) {
+                std::vector<double> x(f.samples.begin(), f.samples.end());
+                // RQMC: q within [0.5, 1] (no worse than MC, no better than
+                // the rate of smooth integrands in low dimension), through
+                // the largest budget's measurement.
+                auto fit = [&](const std::vector<double>& y) {
+                    return method == Method::MonteCarlo
+                               ? fit_power_law_fixed(x, y, -0.5)
+                               : anchored_fit(fit_power_law(x, y), x.back(), y.back(), -1.0, -0.5);
+                };
+                f.fit_max_abs = fit(f.max_abs), f.fit_rms_abs = fit(f.rms_abs);
+                f.fit_max_rel = fit(f.max_rel), f.fit_rms_rel = fit(f.rms_rel);
+            }
+            pilot.integration.push_back(f);
+        }
+    }
+    pilot.pilot_seconds = now_seconds() - start;
+    return pilot;
+}
+
+// --------------------------------------------------------------- candidates
+
+void check_target(const PlanTarget& t) {
+    if (t.accuracy && t.budget)
+        throw InputError("--accuracy and --budget exclude each other: give one target (an error "
+                         "to reach, or seconds to spend)");
+    if (t.accuracy && !(std::isfinite(*t.accuracy) && *t.accuracy > 0))
+        throw InputError("--accuracy must be a finite number > 0, got " + number_text(*t.accuracy, 6));
+    if (t.budget && !(std::isfinite(*t.budget) && *t.budget > 0))
+        throw InputError("--budget must be a finite number of seconds > 0, got " + number_text(*t.budget, 6));
+}
+
+namespace {
+
+const AxisFit& axis_fit(const TablePilot& p, const PlanTarget& t, std::size_t a) {
+    return t.interpolation == Interpolation::Linear ? p.linear[a] : p.cubic[a];
+}
+const PowerFit& max_fit(const AxisFit& f, const PlanTarget& t) { return t.absolute ? f.max_abs : f.max_rel; }
+const PowerFit& rms_fit(const AxisFit& f, const PlanTarget& t) { return t.absolute ? f.rms_abs : f.rms_rel; }
+
+// The error of an axis at h: the fit, or without one (every level exact or
+// below the reference noise) the finest level's measurement, a constant.
+void axis_error(const AxisFit& f, const PlanTarget& t, double h, double& max_e, double& rms_e) {
+    const PowerFit &fm = max_fit(f, t), &fr = rms_fit(f, t);
+    const LevelErrors& finest = f.levels.back();
+    max_e = f.planned && fm.valid ? fm.eval(h) : (t.absolute ? finest.max_abs : finest.max_rel);
+    rms_e = f.planned && fr.valid ? fr.eval(h) : (t.absolute ? finest.rms_abs : finest.rms_rel);
+}
+
+}  // namespace
+
+std::vector<std::size_t> balanced_counts(const TablePilot& pilot, const PlanTarget& target,
+                                         double interpolation_target) {
+    const std::size_t dims = pilot.axes.size();
+    std::size_t planned = 0;
+    for (std::size_t a = 0; a < dims; ++a) planned += axis_fit(pilot, target, a).planned;
+    std::vector<std::size_t> counts(dims);
+    const double share = interpolation_target / std::max<std::size_t>(planned, 1);
+    for (std::size_t a = 0; a < dims; ++a) {
+        const AxisFit& f = axis_fit(pilot, target, a);
+        const PowerFit& fm = max_fit(f, target);
+        if (!f.planned || !fm.valid || !(fm.p > 0)) {
+            counts[a] = pilot.axes[a].count;
+            continue;
+        }
+        // C h^p <= share  <=>  h <= (share / C)^(1/p).
+        const double h = std::pow(share / fm.c, 1.0 / fm.p);
+        const double n = 1 + std::ceil(1 / h - 1e-9);
+        counts[a] = static_cast<std::size_t>(std::clamp(n, double(kMinCount), double(kMaxCount)));
+    }
+    return counts;
+}
+
+TablePlan predict_table(const TablePilot& pilot, const PlanTarget& target,
+                        const std::vector<std::size_t>& counts, Method method,
+                        std::uint64_t samples, StoredType stored_type) {
+    TablePlan tp;
+    tp.table = pilot.table;
+    tp.counts = counts;
+    tp.cells = 1;
+    double interp_rms2 = 0;
+    for (std::size_t a = 0; a < counts.size(); ++a) {
+        tp.cells *= double(counts[a]);
+        double m = 0, r = 0;
+        axis_error(axis_fit(pilot, target, a), target, 1.0 / double(counts[a] - 1), m, r);
+        // Max: the per-axis maxima add (triangle inequality on the tensor
+        // product's error split; their worst points may coincide).
+        tp.interpolation_max += m;
+        interp_rms2 += r * r;
+    }
+    tp.interpolation_rms = std::sqrt(interp_rms2);
+
+    // Integration: the quadrature's two-rule difference is an error
+    // estimate, not a standard deviation: its maximum is taken as is.
+    const IntegrationFit* f = nullptr;
+    for (const IntegrationFit& g : pilot.integration)
+        if (g.method == method || pilot.kind == QuantityKind::ClosedForm) f = &g;
+    if (!f) {
+        tp.error_max = tp.error_rms = std::numeric_limits<double>::infinity();
+        tp.seconds = std::numeric_limits<double>::infinity();
+        return tp;
+    }
+    if (f->method == Method::Quadrature) {
+        tp.integration_max = target.absolute ? f->max_abs.front() : f->max_rel.front();
+        tp.integration_rms = target.absolute ? f->rms_abs.front() : f->rms_rel.front();
+        tp.seconds = pilot.startup_seconds + pilot.overhead_seconds + tp.cells * f->seconds_per_cell;
+    } else if (f->method == Method::ClosedForm) {
+        tp.seconds = pilot.startup_seconds + pilot.overhead_seconds + tp.cells * f->seconds_per_cell;
+    } else {
+        // Every pilot cell's stderr scaled from the largest pilot budget with
+        // the fitted rate, then the median of the largest error over the
+        // table's cells (expected_max_error).
+        const double n = double(samples);
+        const PowerFit& fm = target.absolute ? f->fit_max_abs : f->fit_max_rel;
+        const std::vector<double>& cell = target.absolute ? f->cell_abs : f->cell_rel;
+        const double scale = fm.valid ? std::pow(n / double(f->samples.back()), fm.p) : 1.0;
+        std::vector<double> sigma(cell.size());
+        for (std::size_t k = 0; k < cell.size(); ++k) sigma[k] = cell[k] * scale;
+        tp.integration_max = expected_max_error(sigma, tp.cells);
+        tp.integration_rms = (target.absolute ? f->fit_rms_abs : f->fit_rms_rel).eval(n);
+        tp.seconds = pilot.startup_seconds + pilot.overhead_seconds + tp.cells * n * f->seconds_per_sample;
+    }
+
+    // Storage: half an ulp of the stored value (relative), or of the floor.
+    const StorageRounding s = storage_rounding(stored_type);
+    if (pilot.max_value > s.max_value)
+        tp.storage_max = std::numeric_limits<double>::infinity();
+    else
+        // Relative: a subnormal's abs error counts against max(|v|, floor),
+        // and no |v| below the pilot's smallest is expected.
+        tp.storage_max = target.absolute
+                             ? std::max(s.rel * pilot.max_value, s.abs)
+                             : std::max(s.rel, s.abs / std::max(pilot.rel_floor, pilot.min_value));
+    // Sum of the maxima: a bound at the worst point.  RMS: the terms are
+    // independent over the domain (interpolation: the function's shape;
+    // integration: random; rounding: uniform within +-half ulp, RMS ulp/(2 sqrt 3)).
+    tp.error_max = tp.interpolation_max + tp.integration_max + tp.storage_max;
+    const double storage_rms = tp.storage_max / std::sqrt(3.0);
+    tp.error_rms = std::sqrt(tp.interpolation_rms * tp.interpolation_rms +
+                             tp.integration_rms * tp.integration_rms + storage_rms * storage_rms);
+    return tp;
+}
+
+std::vector<Candidate> make_candidates(const std::vector<TablePilot>& pilots, const PlanTarget& target) {
+    std::vector<Candidate> out;
+    if (pilots.empty()) return out;
+    bool integral = false, quadrature = false;
+    double scale = 0;
+    for (const TablePilot& p : pilots) {
+        integral |= p.kind == QuantityKind::Integral;
+        quadrature |= p.kind == QuantityKind::Quadrature;
+        scale = std::max(scale, p.max_value);
+    }
+    std::vector<Method> methods;
+    if (integral)
+        methods = {Method::MonteCarlo, Method::Rqmc};
+    else if (quadrature)
+        methods = {Method::Quadrature};
+    else
+        methods = {Method::ClosedForm};
+    for (int k = 1; k <= 26; ++k) {
+        const double interp_target = std::ldexp(1.0, -k) * (target.absolute ? std::max(scale, 1e-300) : 1.0);
+        std::vector<std::vector<std::size_t>> counts;
+        double cells_max = 0;
+        for (const TablePilot& p : pilots) {
+            counts.push_back(balanced_counts(p, target, interp_target));
+            double cells = 1;
+            for (std::size_t n : counts.back()) cells *= double(n);
+            cells_max = std::max(cells_max, cells);
+        }
+        if (cells_max > kMaxCells) continue;
+        for (Method m : methods) {
+            std::vector<std::uint64_t> budgets = {0};
+            if (m == Method::MonteCarlo || m == Method::Rqmc)
+                budgets = {1u << 8, 1u << 10, 1u << 12, 1u << 14, 1u << 16, 1u << 18, 1u << 20, 1u << 22};
+            for (std::uint64_t n : budgets)
+                for (StoredType st : {StoredType::Float16, StoredType::Float32}) {
+                    Candidate c;
+                    c.method = m;
+                    c.samples = n;
+                    c.stored_type = st;
+                    c.interpolation_target = interp_target;
+                    for (std::size_t i = 0; i < pilots.size(); ++i) {
+                        c.tables.push_back(predict_table(pilots[i], target, counts[i], m, n, st));
+                        const TablePlan& tp = c.tables.back();
+                        c.error_max = std::max(c.error_max, tp.error_max);
+                        c.error_rms = std::max(c.error_rms, tp.error_rms);
+                        c.seconds += tp.seconds;
+                        c.bytes += tp.cells * (st == StoredType::Float16 ? 2 : 4);
+                    }
+                    if (std::isfinite(c.error_max) && std::isfinite(c.seconds)) out.push_back(std::move(c));
+                }
+        }
+    }
+    return out;
+}
+
+std::vector<Candidate> pareto_front(const std::vector<Candidate>& candidates) {
+    std::vector<Candidate> front;
+    for (std::size_t i = 0; i < candidates.size(); ++i) {
+        const Candidate& a = candidates[i];
+        bool dominated = false;
+        for (std::size_t j = 0; j < candidates.size() && !dominated; ++j) {
+            if (i == j) continue;
+            const Candidate& b = candidates[j];
+            const bool no_worse = b.seconds <= a.seconds && b.error_max <= a.error_max && b.bytes <= a.bytes;
+            const bool better = b.seconds < a.seconds || b.error_max < a.error_max || b.bytes < a.bytes;
+            // Exact duplicates: keep the first.
+            dominated = no_worse && (better || j < i);
+        }
+        if (!dominated) front.push_back(a);
+    }
+    std::sort(front.begin(), front.end(), [](const Candidate& a, const Candidate& b) {
+        return a.seconds != b.seconds ? a.seconds < b.seconds : a.error_max < b.error_max;
+    });
+    return front;
+}
+
+std::optional<std::size_t> choose_plan(const std::vector<Candidate>& c, const PlanTarget& target) {
+    std::optional<std::size_t> best;
+    if (target.accuracy) {
+        for (std::size_t i = 0; i < c.size(); ++i) {
+            if (!(c[i].error_max <= *target.accuracy)) continue;
+            if (!best) { best = i; continue; }
+            const Candidate& b = c[*best];
+            const bool tie = std::fabs(c[i].seconds - b.seconds) <= 0.01 * std::max(c[i].seconds, b.seconds);
+            if (tie ? (c[i].bytes < b.bytes || (c[i].bytes == b.bytes && c[i].error_max < b.error_max))
+                    : c[i].seconds < b.seconds)
+                best = i;
+        }
+    } else if (target.budget) {
+        for (std::size_t i = 0; i < c.size(); ++i) {
+            if (!(c[i].seconds <= *target.budget)) continue;
+            if (!best || c[i].error_max < c[*best].error_max ||
+                (c[i].error_max == c[*best].error_max && c[i].seconds < c[*best].seconds))
+                best = i;
+        }
+    }
+    return best;
+}
+
+// --------------------------------------------------------------- output
+
+std::string planned_spec_text(const Spec& spec, const std::vector<std::size_t>& table_indices,
+                              const Candidate& plan, const std::vector<std::string>& header) {
+    toml::table root;
+    try {
+        root = toml::parse(spec.text, spec.file);
+    } catch (const toml::parse_error& e) {
+        throw InputError(spec.file + ": cannot re-read the spec: " + std::string(e.description()));
+    }
+    toml::array* tables = root["tables"].as_array();
+    if (!tables) throw Error(spec.file + ": the spec has no [[tables]] array to plan");
+    for (std::size_t k = 0; k < table_indices.size() && k < plan.tables.size(); ++k) {
+        const std::size_t i = table_indices[k];
+        toml::table* t = i < tables->size() ? tables->get(i)->as_table() : nullptr;
+        if (!t) throw Error(spec.file + ": tables[" + std::to_string(i) + "] is not a table");
+        toml::array axes;
+        const TableSpec& ts = spec.tables[i];
+        for (std::size_t a = 0; a < ts.axes.size(); ++a) {
+            const Axis& ax = ts.axes[a];
+            toml::table e;
+            e.insert("name", ax.name);
+            if (ax.spacing == Spacing::Explicit) {
+                toml::array v;
+                for (double x : ax.values) v.push_back(x);
+                e.insert("spacing", "explicit");
+                e.insert("values", v);
+            } else {
+                e.insert("range", toml::array{ax.min, ax.max});
+                e.insert("count", static_cast<std::int64_t>(plan.tables[k].counts[a]));
+                if (ax.spacing != Spacing::Linear) e.insert("spacing", spacing_name(ax.spacing));
+            }
+            axes.push_back(std::move(e));
+        }
+        t->insert_or_assign("axes", std::move(axes));
+    }
+    if (plan.method != Method::ClosedForm) {
+        if (!root["integration"].as_table()) root.insert("integration", toml::table{});
+        toml::table& in = *root["integration"].as_table();
+        in.insert_or_assign("method", to_string(plan.method));
+        in.erase("tolerance");
+        if (plan.samples > 0) {
+            in.insert_or_assign("samples", static_cast<std::int64_t>(plan.samples));
+            if (auto m = in["max_samples"].value<std::int64_t>(); m && *m < std::int64_t(plan.samples))
+                in.insert_or_assign("max_samples", static_cast<std::int64_t>(plan.samples));
+        }
+    }
+    if (!root["output"].as_table()) root.insert("output", toml::table{});
+    root["output"].as_table()->insert_or_assign("type", stored_type_name(plan.stored_type));
+
+    std::ostringstream out;
+    for (const std::string& h : header) out << "# " << h << "\n";
+    out << toml::toml_formatter(root) << "\n";
+    return out.str();
+}
+
+namespace {
+nlohmann::json fit_json(const PowerFit& f) {
+    if (!f.valid) return nullptr;
+    return {{"C", f.c}, {"p", f.p}};
+}
+}  // namespace
+
+nlohmann::json pilot_json(const TablePilot& p) {
+    nlohmann::json axes = nlohmann::json::array();
+    for (std::size_t a = 0; a < p.axes.size(); ++a) {
+        nlohmann::json j = {{"name", p.axes[a].name}, {"spec_count", p.axes[a].count},
+                            {"planned", p.linear[a].planned}};
+        for (int m = 0; m < 2; ++m) {
+            const AxisFit& f = m == 0 ? p.linear[a] : p.cubic[a];
+            nlohmann::json levels = nlohmann::json::array();
+            for (const LevelErrors& l : f.levels)
+                levels.push_back({{"count", l.count}, {"h", l.h}, {"max_abs", l.max_abs},
+                                  {"rms_abs", l.rms_abs}, {"max_rel", l.max_rel},
+                                  {"rms_rel", l.rms_rel}, {"noise", l.noise}});
+            j[m == 0 ? "linear" : "cubic"] = {{"levels", levels},
+                                              {"max_abs", fit_json(f.max_abs)},
+                                              {"rms_abs", fit_json(f.rms_abs)},
+                                              {"max_rel", fit_json(f.max_rel)},
+                                              {"rms_rel", fit_json(f.rms_rel)}};
+        }
+        axes.push_back(j);
+    }
+    nlohmann::json integ = nlohmann::json::array();
+    for (const IntegrationFit& f : p.integration) {
+        nlohmann::json j = {{"method", to_string(f.method)}};
+        if (f.method == Method::ClosedForm || f.method == Method::Quadrature)
+            j["seconds_per_cell"] = f.seconds_per_cell;
+        if (f.method == Method::Quadrature)
+            j["difference"] = {{"max_abs", f.max_abs.front()}, {"max_rel", f.max_rel.front()}};
+        if (f.method == Method::MonteCarlo || f.method == Method::Rqmc) {
+            j["seconds_per_sample"] = f.seconds_per_sample;
+            j["samples"] = f.samples;
+            j["stderr_max_abs"] = f.max_abs;
+            j["stderr_max_rel"] = f.max_rel;
+            j["fit_max_abs"] = fit_json(f.fit_max_abs);
+            j["fit_max_rel"] = fit_json(f.fit_max_rel);
+            j["q"] = f.fit_max_rel.valid ? -f.fit_max_rel.p : 0.0;
+        }
+        integ.push_back(j);
+    }
+    return {{"table", p.table}, {"quantity", p.quantity}, {"max_value", p.max_value}, {"min_value", p.min_value},
+            {"relative_floor", p.rel_floor}, {"axes", axes}, {"integration", integ},
+            {"overhead_seconds", p.overhead_seconds}, {"startup_seconds", p.startup_seconds},
+            {"pilot_seconds", p.pilot_seconds},
+            {"pilot_evaluations", p.pilot_evaluations}};
+}
+
+nlohmann::json candidate_json(const Candidate& c, const std::vector<TablePilot>& pilots) {
+    nlohmann::json tables = nlohmann::json::array();
+    for (std::size_t i = 0; i < c.tables.size(); ++i) {
+        const TablePlan& t = c.tables[i];
+        nlohmann::json counts = nlohmann::json::object();
+        for (std::size_t a = 0; a < t.counts.size() && i < pilots.size(); ++a)
+            counts[pilots[i].axes[a].name] = t.counts[a];
+        tables.push_back({{"table", t.table}, {"counts", counts}, {"cells", t.cells},
+                          {"predicted_error", {{"max", t.error_max}, {"rms", t.error_rms},
+                                               {"interpolation_max", t.interpolation_max},
+                                               {"integration_max", t.integration_max},
+                                               {"storage_max", t.storage_max}}},
+                          {"predicted_seconds", t.seconds}});
+    }
+    return {{"method", to_string(c.method)},
+            {"samples", c.samples},
+            {"stored_type", stored_type_name(c.stored_type)},
+            {"predicted_error", {{"max", c.error_max}, {"rms", c.error_rms}}},
+            {"predicted_seconds", c.seconds},
+            {"bytes", c.bytes},
+            {"tables", tables}};
+}
+
+}  // namespace brdftab

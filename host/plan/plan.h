@@ -1,0 +1,264 @@
+// plan.h — the speed/accuracy planner (`brdftab plan`, issue 13, docs/planning.md).
+//
+// A table's total error between nodes, as a renderer sees it, is modelled as
+//   total = interpolation + integration + storage rounding
+// each measured by a cheap pilot on the chosen backend and extrapolated with
+// a fitted convergence law:
+//   interpolation  per axis a: E_a(h_a) = C_a h_a^p_a, h_a = 1/(count_a - 1)
+//                  the node step in the axis' warped coordinate t;
+//   integration    per cell: stderr(N) = c N^-q (q fitted for RQMC, 0.5 for
+//                  MC); quadrature: the two-rule difference, no sample knob;
+//   storage        float32: 2^-24 |value|, float16: 2^-11 |value| (with its
+//                  subnormal and overflow limits), float64: 2^-53 |value|.
+// The planner then enumerates candidate plans (nodes per axis balanced so
+// each axis contributes the same predicted error, method, samples, stored
+// type), predicts their error (max and RMS over the domain) and time, keeps
+// the Pareto front and picks one for an accuracy target or a time budget.
+// The chosen plan is written as a normal spec.
+//
+// Library code: no printing.  Pure pieces (fits, storage rounding, Pareto
+// choice, 1-D probes) are separate so tests can check them on synthetic
+// data with a known answer; item 3 of issue 13 (generate --accuracy) is
+// meant to call make_pilot() / make_candidates() / choose_plan() directly.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "host/core/grid.h"
+#include "host/core/table.h"
+#include "host/engine/engine.h"
+#include "host/lookup/lookup.h"
+#include "host/spec/spec.h"
+
+namespace brdftab {
+
+// ------------------------------------------------------------ convergence fits
+
+// y = c x^p fitted by least squares on (log x, log y).  Points with x <= 0 or
+// y <= 0 (an exact interpolation, an error below the noise) are left out;
+// with fewer than two usable points `valid` is false and c, p stay 0.
+struct PowerFit {
+    double c = 0, p = 0;
+    bool valid = false;
+    std::size_t points = 0;
+    double eval(double x) const;  // c x^p (0 when not valid)
+};
+PowerFit fit_power_law(const std::vector<double>& x, const std::vector<double>& y);
+// The same with the exponent fixed (e.g. q = 0.5 for plain Monte Carlo): c is
+// the geometric mean of y / x^p.
+PowerFit fit_power_law_fixed(const std::vector<double>& x, const std::vector<double>& y, double p);
+
+// ------------------------------------------------------------ interpolation probes
+
+// Where the probes sit inside each node interval, as fractions s of the step:
+// 1/4, 1/2 and 3/4.  Midpoints alone would hide Catmull-Rom's leading error:
+// at s = 1/2 its weights (-1, 9, 9, -1)/16 are those of the 4-point Lagrange
+// cubic, whose error is O(h^4), while elsewhere in the interval the error is
+// O(h^3) (docs/planning.md, tests/test_plan.cpp measure both).
+inline constexpr double kProbeFractions[] = {0.25, 0.5, 0.75};
+
+// The probe positions (warped coordinate t in [0, 1]) of an axis with `count`
+// nodes: count - 1 intervals x kProbeFractions.
+std::vector<double> probe_positions(std::size_t count);
+
+// Interpolated values at `probes` (t values) of a 1-D table over `axis`
+// (re-made with `count` nodes and the same spacing) whose node values are
+// `node_values`, with the renderer-side library (host/lookup).
+std::vector<double> interpolate_line(const Axis& axis, const std::vector<double>& node_values,
+                                     const std::vector<double>& probes, Interpolation interp);
+
+// Errors of one interpolation at one pilot resolution, over all probes.
+struct LevelErrors {
+    std::size_t count = 0;  // nodes
+    double h = 0;           // 1 / (count - 1)
+    double max_abs = 0, rms_abs = 0, max_rel = 0, rms_rel = 0;
+    double noise = 0;       // largest reference stderr among the probes and nodes (0: closed form)
+};
+
+// The fitted interpolation error of one axis for one interpolation:
+// error(h) = C h^p for each of the four measures.  A level whose maximum
+// error is below 3 x its reference noise is left out of the fits.
+struct AxisFit {
+    std::string axis;
+    bool planned = true;  // false: explicit axis, its nodes are kept
+    std::vector<LevelErrors> levels;
+    PowerFit max_abs, rms_abs, max_rel, rms_rel;
+};
+
+// Fits the four measures over the levels (noise rule above).  With
+// max_exponent > 0, p is the slope between the two finest usable levels
+// (the closest to the asymptotic regime; least squares over all levels is
+// biased by the coarse, pre-asymptotic ones), capped (the interpolation's order:
+// 2 for linear, 3 for Catmull-Rom), so that a pre-asymptotic steep decrease
+// is not extrapolated beyond what the method can deliver.  C is then set so
+// the law passes through the finest usable level: extrapolation starts from
+// the best measurement, not from the coarse levels' average.
+void fit_axis(AxisFit& fit, double max_exponent = 0);
+
+// The median of the largest |error| over `cells` cells whose errors are
+// independent normal with the standard deviations `sigma` (a sample of the
+// table's cells, each standing for cells / sigma.size() of them): the x with
+// prod_k (1 - erfc(x / (sigma_k sqrt 2)))^(cells / K) = 1/2.
+double expected_max_error(const std::vector<double>& sigma, double cells);
+
+// The exponent of `f` limited to [p_min, p_max] and its c re-anchored so
+// that f(x_anchor) = y_anchor.
+PowerFit anchored_fit(const PowerFit& f, double x_anchor, double y_anchor, double p_min, double p_max);
+
+// --------------------------------------------------------------- storage rounding
+
+// Worst-case rounding of a stored value v: |round(v) - v| <= max(rel |v|, abs)
+// (round to nearest: half an ulp; float16 values below 2^-14 are subnormal,
+// spaced 2^-24, so their error is at most abs = 2^-25).  `max_value` = largest finite
+// stored magnitude (65504 for float16).
+struct StorageRounding {
+    double rel = 0, abs = 0, max_value = 0;
+};
+StorageRounding storage_rounding(StoredType type);
+
+// --------------------------------------------------------------- pilot
+
+// What the pilot measures for one computed table.
+struct IntegrationFit {
+    Method method = Method::ClosedForm;
+    std::vector<std::uint64_t> samples;  // pilot budgets per cell
+    std::vector<double> max_abs, rms_abs, max_rel, rms_rel;  // stderr over pilot cells, per budget
+    std::vector<double> seconds;         // engine time per budget
+    PowerFit fit_max_abs, fit_rms_abs, fit_max_rel, fit_rms_rel;  // stderr(N) = c N^-q
+    // Per pilot cell at the largest budget (quadrature: its difference).
+    std::vector<double> cell_abs, cell_rel;
+    double seconds_per_sample = 0;       // from the largest budget
+    double seconds_per_cell = 0;         // closed form / quadrature
+};
+
+struct TablePilot {
+    std::string table, quantity;
+    QuantityKind kind = QuantityKind::ClosedForm;
+    std::vector<Axis> axes;        // as the spec has them
+    double max_value = 0;          // largest |value| seen by the pilot
+    double min_value = 0;          // smallest |value| seen by the pilot
+    double rel_floor = 0;          // relative errors divide by max(|value|, rel_floor)
+    std::vector<AxisFit> linear, cubic;  // per axis
+    std::vector<IntegrationFit> integration;  // closed form: one entry with the cost per cell
+    double overhead_seconds = 0;   // fixed cost of one engine run (one launch)
+    double startup_seconds = 0;    // the first run: kernel build or cache load, which
+                                   // a `generate` process pays again: part of the prediction
+    double pilot_seconds = 0;      // wall time of this table's pilot
+    std::size_t pilot_evaluations = 0;  // direct evaluations made
+};
+
+struct PilotOptions {
+    std::size_t lines = 8;              // random lines per axis (other coordinates at nodes)
+    // Integrals pay reference_samples per probe: fewer lines and coarser
+    // levels (base count at most 9: levels 9, 17, 33).
+    std::size_t integral_lines = 4;
+    std::size_t integral_max_base = 9;
+    std::size_t cells = 32;             // random cells for the integration pilot
+    std::uint64_t reference_samples = 1u << 14;  // per reference point of integrals
+    std::vector<std::uint64_t> integration_samples = {1024, 4096, 16384};
+    std::uint64_t seed = 1;
+    // Relative errors divide by max(|value|, floor): abs_floor when > 0,
+    // otherwise 1e-3 x the largest |value| the pilot saw (validate's default).
+    double abs_floor = 0;
+    double rel_floor_factor = 1e-3;
+};
+
+// Progress of a pilot stage (the caller decides whether to show it).
+using PilotProgressFn = std::function<void(const std::string& stage, const Progress&)>;
+
+// The pilot counts of an axis with `count` nodes in the spec: three nested
+// resolutions b, 2b - 1, 4b - 3 (halving h), b = clamp((count + 1) / 2, 4, max_base).
+std::vector<std::size_t> pilot_counts(std::size_t count, std::size_t max_base = 17);
+
+// Runs the pilot of spec table `table_index` on `backend`.  Throws InputError
+// for tables the planner cannot handle.
+TablePilot run_pilot(const Spec& spec, std::size_t table_index, Backend& backend,
+                     const PilotOptions& options, const PilotProgressFn& progress = nullptr);
+
+// --------------------------------------------------------------- candidates
+
+struct PlanTarget {
+    bool absolute = false;        // errors are absolute (else relative with the floor)
+    Interpolation interpolation = Interpolation::Linear;  // what the renderer uses
+    std::optional<double> accuracy;  // E
+    std::optional<double> budget;    // T, seconds
+};
+
+// Throws InputError: both given, E <= 0 or not finite, T <= 0 or not finite.
+void check_target(const PlanTarget& target);
+
+struct TablePlan {
+    std::string table;
+    std::vector<std::size_t> counts;  // per axis
+    double cells = 0;
+    double interpolation_max = 0, interpolation_rms = 0;
+    double integration_max = 0, integration_rms = 0;
+    double storage_max = 0;
+    double error_max = 0, error_rms = 0;
+    double seconds = 0;
+};
+
+struct Candidate {
+    Method method = Method::ClosedForm;  // the spec-wide integration method (ClosedForm: none needed)
+    std::uint64_t samples = 0;           // per cell; 0 = no sampling
+    StoredType stored_type = StoredType::Float32;
+    double interpolation_target = 0;     // the per-table interpolation error aimed at
+    std::vector<TablePlan> tables;
+    double error_max = 0, error_rms = 0;  // worst table
+    double seconds = 0;                   // all tables
+    double bytes = 0;                     // stored values
+};
+
+// Node counts of one table for an interpolation error `target` (max, in the
+// target's measure), split evenly over the planned axes: count_a = 1 +
+// ceil((C_a / (target / D))^(1 / p_a)), within [4, 65536]; axes with no
+// valid fit keep their spec count.
+std::vector<std::size_t> balanced_counts(const TablePilot& pilot, const PlanTarget& target,
+                                         double interpolation_target);
+
+// Predicted errors and time of one table under a plan.
+TablePlan predict_table(const TablePilot& pilot, const PlanTarget& target,
+                        const std::vector<std::size_t>& counts, Method method,
+                        std::uint64_t samples, StoredType stored_type);
+
+// The candidate set: interpolation targets 2^-1 .. 2^-26 (each a balanced
+// node layout), for each the methods the pilots measured and sample budgets
+// 2^8 .. 2^22 (powers of 4) for sampled methods, and float16 / float32.
+// Candidates above 2^32 - 1 cells per table are left out.
+std::vector<Candidate> make_candidates(const std::vector<TablePilot>& pilots,
+                                       const PlanTarget& target);
+
+// The candidates no other beats on all of (seconds, error_max, bytes),
+// sorted by seconds.
+std::vector<Candidate> pareto_front(const std::vector<Candidate>& candidates);
+
+// The choice: with an accuracy E, the fastest candidate with error_max <= E
+// (ties within 1 % of the time: fewer bytes, then smaller error); with a
+// budget T, the smallest error_max among those with seconds <= T (ties: the
+// faster).  nullopt when none qualifies or no target is set.
+std::optional<std::size_t> choose_plan(const std::vector<Candidate>& candidates,
+                                       const PlanTarget& target);
+
+// --------------------------------------------------------------- output
+
+// The spec text with the plan applied: every planned table gets its own
+// [[tables.axes]] with the planned counts, [integration] gets the method and
+// fixed `samples` (its `tolerance` removed), [output] gets the stored type.
+// Comments of the original are not kept (the TOML is re-serialised); every
+// other key is.  `header` lines are prefixed with "# ".  The result parses
+// with parse_spec_string.
+std::string planned_spec_text(const Spec& spec, const std::vector<std::size_t>& table_indices,
+                              const Candidate& plan, const std::vector<std::string>& header);
+
+// JSON of pilots, candidates and choice (`brdftab plan --json`).
+nlohmann::json pilot_json(const TablePilot& pilot);
+nlohmann::json candidate_json(const Candidate& c, const std::vector<TablePilot>& pilots);
+
+}  // namespace brdftab

@@ -1,0 +1,67 @@
+#!/usr/bin/env bash
+# plan_cli_tests.sh — end-to-end checks of `brdftab plan` (docs/planning.md):
+# bad targets and tables are refused with exit 2 and nothing written; a plan
+# of a small closed-form spec is written as a spec that parses, and the table
+# generated from it has, measured by `brdftab validate`, a max error within a
+# factor 2 of the planner's prediction (both ways: not optimistic, not
+# needlessly pessimistic).  Runs in ~10 s on 2 cores.
+# Usage: plan_cli_tests.sh BRDFTAB SOURCE_DIR
+source "$(dirname "$0")/cli_lib.sh"
+cli_setup "$1" "$2"
+SPEC="$DATA/plan_rough_dielectric.toml"
+
+# ---- bad input: exit 2, clear message, no output file
+expect_exit 2 "accuracy 0" -- "$BT" plan "$SPEC" --accuracy 0 -o bad.toml
+expect_grep "--accuracy must be a finite number > 0" err.txt "accuracy 0 message"
+expect_exit 2 "negative accuracy" -- "$BT" plan "$SPEC" --accuracy -1e-3
+expect_exit 2 "budget 0" -- "$BT" plan "$SPEC" --budget 0 -o bad.toml
+expect_grep "--budget must be a finite number of seconds > 0" err.txt "budget 0 message"
+expect_exit 2 "both targets" -- "$BT" plan "$SPEC" --accuracy 1e-2 --budget 10 -o bad.toml
+expect_grep "exclude each other" err.txt "both targets message"
+expect_exit 2 "unknown table" -- "$BT" plan "$SPEC" --table nosuch --accuracy 1e-2
+expect_grep "no table 'nosuch'; tables: brdf" err.txt "unknown table message"
+expect_exit 2 "-o without target" -- "$BT" plan "$SPEC" -o bad.toml
+expect_grep "-o needs a target" err.txt "-o without target message"
+expect_exit 2 "missing spec" -- "$BT" plan nosuch.toml --accuracy 1e-2
+if [ -e bad.toml ]; then bad "a refused plan wrote bad.toml"; else ok; fi
+
+# ---- honesty: predicted vs measured, linear and cubic interpolation
+check_plan() {  # INTERP ACCURACY
+  expect_exit 0 "plan $1 $2" -- "$BT" plan "$SPEC" --accuracy "$2" --interpolation "$1" \
+    -o "planned_$1.toml" --json
+  cp out.txt "plan_$1.json"
+  expect_grep '"predicted_error"' "plan_$1.json" "plan --json has predicted_error"
+  expect_grep '"predicted_seconds"' "plan_$1.json" "plan --json has predicted_seconds"
+  expect_grep '^# Planned by `brdftab plan`' "planned_$1.toml" "planned spec header"
+  expect_exit 0 "generate planned $1" -- "$BT" generate "planned_$1.toml" -o "planned_$1.h5"
+  expect_exit 0 "validate planned $1" -- "$BT" validate "planned_$1.h5" --table brdf \
+    --points 2000 --json
+  cp out.txt "validate_$1.json"
+  if "$PY" - "plan_$1.json" "validate_$1.json" "$1" "$2" <<'PYEOF'
+import json, sys
+plan = json.load(open(sys.argv[1])); val = json.load(open(sys.argv[2]))
+interp, target = sys.argv[3], float(sys.argv[4])
+pred = plan["predicted_error"]; meas = val[interp]["rel"]["max"]
+ratio = meas / pred
+print(f"plan {interp} E={target:g}: nodes {plan['choice']['tables'][0]['counts']} "
+      f"{plan['choice']['stored_type']}: predicted {pred:.3g}, measured {meas:.3g}, "
+      f"measured/predicted {ratio:.2f}")
+assert pred <= target, "the choice must meet the target"
+assert 0.5 <= ratio <= 2.0, f"prediction off by more than a factor 2: {ratio:.2f}"
+PYEOF
+  then ok; else bad "prediction vs measurement ($1, $2)"; fi
+}
+check_plan linear 1e-2
+check_plan cubic 3e-3
+
+# ---- text output: pilot fits, Pareto table, choice
+expect_exit 0 "plan text" -- "$BT" plan "$SPEC" --budget 1
+expect_grep "axis theta_i .* -> C=[0-9.e+-]+ p=[0-9.]+" out.txt "per-axis fit printed"
+expect_grep "closed form: .* s per cell" out.txt "cost printed"
+expect_grep "^Pareto plans" out.txt "Pareto table printed"
+expect_grep "^choice #[0-9]+: nodes" out.txt "choice printed"
+# --abs: absolute errors
+expect_exit 0 "plan --abs" -- "$BT" plan "$SPEC" --abs --accuracy 1e-4 --json
+expect_grep '"measure": "absolute"' out.txt "absolute measure"
+
+cli_summary
