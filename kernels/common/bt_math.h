@@ -365,4 +365,8 @@ BT_INLINE double bt_acos(double x) { return bt_atan2(sqrt((1.0 - x) * (1.0 + x))
 
 #endif /* double */
 
+/* acos of an argument clamped to [-1, 1], for cosines that rounding pushed
+ * just outside. */
+BT_INLINE REAL bt_safe_acos(REAL x) { return bt_acos(bt_clamp(x, R(-1.0), R(1.0))); }
+
 #endif /* BRDFTAB_BT_MATH_H */
