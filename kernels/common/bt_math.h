@@ -49,6 +49,15 @@
 
 #include "compat.h"
 
+/* Forced inlining: measured, PoCL's inliner left bt_atan2 as a call inside
+ * micrograin's shadow-area function ("too costly to inline", cost 250 >
+ * 225), and a call in per-work-item code is what stops vectorisation. */
+#if BT_DEVICE || defined(__GNUC__) || defined(__clang__)
+#define BT_MATH_INLINE static inline __attribute__((always_inline))
+#else
+#define BT_MATH_INLINE static inline
+#endif
+
 #if BT_DEVICE && defined(BT_REAL_IS_FLOAT) && BT_REAL_IS_FLOAT
 
 #define bt_sin(x) sin(x)
@@ -65,20 +74,21 @@
 
 #else /* double */
 
+
 #if BT_DEVICE
 typedef long bt_i64;
-BT_INLINE bt_i64 bt_bits_of(double x) { return as_long(x); }
-BT_INLINE double bt_double_of(bt_i64 b) { return as_double(b); }
+BT_MATH_INLINE bt_i64 bt_bits_of(double x) { return as_long(x); }
+BT_MATH_INLINE double bt_double_of(bt_i64 b) { return as_double(b); }
 #else
 #include <cstring>
 typedef long long bt_i64;
-BT_INLINE bt_i64 bt_bits_of(double x)
+BT_MATH_INLINE bt_i64 bt_bits_of(double x)
 {
     bt_i64 b;
     std::memcpy(&b, &x, sizeof b);
     return b;
 }
-BT_INLINE double bt_double_of(bt_i64 b)
+BT_MATH_INLINE double bt_double_of(bt_i64 b)
 {
     double x;
     std::memcpy(&x, &b, sizeof x);
@@ -92,16 +102,16 @@ BT_INLINE double bt_double_of(bt_i64 b)
 /* Round to the nearest integer (ties either way) for |t| < 2^51, as a
  * double: adding and removing 1.5 * 2^52 leaves no fraction bits.  Cheaper
  * than rint() on a host build without SSE4.1, and vectorisable. */
-BT_INLINE double bt_round_small(double t)
+BT_MATH_INLINE double bt_round_small(double t)
 {
     const double shifter = 6755399441055744.0; /* 1.5 * 2^52 */
     return (t + shifter) - shifter;
 }
 
 /* 2^k for an integer k in [-1022, 1023]: the exponent field itself. */
-BT_INLINE double bt_pow2i(int k) { return bt_double_of(((bt_i64)(k + 1023)) << 52); }
+BT_MATH_INLINE double bt_pow2i(int k) { return bt_double_of(((bt_i64)(k + 1023)) << 52); }
 
-BT_INLINE int bt_sign_bit(double x) { return bt_bits_of(x) < 0; }
+BT_MATH_INLINE int bt_sign_bit(double x) { return bt_bits_of(x) < 0; }
 
 /* ------------------------------------------------------------ sin, cos
  * Reduction: n = nearest integer to x / (pi/2), r = x - n pi/2 with pi/2 in
@@ -119,7 +129,7 @@ BT_INLINE int bt_sign_bit(double x) { return bt_bits_of(x) < 0; }
 #define BT_PIO2_3T 8.47842766036889956997e-32 /* pi/2 - (p1 + p2 + p3) */
 #define BT_TWO_OVER_PI 6.36619772367581382433e-01
 
-BT_INLINE double bt_sin_poly(double r)
+BT_MATH_INLINE double bt_sin_poly(double r)
 {
     double z = r * r;
     double p = -1.0 / 355687428096000.0;        /* -1/17! */
@@ -134,7 +144,7 @@ BT_INLINE double bt_sin_poly(double r)
     return z == 0.0 ? r : r - r * z * p;
 }
 
-BT_INLINE double bt_cos_poly(double r)
+BT_MATH_INLINE double bt_cos_poly(double r)
 {
     double z = r * r;
     double p = 1.0 / 20922789888000.0;           /* 1/16! */
@@ -154,7 +164,7 @@ BT_INLINE double bt_cos_poly(double r)
 /* Reduced argument and quadrant; |x| is clamped to 2^30 so the integer
  * conversion is always defined (larger |x| are outside the accurate domain
  * anyway; inf and NaN still give a NaN r). */
-BT_INLINE double bt_reduce_pio2(double x, int* quadrant)
+BT_MATH_INLINE double bt_reduce_pio2(double x, int* quadrant)
 {
     double t = fmin(fmax(x * BT_TWO_OVER_PI, -1073741824.0), 1073741824.0);
     double n = bt_round_small(t);
@@ -164,7 +174,7 @@ BT_INLINE double bt_reduce_pio2(double x, int* quadrant)
 }
 
 /* sin x; *c receives cos x. */
-BT_INLINE double bt_sincos(double x, double* c)
+BT_MATH_INLINE double bt_sincos(double x, double* c)
 {
     int q;
     double r = bt_reduce_pio2(x, &q);
@@ -180,7 +190,7 @@ BT_INLINE double bt_sincos(double x, double* c)
     return finite ? s : BT_M_NAN;
 }
 
-BT_INLINE double bt_sin(double x)
+BT_MATH_INLINE double bt_sin(double x)
 {
     int q;
     double r = bt_reduce_pio2(x, &q);
@@ -189,7 +199,7 @@ BT_INLINE double bt_sin(double x)
     return fabs(x) <= 1.7976931348623157e308 ? v : BT_M_NAN;
 }
 
-BT_INLINE double bt_cos(double x)
+BT_MATH_INLINE double bt_cos(double x)
 {
     int q;
     double r = bt_reduce_pio2(x, &q);
@@ -199,7 +209,7 @@ BT_INLINE double bt_cos(double x)
 }
 
 /* tan x = sin x / cos x (two roundings more than sin: <= 2.5 ulp bound). */
-BT_INLINE double bt_tan(double x)
+BT_MATH_INLINE double bt_tan(double x)
 {
     double c;
     double s = bt_sincos(x, &c);
@@ -216,7 +226,7 @@ BT_INLINE double bt_tan(double x)
 #define BT_LN2_LO 1.90821492927058770002e-10
 #define BT_LOG2_E 1.44269504088896338700e+00
 
-BT_INLINE double bt_exp(double x)
+BT_MATH_INLINE double bt_exp(double x)
 {
     double xc = fmin(fmax(x, -746.0), 710.0); /* beyond: 0 or inf anyway */
     double n = bt_round_small(xc * BT_LOG2_E);
@@ -248,7 +258,7 @@ BT_INLINE double bt_exp(double x)
  * Written as f - s (f - R), R = 2 (s^2/3 + ...), because 2s = f - s f: the
  * exact f carries the result and the correction is at most 0.17 f.  Then
  * log x = k LN2_HI + (log(1 + f) + k LN2_LO), k LN2_HI exact. */
-BT_INLINE double bt_log(double x)
+BT_MATH_INLINE double bt_log(double x)
 {
     int tiny = x < 2.2250738585072014e-308; /* denormal (or <= 0) */
     double xs = tiny ? x * 18014398509481984.0 : x; /* 2^54 */
@@ -276,61 +286,67 @@ BT_INLINE double bt_log(double x)
     double v = dk * BT_LN2_HI + (log1pf + dk * BT_LN2_LO);
     double inf = BT_M_INF;
     double special = x == 0.0 ? -inf : (x == inf ? inf : BT_M_NAN);
-    return (x > 0.0 && x < inf) ? v : special;
+    return ((x > 0.0) & (x < inf)) ? v : special;
 }
 
 /* log(1 + x) for x >= -1: with u = 1 + x rounded, log u - ((u - 1) - x) / u
  * corrects the first-order effect of the rounding of u (the error left is
  * O(rounding^2)); u = 1 means |x| < 2^-53 where log(1 + x) = x. */
-BT_INLINE double bt_log1p(double x)
+BT_MATH_INLINE double bt_log1p(double x)
 {
     double u = 1.0 + x;
     double l = bt_log(u);
     double corrected = l - ((u - 1.0) - x) / u;
-    double v = (u > 0.0 && u < BT_M_INF) ? corrected : l;
+    double v = ((u > 0.0) & (u < BT_M_INF)) ? corrected : l;
     return u == 1.0 ? x : v;
 }
 
 /* ----------------------------------------------------------- atan family
- * Core for t in [0, 1]: c = j/8 the nearest multiple of 1/8, and
- *   atan t = atan c + atan((t - c) / (1 + c t)),  |(t - c)/(1 + c t)| <= 1/16,
- *   atan u = u - u^3/3 + ... + u^13/13   truncation < |u| u^14/15 < 3.0e-19 |u|.
- * atan(j/8) is stored as hi + lo (lo the rounding error of hi, from a
- * 60-digit evaluation).  t - c is exact (Sterbenz: t and c within a factor 2
- * when c > 0); j = 0 leaves t itself, so tiny and denormal t stay exact. */
-BT_TABLE double bt_atan_j8_hi[9] = {
-    0.0,                 0.12435499454676144, 0.24497866312686414,
-    0.35877067027057225, 0.4636476090008061,  0.5585993153435624,
-    0.6435011087932844,  0.7188299996216245,  0.7853981633974483};
-BT_TABLE double bt_atan_j8_lo[9] = {
-    0.0,                     -3.1253241424539383e-18, 1.0698755618734451e-17,
-    -2.4623815582638635e-17, 2.2698777452961687e-17,  -5.4556305485916264e-18,
-    1.5834785051444286e-17,  -2.1478388444456983e-17, 3.061616997868383e-17};
-
+ * Core for t in [0, 1]: c = j/4 the nearest multiple of 1/4, and
+ *   atan t = atan c + atan((t - c) / (1 + c t)),  |(t - c)/(1 + c t)| <= 1/8,
+ *   atan u = u - u^3/3 + ... - u^19/19 + u^21/21
+ *   truncation < |u| u^22/23 < 8e-22 |u|  (u^2 <= 1/64).
+ * atan(j/4) is held as hi + lo (lo the rounding error of hi, from a 60-digit
+ * evaluation) and picked by selects, not by a table: measured, a table read
+ * with a per-work-item index kept PoCL from vectorising the caller.  t - c
+ * is exact (Sterbenz: c/2 <= t <= 2c when c > 0); j = 0 leaves t itself, so
+ * tiny and denormal t stay exact. */
 #define BT_PIO2_HI 1.5707963267948966
 #define BT_PIO2_LO 6.123233995736766e-17
 #define BT_PI_HI 3.141592653589793
 #define BT_PI_LO 1.2246467991473532e-16
 
-BT_INLINE double bt_atan_unit(double t)
+BT_MATH_INLINE double bt_atan_unit(double t)
 {
-    /* fmin/fmax also map a NaN t to index 0, so the table read is in range. */
-    int j = (int)fmin(fmax(t * 8.0 + 0.5, 0.0), 8.0);
-    double c = 0.125 * (double)j;
+    /* fmin/fmax also map a NaN t to j = 0. */
+    int j = (int)fmin(fmax(t * 4.0 + 0.5, 0.0), 4.0);
+    double c = 0.25 * (double)j;
     double u = (t - c) / (1.0 + c * t);
     double z = u * u;
-    double p = 1.0 / 13.0;
+    double p = 1.0 / 21.0;
+    p = p * z - 1.0 / 19.0;
+    p = p * z + 1.0 / 17.0;
+    p = p * z - 1.0 / 15.0;
+    p = p * z + 1.0 / 13.0;
     p = p * z - 1.0 / 11.0;
     p = p * z + 1.0 / 9.0;
     p = p * z - 1.0 / 7.0;
     p = p * z + 1.0 / 5.0;
     p = p * z - 1.0 / 3.0;
     double atan_u = u + u * z * p;
-    return bt_atan_j8_hi[j] + (bt_atan_j8_lo[j] + atan_u);
+    double hi = j == 1 ? 0.24497866312686414
+              : j == 2 ? 0.4636476090008061
+              : j == 3 ? 0.6435011087932844
+              : j == 4 ? 0.7853981633974483 : 0.0;
+    double lo = j == 1 ? 1.0698755618734451e-17
+              : j == 2 ? 2.2698777452961687e-17
+              : j == 3 ? 1.5834785051444286e-17
+              : j == 4 ? 3.061616997868383e-17 : 0.0;
+    return hi + (lo + atan_u);
 }
 
 /* atan x = sign(x) (pi/2 - atan(1/|x|)) for |x| > 1. */
-BT_INLINE double bt_atan(double x)
+BT_MATH_INLINE double bt_atan(double x)
 {
     double a = fabs(x);
     int big = a > 1.0;
@@ -342,31 +358,37 @@ BT_INLINE double bt_atan(double x)
 /* atan2(y, x) in [-pi, pi]: the angle of min(|x|,|y|)/max(|x|,|y|) in
  * [0, pi/4], reflected into the octant of (x, y).  C99's special values:
  * atan2(+-0, +0) = +-0, atan2(+-0, -0) = +-pi, atan2(+-inf, +-inf) = odd
- * multiples of pi/4. */
-BT_INLINE double bt_atan2(double y, double x)
+ * multiples of pi/4.  Conditions are combined with & and |, not && and ||:
+ * measured, the short-circuit branches kept PoCL from vectorising it. */
+BT_MATH_INLINE double bt_atan2(double y, double x)
 {
     double ax = fabs(x), ay = fabs(y);
     double hi = fmax(ax, ay), lo = fmin(ax, ay);
     double t = hi > 0.0 ? lo / hi : 0.0;
-    t = (ax == BT_M_INF && ay == BT_M_INF) ? 1.0 : t;
+    t = ((ax == BT_M_INF) & (ay == BT_M_INF)) ? 1.0 : t;
     double r = bt_atan_unit(t);
     r = ay > ax ? (BT_PIO2_HI - r) + BT_PIO2_LO : r;
     /* Left half-plane; x = -0 only for y = +-0 (else the angle is +-pi/2). */
-    int left = x < 0.0 || (bt_sign_bit(x) && ay == 0.0);
+    int left = (x < 0.0) | (bt_sign_bit(x) & (ay == 0.0));
     r = left ? (BT_PI_HI - r) + BT_PI_LO : r;
     return copysign(r, y);
 }
 
-/* asin and acos through atan2 with sqrt(1 - x^2) = sqrt((1 - x)(1 + x)):
- * 1 - x is exact for x in [1/2, 1] and the product keeps full relative
- * precision near +-1, where acos x ~ sqrt(2 (1 - x)). */
-BT_INLINE double bt_asin(double x) { return bt_atan2(x, sqrt((1.0 - x) * (1.0 + x))); }
-BT_INLINE double bt_acos(double x) { return bt_atan2(sqrt((1.0 - x) * (1.0 + x)), x); }
+/* asin and acos through atan (which vectorises; measured, the atan2 form
+ * did not):
+ *   asin x = atan(x / sqrt((1 - x)(1 + x))),
+ *   acos x = 2 atan(sqrt((1 - x) / (1 + x)))   (half-angle: tan(t/2) =
+ *            sqrt((1 - cos t)/(1 + cos t))).
+ * 1 - x is exact for x in [1/2, 1], so both keep full relative precision
+ * near +-1 (acos x ~ sqrt(2 (1 - x))); x = +-1 gives atan(+-inf) = +-pi/2
+ * and acos(-1) = 2 atan(inf) = pi exactly as doubles. */
+BT_MATH_INLINE double bt_asin(double x) { return bt_atan(x / sqrt((1.0 - x) * (1.0 + x))); }
+BT_MATH_INLINE double bt_acos(double x) { return 2.0 * bt_atan(sqrt((1.0 - x) / (1.0 + x))); }
 
 #endif /* double */
 
 /* acos of an argument clamped to [-1, 1], for cosines that rounding pushed
  * just outside. */
-BT_INLINE REAL bt_safe_acos(REAL x) { return bt_acos(bt_clamp(x, R(-1.0), R(1.0))); }
+BT_MATH_INLINE REAL bt_safe_acos(REAL x) { return bt_acos(bt_clamp(x, R(-1.0), R(1.0))); }
 
 #endif /* BRDFTAB_BT_MATH_H */
