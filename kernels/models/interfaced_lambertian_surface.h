@@ -229,8 +229,10 @@ BT_INLINE bt_vec3 il_sample_gaussian(REAL sigma, const bt_sampler* smp, uint d0,
         if (a < ratio) break;
     }
     REAL phi = BT_TWO_PI * bt_uniform(smp, d1);
-    REAL st = bt_sin(th);
-    return bt_v3(st * bt_cos(phi), st * bt_sin(phi), bt_cos(th));
+    REAL ct, cp;
+    REAL st = bt_sincos(th, &ct);
+    REAL sp = bt_sincos(phi, &cp);
+    return bt_v3(st * cp, st * sp, ct);
 }
 
 /* pdf-free sample of m ~ D|m.n| for every pair (Gaussian: rejection above;

@@ -265,10 +265,14 @@ BT_INLINE REAL mg_ellipse_sweep(bt_vec3 v, REAL h, REAL psa, REAL psb)
     return R(0.5) * (dt / ct + (ex * pby - ey * pbx) - (ex * pay - ey * pax));
 }
 
+/* a in (-3 pi, 3 pi) (every caller passes a difference of two atan2 results
+ * shifted by pi, so |a| < 2 pi) into (-pi, pi]: one conditional step each
+ * way, written as selects so the work-item loop stays vectorisable (the
+ * same arithmetic as the former while loops, which never ran twice). */
 BT_INLINE REAL mg_wrap_pi(REAL a)
 {
-    while (a > BT_PI) a -= BT_TWO_PI;
-    while (a <= -BT_PI) a += BT_TWO_PI;
+    a = a > BT_PI ? a - BT_TWO_PI : a;
+    a = a <= -BT_PI ? a + BT_TWO_PI : a;
     return a;
 }
 
