@@ -8,7 +8,7 @@ cli_setup "$1" "$2"
 SCENES="$DATA/scenes"
 
 # --- dry run: the plan, nothing written
-expect_exit 0 "dry run" -- "$BT" scene "$SCENES/pbrt_v4.pbrt" --dry-run
+expect_exit 0 "dry run" -- "$BT" scene "$SCENES/pbrt_v4.pbrt" --dry-run --no-plan
 expect_grep "dry run: nothing computed or written" out.txt "dry run says so"
 expect_grep "t1 interfaced-lambertian bsdf .*lacquer-red, lacquer-blue" out.txt "shared table listed"
 if ls ./*.h5 ./*.json >/dev/null 2>&1; then bad "dry run wrote files"; else ok; fi
@@ -23,6 +23,9 @@ NamedMaterial "smooth"
 Shape "sphere"
 SCENE
 expect_exit 0 "glass scene" -- "$BT" scene glass.pbrt --for bsdf -o glass.h5 -q
+# The planner cannot plan this BSDF (the reflection/transmission jump at the
+# horizon): the set keeps its template, and says why.
+expect_grep "no plan is predicted to reach .*the template is used" out.txt "unplannable set noted"
 expect_grep "wrote glass.h5 \(1 tables\) and glass.json" out.txt "summary line"
 "$PY" - <<'PY' >py.txt 2>&1 && ok || { bad "manifest fields"; cat py.txt; }
 import json, math
@@ -57,7 +60,7 @@ done
 
 # --- Mitsuba 0.6 roughdiffuse: Oren-Nayar albedo with rho recombined
 expect_exit 0 "clay albedo" -- "$BT" scene "$SCENES/mitsuba06.xml" --for albedo --accuracy 3e-3 \
-  -o clay.h5 --manifest clay-manifest.json -q
+  --no-plan -o clay.h5 --manifest clay-manifest.json -q
 "$PY" - <<'PY' >py.txt 2>&1 && ok || { bad "clay manifest"; cat py.txt; }
 import json, math
 m = json.load(open("clay-manifest.json"))
@@ -76,6 +79,32 @@ q=json.loads(sys.argv[1])['value']; e=json.loads(sys.argv[2])
 bound = 4*math.sqrt(e['stderr']**2 + (3e-3*q)**2)
 sys.exit(0 if abs(q-e['value']) <= bound else 1)" "$q" "$e" && ok || bad "clay albedo: $q vs $e"
 
+# --- a planned albedo set: the planner's predicted error bounds the table
+# against direct evaluation at random incidence angles
+expect_exit 0 "planned glass albedo" -- "$BT" scene glass.pbrt --for albedo --accuracy 2e-3 \
+  -o galb.h5 -q
+expect_grep "t0 rough-dielectric albedo .*glass" out.txt "albedo set listed"
+expect_grep "planned: predicted max total error .*\(absolute\)" out.txt "planned set says so"
+"$PY" - "$BT" <<'PY' >py.txt 2>&1 && ok || { bad "planned albedo within its predicted error"; cat py.txt; }
+import json, random, subprocess, sys, math
+bt = sys.argv[1]
+m = json.load(open("galb.json"))
+s = m["table_sets"][0]
+assert s["planned"] is True and 0 < s["predicted_error"] <= 2e-3, s
+random.seed(3)
+for table, quantity, lo, hi in [("t0_albedo_r", "albedo_r", 0.02, 1.0),
+                                ("t0_albedo_t_inside", "albedo_t", -1.0, -0.02)]:
+    for _ in range(4):
+        mu = random.uniform(lo, hi)
+        q = json.loads(subprocess.check_output(
+            [bt, "query", "galb.h5", "--table", table, "mu_i=%r" % mu, "--json"]))["value"]
+        e = json.loads(subprocess.check_output(
+            [bt, "eval", "rough-dielectric", quantity, "mu_i=%r" % mu, "alpha=0.3", "eta=1.5",
+             "distribution=ggx", "shadowing=height-correlated", "--samples", "65536", "--json"]))
+        bound = s["predicted_error"] + 4 * e["stderr"]
+        assert abs(q - e["value"]) <= bound, (table, mu, q, e, bound)
+PY
+
 # --- bad input: exit 2, a message naming the place, nothing overwritten
 echo "keep me" > keep.h5
 printf 'Material "dielectric" "float roughness" 0.1 "float eta" 0\nShape "sphere"\n' > eta0.pbrt
@@ -89,6 +118,8 @@ expect_exit 2 "missing file" -- "$BT" scene nowhere.xml --dry-run
 expect_grep "nowhere.xml" err.txt "missing file named"
 expect_exit 2 "bad --for" -- "$BT" scene glass.pbrt --for everything --dry-run
 expect_grep "bsdf, albedo, all" err.txt "--for lists its choices"
+expect_exit 2 "both targets" -- "$BT" scene glass.pbrt --accuracy 1e-3 --budget 10 --dry-run
+expect_grep "not both" err.txt "--accuracy with --budget refused"
 expect_exit 2 "bad --accuracy" -- "$BT" scene glass.pbrt --accuracy 0 --dry-run
 expect_grep "\(0, 1\)" err.txt "--accuracy range"
 
@@ -119,7 +150,7 @@ for name in sorted(os.listdir(src)):
 PY
 crashes=0
 for f in fuzz/*; do
-  "$BT" scene "$f" --dry-run >/dev/null 2>fuzz-err.txt
+  "$BT" scene "$f" --dry-run --no-plan >/dev/null 2>fuzz-err.txt
   rc=$?
   if [ $rc -ne 0 ] && [ $rc -ne 2 ]; then crashes=$((crashes + 1)); echo "exit $rc on $f"; cat fuzz-err.txt; fi
 done

@@ -1,5 +1,6 @@
 // scene: the tables a scene's materials need, and a manifest binding each
 // material to its table (host/scene/scene.h, docs/scenes.md).
+#include <cmath>
 #include <filesystem>
 #include <iomanip>
 #include <set>
@@ -59,8 +60,8 @@ void register_scene(CLI::App& app) {
         "material to its table (docs/scenes.md)");
     struct State {
         std::string scene, output, manifest, format, purpose = "all", presets;
-        double accuracy = 1e-3;
-        bool dry_run = false, quiet = false;
+        double accuracy = 1e-3, budget = 0;
+        bool dry_run = false, quiet = false, no_plan = false;
         ComputeOptions compute;
     };
     auto state = std::make_shared<State>();
@@ -79,9 +80,15 @@ void register_scene(CLI::App& app) {
                     "bsdf: BSDF tables for rendering and sampling; albedo: directional/average "
                     "albedo tables for energy compensation; all: both (default)");
     cmd->add_option("--accuracy", state->accuracy,
-                    "integration tolerance of estimated tables (relative, with an absolute floor "
-                    "of a tenth of it; default 1e-3). The angular resolution is fixed per model "
-                    "(docs/scenes.md)");
+                    "target max total relative error of each table set (default 1e-3): the "
+                    "planner (brdftab plan) chooses node counts, samples and stored type with "
+                    "short pilot runs; also the integration tolerance of sets it cannot plan");
+    cmd->add_option("--budget", state->budget,
+                    "instead of --accuracy: the most accurate plans predicted to finish within "
+                    "SECONDS in all (split evenly over the table sets)");
+    cmd->add_flag("--no-plan", state->no_plan,
+                  "skip the planner: every set keeps its fixed template resolution "
+                  "(docs/scenes.md), with --accuracy as the integration tolerance");
     cmd->add_option("--presets", state->presets,
                     "directory of the preset specs, to report the cells saved against them "
                     "(default: the installed presets, if found)");
@@ -89,14 +96,35 @@ void register_scene(CLI::App& app) {
                   "print the materials and the planned tables; compute and write nothing");
     cmd->add_flag("-q,--quiet", state->quiet, "no progress display");
     state->compute.add_to(*cmd, false);
-    cmd->callback([state] {
+    cmd->callback([state, cmd] {
         namespace fs = std::filesystem;
         const State& st = *state;
         ScenePlanSettings settings;
         settings.purpose = parse_scene_purpose(st.purpose);
         settings.accuracy = st.accuracy;
         const std::vector<SceneMaterial> materials = read_scene_materials(st.scene, st.format);
-        const ScenePlan plan = plan_scene_tables(materials, settings);
+        if (st.budget < 0 || !std::isfinite(st.budget))
+            throw InputError("--budget must be a positive number of seconds");
+        if (st.budget > 0 && cmd->count("--accuracy") > 0)
+            throw InputError("give --accuracy or --budget, not both");
+        if (st.budget > 0 && st.no_plan)
+            throw InputError("--budget needs the planner: drop --no-plan");
+        ScenePlan plan = plan_scene_tables(materials, settings);
+        std::unique_ptr<Backend> backend;
+        if (!st.no_plan && !plan.sets.empty()) {
+            backend = st.compute.make_backend();
+            for (SceneTableSet& set : plan.sets) {
+                double last = 0;
+                auto progress = [&](const std::string& stage, const Progress& p) {
+                    if (st.quiet || p.elapsed_seconds < 2 || p.elapsed_seconds - last < 2) return;
+                    last = p.elapsed_seconds;
+                    std::cerr << "scene: planning " << set.id << ": " << stage << " "
+                              << static_cast<int>(100 * p.fraction) << "%\n";
+                };
+                plan_table_set(set, *backend, st.accuracy,
+                               st.budget > 0 ? st.budget / plan.sets.size() : 0, progress);
+            }
+        }
         std::vector<Spec> specs;
         double cells = 0;
         for (const SceneTableSet& set : plan.sets) {
@@ -128,6 +156,16 @@ void register_scene(CLI::App& app) {
             for (std::size_t i = 0; i < set.materials.size(); ++i)
                 std::cout << (i ? ", " : "") << set.materials[i];
             std::cout << "\n";
+            if (set.planned) {
+                std::ostringstream pred;
+                pred.precision(3);
+                pred << "      planned: predicted max total error " << set.predicted_error
+                     << (set.purpose == "albedo" ? " (absolute)" : " (relative)")
+                     << ", predicted time " << set.predicted_seconds << " s\n";
+                std::cout << pred.str();
+            } else if (!set.plan_note.empty()) {
+                std::cout << "      " << set.plan_note << "\n";
+            }
         }
         // Against the presets of the same models (their whole parameter spaces).
         const std::string presets = find_presets_dir(st.presets);
@@ -157,7 +195,7 @@ void register_scene(CLI::App& app) {
         }
         check_output_writable(out_path);
         check_output_writable(manifest_path);
-        auto backend = st.compute.make_backend();
+        if (!backend) backend = st.compute.make_backend();
         std::cerr << "writing " << fs::absolute(out_path).lexically_normal().string() << " and "
                   << fs::absolute(manifest_path).lexically_normal().string() << " on "
                   << backend->device_name() << "\n";

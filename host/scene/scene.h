@@ -19,6 +19,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <optional>
 #include <string>
@@ -104,6 +105,12 @@ struct SceneTableSet {
     std::string main_table;  // the table a renderer binds a material to
     std::vector<std::string> tables;    // every table name it writes
     std::vector<std::string> materials; // names of the materials it serves
+    // Set by plan_table_set(): whether the planner chose the node counts and
+    // samples (else the template's are kept, and plan_note says why), and
+    // its predictions for the whole set.
+    bool planned = false;
+    double predicted_error = 0, predicted_seconds = 0;
+    std::string plan_note;
 };
 
 struct ScenePlanSettings {
@@ -119,6 +126,18 @@ struct ScenePlan {
 
 ScenePlan plan_scene_tables(const std::vector<SceneMaterial>& materials,
                             const ScenePlanSettings& settings);
+
+// Replaces a set's template resolution by the speed/accuracy planner's choice
+// (host/plan): short pilots on `backend`, then the fastest plan predicted to
+// reach `accuracy` (max total relative error, linear interpolation), or with
+// `budget_seconds` > 0 the most accurate plan predicted to finish in that
+// time.  When the planner cannot plan the set (recombined tables, which must
+// share nodes) or no plan reaches the target, the template stays and
+// set.plan_note says why.  `progress` receives the pilot's progress.
+class Backend;
+struct Progress;
+void plan_table_set(SceneTableSet& set, Backend& backend, double accuracy, double budget_seconds,
+                    const std::function<void(const std::string&, const Progress&)>& progress);
 
 // The manifest (docs/scenes.md): per material name, type, status, reason,
 // model, parameters, table, factored, notes.

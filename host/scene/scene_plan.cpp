@@ -351,12 +351,21 @@ nlohmann::json scene_manifest(const ScenePlan& plan, const std::string& scene_fi
     }
     out["table_sets"] = nlohmann::json::array();
     for (const SceneTableSet& set : plan.sets)
-        out["table_sets"].push_back({{"id", set.id},
-                                     {"model", set.model},
-                                     {"purpose", set.purpose},
-                                     {"tables", set.tables},
-                                     {"main_table", set.main_table},
-                                     {"materials", set.materials}});
+    {
+        nlohmann::json j = {{"id", set.id},
+                            {"model", set.model},
+                            {"purpose", set.purpose},
+                            {"tables", set.tables},
+                            {"main_table", set.main_table},
+                            {"materials", set.materials},
+                            {"planned", set.planned}};
+        if (set.planned) {
+            j["predicted_error"] = set.predicted_error;
+            j["predicted_seconds"] = set.predicted_seconds;
+        }
+        if (!set.plan_note.empty()) j["plan_note"] = set.plan_note;
+        out["table_sets"].push_back(j);
+    }
     return out;
 }
 
