@@ -22,8 +22,6 @@
 #include "host/generate/chunked.h"
 #include "host/generate/generate.h"
 #ifdef BRDFTAB_MPI
-#include <mpi.h>
-
 #include "host/generate/distributed.h"
 #endif
 #include "host/io/point_file.h"
@@ -447,9 +445,7 @@ void run_generate_mpi(const GenerateArgs& st) {
             code = error_code(e);
             message = e.what();
         }
-        int rank0_code = code, worst = 0;
-        MPI_Bcast(&rank0_code, 1, MPI_INT, 0, MPI_COMM_WORLD);
-        MPI_Allreduce(&code, &worst, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
+        const int rank0_code = mpi.broadcast(code), worst = mpi.max(code);
         if (worst == 0) return;
         // Every rank reads the same spec and options: rank 0 speaks for
         // them; a rank fails alone only on its own trouble (its device).

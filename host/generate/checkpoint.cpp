@@ -390,7 +390,9 @@ Checkpoint::Checkpoint(const std::string& output_path, CheckpointKey key, bool r
             std::ifstream f(it->path(), std::ios::binary);
             char head[13] = {0};
             f.read(head, sizeof head);
-            (f && head[12] ? resumed_finished_ : resumed_partial_) += 1;
+            const bool chunk = it->path().filename().string().find('-', 6) != std::string::npos;
+            (f && head[12] ? (chunk ? resumed_chunks_finished_ : resumed_finished_)
+                           : (chunk ? resumed_chunks_partial_ : resumed_partial_)) += 1;
         }
         if (!keep_states) {
             nlohmann::json settings = nlohmann::json::object();
@@ -412,9 +414,14 @@ Checkpoint::~Checkpoint() {  // a helper holds no lock: lock_fd_ < 0
 }
 
 std::string Checkpoint::resumed_summary() const {
-    if (resumed_finished_ + resumed_partial_ == 0) return "nothing stored yet";
-    return std::to_string(resumed_finished_) + " finished table(s), " +
-           std::to_string(resumed_partial_) + " in progress";
+    const std::size_t chunks = resumed_chunks_finished_ + resumed_chunks_partial_;
+    if (resumed_finished_ + resumed_partial_ + chunks == 0) return "nothing stored yet";
+    std::string s = std::to_string(resumed_finished_) + " finished table(s), " +
+                    std::to_string(resumed_partial_) + " in progress";
+    if (chunks)
+        s += "; chunks of tables: " + std::to_string(resumed_chunks_finished_) + " finished, " +
+             std::to_string(resumed_chunks_partial_) + " in progress";
+    return s;
 }
 
 void Checkpoint::record_layout(const std::string& layout) {

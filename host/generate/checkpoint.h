@@ -102,6 +102,7 @@ private:
     double write_rate_ = 100e6;  // bytes per second of state writes (measured)
     int lock_fd_ = -1;
     std::size_t resumed_finished_ = 0, resumed_partial_ = 0;
+    std::size_t resumed_chunks_finished_ = 0, resumed_chunks_partial_ = 0;
     std::vector<std::string> stored_;  // names of the state files present at the start
     std::string layout_;
     bool helper_ = false;

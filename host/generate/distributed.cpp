@@ -164,10 +164,15 @@ std::vector<std::string> MpiSession::gather(const std::string& text) const {
     return out;
 }
 
-bool MpiSession::all(bool ok) const {
-    int mine = ok ? 1 : 0, every = 0;
-    MPI_Allreduce(&mine, &every, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
-    return every == 1;
+int MpiSession::broadcast(int value) const {
+    MPI_Bcast(&value, 1, MPI_INT, 0, MPI_COMM_WORLD);
+    return value;
+}
+
+int MpiSession::max(int value) const {
+    int out = 0;
+    MPI_Allreduce(&value, &out, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
+    return out;
 }
 
 void MpiSession::abort(int code) const {
@@ -247,7 +252,7 @@ std::uint64_t run_chunk_worker(const MpiSession& session, ChunkComputer& compute
                                const std::vector<CellChunk>& plan, Checkpoint* checkpoint) {
     const long abort_after = abort_after_results(session.rank());
     std::uint64_t cells = 0;
-    long sent = 0;
+    long computed = 0;
     int ready = 0;
     // Results on their way to rank 0 (it receives them between launches).
     std::vector<std::vector<char>> buffers;
@@ -284,18 +289,18 @@ std::uint64_t run_chunk_worker(const MpiSession& session, ChunkComputer& compute
         ask();  // the next one, while this one is computed
         ChunkResult r = computer.compute(plan[static_cast<std::size_t>(index)], checkpoint,
                                          [&](const Progress&) { release_sent(); });
+        if (abort_after >= 0 && ++computed > abort_after) {
+            // The test hook: die holding a chunk rank 0 waits for.
+            std::cerr << "brdftab: rank " << session.rank()
+                      << ": BRDFTAB_TEST_RANK_ABORT: aborting after " << abort_after
+                      << " chunk(s), with one more computed and not sent" << std::endl;
+            std::abort();
+        }
         cells += r.chunk.count;
         buffers.push_back(pack(static_cast<std::uint64_t>(index), r));
         requests.emplace_back();
         MPI_Isend(buffers.back().data(), static_cast<int>(buffers.back().size()), MPI_BYTE, 0,
                   kResult, MPI_COMM_WORLD, &requests.back());
-        if (abort_after >= 0 && ++sent >= abort_after) {
-            MPI_Wait(&requests.back(), MPI_STATUS_IGNORE);
-            std::cerr << "brdftab: rank " << session.rank()
-                      << ": BRDFTAB_TEST_RANK_ABORT: aborting after " << sent << " chunk(s)"
-                      << std::endl;
-            std::abort();
-        }
     }
     if (!requests.empty())
         MPI_Waitall(static_cast<int>(requests.size()), requests.data(), MPI_STATUSES_IGNORE);

@@ -47,8 +47,10 @@ public:
     void broadcast(std::string& text) const;
     // Texts of every rank, on rank 0 (elsewhere: empty).
     std::vector<std::string> gather(const std::string& text) const;
-    // Logical AND of `ok` over ranks, on every rank.
-    bool all(bool ok) const;
+    // Rank 0's `value` on every rank.
+    int broadcast(int value) const;
+    // The largest `value` over ranks, on every rank.
+    int max(int value) const;
     // Ends every rank of the job with `code` (MPI_Abort).
     [[noreturn]] void abort(int code) const;
 
@@ -83,7 +85,8 @@ private:
 // results back, until told to stop.  Returns the cells it computed.
 //
 // Test hook: with BRDFTAB_TEST_RANK_ABORT="R:K" in the environment, rank R
-// aborts (SIGABRT, like a crash) after sending K results.
+// aborts (SIGABRT, like a crash) when it has computed chunk K + 1, after
+// sending K results: rank 0 then waits for a chunk that never comes.
 std::uint64_t run_chunk_worker(const MpiSession& session, ChunkComputer& computer,
                                const std::vector<CellChunk>& plan, Checkpoint* checkpoint);
 

@@ -250,6 +250,11 @@ void cell_range_boxes(const std::vector<hsize_t>& dims, std::size_t axis,
 void write_cell_range(hid_t ds, const char* name, hid_t mem_type, const void* data,
                       std::size_t elem_size, const std::vector<hsize_t>& dims, hsize_t first,
                       hsize_t count) {
+    if (dims.empty()) {  // a scalar (a table without axes): its one cell
+        if (first != 0 || count != 1) throw Error(std::string(name) + ": a scalar has one cell");
+        check(H5Dwrite(ds, mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data), "H5Dwrite", name);
+        return;
+    }
     std::vector<std::pair<std::vector<hsize_t>, std::vector<hsize_t>>> boxes;
     std::vector<hsize_t> prefix;
     cell_range_boxes(dims, 0, prefix, first, count, boxes);
