@@ -25,6 +25,7 @@ packages=(
   libpng-dev                                                # `brdftab plot`
   doctest-dev libtomlplusplus-dev libcli11-dev nlohmann-json3-dev
   python3-h5py python3-numpy                                # format tests read files with h5py
+  libopenmpi-dev openmpi-bin                                # the MPI build (docs/cluster.md)
 )
 if [ $with_fuzz -eq 1 ]; then
   packages+=(clang libclang-rt-dev)

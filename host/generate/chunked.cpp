@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <mutex>
 #include <optional>
 #include <set>
 
@@ -275,26 +276,40 @@ std::vector<GeneratedTable> generate_to_file(const Spec& spec, Backend& backend,
         report();
     };
 
+    // With sharing, `take` and `accept` also run on the thread that answers
+    // the other processes: one lock serialises them (and the file, as
+    // libhdf5 is not built thread-safe) with this thread's use.
+    std::mutex lock;
     std::size_t next = 0;
     auto take = [&](std::size_t& index) {
         if (next >= plan.size()) return false;
         index = next++;
         return true;
     };
+    auto take_locked = [&](std::size_t& index) {
+        std::lock_guard<std::mutex> hold(lock);
+        return take(index);
+    };
+    auto accept_locked = [&](ChunkResult&& r) {
+        std::lock_guard<std::mutex> hold(lock);
+        accept(std::move(r));
+    };
     report();
+    if (options.sharing) options.sharing->start(take_locked, accept_locked);
     std::size_t mine = 0;
-    while (take(mine)) {
+    while (take_locked(mine)) {
         const CellChunk& c = plan[mine];
         ProgressFn after_launch = [&](const Progress& p) {
+            if (options.sharing) options.sharing->check();
+            std::lock_guard<std::mutex> hold(lock);
             tables[c.table].partial_fraction = p.fraction * static_cast<double>(c.count);
             report();
-            if (options.sharing) options.sharing->poll(take, accept);
         };
-        if (options.sharing) options.sharing->poll(take, accept);
-        accept(computer.compute(c, options.checkpoint, after_launch));
+        ChunkResult r = computer.compute(c, options.checkpoint, after_launch);
+        accept_locked(std::move(r));
         if (options.sharing) options.sharing->computed_here(c.count);
     }
-    if (options.sharing) options.sharing->drain(take, accept);
+    if (options.sharing) options.sharing->finish();
     if (received_count != plan.size())
         throw Error("only " + std::to_string(received_count) + " of " +
                     std::to_string(plan.size()) + " chunks came back");

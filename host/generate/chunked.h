@@ -75,19 +75,25 @@ private:
 
 // How chunks are shared among processes, seen from the process that writes
 // the file (the coordinator).  distributed.h implements it with MPI; without
-// one, the coordinator computes every chunk itself.
+// one, the coordinator computes every chunk itself.  The coordinator
+// computes chunks too, so the other processes are answered by a thread of
+// their own: a device launch of the coordinator may take long.
 class ChunkSharing {
 public:
     virtual ~ChunkSharing() = default;
-    // Answers the other processes without waiting: hands out chunks (indices
-    // into the plan) taken with `take` (false: none left) and passes the
-    // results that arrived to `accept`.
-    virtual void poll(const std::function<bool(std::size_t&)>& take,
-                      const std::function<void(ChunkResult&&)>& accept) = 0;
-    // Once the coordinator has no chunk left to compute: waits for every
-    // chunk handed out, passing each to `accept`, and stops the others.
-    virtual void drain(const std::function<bool(std::size_t&)>& take,
+    // From now on, answers the other processes in the background: hands out
+    // chunks (indices into the plan) taken with `take` (false: none left)
+    // and passes the results that arrive to `accept`.  Both are called from
+    // that background thread; the caller makes them safe to call there.
+    virtual void start(const std::function<bool(std::size_t&)>& take,
                        const std::function<void(ChunkResult&&)>& accept) = 0;
+    // Once the coordinator has no chunk left to compute: waits until every
+    // chunk handed out is back and the others are told to stop.  Rethrows
+    // a failure of the background thread.
+    virtual void finish() = 0;
+    // Rethrows a failure of the background thread, if any (called between
+    // the coordinator's launches).
+    virtual void check() = 0;
     // The coordinator computed a chunk of `cells` cells itself.
     virtual void computed_here(std::uint64_t cells) = 0;
     // Cells computed by each process (index: rank), for the summary.

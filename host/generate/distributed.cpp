@@ -119,8 +119,11 @@ bool MpiSession::launched() {
 
 MpiSession::MpiSession() {
     int provided = 0;
-    // Only the main thread calls MPI.
-    MPI_Init_thread(nullptr, nullptr, MPI_THREAD_FUNNELED, &provided);
+    // On rank 0 a second thread answers the other ranks while the main
+    // thread computes; they never call MPI at the same time.
+    MPI_Init_thread(nullptr, nullptr, MPI_THREAD_SERIALIZED, &provided);
+    if (provided < MPI_THREAD_SERIALIZED)
+        throw Error("this MPI library does not support MPI_THREAD_SERIALIZED");
     MPI_Comm_rank(MPI_COMM_WORLD, &rank_);
     MPI_Comm_size(MPI_COMM_WORLD, &size_);
     MPI_Comm node;
@@ -190,31 +193,73 @@ MpiChunkSharing::MpiChunkSharing(const MpiSession& session, const std::vector<Ce
     stopped_[0] = true;  // rank 0 asks nobody
 }
 
-bool MpiChunkSharing::handle_one(bool wait, const std::function<bool(std::size_t&)>& take,
-                                 const std::function<void(ChunkResult&&)>& accept) {
-    MPI_Status status;
-    int flag = 0;
+MpiChunkSharing::~MpiChunkSharing() {
+    // Unwinding from a failure of rank 0: the thread may wait for ranks
+    // that will never answer; the caller ends the job (MPI_Abort).
+    if (thread_.joinable()) thread_.detach();
+}
+
+void MpiChunkSharing::start(const std::function<bool(std::size_t&)>& take,
+                            const std::function<void(ChunkResult&&)>& accept) {
+    take_ = take;
+    accept_ = accept;
+    thread_ = std::thread([this] {
+        try {
+            serve();
+        } catch (...) {
+            std::lock_guard<std::mutex> hold(failure_lock_);
+            failure_ = std::current_exception();
+        }
+    });
+}
+
+void MpiChunkSharing::finish() {
+    if (thread_.joinable()) thread_.join();
+    check();
+}
+
+void MpiChunkSharing::check() {
+    std::lock_guard<std::mutex> hold(failure_lock_);
+    if (failure_) std::rethrow_exception(failure_);
+}
+
+// Until every rank is told to stop and every chunk handed out is back.
+void MpiChunkSharing::serve() {
+    auto everyone_stopped = [&] {
+        for (bool s : stopped_)
+            if (!s) return false;
+        return true;
+    };
     Backoff backoff;
-    for (;;) {
+    while (outstanding_ > 0 || !everyone_stopped()) {
+        MPI_Status status;
+        int flag = 0;
         MPI_Iprobe(MPI_ANY_SOURCE, MPI_ANY_TAG, MPI_COMM_WORLD, &flag, &status);
-        if (flag || !wait) break;
-        backoff.pause();
+        if (!flag) {
+            backoff.pause();
+            continue;
+        }
+        backoff.reset();
+        handle(status.MPI_TAG, status.MPI_SOURCE);
     }
-    if (!flag) return false;
-    const int from = status.MPI_SOURCE;
-    if (status.MPI_TAG == kReady) {
+}
+
+void MpiChunkSharing::handle(int tag, int from) {
+    if (tag == kReady) {
         int dummy = 0;
         MPI_Recv(&dummy, 1, MPI_INT, from, kReady, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
         std::size_t index = 0;
         long long reply = -1;
-        if (take(index)) {
+        if (take_(index)) {
             reply = static_cast<long long>(index);
             ++outstanding_;
         } else {
             stopped_[static_cast<std::size_t>(from)] = true;
         }
         MPI_Send(&reply, 1, MPI_LONG_LONG, from, kAssign, MPI_COMM_WORLD);
-    } else if (status.MPI_TAG == kResult) {
+    } else if (tag == kResult) {
+        MPI_Status status;
+        MPI_Probe(from, kResult, MPI_COMM_WORLD, &status);
         int bytes = 0;
         MPI_Get_count(&status, MPI_BYTE, &bytes);
         std::vector<char> buffer(static_cast<std::size_t>(bytes));
@@ -222,28 +267,11 @@ bool MpiChunkSharing::handle_one(bool wait, const std::function<bool(std::size_t
         ChunkResult r = unpack(buffer, plan_, from);
         cells_[static_cast<std::size_t>(from)] += r.chunk.count;
         --outstanding_;
-        accept(std::move(r));
+        accept_(std::move(r));
     } else {
-        throw Error("unexpected MPI message (tag " + std::to_string(status.MPI_TAG) +
-                    ") from rank " + std::to_string(from));
+        throw Error("unexpected MPI message (tag " + std::to_string(tag) + ") from rank " +
+                    std::to_string(from));
     }
-    return true;
-}
-
-void MpiChunkSharing::poll(const std::function<bool(std::size_t&)>& take,
-                           const std::function<void(ChunkResult&&)>& accept) {
-    while (handle_one(false, take, accept)) {
-    }
-}
-
-void MpiChunkSharing::drain(const std::function<bool(std::size_t&)>& take,
-                            const std::function<void(ChunkResult&&)>& accept) {
-    auto everyone_stopped = [&] {
-        for (bool s : stopped_)
-            if (!s) return false;
-        return true;
-    };
-    while (outstanding_ > 0 || !everyone_stopped()) handle_one(true, take, accept);
 }
 
 // ---------------------------------------------------------------- workers --

@@ -2,9 +2,8 @@
 // cells of host/generate/chunked.h shared among N MPI processes (ranks).
 // Built only with -DBRDFTAB_MPI=ON (then BRDFTAB_MPI is defined).
 //
-// Rank 0 coordinates and writes the file; it computes chunks too, and between
-// two device launches of its own answers the other ranks (chunked.h,
-// ChunkSharing).  The other ranks ask for one chunk at a time, and ask for
+// Rank 0 coordinates and writes the file; it computes chunks too, while a
+// thread of its own answers the other ranks (chunked.h, ChunkSharing).  The other ranks ask for one chunk at a time, and ask for
 // the next as soon as they start one, so that a rank rarely waits for rank 0
 // (dynamic load balancing: a rank with cheap cells simply asks more often).
 // Results go to rank 0, which writes them into the output's temporary file.
@@ -16,7 +15,10 @@
 // the chunk's totals and cells, packed as bytes in this machine's order).
 #pragma once
 
+#include <exception>
 #include <memory>
+#include <mutex>
+#include <thread>
 #include <string>
 #include <vector>
 
@@ -59,25 +61,33 @@ private:
     bool finalized_ = false;
 };
 
-// Rank 0's side: answers the other ranks (chunked.h ChunkSharing).
+// Rank 0's side (chunked.h ChunkSharing): a thread that answers the other
+// ranks while rank 0 computes; the only thread that calls MPI meanwhile
+// (MPI_THREAD_SERIALIZED).
 class MpiChunkSharing : public ChunkSharing {
 public:
     MpiChunkSharing(const MpiSession& session, const std::vector<CellChunk>& plan);
-    void poll(const std::function<bool(std::size_t&)>& take,
-              const std::function<void(ChunkResult&&)>& accept) override;
-    void drain(const std::function<bool(std::size_t&)>& take,
+    ~MpiChunkSharing() override;
+    void start(const std::function<bool(std::size_t&)>& take,
                const std::function<void(ChunkResult&&)>& accept) override;
-    std::vector<std::uint64_t> cells_per_process() const override { return cells_; }
+    void finish() override;
+    void check() override;
     void computed_here(std::uint64_t cells) override { cells_[0] += cells; }
+    std::vector<std::uint64_t> cells_per_process() const override { return cells_; }
 
 private:
-    bool handle_one(bool wait, const std::function<bool(std::size_t&)>& take,
-                    const std::function<void(ChunkResult&&)>& accept);
+    void serve();
+    void handle(int tag, int from);
     const MpiSession& session_;
     const std::vector<CellChunk>& plan_;
+    std::function<bool(std::size_t&)> take_;
+    std::function<void(ChunkResult&&)> accept_;
     std::vector<std::uint64_t> cells_;
     std::vector<bool> stopped_;
     std::size_t outstanding_ = 0;  // chunks handed out, results not back
+    std::thread thread_;
+    std::mutex failure_lock_;
+    std::exception_ptr failure_;
 };
 
 // A rank other than 0: asks rank 0 for chunks of `plan`, computes them with
