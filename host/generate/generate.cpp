@@ -87,6 +87,13 @@ constexpr double kDerivedBytesPerCell = 2 * (8 + 8);
 // HDF5's chunk cache: up to 1 MiB for each of the (at most 3) datasets of
 // every computed table, all open while the tables are computed.
 constexpr double kCacheBytesPerTable = 3.0 * 1024 * 1024;
+// One device launch (host/engine/engine.cpp): per work item its point
+// (point_stride doubles), cell and batch numbers and two results, held three
+// times: the launch, its copy with the chunk's cell numbers (chunked.cpp) and
+// the device's buffers (host memory on a CPU device).  The OpenCL backend's
+// preferred launch is 2^17 work items.
+constexpr double kLaunchCopies = 3;
+constexpr double kLaunchWorkItems = 131072;
 // Fixed overhead: the program, libhdf5, the OpenCL runtime and its compiled
 // kernels (measured: 97 MiB resident for a 4-cell run on PoCL; rounded up).
 constexpr double kBaseBytes = 128.0 * 1024 * 1024;
@@ -150,7 +157,12 @@ ResourceEstimate estimate_resources(const Spec& spec, const IntegrationSettings&
         add_derived(rs.terms.empty() ? 0 : cells_of[rs.terms.front().first]);
     for (const ErrorTableSpec& es : spec.errors) add_derived(cells_of[es.table]);
     for (const InvertedSpec& is : spec.inverted) add_derived(static_cast<double>(is.axis.count));
-    r.memory_bytes = kBaseBytes + held +
+    const double launch_items = settings.slab_work_items
+                                    ? static_cast<double>(settings.slab_work_items)
+                                    : kLaunchWorkItems;
+    const double launch_bytes =
+        kLaunchCopies * launch_items * (8.0 * static_cast<double>(model.point_stride()) + 4 + 4 + 16);
+    r.memory_bytes = kBaseBytes + held + launch_bytes +
                      largest_chunk * (kEngineBytesPerCell + kResultBytesPerCell + type_size +
                                       kCheckpointBytesPerCell);
     return r;
