@@ -199,7 +199,7 @@ void check_resources(const Spec& spec, const IntegrationSettings& settings,
     const std::string cells = format_count(need.cells) + " cells (largest table " +
                               format_count(need.largest_cells) + ")";
     // --max-memory, when given, replaces MemAvailable as the limit (the
-    // estimate is an upper bound, measured about 1.5x to 2x the real peak).
+    // estimate is an upper bound, measured about 1.2x to 1.3x the real peak).
     if (max_memory && need.memory_bytes > static_cast<double>(max_memory))
         throw InputError(spec.file + ": the tables need about " + format_bytes(need.memory_bytes) +
                          " of memory for " + cells + ", above --max-memory " +
@@ -511,6 +511,7 @@ void run_generate_mpi(const GenerateArgs& st) {
             finish_output(g, checkpoint.get());
             print_summary(tables);
             print_cells_per_rank(sharing.cells_per_process());
+            std::cout << "  " << sharing.statistics() << "\n";
         } else {
             ChunkComputer computer(g.spec, *g.backend, g.settings);
             run_chunk_worker(mpi, computer, plan, checkpoint.get());

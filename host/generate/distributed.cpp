@@ -6,6 +6,8 @@
 #include <time.h>
 #include <unistd.h>
 
+#include <chrono>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <iostream>
@@ -36,6 +38,10 @@ private:
     double ns_ = 20000;
 };
 
+double seconds_since(std::chrono::steady_clock::time_point start) {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
 template <class T>
 void put(std::vector<char>& out, const T& v) {
     const char* p = reinterpret_cast<const char*>(&v);
@@ -47,10 +53,11 @@ void put_array(std::vector<char>& out, const std::vector<T>& v) {
     out.insert(out.end(), p, p + v.size() * sizeof(T));
 }
 
-std::vector<char> pack(std::uint64_t index, const ChunkResult& r) {
+std::vector<char> pack(std::uint64_t index, const ChunkResult& r, double waited) {
     std::vector<char> out;
-    out.reserve(64 + r.value.size() * 20);
+    out.reserve(72 + r.value.size() * 20);
     put(out, index);
+    put(out, waited);
     put(out, r.total_samples);
     put(out, r.cells_unconverged);
     put(out, r.tolerance_achieved);
@@ -62,7 +69,8 @@ std::vector<char> pack(std::uint64_t index, const ChunkResult& r) {
     return out;
 }
 
-ChunkResult unpack(const std::vector<char>& in, const std::vector<CellChunk>& plan, int from) {
+ChunkResult unpack(const std::vector<char>& in, const std::vector<CellChunk>& plan, int from,
+                   double& waited) {
     std::size_t pos = 0;
     auto bad = [&] {
         throw Error("rank " + std::to_string(from) + " sent a malformed result (" +
@@ -77,6 +85,7 @@ ChunkResult unpack(const std::vector<char>& in, const std::vector<CellChunk>& pl
     ChunkResult r;
     get(&index, 8);
     if (index >= plan.size()) bad();
+    get(&waited, 8);
     r.chunk = plan[index];
     get(&r.total_samples, 8);
     get(&r.cells_unconverged, 8);
@@ -185,6 +194,15 @@ void MpiSession::abort(int code) const {
 
 // -------------------------------------------------------- MpiChunkSharing --
 
+std::string MpiChunkSharing::statistics() const {
+    char buf[256];
+    std::snprintf(buf, sizeof buf,
+                  "rank 0 received and wrote %zu results from the other ranks in %.3f s "
+                  "(%.2f ms each); they waited %.3f s in all for chunks",
+                  results_, handling_, results_ ? 1e3 * handling_ / results_ : 0.0, waited_);
+    return buf;
+}
+
 MpiChunkSharing::MpiChunkSharing(const MpiSession& session, const std::vector<CellChunk>& plan)
     : session_(session),
       plan_(plan),
@@ -258,16 +276,21 @@ void MpiChunkSharing::handle(int tag, int from) {
         }
         MPI_Send(&reply, 1, MPI_LONG_LONG, from, kAssign, MPI_COMM_WORLD);
     } else if (tag == kResult) {
+        const auto start = std::chrono::steady_clock::now();
         MPI_Status status;
         MPI_Probe(from, kResult, MPI_COMM_WORLD, &status);
         int bytes = 0;
         MPI_Get_count(&status, MPI_BYTE, &bytes);
         std::vector<char> buffer(static_cast<std::size_t>(bytes));
         MPI_Recv(buffer.data(), bytes, MPI_BYTE, from, kResult, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
-        ChunkResult r = unpack(buffer, plan_, from);
+        double waited = 0;
+        ChunkResult r = unpack(buffer, plan_, from, waited);
         cells_[static_cast<std::size_t>(from)] += r.chunk.count;
         --outstanding_;
         accept_(std::move(r));
+        ++results_;
+        waited_ += waited;
+        handling_ += seconds_since(start);
     } else {
         throw Error("unexpected MPI message (tag " + std::to_string(tag) + ") from rank " +
                     std::to_string(from));
@@ -299,10 +322,12 @@ std::uint64_t run_chunk_worker(const MpiSession& session, ChunkComputer& compute
         }
     };
     ask();
+    double waited = 0;  // since the last result sent
     for (;;) {
         long long index = -1;
         int flag = 0;
         Backoff backoff;
+        const auto wait_start = std::chrono::steady_clock::now();
         for (;;) {
             MPI_Iprobe(0, kAssign, MPI_COMM_WORLD, &flag, MPI_STATUS_IGNORE);
             if (flag) break;
@@ -310,6 +335,7 @@ std::uint64_t run_chunk_worker(const MpiSession& session, ChunkComputer& compute
             backoff.pause();
         }
         MPI_Recv(&index, 1, MPI_LONG_LONG, 0, kAssign, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+        waited += seconds_since(wait_start);
         if (index < 0) break;
         if (static_cast<std::size_t>(index) >= plan.size())
             throw Error("rank 0 handed out chunk " + std::to_string(index) + " of " +
@@ -325,7 +351,8 @@ std::uint64_t run_chunk_worker(const MpiSession& session, ChunkComputer& compute
             std::abort();
         }
         cells += r.chunk.count;
-        buffers.push_back(pack(static_cast<std::uint64_t>(index), r));
+        buffers.push_back(pack(static_cast<std::uint64_t>(index), r, waited));
+        waited = 0;
         requests.emplace_back();
         MPI_Isend(buffers.back().data(), static_cast<int>(buffers.back().size()), MPI_BYTE, 0,
                   kResult, MPI_COMM_WORLD, &requests.back());

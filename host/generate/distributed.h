@@ -12,7 +12,8 @@
 //
 // Messages (MPI_COMM_WORLD): kReady (rank -> 0, asks for a chunk), kAssign
 // (0 -> rank: a chunk index of the plan, or -1: stop), kResult (rank -> 0:
-// the chunk's totals and cells, packed as bytes in this machine's order).
+// the chunk's totals and cells, and how long the rank waited for it, packed
+// as bytes in this machine's order).
 #pragma once
 
 #include <exception>
@@ -74,6 +75,9 @@ public:
     void check() override;
     void computed_here(std::uint64_t cells) override { cells_[0] += cells; }
     std::vector<std::uint64_t> cells_per_process() const override { return cells_; }
+    // "rank 0 received and wrote 12 results ... in 0.004 s (0.33 ms each);
+    // they waited 0.021 s in all for chunks": the cost of the sharing.
+    std::string statistics() const;
 
 private:
     void serve();
@@ -85,6 +89,9 @@ private:
     std::vector<std::uint64_t> cells_;
     std::vector<bool> stopped_;
     std::size_t outstanding_ = 0;  // chunks handed out, results not back
+    std::size_t results_ = 0;      // received from the other ranks
+    double handling_ = 0;          // seconds spent receiving and writing them
+    double waited_ = 0;            // seconds the other ranks waited for chunks
     std::thread thread_;
     std::mutex failure_lock_;
     std::exception_ptr failure_;
