@@ -3,6 +3,7 @@
 #include "host/generate/chunked.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <map>
 #include <mutex>
@@ -182,7 +183,13 @@ std::vector<GeneratedTable> generate_to_file(const Spec& spec, Backend& backend,
         std::size_t handle = 0, cells = 0, cells_done = 0;
         bool kept = false, finished = false, first_nan = false;
         double lo = INFINITY, hi = -INFINITY;
-        double partial_fraction = 0;  // of the chunk in progress here
+        // The chunk in progress here: its fraction done (in cells), cells
+        // done and samples drawn so far.
+        double partial_fraction = 0;
+        std::size_t partial_cells = 0;
+        std::uint64_t partial_samples = 0;
+        bool reported = false;  // progress shown yet; since `started`
+        std::chrono::steady_clock::time_point started;
     };
     std::vector<Table> tables(computer.table_count());
     for (std::size_t t = 0; t < tables.size(); ++t) {
@@ -211,9 +218,16 @@ std::vector<GeneratedTable> generate_to_file(const Spec& spec, Backend& backend,
             e.table_index = t;
             e.table_count = spec.tables.size();
             e.table = &spec.tables[t];
-            e.progress.cells_total = tables[t].cells;
-            e.progress.cells_done = tables[t].cells_done;
-            e.progress.elapsed_seconds = tables[t].g.data.elapsed_seconds;
+            Table& tb = tables[t];
+            const auto now = std::chrono::steady_clock::now();
+            if (!tb.reported) {
+                tb.reported = true;
+                tb.started = now;
+            }
+            e.progress.cells_total = tb.cells;
+            e.progress.cells_done = tb.cells_done + tb.partial_cells;
+            e.progress.samples_done = tb.g.data.total_samples + tb.partial_samples;
+            e.progress.elapsed_seconds = std::chrono::duration<double>(now - tb.started).count();
             e.progress.fraction = std::min(
                 1.0, (static_cast<double>(tables[t].cells_done) + tables[t].partial_fraction) /
                          static_cast<double>(std::max<std::size_t>(tables[t].cells, 1)));
@@ -229,7 +243,7 @@ std::vector<GeneratedTable> generate_to_file(const Spec& spec, Backend& backend,
     // differs between runs anyway).
     std::vector<bool> received(plan.size(), false);
     std::size_t received_count = 0;
-    auto accept = [&](ChunkResult&& r) {
+    auto accept = [&](ChunkResult&& r, bool own) {
         const CellChunk& c = r.chunk;
         auto it = std::find_if(plan.begin(), plan.end(), [&](const CellChunk& p) {
             return p.table == c.table && p.first == c.first && p.count == c.count;
@@ -272,7 +286,11 @@ std::vector<GeneratedTable> generate_to_file(const Spec& spec, Backend& backend,
             writer.finish_table(tb.handle, d);
             tb.finished = true;
         }
-        tb.partial_fraction = 0;
+        if (own) {
+            tb.partial_fraction = 0;
+            tb.partial_cells = 0;
+            tb.partial_samples = 0;
+        }
         report();
     };
 
@@ -292,24 +310,39 @@ std::vector<GeneratedTable> generate_to_file(const Spec& spec, Backend& backend,
     };
     auto accept_locked = [&](ChunkResult&& r) {
         std::lock_guard<std::mutex> hold(lock);
-        accept(std::move(r));
+        accept(std::move(r), false);
     };
     report();
     if (options.sharing) options.sharing->start(take_locked, accept_locked);
+    // On a failure here, the thread must stop before the objects its
+    // functions use are gone.
+    struct StopSharing {
+        ChunkSharing* sharing;
+        ~StopSharing() {
+            if (sharing) sharing->abandon();
+        }
+    } stop_sharing{options.sharing};
     std::size_t mine = 0;
     while (take_locked(mine)) {
         const CellChunk& c = plan[mine];
         ProgressFn after_launch = [&](const Progress& p) {
             if (options.sharing) options.sharing->check();
             std::lock_guard<std::mutex> hold(lock);
-            tables[c.table].partial_fraction = p.fraction * static_cast<double>(c.count);
+            Table& tb = tables[c.table];
+            tb.partial_fraction = p.fraction * static_cast<double>(c.count);
+            tb.partial_cells = p.cells_done;
+            tb.partial_samples = p.samples_done;
             report();
         };
         ChunkResult r = computer.compute(c, options.checkpoint, after_launch);
-        accept_locked(std::move(r));
+        {
+            std::lock_guard<std::mutex> hold(lock);
+            accept(std::move(r), true);
+        }
         if (options.sharing) options.sharing->computed_here(c.count);
     }
     if (options.sharing) options.sharing->finish();
+    stop_sharing.sharing = nullptr;
     if (received_count != plan.size())
         throw Error("only " + std::to_string(received_count) + " of " +
                     std::to_string(plan.size()) + " chunks came back");

@@ -94,6 +94,9 @@ public:
     // Rethrows a failure of the background thread, if any (called between
     // the coordinator's launches).
     virtual void check() = 0;
+    // The coordinator failed: stops the background thread at once (it calls
+    // `take` and `accept` no more), without waiting for the others.
+    virtual void abandon() = 0;
     // The coordinator computed a chunk of `cells` cells itself.
     virtual void computed_here(std::uint64_t cells) = 0;
     // Cells computed by each process (index: rank), for the summary.

@@ -211,10 +211,13 @@ MpiChunkSharing::MpiChunkSharing(const MpiSession& session, const std::vector<Ce
     stopped_[0] = true;  // rank 0 asks nobody
 }
 
-MpiChunkSharing::~MpiChunkSharing() {
-    // Unwinding from a failure of rank 0: the thread may wait for ranks
-    // that will never answer; the caller ends the job (MPI_Abort).
-    if (thread_.joinable()) thread_.detach();
+MpiChunkSharing::~MpiChunkSharing() { abandon(); }
+
+void MpiChunkSharing::abandon() {
+    // The thread never blocks for long (it probes, then receives only what
+    // has arrived), so it sees the flag soon.
+    abandoned_ = true;
+    if (thread_.joinable()) thread_.join();
 }
 
 void MpiChunkSharing::start(const std::function<bool(std::size_t&)>& take,
@@ -249,7 +252,7 @@ void MpiChunkSharing::serve() {
         return true;
     };
     Backoff backoff;
-    while (outstanding_ > 0 || !everyone_stopped()) {
+    while ((outstanding_ > 0 || !everyone_stopped()) && !abandoned_) {
         MPI_Status status;
         int flag = 0;
         MPI_Iprobe(MPI_ANY_SOURCE, MPI_ANY_TAG, MPI_COMM_WORLD, &flag, &status);

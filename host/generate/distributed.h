@@ -16,6 +16,7 @@
 // as bytes in this machine's order).
 #pragma once
 
+#include <atomic>
 #include <exception>
 #include <memory>
 #include <mutex>
@@ -73,6 +74,7 @@ public:
                const std::function<void(ChunkResult&&)>& accept) override;
     void finish() override;
     void check() override;
+    void abandon() override;
     void computed_here(std::uint64_t cells) override { cells_[0] += cells; }
     std::vector<std::uint64_t> cells_per_process() const override { return cells_; }
     // "rank 0 received and wrote 12 results ... in 0.004 s (0.33 ms each);
@@ -93,6 +95,7 @@ private:
     double handling_ = 0;          // seconds spent receiving and writing them
     double waited_ = 0;            // seconds the other ranks waited for chunks
     std::thread thread_;
+    std::atomic<bool> abandoned_{false};
     std::mutex failure_lock_;
     std::exception_ptr failure_;
 };

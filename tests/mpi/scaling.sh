@@ -51,7 +51,7 @@ phase_mc = "exact"
 samples = 1024
 seed = 1
 SPEC
-# Cheap cells: a closed form, 4096 cells, to time the chunks themselves.
+# Cheap cells: a closed form, 65536 cells, to time the chunks themselves.
 cat >cheap.toml <<'SPEC'
 model = "rough-dielectric"
 [parameters]
@@ -60,11 +60,11 @@ alpha = 0.3
 [[axes]]
 name = "theta_i"
 range = [0.0, 80.0]
-count = 64
+count = 256
 [[axes]]
 name = "theta_o"
 range = [0.0, 80.0]
-count = 64
+count = 256
 [[tables]]
 quantity = "brdf"
 SPEC
@@ -78,9 +78,10 @@ for r in $(seq "$REPEATS"); do
   t2=$(seconds mpirun --oversubscribe --bind-to none -n 2 "$BT" generate slice.toml -q -o two.h5)
   echo "slice, 2 ranks: wall, CPU ${t2}; $(grep 'cells per rank' run.txt | sed 's/^ *//')" | tee -a two.txt
   grep "rank 0 received" run.txt | sed 's/^ */  /'
-  c1=$(seconds mpirun --oversubscribe --bind-to none -n 2 "$BT" generate cheap.toml -q -o c1.h5 --chunk-cells 4096)
+  c0=$(seconds "$BT" generate cheap.toml -q -o c0.h5)
+  c1=$(seconds "$BT" generate cheap.toml -q -o c1.h5 --chunk-cells 4)
   c2=$(seconds mpirun --oversubscribe --bind-to none -n 2 "$BT" generate cheap.toml -q -o c2.h5 --chunk-cells 4)
-  echo "cheap, 2 ranks: 1 chunk ${c1% *}s, 1024 chunks of 4 cells ${c2% *}s" | tee -a cheap.txt
+  echo "cheap, 1 process: 1 chunk ${c0% *}s, 16384 chunks of 4 cells ${c1% *}s; 2 ranks: ${c2% *}s" | tee -a cheap.txt
   grep "rank 0 received" run.txt | sed 's/^ */  /'
 done
 echo "load average: $(cut -d' ' -f1-3 /proc/loadavg)"
@@ -88,8 +89,9 @@ m1=$(sed 's/.*CPU \([0-9.]*\) .*/\1/' one.txt | median)
 m2=$(sed 's/.*CPU \([0-9.]*\) .*/\1/' two.txt | median)
 u1=$(sed 's/.*CPU [0-9.]* \([0-9.]*\).*/\1/' one.txt | median)
 u2=$(sed 's/.*CPU [0-9.]* \([0-9.]*\).*/\1/' two.txt | median)
-mc1=$(sed 's/.*1 chunk \([0-9.]*\)s.*/\1/' cheap.txt | median)
-mc2=$(sed 's/.*cells \([0-9.]*\)s.*/\1/' cheap.txt | median)
-awk -v a="$m1" -v b="$m2" -v c="$mc1" -v d="$mc2" -v u="$u1" -v v="$u2" 'BEGIN {
+mc0=$(sed 's/.*1 chunk \([0-9.]*\)s.*/\1/' cheap.txt | median)
+mc1=$(sed 's/.*cells \([0-9.]*\)s;.*/\1/' cheap.txt | median)
+mc2=$(sed 's/.*2 ranks: \([0-9.]*\)s.*/\1/' cheap.txt | median)
+awk -v a="$m1" -v b="$m2" -v u="$u1" -v v="$u2" -v c0="$mc0" -v c1="$mc1" -v c2="$mc2" 'BEGIN {
   printf "median of %s: slice 1 process %.2fs (CPU %.2fs), 2 ranks %.2fs (CPU %.2fs), speed-up %.2f\n", "'"$REPEATS"'", a, u, b, v, a / b
-  printf "median: cheap table 1 chunk %.2fs, 1024 chunks %.2fs: %.2f ms per chunk\n", c, d, 1000 * (d - c) / 1023 }'
+  printf "median: cheap table 1 chunk %.2fs, 16384 chunks %.2fs (%.3f ms per chunk), 2 ranks %.2fs\n", c0, c1, 1000 * (c1 - c0) / 16383, c2 }'
