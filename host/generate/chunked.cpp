@@ -237,25 +237,37 @@ std::vector<GeneratedTable> generate_to_file(const Spec& spec, Backend& backend,
     };
 
     // A chunk's results: into the file, the totals and (when kept) memory.
-    // Totals fold in plan order per table: sums and maxima of exact
-    // integers, and max of doubles, do not depend on the order; the
-    // elapsed time is a sum of seconds, which does (the only attribute that
-    // differs between runs anyway).
+    // Chunks arrive in any order; the totals do not depend on it: sums of
+    // integers, and the largest achieved tolerance (std::max drops NaNs
+    // whatever the order, as the engine's own maximum does).  The elapsed
+    // time is a sum of seconds (an attribute that differs between runs
+    // anyway).
     std::vector<bool> received(plan.size(), false);
     std::size_t received_count = 0;
+    // Chunks of a table are consecutive in the plan and of equal size but
+    // the last: a chunk's place is its table's first plus first / size.
+    std::vector<std::size_t> table_start(tables.size(), plan.size());
+    for (std::size_t k = plan.size(); k-- > 0;) table_start[plan[k].table] = k;
+    auto place_of = [&](const CellChunk& c) -> std::size_t {
+        if (c.table >= tables.size() || table_start[c.table] >= plan.size()) return plan.size();
+        const std::size_t size = plan[table_start[c.table]].count;
+        const std::size_t k = table_start[c.table] + c.first / size;
+        if (k >= plan.size() || plan[k].table != c.table || plan[k].first != c.first ||
+            plan[k].count != c.count)
+            return plan.size();
+        return k;
+    };
     auto accept = [&](ChunkResult&& r, bool own) {
         const CellChunk& c = r.chunk;
-        auto it = std::find_if(plan.begin(), plan.end(), [&](const CellChunk& p) {
-            return p.table == c.table && p.first == c.first && p.count == c.count;
-        });
-        if (it == plan.end() || received[static_cast<std::size_t>(it - plan.begin())])
+        const std::size_t place = place_of(c);
+        if (place >= plan.size() || received[place])
             throw Error("a process returned a chunk that was not handed out (table " +
                         std::to_string(c.table) + ", cells " + std::to_string(c.first) + " + " +
                         std::to_string(c.count) + ")");
         if (r.value.size() != c.count || r.stderr_.size() != c.count ||
             (!r.samples.empty() && r.samples.size() != c.count))
             throw Error("a chunk's results have the wrong size");
-        received[static_cast<std::size_t>(it - plan.begin())] = true;
+        received[place] = true;
         ++received_count;
         Table& tb = tables[c.table];
         TableData& d = tb.g.data;
