@@ -4,7 +4,8 @@
 //
 // Opens one table (default: the first in the file), prints its axes and
 // metadata, a few interpolated values, and — for isotropic BRDF tables with
-// theta_i/theta_o(/phi_d) axes — a few importance samples.  Parameters not
+// theta_i/theta_o(/phi_d) axes — a few importance samples (other tables,
+// such as albedos, skip that part).  Parameters not
 // given on the command line are set to the middle of their axis (or of the
 // recombination range).
 #include <brdftab/core/error.h>
@@ -74,6 +75,21 @@ int main(int argc, char** argv) {
         std::printf("value at axis midpoints: linear %g, cubic %g\n", lt.eval(mid),
                     lt.eval(mid, Interpolation::Cubic));
         std::printf("value at first node: %g\n", lt.eval(first));
+
+        // Direction-level use needs an incident and an outgoing angle axis
+        // and no azimuth of its own (isotropic); an albedo table over
+        // theta_i, say, has nothing to sample.
+        bool has_in = false, has_out = false, anisotropic = false;
+        for (const auto& a : lt.axes()) {
+            has_in = has_in || a.name == "theta_i" || a.name == "mu_i";
+            has_out = has_out || a.name == "theta_o" || a.name == "mu_o";
+            anisotropic = anisotropic || a.name == "phi_i" || a.name == "phi_o";
+        }
+        if (!has_in || !has_out || anisotropic) {
+            std::printf("no direction-level evaluation or sampling: the table is not an "
+                        "isotropic function of (wi, wo)\n");
+            return 0;
+        }
 
         // Direction-level use: bind the non-angle parameters, then evaluate
         // and sample as a renderer would.

@@ -5,15 +5,20 @@
 #
 # Optional groups, installed only when asked:
 #   --fuzz   clang and its sanitizer/libFuzzer runtimes (scripts/fuzz.sh)
+#   --mitsuba  LLVM 19 for Mitsuba's llvm_* variants, and the venv .venv-mitsuba
+#            (Debian's python3 with its numpy/h5py, plus `pip install mitsuba`)
+#            that the CTest label `mitsuba` uses (docs/python.md)
 # (scripts/sanitize.sh needs nothing more: GCC's ASan/UBSan runtimes come
 # with build-essential.)
 set -euo pipefail
 
 with_fuzz=0
+with_mitsuba=0
 for arg in "$@"; do
   case $arg in
     --fuzz) with_fuzz=1 ;;
-    *) echo "setup: unknown option '$arg' (known: --fuzz)" >&2; exit 2 ;;
+    --mitsuba) with_mitsuba=1 ;;
+    *) echo "setup: unknown option '$arg' (known: --fuzz, --mitsuba)" >&2; exit 2 ;;
   esac
 done
 
@@ -25,11 +30,29 @@ packages=(
   libpng-dev                                                # `brdftab plot`
   doctest-dev libtomlplusplus-dev libcli11-dev nlohmann-json3-dev
   python3-h5py python3-numpy                                # format tests read files with h5py
+  python3-dev pybind11-dev python3-pybind11 python3-pytest   # Python module brdftab and its tests
   libopenmpi-dev openmpi-bin                                # the MPI build (docs/cluster.md)
 )
 if [ $with_fuzz -eq 1 ]; then
   packages+=(clang libclang-rt-dev)
 fi
+if [ $with_mitsuba -eq 1 ]; then
+  packages+=(python3-venv python3-pip libllvm19)
+fi
+
+# The Mitsuba venv, after the packages (needs python3-venv).
+make_mitsuba_venv() {
+  [ $with_mitsuba -eq 1 ] || return 0
+  local venv
+  venv="$(cd "$(dirname "$0")/.." && pwd)/.venv-mitsuba"
+  if "$venv/bin/python" -c "import mitsuba" 2>/dev/null; then
+    echo "setup: $venv has mitsuba"
+    return 0
+  fi
+  echo "setup: creating $venv with mitsuba (pip)"
+  /usr/bin/python3 -m venv --system-site-packages "$venv"
+  "$venv/bin/pip" install -q mitsuba
+}
 
 missing=()
 for p in "${packages[@]}"; do
@@ -40,6 +63,7 @@ done
 
 if [ ${#missing[@]} -eq 0 ]; then
   echo "setup: all ${#packages[@]} packages present"
+  make_mitsuba_venv
   exit 0
 fi
 
@@ -54,3 +78,4 @@ export DEBIAN_FRONTEND=noninteractive
 apt-get update -qq
 # shellcheck disable=SC2086
 apt-get install -y -qq --no-install-recommends ${missing[*]}
+make_mitsuba_venv

@@ -10,7 +10,12 @@ cmake --install "$BUILD" --prefix "$WORK/prefix" >/dev/null
 test -f "$WORK/prefix/include/brdftab/lookup/lookup.h"
 test -x "$WORK/prefix/bin/brdftab"
 cmake -S "$SRC/examples" -B "$WORK/example" -DCMAKE_PREFIX_PATH="$WORK/prefix" \
-      -DCMAKE_BUILD_TYPE=Release >/dev/null
+      -DCMAKE_BUILD_TYPE=Release >"$WORK/configure.txt" 2>&1
+# A consumer's configure is quiet about dependencies it does not use (Debian's
+# Imath announces a missing Python binding otherwise).
+if grep -q "PyImath" "$WORK/configure.txt"; then
+  echo "FAIL: consumer configure mentions PyImath:"; cat "$WORK/configure.txt"; exit 1
+fi
 cmake --build "$WORK/example" -j2 >/dev/null
 cat >"$WORK/spec.toml" <<'TOML'
 model = "rough-dielectric"
@@ -36,4 +41,25 @@ TOML
 (cd "$WORK" && "$WORK/prefix/bin/brdftab" generate spec.toml -o table.h5 -q >/dev/null)
 "$WORK/example/table_example" "$WORK/table.h5" brdf >"$WORK/out.txt"
 grep -q "brdf" "$WORK/out.txt"
-echo "1 passed, 0 failed"
+# An albedo table (no outgoing direction): values printed, sampling skipped, exit 0.
+cat >"$WORK/albedo.toml" <<'TOML'
+model = "rough-dielectric"
+[parameters]
+eta = 1.5
+[[axes]]
+name = "theta_i"
+range = [0.0, 80.0]
+count = 3
+[[axes]]
+name = "alpha"
+range = [0.2, 0.6]
+count = 2
+[[tables]]
+quantity = "albedo_r"
+[integration]
+samples = 64
+TOML
+(cd "$WORK" && "$WORK/prefix/bin/brdftab" generate albedo.toml -o albedo.h5 -q >/dev/null)
+"$WORK/example/table_example" "$WORK/albedo.h5" albedo_r >"$WORK/albedo.txt"
+grep -q "no direction-level" "$WORK/albedo.txt"
+echo "3 passed, 0 failed"

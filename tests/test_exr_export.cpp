@@ -12,11 +12,14 @@
 #include <ImfFrameBuffer.h>
 #include <ImfHeader.h>
 #include <ImfInputFile.h>
+#include <ImfInputPart.h>
+#include <ImfMultiPartInputFile.h>
 #include <ImfStringAttribute.h>
 #include <Imath/half.h>
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -283,4 +286,118 @@ TEST_CASE("an axis without nodes is an InputError, not a crash") {
     o.slice["eta"] = 1.5;
     CHECK(input_error_message([&] { export_exr_slice(t, (d / "a.exr").string(), o); })
               .find("'eta' has no nodes") != std::string::npos);
+}
+
+// ---- issue 16: --layers, --axes, --no-stderr, the version attribute.
+
+namespace {
+
+// All parts of a (multi-part) file, R and G as float, with their headers.
+struct PartImage {
+    std::string name;
+    int width = 0, height = 0;
+    std::vector<float> r, g;
+    Imf::Header header;
+};
+
+std::vector<PartImage> read_parts(const std::string& path) {
+    Imf::MultiPartInputFile file(path.c_str());
+    std::vector<PartImage> parts;
+    for (int k = 0; k < file.parts(); ++k) {
+        Imf::InputPart in(file, k);
+        PartImage p;
+        p.header = in.header();
+        p.name = in.header().hasName() ? in.header().name() : "";
+        const Imath::Box2i dw = in.header().dataWindow();
+        p.width = dw.max.x - dw.min.x + 1;
+        p.height = dw.max.y - dw.min.y + 1;
+        const std::size_t n = std::size_t(p.width) * std::size_t(p.height);
+        p.r.resize(n);
+        p.g.resize(n);
+        Imf::FrameBuffer fb;
+        const std::size_t off = std::size_t(dw.min.y) * p.width + dw.min.x;
+        // Read as FLOAT whatever the channel type (OpenEXR converts).
+        fb.insert("R", Imf::Slice(Imf::FLOAT, reinterpret_cast<char*>(p.r.data() - off),
+                                  sizeof(float), sizeof(float) * p.width));
+        fb.insert("G", Imf::Slice(Imf::FLOAT, reinterpret_cast<char*>(p.g.data() - off),
+                                  sizeof(float), sizeof(float) * p.width));
+        in.setFrameBuffer(fb);
+        in.readPixels(dw.min.y, dw.max.y);
+        parts.push_back(std::move(p));
+    }
+    return parts;
+}
+
+}  // namespace
+
+TEST_CASE("--layers: one part per node of the third free axis, --axes picks x and y") {
+    fs::path d = scratch_dir("layers");
+    const TableData t = analytic_table();  // alpha (4) x theta_i (5) x phi_d (6)
+    ExrExportOptions o;
+    o.layers = true;
+    o.x_axis = "theta_i";  // x and y swapped against the table's order
+    o.y_axis = "phi_d";
+    const std::string out = (d / "l.exr").string();
+    export_exr_slice(t, out, o);
+    const std::vector<PartImage> parts = read_parts(out);
+    REQUIRE(parts.size() == 4);  // the alpha nodes
+    for (std::size_t l = 0; l < parts.size(); ++l) {
+        const PartImage& p = parts[l];
+        const double a = t.axes[0].values[l];
+        char name[32];
+        std::snprintf(name, sizeof name, "alpha=%g", a);
+        CHECK(p.name == name);
+        CHECK(p.width == 5);
+        CHECK(p.height == 6);
+        for (int y = 0; y < p.height; ++y)
+            for (int x = 0; x < p.width; ++x) {
+                const double th = t.axes[1].values[x], ph = t.axes[2].values[y];
+                const std::size_t i = std::size_t(y) * p.width + x;
+                CHECK(p.r[i] == float(f_value(a, th, ph)));
+                CHECK(p.g[i] == float(f_stderr(a, th, ph)));
+            }
+        CHECK(attr(p.header, "brdftab_x_axis").find("theta_i") == 0);
+        CHECK(attr(p.header, "brdftab_y_axis").find("phi_d") == 0);
+        CHECK(attr(p.header, "brdftab_layer_axis").find("alpha") == 0);
+        CHECK(attr(p.header, "brdftab_slice") == std::string(name));
+    }
+    // A fixed axis leaves two free: --layers needs three.
+    o.slice["alpha"] = 0.3;
+    CHECK(input_error_message([&] { export_exr_slice(t, (d / "x.exr").string(), o); })
+              .find("three free axes") != std::string::npos);
+    CHECK(!fs::exists(d / "x.exr"));
+}
+
+TEST_CASE("--axes on a 2-D slice, --no-stderr, and the real version") {
+    fs::path d = scratch_dir("axes");
+    const TableData t = analytic_table();
+    ExrExportOptions o;
+    o.slice["theta_i"] = 20.0;
+    o.x_axis = "alpha";  // UE4-style: the table's first axis on x
+    o.y_axis = "phi_d";
+    o.with_stderr = false;
+    const std::string out = (d / "a.exr").string();
+    export_exr_slice(t, out, o);
+    const std::vector<PartImage> parts = read_parts(out);
+    REQUIRE(parts.size() == 1);
+    const PartImage& p = parts[0];
+    CHECK(p.width == 4);
+    CHECK(p.height == 6);
+    for (int y = 0; y < p.height; ++y)
+        for (int x = 0; x < p.width; ++x) {
+            const std::size_t i = std::size_t(y) * p.width + x;
+            CHECK(p.r[i] == float(f_value(t.axes[0].values[x], 20.0, t.axes[2].values[y])));
+            CHECK(p.g[i] == 0.0f);
+        }
+    CHECK(attr(p.header, "brdftab_channels") == "R=value G=0 B=0 A=1");
+    CHECK(attr(p.header, "brdftab_version") == BRDFTAB_VERSION);
+    CHECK(attr(p.header, "brdftab_version") != "unknown");
+    // An image axis that is fixed, or not an axis, is named in the error.
+    o.x_axis = "theta_i";
+    CHECK(input_error_message([&] { export_exr_slice(t, (d / "x.exr").string(), o); })
+              .find("'theta_i' (image x) is not a free axis") != std::string::npos);
+    o.x_axis = "phi_d";
+    CHECK(input_error_message([&] { export_exr_slice(t, (d / "x.exr").string(), o); })
+              .find("twice") != std::string::npos);
+    CHECK(!fs::exists(d / "x.exr"));
 }

@@ -40,7 +40,7 @@ void ComputeOptions::add_to(CLI::App& app, bool with_integration) {
         ->each([this](const std::string&) { tolerance_given = true; });
     app.add_option("--abs-floor", abs_floor,
                    "absolute standard-error floor for values near zero (default 1e-6)")
-        ->check(CLI::PositiveNumber);
+        ->check(number_in(0, false, 1e308, "a number > 0"));
     app.add_option("--max-samples", max_samples,
                    "sample cap per cell under --tolerance, in [1, 4294967295]")
         ->each([this](const std::string& text) {
@@ -51,7 +51,7 @@ void ComputeOptions::add_to(CLI::App& app, bool with_integration) {
         ->each([this](const std::string&) { seed_given = true; });
     app.add_option("--slab", slab,
                    "work items per device launch (results do not depend on it)")
-        ->check(CLI::PositiveNumber);
+        ->check(number_in(1, true, 1e18, "integers >= 1"));
 }
 
 IntegrationSettings ComputeOptions::apply(IntegrationSettings s) const {
@@ -206,6 +206,21 @@ CLI::Validator non_empty_path() {
             return path.empty() ? std::string("an empty path is not a file name") : std::string();
         },
         "PATH");
+}
+
+CLI::Validator number_in(double min, bool min_inclusive, double max, const std::string& allowed) {
+    return CLI::Validator(
+        [=](std::string& text) {
+            double v = 0;
+            try {
+                v = parse_number(text, "value");
+            } catch (const InputError&) {
+                return "'" + text + "' is not a number; allowed: " + allowed;
+            }
+            const bool ok = (min_inclusive ? v >= min : v > min) && v <= max;
+            return ok ? std::string() : text + " is out of range; allowed: " + allowed;
+        },
+        "NUMBER");
 }
 
 }  // namespace brdftab::cli

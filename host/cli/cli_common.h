@@ -73,6 +73,9 @@ std::string format_short(double v);
 // Check for output-path options: an empty path (`-o ""`) is an error (exit
 // code 2), never a silent fall-back to a default path or to stdout.
 CLI::Validator non_empty_path();
+// A number in (min or [min, max]; the message names `allowed` (e.g. "> 0")
+// rather than CLI11's range up to the largest double.
+CLI::Validator number_in(double min, bool min_inclusive, double max, const std::string& allowed);
 
 // Human formatting.
 std::string format_seconds(double s);

@@ -549,13 +549,13 @@ void register_generate(CLI::App& app) {
     cmd->add_option("--checkpoint-interval", state->checkpoint_interval,
                     "seconds between checkpoints of a table in progress (default 60; 0: "
                     "checkpoint finished tables only)")
-        ->check(CLI::NonNegativeNumber);
+        ->check(number_in(0, true, 1e308, "seconds >= 0"));
     cmd->add_option("--chunk-cells", state->chunk_cells,
                     "cells per chunk: tables are computed and written to the file in chunks of "
                     "this many cells, and MPI ranks share them (default 0: automatic, "
                     "262144 cells, or about 8 chunks per rank under MPI; results do not "
                     "depend on it). See docs/cluster.md")
-        ->check(CLI::NonNegativeNumber);
+        ->check(number_in(0, true, 1e18, "cells >= 0 (0: automatic)"));
     state->compute.add_to(*cmd);
     cmd->callback([state] {
 #ifdef BRDFTAB_MPI

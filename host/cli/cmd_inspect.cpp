@@ -1,4 +1,5 @@
 // devices, models, info: commands that only describe things.
+#include <algorithm>
 #include <iomanip>
 #include <iostream>
 #include <memory>
@@ -32,41 +33,89 @@ void register_devices(CLI::App& app) {
     });
 }
 
+namespace {
+
+// A unit for people: "1" (a pure number) reads as a count otherwise.
+std::string unit_text(const std::string& unit) {
+    return unit.empty() || unit == "1" ? "dimensionless" : unit;
+}
+
+// Names padded to the longest in their list (plus two spaces), so a long
+// name shifts its column instead of running into the text after it.
+template <class Items>
+int name_width(const Items& items) {
+    std::size_t w = 12;
+    for (const auto& it : items) w = std::max(w, it.name.size());
+    return static_cast<int>(w + 2);
+}
+
+void print_model(const ModelInfo& m) {
+    std::cout << m.name << "\n  " << m.description << "\n  Source: " << m.citation
+              << "\n  Parameters:\n";
+    const int pw = name_width(m.parameters);
+    for (const auto& p : m.parameters) {
+        std::cout << "    " << std::left << std::setw(pw) << p.name << p.range_text();
+        if (p.default_value) std::cout << "  default " << *p.default_value;
+        std::cout << "  " << p.description << "\n";
+    }
+    std::cout << "  Options:\n";
+    const int ow = name_width(m.options);
+    for (const auto& o : m.options) {
+        std::cout << "    " << std::left << std::setw(ow) << o.name;
+        for (std::size_t k = 0; k < o.choices.size(); ++k)
+            std::cout << (k ? " | " : "") << o.choices[k];
+        std::cout << "  (default " << o.default_choice << ")  " << o.description << "\n";
+    }
+    std::cout << "  Quantities:\n";
+    const int qw = name_width(m.quantities);
+    for (const auto& q : m.quantities) {
+        std::cout << "    " << std::left << std::setw(qw) << q.name << "["
+                  << (q.kind == QuantityKind::ClosedForm ? "closed form" : "integral, " +
+                                                                               to_string(q.default_method))
+                  << "; " << unit_text(q.units) << "; depends on:";
+        for (const auto& d : q.directions) std::cout << " " << d;
+        if (q.directions.empty()) std::cout << " no direction";
+        std::cout << "] " << q.description << "  (" << q.equations << ")\n";
+    }
+}
+
+}  // namespace
+
 void register_models(CLI::App& app) {
     auto* cmd = app.add_subcommand(
-        "models", "list models: quantities, parameters with allowed ranges, options, equations");
-    auto as_json = std::make_shared<bool>(false);  // owned by the callback
-    cmd->add_flag("--json", *as_json, "machine-readable output");
-    cmd->callback([as_json] {
-        if (*as_json) {
-            std::cout << describe_models().dump(2) << "\n";
+        "models",
+        "list models (or one: `brdftab models MODEL`): quantities, parameters with allowed "
+        "ranges, options, equations");
+    struct State {
+        bool json = false;
+        std::string model;
+    };
+    auto state = std::make_shared<State>();  // owned by the callback
+    cmd->add_option("MODEL", state->model, "show this model only");
+    cmd->add_flag("--json", state->json, "machine-readable output");
+    cmd->callback([state] {
+        std::vector<const ModelInfo*> chosen;
+        if (state->model.empty()) {
+            for (const auto& m : all_models()) chosen.push_back(&m);
+        } else {
+            chosen.push_back(&find_model(state->model));  // InputError names the known models
+        }
+        if (state->json) {
+            nlohmann::json all = describe_models();
+            if (state->model.empty()) {
+                std::cout << all.dump(2) << "\n";
+                return;
+            }
+            for (const auto& j : all)
+                if (j.is_object() && j.value("name", "") == state->model) {
+                    std::cout << j.dump(2) << "\n";
+                    return;
+                }
+            std::cout << all.dump(2) << "\n";
             return;
         }
-        for (const auto& m : all_models()) {
-            std::cout << m.name << "\n  " << m.description << "\n  Source: " << m.citation
-                      << "\n  Parameters:\n";
-            for (const auto& p : m.parameters) {
-                std::cout << "    " << std::left << std::setw(14) << p.name << p.range_text();
-                if (p.default_value) std::cout << "  default " << *p.default_value;
-                std::cout << "  " << p.description << "\n";
-            }
-            std::cout << "  Options:\n";
-            for (const auto& o : m.options) {
-                std::cout << "    " << std::left << std::setw(14) << o.name;
-                for (std::size_t k = 0; k < o.choices.size(); ++k)
-                    std::cout << (k ? " | " : "") << o.choices[k];
-                std::cout << "  (default " << o.default_choice << ")  " << o.description << "\n";
-            }
-            std::cout << "  Quantities:\n";
-            for (const auto& q : m.quantities) {
-                std::cout << "    " << std::left << std::setw(14) << q.name << "["
-                          << (q.kind == QuantityKind::ClosedForm ? "closed form" : "integral, " +
-                                                                                       to_string(q.default_method))
-                          << "; " << q.units << "; depends on:";
-                for (const auto& d : q.directions) std::cout << " " << d;
-                if (q.directions.empty()) std::cout << " no direction";
-                std::cout << "] " << q.description << "  (" << q.equations << ")\n";
-            }
+        for (const ModelInfo* m : chosen) {
+            print_model(*m);
             std::cout << "\n";
         }
         std::cout << "Directions: theta in [0, 180] deg from the macro normal (> 90 = below the "
@@ -87,9 +136,17 @@ void print_table_summary(const TableData& t, bool verbose) {
                   << a.max << "] " << a.unit << ", " << a.count << " nodes, "
                   << spacing_name(a.spacing) << "\n";
     std::cout << "    parameters: " << t.parameters.dump() << "\n";
+    if (!t.spec_file.empty() || !t.spec_text.empty())
+        std::cout << "    spec: " << (t.spec_file.empty() ? "(unnamed)" : t.spec_file)
+                  << (t.spec_text.empty() ? "" : ", text stored (attribute 'spec')") << "\n";
     std::cout << "    method: " << method_attribute(t);
     if (t.kind != TableKind::Computed) {
         std::cout << " (formed from other tables of the file; see parameters)";
+    } else if (t.method == Method::Quadrature) {
+        // A deterministic rule: no sample budget to report.
+        std::cout << " (accurate and coarse rule; error estimate = their difference), "
+                     "achieved max rel. error "
+                  << t.tolerance_achieved;
     } else if (t.method != Method::ClosedForm) {
         std::cout << ", samples/cell requested " << t.samples_requested;
         if (t.tolerance_requested > 0) std::cout << ", tolerance " << t.tolerance_requested;

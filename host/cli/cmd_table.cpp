@@ -15,6 +15,7 @@
 #include "host/generate/validate.h"
 #include "host/io/point_file.h"
 #include "host/lookup/lookup.h"
+#include "host/lookup/lookup_internal.h"
 #include "host/cli/plot_png.h"
 #include "host/cli/read_guard.h"
 
@@ -53,7 +54,10 @@ void warn_if_clamped(const LookupTable& lt, const std::vector<double>& coords,
     const auto& ax = lt.axes();
     for (std::size_t a = 0; a < ax.size() && a < coords.size(); ++a) {
         const double tol = 1e-9 * (ax[a].max - ax[a].min);
-        if (coords[a] < ax[a].min - tol || coords[a] > ax[a].max + tol)
+        // phi_d is folded or wrapped by the lookup (isotropy, periodicity)
+        // before any clamping: warn only about what is clamped after that.
+        const double x = lookup_internal::fold_periodic(ax[a], coords[a]);
+        if (x < ax[a].min - tol || x > ax[a].max + tol)
             std::cerr << "brdftab: warning: " << where << ": " << ax[a].name << " = "
                       << coords[a] << " is outside [" << ax[a].min << ", " << ax[a].max
                       << "], clamped (use --reject to make this an error)\n";
@@ -61,28 +65,12 @@ void warn_if_clamped(const LookupTable& lt, const std::vector<double>& coords,
 }
 
 // Coordinates in coordinate_names() order from a name -> value map; unknown
-// or missing names are InputErrors.
+// or missing names are InputErrors (the library's message, shared with the
+// Python module).
 std::vector<double> ordered_coords(const LookupTable& lt,
                                    const std::map<std::string, double>& values,
                                    const std::string& where) {
-    const auto names = lt.coordinate_names();
-    for (const auto& kv : values)
-        if (std::find(names.begin(), names.end(), kv.first) == names.end())
-            throw InputError(where + ": '" + kv.first + "' is not a coordinate of table '" +
-                             lt.table().name + "' (coordinates: " + names_text(names) + ")");
-    std::vector<double> out;
-    std::vector<std::string> missing;
-    for (const auto& n : names) {
-        auto it = values.find(n);
-        if (it == values.end())
-            missing.push_back(n);
-        else
-            out.push_back(it->second);
-    }
-    if (!missing.empty())
-        throw InputError(where + ": missing " + names_text(missing) + " (table '" +
-                         lt.table().name + "' needs " + names_text(names) + ")");
-    return out;
+    return lt.ordered_coordinates(values, where);
 }
 
 // ---------------------------------------------------------------- query
@@ -477,12 +465,12 @@ void register_table_commands(CLI::App& app) {
         cmd->add_option("--samples", st->samples,
                         "integrals: fixed sample budget per reference point (default: the "
                         "table's own budget / tolerance)")
-            ->check(CLI::PositiveNumber);
+            ->check(number_in(1, true, 4294967295.0, "integers in [1, 4294967295]"));
         cmd->add_option("--max-samples", st->max_samples,
                         "integrals: cap on the table's own budget per reference point (default "
                         "2^22 = 4194304), so a table asking for unbounded work cannot make "
                         "validate run forever; an explicit --samples is not capped")
-            ->check(CLI::PositiveNumber);
+            ->check(number_in(1, true, 4294967295.0, "integers in [1, 4294967295]"));
         cmd->add_option("--rel-floor", st->rel_floor,
                         "relative errors divide by max(|reference|, F * max|table value|); "
                         "default F = 1e-3");

@@ -12,6 +12,8 @@ void register_generate(CLI::App& app);
 void register_info(CLI::App& app);
 void register_export(CLI::App& app);
 void register_bench(CLI::App& app);
+// scene files -> the tables their materials need (host/scene)
+void register_scene(CLI::App& app);
 // query / validate / plot (renderer-side library, issue 7)
 void register_table_commands(CLI::App& app);
 

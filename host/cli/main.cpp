@@ -5,8 +5,11 @@
 // (arguments, spec, input files).
 #include <CLI/CLI.hpp>
 
+#include <algorithm>
 #include <cstdio>
 #include <iostream>
+#include <string>
+#include <vector>
 
 #include "host/cli/cli_common.h"
 #include "host/cli/commands.h"
@@ -16,6 +19,59 @@
 #ifndef BRDFTAB_VERSION
 #define BRDFTAB_VERSION "unknown"
 #endif
+
+namespace {
+
+// Levenshtein distance: how many single-character edits turn a into b.
+std::size_t edit_distance(const std::string& a, const std::string& b) {
+    std::vector<std::size_t> row(b.size() + 1);
+    for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+    for (std::size_t i = 1; i <= a.size(); ++i) {
+        std::size_t diagonal = row[0];
+        row[0] = i;
+        for (std::size_t j = 1; j <= b.size(); ++j) {
+            const std::size_t above = row[j];
+            row[j] = std::min({row[j] + 1, row[j - 1] + 1,
+                               diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
+            diagonal = above;
+        }
+    }
+    return row[b.size()];
+}
+
+// The first argument names the subcommand (the top level has only flags):
+// an unknown word is named, with the closest subcommand as a suggestion,
+// rather than CLI11's "A subcommand is required".  Returns false after
+// printing the message.
+bool known_subcommand(CLI::App& app, int argc, char** argv) {
+    if (argc < 2 || argv[1][0] == '-') return true;
+    const std::string word = argv[1];
+    std::vector<std::string> names;
+    for (const CLI::App* sub : app.get_subcommands([](CLI::App*) { return true; }))
+        names.push_back(sub->get_name());
+    if (std::find(names.begin(), names.end(), word) != names.end()) return true;
+    if (word == "help") {  // what a newcomer types first
+        std::cerr << "brdftab: error: there is no 'help' command; use `brdftab --help`, or "
+                     "`brdftab COMMAND --help`\n";
+        return false;
+    }
+    std::string best;
+    std::size_t best_distance = 0;
+    for (const auto& n : names) {
+        const std::size_t d = edit_distance(word, n);
+        if (best.empty() || d < best_distance) best = n, best_distance = d;
+    }
+    std::string all;
+    for (const auto& n : names) all += (all.empty() ? "" : ", ") + n;
+    std::cerr << "brdftab: error: unknown command '" << word << "'";
+    // A suggestion only when it is plausibly a typo: at most half the word edited.
+    if (!best.empty() && best_distance <= std::max<std::size_t>(2, word.size() / 2))
+        std::cerr << "; did you mean '" << best << "'?";
+    std::cerr << "\n  commands: " << all << "\n  (brdftab --help for details)\n";
+    return false;
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
     using namespace brdftab;
@@ -42,8 +98,10 @@ int main(int argc, char** argv) {
     cli::register_info(app);
     cli::register_export(app);
     cli::register_bench(app);
+    cli::register_scene(app);
     cli::register_table_commands(app);
 
+    if (!known_subcommand(app, argc, argv)) return 2;
     try {
         app.parse(argc, argv);
         return 0;

@@ -50,6 +50,7 @@ struct TableData {
     std::string device;     // device name or "host"
     std::string version;    // brdftab version
     std::string spec_file;  // the spec the table was generated from (may be empty)
+    std::string spec_text;  // that spec's full text (empty when none; attribute "spec")
     double elapsed_seconds = 0;
     std::uint64_t total_samples = 0;
 

@@ -29,6 +29,7 @@ void inherit_provenance(TableData& d, const TableData& from, const Spec& spec) {
     d.device = from.device;
     d.version = from.version;
     d.spec_file = from.spec_file;
+    d.spec_text = from.spec_text;
     d.stored_type = spec.output.stored_type;
     d.compression = spec.output.compression;
 }

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <map>
 #include <optional>
 
@@ -19,6 +20,30 @@
 #endif
 
 namespace brdftab {
+
+namespace {
+constexpr double kRadPerDeg = 3.14159265358979323846 / 180.0;
+// Where the light comes from when the incident direction says so: "inside"
+// when every theta_i > 90 (mu_i < 0), "outside" when every theta_i <= 90;
+// null when the table spans both or has no incident direction.
+const char* incident_side(const TableSpec& ts) {
+    double lo = 0, hi = 0;  // as mu_i
+    if (ts.fixed.count("theta_i")) lo = hi = std::cos(ts.fixed.at("theta_i") * kRadPerDeg);
+    if (ts.fixed.count("mu_i")) lo = hi = ts.fixed.at("mu_i");
+    bool found = ts.fixed.count("theta_i") || ts.fixed.count("mu_i");
+    for (const Axis& a : ts.axes)
+        if (a.name == "theta_i" || a.name == "mu_i") {
+            const bool mu = a.name == "mu_i";
+            lo = mu ? a.min : std::cos(a.max * kRadPerDeg);
+            hi = mu ? a.max : std::cos(a.min * kRadPerDeg);
+            found = true;
+        }
+    if (!found) return nullptr;
+    if (hi < 0) return "inside";
+    if (lo >= -1e-12) return "outside";
+    return nullptr;
+}
+}  // namespace
 
 namespace {
 constexpr double kDegToRad = 3.14159265358979323846 / 180.0;
@@ -199,14 +224,20 @@ TableData describe_table(const Spec& spec, const Backend& backend,
     d.description = ts.description.empty() ? q.description : ts.description;
     nlohmann::json params = nlohmann::json::object();
     for (const auto& [k, v] : ts.fixed) params[k] = v;
-    // Record every option actually used (defaults included), by name.
+    // Record every option actually used (defaults included), by name;
+    // options the quantity ignores are left out (a "side" default would
+    // misstate a table of light from inside).
     for (std::size_t k = 0; k < model.options.size(); ++k)
-        params[model.options[k].name] = model.options[k].choices[options[k]];
+        if (std::count(q.uses_options.begin(), q.uses_options.end(), model.options[k].name))
+            params[model.options[k].name] = model.options[k].choices[options[k]];
+    // A model with a "side" option: state the side the table's light comes from.
+    if (model.find_option("side") && !params.contains("side") && incident_side(ts))
+        params["side"] = incident_side(ts);
     d.parameters = params;
     d.axes = ts.axes;
     const bool closed_form = method == Method::ClosedForm;
     d.method = method;
-    d.samples_requested = closed_form
+    d.samples_requested = closed_form || method == Method::Quadrature
                               ? 1
                               : (settings.tolerance > 0 ? settings.max_samples
                                                         : (settings.samples ? settings.samples : 4096));
@@ -216,7 +247,9 @@ TableData describe_table(const Spec& spec, const Backend& backend,
     d.precision = precision_name(backend.precision());
     d.device = backend.device_name();
     d.version = BRDFTAB_VERSION;
-    d.spec_file = spec.file;
+    // The spec's name without the machine's directories, and its text.
+    d.spec_file = std::filesystem::path(spec.file).filename().string();
+    d.spec_text = spec.text;
     d.stored_type = spec.output.stored_type;
     d.compression = spec.output.compression;
     d.keep_stderr = spec.output.keep_stderr && !closed_form;

@@ -9,6 +9,9 @@
 #include <ImfChannelList.h>
 #include <ImfFrameBuffer.h>
 #include <ImfHeader.h>
+#include <ImfPartType.h>
+#include <ImfMultiPartOutputFile.h>
+#include <ImfOutputPart.h>
 #include <ImfOutputFile.h>
 #include <ImfStringAttribute.h>
 #include <Imath/half.h>
@@ -112,92 +115,143 @@ void export_exr_slice(const TableData& table, const std::string& out_path,
         else if (axes[i].count > 1)
             free_axes.push_back(i);
     }
-    if (free_axes.size() != 2) {
+    const std::size_t want = options.layers ? 3 : 2;
+    if (free_axes.size() != want) {
         std::vector<std::size_t> multi;
         for (std::size_t i = 0; i < axes.size(); ++i)
             if (axes[i].count > 1) multi.push_back(i);
-        throw InputError(where + "an image needs exactly two free axes, got " +
+        throw InputError(where + (options.layers ? "a layered image needs exactly three free axes, got "
+                                                 : "an image needs exactly two free axes, got ") +
                          std::to_string(free_axes.size()) + " (" +
-                         join_names(free_axes, axes) + "); fix all but two of the axes " +
+                         join_names(free_axes, axes) + "); fix all but " +
+                         (options.layers ? "three" : "two") + " of the axes " +
                          join_names(multi, axes) + " with axis=value");
     }
-    const std::size_t ay = free_axes[0], ax = free_axes[1];
+    // Image axes: as asked, or the last free axis on x and the one before on y.
+    auto free_axis_named = [&](const std::string& name, const char* role) {
+        for (std::size_t i : free_axes)
+            if (axes[i].name == name) return i;
+        throw InputError(where + "--axes: '" + name + "' (image " + role +
+                         ") is not a free axis; free axes: " + join_names(free_axes, axes));
+    };
+    std::size_t ax = free_axes[free_axes.size() - 1], ay = free_axes[free_axes.size() - 2];
+    if (options.x_axis.empty() != options.y_axis.empty())
+        throw InputError(where + "--axes needs two names, x and y");
+    if (!options.x_axis.empty()) {
+        ax = free_axis_named(options.x_axis, "x");
+        ay = free_axis_named(options.y_axis, "y");
+        if (ax == ay)
+            throw InputError(where + "--axes names '" + options.x_axis + "' twice");
+    }
+    std::size_t al = axes.size();  // layer axis (none: axes.size())
+    for (std::size_t i : free_axes)
+        if (i != ax && i != ay) al = i;
+
     const int width = static_cast<int>(axes[ax].count);
     const int height = static_cast<int>(axes[ay].count);
     const bool have_stderr = options.with_stderr && !table.stderr_.empty() &&
                              table.stderr_.size() == table.value.size();
-
-    // Gather the slice (y rows, x fastest) in double first.
     const std::size_t npix = static_cast<std::size_t>(width) * static_cast<std::size_t>(height);
-    std::vector<double> r(npix), g(npix, 0.0);
-    for (int y = 0; y < height; ++y)
-        for (int x = 0; x < width; ++x) {
-            index[ay] = static_cast<std::size_t>(y);
-            index[ax] = static_cast<std::size_t>(x);
-            const std::size_t c = table.flat_index(index);
-            const std::size_t p = static_cast<std::size_t>(y) * width + x;
-            r[p] = table.value[c];
-            if (have_stderr) g[p] = table.stderr_[c];
-        }
-
-    Imf::Header header(width, height);
-    header.compression() = Imf::ZIP_COMPRESSION;
+    const std::size_t nlayers = al < axes.size() ? axes[al].count : 1;
     const Imf::PixelType pt = options.half ? Imf::HALF : Imf::FLOAT;
-    for (const char* ch : {"R", "G", "B", "A"}) header.channels().insert(ch, Imf::Channel(pt));
 
-    std::string slice_desc;
-    for (std::size_t i = 0; i < axes.size(); ++i) {
-        if (i == ax || i == ay) continue;
-        slice_desc += (slice_desc.empty() ? "" : ", ") + axes[i].name + "=" +
-                      num(axes[i].values[index[i]]) +
-                      (axes[i].unit.empty() || axes[i].unit == "1" ? "" : " " + axes[i].unit);
-    }
-    auto put = [&](const char* key, const std::string& v) {
-        header.insert(key, Imf::StringAttribute(v));
+    // One part per layer: its header and pixel data (float or half).
+    struct Part {
+        std::vector<float> f[4];
+        std::vector<Imath::half> h[4];
     };
-    put("brdftab_table", table.name);
-    put("brdftab_model", table.model);
-    put("brdftab_quantity", table.quantity);
-    put("brdftab_units", table.units);
-    put("brdftab_x_axis", axis_label(axes[ax]));
-    put("brdftab_y_axis", axis_label(axes[ay]) + " (row 0 = first node)");
-    put("brdftab_slice", slice_desc.empty() ? "none" : slice_desc);
-    put("brdftab_channels",
-        std::string("R=value G=") + (have_stderr ? "stderr" : "0") + " B=0 A=1");
-    put("brdftab_version", BRDFTAB_VERSION);
+    std::vector<Imf::Header> headers;
+    std::vector<Part> parts(nlayers);
+    for (std::size_t layer = 0; layer < nlayers; ++layer) {
+        if (al < axes.size()) index[al] = layer;
+        // Gather the slice (y rows, x fastest) in double first.
+        std::vector<double> r(npix), g(npix, 0.0);
+        for (int y = 0; y < height; ++y)
+            for (int x = 0; x < width; ++x) {
+                index[ay] = static_cast<std::size_t>(y);
+                index[ax] = static_cast<std::size_t>(x);
+                const std::size_t c = table.flat_index(index);
+                const std::size_t p = static_cast<std::size_t>(y) * width + x;
+                r[p] = table.value[c];
+                if (have_stderr) g[p] = table.stderr_[c];
+            }
 
-    // The frame-buffer slice type must equal the channel type, so HALF
-    // channels get half data converted here (round to nearest via float).
-    std::vector<float> fr, fg, fb(npix, 0.0f), fa(npix, 1.0f);
-    std::vector<Imath::half> hr, hg, hb(npix, Imath::half(0.0f)), ha(npix, Imath::half(1.0f));
-    Imf::FrameBuffer fbuf;
-    auto add = [&](const char* ch, char* base, std::size_t elem) {
-        fbuf.insert(ch, Imf::Slice(pt, base, elem, elem * static_cast<std::size_t>(width)));
-    };
-    if (options.half) {
-        auto to_h = [](double v) { return Imath::half(static_cast<float>(v)); };
-        hr.resize(npix);
-        hg.resize(npix);
-        std::transform(r.begin(), r.end(), hr.begin(), to_h);
-        std::transform(g.begin(), g.end(), hg.begin(), to_h);
-        add("R", reinterpret_cast<char*>(hr.data()), sizeof(Imath::half));
-        add("G", reinterpret_cast<char*>(hg.data()), sizeof(Imath::half));
-        add("B", reinterpret_cast<char*>(hb.data()), sizeof(Imath::half));
-        add("A", reinterpret_cast<char*>(ha.data()), sizeof(Imath::half));
-    } else {
-        fr.assign(r.begin(), r.end());
-        fg.assign(g.begin(), g.end());
-        add("R", reinterpret_cast<char*>(fr.data()), sizeof(float));
-        add("G", reinterpret_cast<char*>(fg.data()), sizeof(float));
-        add("B", reinterpret_cast<char*>(fb.data()), sizeof(float));
-        add("A", reinterpret_cast<char*>(fa.data()), sizeof(float));
+        Imf::Header header(width, height);
+        header.compression() = Imf::ZIP_COMPRESSION;
+        for (const char* ch : {"R", "G", "B", "A"}) header.channels().insert(ch, Imf::Channel(pt));
+
+        std::string slice_desc;
+        for (std::size_t i = 0; i < axes.size(); ++i) {
+            if (i == ax || i == ay) continue;
+            slice_desc += (slice_desc.empty() ? "" : ", ") + axes[i].name + "=" +
+                          num(axes[i].values[index[i]]) +
+                          (axes[i].unit.empty() || axes[i].unit == "1" ? "" : " " + axes[i].unit);
+        }
+        auto put = [&](const char* key, const std::string& v) {
+            header.insert(key, Imf::StringAttribute(v));
+        };
+        put("brdftab_table", table.name);
+        put("brdftab_model", table.model);
+        put("brdftab_quantity", table.quantity);
+        put("brdftab_units", table.units);
+        put("brdftab_x_axis", axis_label(axes[ax]));
+        put("brdftab_y_axis", axis_label(axes[ay]) + " (row 0 = first node)");
+        put("brdftab_slice", slice_desc.empty() ? "none" : slice_desc);
+        put("brdftab_channels",
+            std::string("R=value G=") + (have_stderr ? "stderr" : "0") + " B=0 A=1");
+        put("brdftab_version", BRDFTAB_VERSION);
+        if (al < axes.size()) {
+            put("brdftab_layer_axis", axis_label(axes[al]));
+            header.setName(axes[al].name + "=" + num(axes[al].values[layer]));
+            header.setType(Imf::SCANLINEIMAGE);
+        }
+        headers.push_back(header);
+
+        // The frame-buffer slice type must equal the channel type, so HALF
+        // channels get half data converted here (round to nearest via float).
+        Part& part = parts[layer];
+        const std::vector<double>* src[4] = {&r, &g, nullptr, nullptr};
+        for (int ch = 0; ch < 4; ++ch) {
+            if (options.half) {
+                part.h[ch].assign(npix, Imath::half(ch == 3 ? 1.0f : 0.0f));
+                if (src[ch])
+                    std::transform(src[ch]->begin(), src[ch]->end(), part.h[ch].begin(),
+                                   [](double v) { return Imath::half(static_cast<float>(v)); });
+            } else {
+                part.f[ch].assign(npix, ch == 3 ? 1.0f : 0.0f);
+                if (src[ch]) part.f[ch].assign(src[ch]->begin(), src[ch]->end());
+            }
+        }
     }
+
+    auto frame_buffer = [&](Part& part) {
+        Imf::FrameBuffer fbuf;
+        const char* names[4] = {"R", "G", "B", "A"};
+        const std::size_t elem = options.half ? sizeof(Imath::half) : sizeof(float);
+        for (int ch = 0; ch < 4; ++ch) {
+            char* base = options.half ? reinterpret_cast<char*>(part.h[ch].data())
+                                      : reinterpret_cast<char*>(part.f[ch].data());
+            fbuf.insert(names[ch],
+                        Imf::Slice(pt, base, elem, elem * static_cast<std::size_t>(width)));
+        }
+        return fbuf;
+    };
 
     AtomicOutput tmp(out_path);
     try {
-        Imf::OutputFile file(tmp.path().c_str(), header);
-        file.setFrameBuffer(fbuf);
-        file.writePixels(height);
+        if (al < axes.size()) {
+            Imf::MultiPartOutputFile file(tmp.path().c_str(), headers.data(),
+                                          static_cast<int>(headers.size()));
+            for (std::size_t layer = 0; layer < nlayers; ++layer) {
+                Imf::OutputPart part(file, static_cast<int>(layer));
+                part.setFrameBuffer(frame_buffer(parts[layer]));
+                part.writePixels(height);
+            }
+        } else {
+            Imf::OutputFile file(tmp.path().c_str(), headers.front());
+            file.setFrameBuffer(frame_buffer(parts.front()));
+            file.writePixels(height);
+        }
     } catch (const std::exception& e) {
         throw Error("cannot write EXR '" + out_path + "': " + e.what());
     }

@@ -15,10 +15,18 @@ struct ExrExportOptions {
     std::map<std::string, double> slice;
     bool half = false;        // HALF channels instead of FLOAT
     bool with_stderr = true;  // G channel = stderr when the table has it
+    // Which free axes become image x and y (both empty: x = the later free
+    // axis, y = the earlier one, in the table's axis order).
+    std::string x_axis, y_axis;
+    // Three free axes: one part per node of the free axis that is not x or y
+    // (a multi-part file; each part named "axis=value").
+    bool layers = false;
 };
 
 // Scanline, ZIP compression.  The image's x axis is the last free axis, y the
-// first free axis (row 0 = first node).  Channels: R = value, G = stderr (or
+// first free axis (row 0 = first node), unless x_axis/y_axis say otherwise.
+// With `layers`, a multi-part file of one such image per node of the third
+// free axis (parts in node order, each part's name "axis=value").  Channels: R = value, G = stderr (or
 // 0), B = 0, A = 1, so every loader reads it.  Axis names and ranges go into
 // string attributes.  Written to a temporary file, then renamed.
 void export_exr_slice(const TableData& table, const std::string& out_path,

@@ -330,6 +330,7 @@ void write_table_attributes(hid_t group, const TableData& t) {
     write_string_attr(group, "device", t.device);
     write_string_attr(group, "brdftab_version", t.version.empty() ? BRDFTAB_VERSION : t.version);
     write_string_attr(group, "spec_file", t.spec_file);
+    if (!t.spec_text.empty()) write_string_attr(group, "spec", t.spec_text);
     write_double_attr(group, "elapsed_seconds", t.elapsed_seconds);
     write_u64_attr(group, "total_samples", t.total_samples);
     write_string_attr(group, "stored_type", stored_type_name(t.stored_type));
@@ -611,6 +612,7 @@ TableData read_group(hid_t file, const std::string& path, const std::string& nam
     t.device = str("device");
     t.version = str("brdftab_version");
     t.spec_file = str("spec_file");
+    t.spec_text = str("spec");  // absent in files before it was stored
     t.samples_requested = u64("samples_requested");
     t.tolerance_requested = dbl("tolerance_requested");
     t.abs_floor = dbl("abs_floor");

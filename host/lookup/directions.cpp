@@ -30,6 +30,29 @@ Vec3 normalised(const Vec3& v) {
 
 }  // namespace
 
+double fold_periodic(const Axis& a, double x) {
+    if (a.name != "phi_d" || !(x < a.min || x > a.max) || !std::isfinite(x)) return x;
+    double half_turn;
+    if (a.unit == "deg" || a.unit == "degree" || a.unit == "degrees")
+        half_turn = 180.0;
+    else if (a.unit == "rad")
+        half_turn = kPi;
+    else
+        return x;
+    const double turn = 2 * half_turn;
+    const double eps = 1e-12 * half_turn;
+    if (a.min >= -eps && a.max <= half_turn + eps) {
+        // Into (-half, half], then |.|: phi_d and -phi_d are one configuration.
+        double d = std::fmod(x, turn);
+        if (d > half_turn) d -= turn;
+        if (d <= -half_turn) d += turn;
+        return std::fabs(d);
+    }
+    double v = std::fmod(x - a.min, turn);
+    if (v < 0) v += turn;
+    return a.min + v;
+}
+
 // Shared by LookupTable::eval_dirs and BoundTable: angular coordinates of
 // (wi, wo) in axis units.  phi is reduced to the phi axis' span (fold or wrap).
 void direction_coords(const LookupTable::AngleLayout& L, const Axis* phi_axis,

@@ -28,6 +28,7 @@ double resolve(const Axis& a, double x, OutOfRange mode, const std::string& tabl
     if (std::isnan(x))
         throw InputError("table '" + table + "': axis '" + a.name + "' value is NaN");
     const double tol = 1e-9 * (a.max - a.min);
+    x = fold_periodic(a, x);
     if (x < a.min || x > a.max) {
         if (mode == OutOfRange::Reject && (x < a.min - tol || x > a.max + tol))
             throw InputError("table '" + table + "': axis '" + a.name + "' value " +
@@ -136,6 +137,43 @@ double LookupTable::eval(const std::vector<double>& coords, Interpolation interp
     for (std::size_t k = 0; k < pieces_.size(); ++k)
         pv[k] = contract(ws.data(), strides_.data(), dims, pieces_[k].value.data());
     return combine(pv, p);
+}
+
+std::vector<double> LookupTable::ordered_coordinates(
+    const std::map<std::string, double>& values, const std::string& where) const {
+    const auto names = coordinate_names();
+    auto list = [](const std::vector<std::string>& v) {
+        std::string s;
+        for (const auto& n : v) s += (s.empty() ? "" : ", ") + n;
+        return s;
+    };
+    for (const auto& kv : values)
+        if (std::find(names.begin(), names.end(), kv.first) == names.end())
+            throw InputError(where + ": '" + kv.first + "' is not a coordinate of table '" +
+                             table().name + "' (coordinates: " + list(names) + ")");
+    std::vector<double> out;
+    std::vector<std::string> missing;
+    for (const auto& n : names) {
+        const auto it = values.find(n);
+        if (it == values.end())
+            missing.push_back(n);
+        else
+            out.push_back(it->second);
+    }
+    if (!missing.empty())
+        throw InputError(where + ": missing " + list(missing) + " (table '" + table().name +
+                         "' needs " + list(names) + ")");
+    return out;
+}
+
+void LookupTable::eval_many(const double* coords, std::size_t count, double* out,
+                            Interpolation interp, OutOfRange mode) const {
+    const std::size_t width = axes().size() + (terms_.empty() ? 0 : 1);
+    std::vector<double> row(width);
+    for (std::size_t k = 0; k < count; ++k) {
+        row.assign(coords + k * width, coords + (k + 1) * width);
+        out[k] = eval(row, interp, mode);
+    }
 }
 
 double LookupTable::eval(const std::map<std::string, double>& coords, Interpolation interp,

@@ -100,6 +100,20 @@ public:
                 Interpolation interp = Interpolation::Linear,
                 OutOfRange mode = OutOfRange::Clamp) const;
 
+    // Coordinates in coordinate_names() order from named values.  An unknown
+    // or missing name is an InputError that starts with `where` and lists the
+    // table's coordinates (the message of `brdftab query` and of the Python
+    // module).
+    std::vector<double> ordered_coordinates(const std::map<std::string, double>& values,
+                                            const std::string& where) const;
+
+    // Vectorised eval: `count` points, row-major, each row the coordinates
+    // of coordinate_names() in that order; one value per point into `out`.
+    // The same checks and messages as eval(); the first bad point throws.
+    void eval_many(const double* coords, std::size_t count, double* out,
+                   Interpolation interp = Interpolation::Linear,
+                   OutOfRange mode = OutOfRange::Clamp) const;
+
     // Direction-level evaluation for isotropic BRDF-like tables whose axes are
     // theta_i|mu_i, theta_o|mu_o, optionally phi_d, plus parameter axes.
     // wi, wo: unit vectors pointing away from the surface, z = macro normal.

@@ -21,8 +21,15 @@ constexpr double kDeg = kPi / 180.0;
 std::string fmt_num(double v);
 std::string range_text(const Axis& a);
 
+// A phi_d coordinate outside its axis, reduced as direction lookups reduce
+// it (directions.cpp): folded to |phi_d| in [0, 180] deg when the axis lies
+// within [0, 180] (isotropy), else wrapped into [min, min + 360).  Other
+// axes, units other than deg/rad, and values inside the axis are returned
+// unchanged.
+double fold_periodic(const Axis& a, double x);
+
 // Validate a coordinate against its axis and apply the out-of-range policy
-// (interpolate.cpp).
+// (interpolate.cpp); phi_d is first reduced by fold_periodic().
 double resolve(const Axis& a, double x, OutOfRange mode, const std::string& table);
 
 // Sparse 1-D interpolation weights over real node indices of one axis.

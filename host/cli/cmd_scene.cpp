@@ -1,0 +1,192 @@
+// scene: the tables a scene's materials need, and a manifest binding each
+// material to its table (host/scene/scene.h, docs/scenes.md).
+#include <filesystem>
+#include <iomanip>
+#include <set>
+#include <iostream>
+#include <sstream>
+
+#include "host/cli/cli_common.h"
+#include "host/cli/commands.h"
+#include "host/core/atomic_file.h"
+#include "host/core/error.h"
+#include "host/generate/generate.h"
+#include "host/io/table_io.h"
+#include "host/scene/scene.h"
+#include "host/spec/spec.h"
+
+namespace brdftab::cli {
+
+namespace {
+
+std::string cells_text(double cells) {
+    std::ostringstream s;
+    s << static_cast<unsigned long long>(cells) << " cells";
+    return s.str();
+}
+
+// Presets of the same model and purpose, for the "what it saved" line.
+std::string preset_for(const std::string& model, const std::string& purpose) {
+    if (model == "rough-dielectric") return purpose == "bsdf" ? "rough-dielectric-bsdf" : "rough-dielectric-albedo";
+    if (model == "oren-nayar") return purpose == "bsdf" ? "oren-nayar-brdf" : "oren-nayar-albedo";
+    if (model == "interfaced-lambertian") return purpose == "bsdf" ? "interfaced-lambertian-body" : "";
+    if (model == "lambert-sphere") return purpose == "bsdf" ? "lambert-sphere-brdf" : "lambert-sphere-albedo";
+    if (model == "micrograin") return purpose == "bsdf" ? "micrograin-brdf-diffuse" : "";
+    return "";
+}
+
+std::string find_presets_dir(const std::string& given) {
+    namespace fs = std::filesystem;
+    if (!given.empty()) return given;
+    std::error_code ec;
+    const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
+    if (!ec) {
+        for (const fs::path& p : {exe.parent_path() / "../share/brdftab/tables",
+                                  exe.parent_path() / "../tables"})
+            if (fs::is_directory(p, ec)) return p.lexically_normal().string();
+    }
+    return "";
+}
+
+}  // namespace
+
+void register_scene(CLI::App& app) {
+    auto* cmd = app.add_subcommand(
+        "scene",
+        "read a pbrt-v3/v4 scene, a Mitsuba 0.6/3 XML scene or a brdftab material list (TOML), "
+        "map each material to a brdftab model with the renderer's conventions, and tabulate "
+        "only what the materials need: one HDF5 file plus a JSON manifest binding each "
+        "material to its table (docs/scenes.md)");
+    struct State {
+        std::string scene, output, manifest, format, purpose = "all", presets;
+        double accuracy = 1e-3;
+        bool dry_run = false, quiet = false;
+        ComputeOptions compute;
+    };
+    auto state = std::make_shared<State>();
+    cmd->add_option("SCENE_FILE", state->scene,
+                    "scene file: .pbrt (pbrt-v3/v4), .xml (Mitsuba), .toml (brdftab material list)")
+        ->required();
+    cmd->add_option("-o,--output", state->output,
+                    "HDF5 file for the tables (default: <scene stem>.tables.h5 in the current "
+                    "directory)")
+        ->check(non_empty_path());
+    cmd->add_option("--manifest", state->manifest,
+                    "JSON manifest (default: the output with .json instead of .h5)")
+        ->check(non_empty_path());
+    cmd->add_option("--format", state->format, "pbrt | mitsuba | toml (default: from the extension)");
+    cmd->add_option("--for", state->purpose,
+                    "bsdf: BSDF tables for rendering and sampling; albedo: directional/average "
+                    "albedo tables for energy compensation; all: both (default)");
+    cmd->add_option("--accuracy", state->accuracy,
+                    "integration tolerance of estimated tables (relative, with an absolute floor "
+                    "of a tenth of it; default 1e-3). The angular resolution is fixed per model "
+                    "(docs/scenes.md)");
+    cmd->add_option("--presets", state->presets,
+                    "directory of the preset specs, to report the cells saved against them "
+                    "(default: the installed presets, if found)");
+    cmd->add_flag("--dry-run", state->dry_run,
+                  "print the materials and the planned tables; compute and write nothing");
+    cmd->add_flag("-q,--quiet", state->quiet, "no progress display");
+    state->compute.add_to(*cmd, false);
+    cmd->callback([state] {
+        namespace fs = std::filesystem;
+        const State& st = *state;
+        ScenePlanSettings settings;
+        settings.purpose = parse_scene_purpose(st.purpose);
+        settings.accuracy = st.accuracy;
+        const std::vector<SceneMaterial> materials = read_scene_materials(st.scene, st.format);
+        const ScenePlan plan = plan_scene_tables(materials, settings);
+        std::vector<Spec> specs;
+        double cells = 0;
+        for (const SceneTableSet& set : plan.sets) {
+            specs.push_back(parse_spec_string(set.spec_text, "<scene table set " + set.id + ">"));
+            specs.back().file = st.scene;
+            cells += estimate_resources(specs.back(), specs.back().integration).cells;
+        }
+        const std::string out_path =
+            !st.output.empty() ? st.output : fs::path(st.scene).stem().string() + ".tables.h5";
+        const std::string manifest_path =
+            !st.manifest.empty() ? st.manifest
+                                 : (fs::path(out_path).replace_extension(".json")).string();
+
+        // What was found, and what each material becomes.
+        std::cout << "scene " << st.scene << ": " << plan.materials.size() << " material(s)\n";
+        for (const MappedMaterial& m : plan.materials) {
+            std::cout << "  " << std::left << std::setw(22) << m.source.name << " "
+                      << std::setw(18) << m.source.type << " " << to_string(m.status);
+            if (m.status == MaterialStatus::Tabulated) std::cout << " as " << m.model;
+            std::cout << "\n      " << m.reason << "\n";
+            for (const std::string& n : m.notes) std::cout << "      note: " << n << "\n";
+        }
+        std::cout << plan.sets.size() << " table set(s), " << cells_text(cells) << ":\n";
+        for (std::size_t k = 0; k < plan.sets.size(); ++k) {
+            const SceneTableSet& set = plan.sets[k];
+            std::cout << "  " << set.id << " " << set.model << " " << set.purpose << " ("
+                      << cells_text(estimate_resources(specs[k], specs[k].integration).cells)
+                      << "): ";
+            for (std::size_t i = 0; i < set.materials.size(); ++i)
+                std::cout << (i ? ", " : "") << set.materials[i];
+            std::cout << "\n";
+        }
+        // Against the presets of the same models (their whole parameter spaces).
+        const std::string presets = find_presets_dir(st.presets);
+        if (!presets.empty()) {
+            std::set<std::string> used;
+            double preset_cells = 0;
+            for (const SceneTableSet& set : plan.sets) {
+                const std::string name = preset_for(set.model, set.purpose);
+                if (name.empty() || !used.insert(name).second) continue;
+                const fs::path p = fs::path(presets) / (name + ".toml");
+                if (!fs::exists(p)) continue;
+                Spec preset = parse_spec_file(p.string());
+                preset_cells += estimate_resources(preset, preset.integration).cells;
+            }
+            if (preset_cells > 0)
+                std::cout << "the presets covering these models (" << presets << ") hold "
+                          << cells_text(preset_cells) << "; this scene needs "
+                          << cells_text(cells) << "\n";
+        }
+        if (st.dry_run) {
+            std::cout << "dry run: nothing computed or written\n";
+            return;
+        }
+        if (plan.sets.empty()) {
+            std::cout << "no material needs a table; nothing written\n";
+            return;
+        }
+        check_output_writable(out_path);
+        check_output_writable(manifest_path);
+        auto backend = st.compute.make_backend();
+        std::cerr << "writing " << fs::absolute(out_path).lexically_normal().string() << " and "
+                  << fs::absolute(manifest_path).lexically_normal().string() << " on "
+                  << backend->device_name() << "\n";
+        std::vector<TableData> data;
+        for (std::size_t k = 0; k < specs.size(); ++k) {
+            std::unique_ptr<ProgressPrinter> printer;
+            std::size_t current = static_cast<std::size_t>(-1);
+            auto on_progress = [&](const GenerateEvent& e) {
+                if (st.quiet) return;
+                if (e.table_index != current) {
+                    if (printer) printer->finish();
+                    current = e.table_index;
+                    printer = std::make_unique<ProgressPrinter>(
+                        "[" + plan.sets[k].id + " " + std::to_string(e.table_index + 1) + "/" +
+                        std::to_string(e.table_count) + "] " + e.table->name);
+                }
+                (*printer)(e.progress);
+            };
+            const IntegrationSettings settings_k = st.compute.apply(specs[k].integration);
+            for (GeneratedTable& t : generate_tables(specs[k], *backend, settings_k, on_progress))
+                data.push_back(std::move(t.data));
+            if (printer) printer->finish();
+        }
+        write_tables(out_path, data);
+        write_text_atomically(manifest_path,
+                              scene_manifest(plan, st.scene, out_path).dump(2) + "\n");
+        std::cout << "wrote " << out_path << " (" << data.size() << " tables) and "
+                  << manifest_path << "\n";
+    });
+}
+
+}  // namespace brdftab::cli

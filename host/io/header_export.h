@@ -1,0 +1,46 @@
+// header_export.h — a table as a self-contained C99 header: the values as a
+// `static const` array, the axes (node lists, warps, ranges) as constants and
+// a multilinear lookup function that reproduces the library's linear
+// interpolation (host/lookup/interpolate.cpp) in each axis' warped
+// coordinate.  The way engines ship precomputed LUTs: no file reading, no
+// library, only <math.h> (and <stdint.h> for 16-bit types).
+#pragma once
+
+#include <string>
+
+#include "host/core/table.h"
+
+namespace brdftab {
+
+// How the values are stored in the header.
+//   Float   `float`; the lookup differs from the library's by float rounding
+//           of the node values (relative 2^-24 of the largest corner).
+//   Half    IEEE binary16 bits (`uint16_t`), decoded by a function in the
+//           header; relative rounding error <= 2^-11 per node value (normal
+//           range), absolute <= 2^-25 below 2^-14.  Values beyond the half
+//           range (|v| > 65504) are refused.
+//   Uint16  v = offset + scale * q with q in [0, 65535], offset = min value,
+//           scale = (max - min) / 65535; absolute error <= scale / 2.
+enum class HeaderValueType { Float, Half, Uint16 };
+
+HeaderValueType parse_header_value_type(const std::string& name);  // InputError
+
+struct HeaderExportOptions {
+    // Prefix of every identifier in the header (a C identifier); empty: the
+    // table name with every character outside [A-Za-z0-9_] replaced by '_'.
+    std::string name;
+    HeaderValueType type = HeaderValueType::Float;
+    std::string source;  // e.g. the input file name, written in the comment
+};
+
+// The identifier prefix the header will use for `table` under `options`
+// (validated: InputError if it is not a C identifier).
+std::string header_identifier(const TableData& table, const HeaderExportOptions& options);
+
+// Writes the header (atomically).  Throws InputError for a table the format
+// cannot hold (recombined tables: export their term tables; NaN values;
+// values outside the half range with Half).
+void export_c_header(const TableData& table, const std::string& out_path,
+                     const HeaderExportOptions& options);
+
+}  // namespace brdftab

@@ -1,0 +1,128 @@
+// scene.h — from a renderer's scene file to the smallest set of brdftab tables
+// that its materials need (`brdftab scene`, docs/scenes.md).
+//
+// Three steps, each a library function (the CLI only prints):
+//   1. read_scene_materials(): the scene's materials as the renderer wrote
+//      them (pbrt-v3/v4 text, Mitsuba 0.6/3 XML, or brdftab's own TOML list),
+//      with their parameters untouched and where each was defined;
+//   2. map_material(): one material -> a brdftab model and its parameters in
+//      brdftab's conventions, or the reason it needs no table / is not
+//      supported;
+//   3. plan_scene_tables(): materials that share a model and parameters share
+//      one table set (factored parameters such as Oren-Nayar's rho or the
+//      interfaced-Lambertian Kd never split a table); each set becomes an
+//      ordinary spec, generated and written like `brdftab generate` does.
+//
+// Errors are InputError: syntax errors name file:line:column (pbrt, TOML) or
+// the XML element path (Mitsuba); a parameter outside the model's range names
+// the material.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+namespace brdftab {
+
+// One parameter as the scene wrote it.
+struct SceneParameter {
+    std::string type;                // pbrt: "float", "string", "texture", ...; XML: element name
+    std::vector<double> numbers;     // numeric values (float, integer, rgb, spectrum as numbers)
+    std::vector<std::string> texts;  // string / texture-name / bool values
+    std::string where;               // file:line:col or XML element path
+    // Set when the value comes from an image texture: the file (resolved
+    // against the scene's directory) and the channel statistics.
+    std::optional<std::string> image;
+    bool image_missing = false;
+    double image_min = 0, image_max = 0;
+};
+
+struct SceneMaterial {
+    std::string name;    // the scene's name, or a generated one ("anonymous-3")
+    bool anonymous = false;
+    std::string format;  // "pbrt-v3", "pbrt-v4", "pbrt", "mitsuba", "mitsuba-0.6", "brdftab"
+    std::string type;    // the renderer's material type ("coateddiffuse", "roughdielectric")
+    std::string where;   // where it was defined
+    bool used = true;    // false: defined but no shape refers to it
+    std::map<std::string, SceneParameter> parameters;
+    // brdftab-native lists name the model directly.
+    std::string native_model;
+    std::string wrapped_in;  // e.g. "twosided" for a Mitsuba BSDF inside a wrapper
+};
+
+// Reads every material of a scene file.  The format comes from the file
+// (extension .pbrt -> pbrt, .xml -> Mitsuba, .toml -> brdftab list) unless
+// `format` names one: "pbrt", "mitsuba", "toml".  Includes and imports are
+// followed relative to the including file.
+std::vector<SceneMaterial> read_scene_materials(const std::string& path,
+                                                const std::string& format = "");
+
+// The Mitsuba named indices of refraction (case-insensitive); nullopt for an
+// unknown name.
+std::optional<double> mitsuba_named_ior(const std::string& name);
+
+// pbrt's roughness -> alpha remappings.
+double pbrt_v4_roughness_to_alpha(double roughness);  // sqrt(roughness)
+double pbrt_v3_roughness_to_alpha(double roughness);  // pbrt-v3's quartic in log(roughness)
+
+enum class MaterialStatus { Tabulated, NoTableNeeded, Unsupported };
+const char* to_string(MaterialStatus status);
+
+// A material in brdftab's terms.
+struct MappedMaterial {
+    SceneMaterial source;
+    MaterialStatus status = MaterialStatus::Unsupported;
+    std::string reason;  // why no table, why unsupported, or how it maps
+    std::string model;   // brdftab model name
+    std::map<std::string, double> parameters;  // brdftab parameters, brdftab units
+    // Parameters driven by textures: the range of values they take.
+    std::map<std::string, std::pair<double, double>> parameter_ranges;
+    std::map<std::string, std::string> options;  // categorical options
+    nlohmann::json factored = nlohmann::json::object();  // e.g. {"kd": 0.64}
+    std::vector<std::string> notes;  // approximations and assumptions, in words
+};
+
+// Maps one material.  Throws InputError naming the material when a value is
+// outside the model's range (e.g. eta = 0).
+MappedMaterial map_material(const SceneMaterial& material);
+
+enum class ScenePurpose { Bsdf, Albedo, All };
+ScenePurpose parse_scene_purpose(const std::string& text);  // "bsdf" | "albedo" | "all"
+
+// One table set: an ordinary spec (TOML text, parsed by the normal spec
+// parser) shared by the materials listed.
+struct SceneTableSet {
+    std::string id;          // prefix of its table names in the output file ("t0")
+    std::string model;
+    std::string purpose;     // "bsdf" | "albedo"
+    std::string spec_text;   // the spec
+    std::string main_table;  // the table a renderer binds a material to
+    std::vector<std::string> tables;    // every table name it writes
+    std::vector<std::string> materials; // names of the materials it serves
+};
+
+struct ScenePlanSettings {
+    ScenePurpose purpose = ScenePurpose::All;
+    double accuracy = 1e-3;  // integration tolerance of the estimated tables
+    std::uint64_t seed = 1;
+};
+
+struct ScenePlan {
+    std::vector<MappedMaterial> materials;
+    std::vector<SceneTableSet> sets;
+};
+
+ScenePlan plan_scene_tables(const std::vector<SceneMaterial>& materials,
+                            const ScenePlanSettings& settings);
+
+// The manifest (docs/scenes.md): per material name, type, status, reason,
+// model, parameters, table, factored, notes.
+nlohmann::json scene_manifest(const ScenePlan& plan, const std::string& scene_file,
+                              const std::string& table_file);
+
+}  // namespace brdftab

@@ -1,0 +1,363 @@
+// scene_plan.cpp — materials -> the fewest table sets, each an ordinary spec.
+//
+// Materials share a table set when they map to the same model, options and
+// (non-factored) parameters: Oren-Nayar's rho and the interfaced-Lambertian
+// Kd are factored out of the tables, which is why those factorizations exist.
+// A parameter driven by a texture becomes an axis over the texture's range.
+//
+// The angular axes and sample budgets come from the templates below (the
+// presets' resolutions with the parameter axes removed).  They are fixed
+// choices, not planned: docs/scenes.md says so, and `--accuracy` sets the
+// integration tolerance of the estimated tables only.
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+#include "host/core/error.h"
+#include "host/models/registry.h"
+#include "host/scene/scene.h"
+#include "host/scene/scene_internal.h"
+
+namespace brdftab {
+
+namespace {
+
+bool ends_with(const std::string& s, const std::string& suffix) {
+    return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
+}
+
+std::string num(double v) {
+    std::ostringstream s;
+    s.precision(17);
+    s << v;
+    std::string out = s.str();
+    // TOML floats need a '.' or an exponent.
+    if (out.find_first_of(".eEn") == std::string::npos) out += ".0";
+    return out;
+}
+
+struct AxisTemplate {
+    const char* name;
+    double lo, hi;
+    int count;
+};
+
+struct TableTemplate {
+    const char* suffix;    // table name after the set prefix
+    const char* quantity;
+    std::vector<std::pair<const char*, const char*>> options;  // extra per-table options
+    std::vector<AxisTemplate> axes;  // angular axes; parameter axes are appended
+    bool parameter_axes = true;      // false: a per-material constant (no axes)
+};
+
+struct SetTemplate {
+    std::vector<TableTemplate> tables;
+    std::string main;             // table a material binds to
+    std::string recombined;       // TOML of [[recombined]] blocks (with {P} for the prefix)
+    std::string integration;      // TOML [integration] body (with {TOL} and {FLOOR})
+    std::map<std::string, std::string> fixed_parameters;  // extra fixed parameters (TOML values)
+};
+
+const AxisTemplate kThetaI85{"theta_i", 0, 85, 18}, kThetaO85{"theta_o", 0, 85, 18};
+
+SetTemplate set_template(const std::string& model, const std::string& purpose) {
+    SetTemplate t;
+    const std::string estimated =
+        "method = \"rqmc\"\nsamples = 1024\ntolerance = {TOL}\nabs_floor = {FLOOR}\n"
+        "max_samples = 1048576\nseed = {SEED}\n";
+    if (model == "rough-dielectric") {
+        if (purpose == "bsdf") {
+            // Closed form: 2-degree steps cost nothing.
+            t.tables = {{"bsdf", "bsdf", {}, {{"theta_i", 0, 90, 46}, {"theta_o", 0, 180, 91},
+                                              {"phi_d", 0, 180, 37}}}};
+            t.main = "bsdf";
+            return t;
+        }
+        t.tables = {
+            {"albedo_r", "albedo_r", {}, {{"mu_i", 0.02, 1.0, 50}}},
+            {"albedo_t", "albedo_t", {}, {{"mu_i", 0.02, 1.0, 50}}},
+            {"albedo_r_inside", "albedo_r", {}, {{"mu_i", -1.0, -0.02, 50}}},
+            {"albedo_t_inside", "albedo_t", {}, {{"mu_i", -1.0, -0.02, 50}}},
+            {"albedo_avg", "albedo_avg", {{"lobe", "both"}, {"side", "outside"}}, {}},
+            {"albedo_avg_inside", "albedo_avg", {{"lobe", "both"}, {"side", "inside"}}, {}}};
+        t.main = "albedo_r";
+        t.integration = estimated;
+        return t;
+    }
+    if (model == "interfaced-lambertian") {
+        if (purpose == "bsdf") {
+            t.tables = {{"body", "body", {}, {kThetaI85, kThetaO85, {"phi_d", 0, 180, 10}}}};
+            t.main = "body";
+        } else {
+            // albedo_body carries Kd/(pi ni^2 (1 - ri Kd)); at Kd = 1 a renderer
+            // rescales it by Kd (1 - ri) / (1 - ri Kd) (docs/scenes.md).
+            t.tables = {{"albedo_body", "albedo_body", {}, {{"theta_i", 0, 89, 30}}},
+                        {"albedo_specular", "albedo_specular", {}, {{"theta_i", 0, 89, 30}}}};
+            t.fixed_parameters["kd"] = "1.0";
+            t.main = "albedo_body";
+        }
+        t.integration = estimated;
+        return t;
+    }
+    if (model == "oren-nayar") {
+        if (purpose == "bsdf") {
+            const std::vector<AxisTemplate> axes = {
+                {"theta_i", 0, 88, 23}, {"theta_o", 0, 88, 23}, {"phi_d", 0, 180, 19}};
+            t.tables = {{"brdf_direct", "brdf_direct", {}, axes},
+                        {"brdf_interreflection", "brdf_interreflection", {}, axes}};
+            t.recombined =
+                "[[recombined]]\nname = \"{P}brdf\"\nparameter = \"rho\"\nrange = [0.0, 1.0]\n"
+                "[[recombined.terms]]\ntable = \"{P}brdf_direct\"\ncoeffs = [0.0, 1.0]\n"
+                "[[recombined.terms]]\ntable = \"{P}brdf_interreflection\"\n"
+                "coeffs = [0.0, 0.0, 1.0]\n";
+            t.main = "brdf";
+            t.integration = "method = \"quadrature\"\n";
+            t.fixed_parameters["nodes"] = "12";
+        } else {
+            const std::vector<AxisTemplate> axes = {{"mu_i", 0.02, 1.0, 32}};
+            t.tables = {{"albedo_direct", "albedo_direct", {}, axes},
+                        {"albedo_interreflection", "albedo_interreflection", {}, axes}};
+            t.recombined =
+                "[[recombined]]\nname = \"{P}albedo\"\nparameter = \"rho\"\nrange = [0.0, 1.0]\n"
+                "[[recombined.terms]]\ntable = \"{P}albedo_direct\"\ncoeffs = [0.0, 1.0]\n"
+                "[[recombined.terms]]\ntable = \"{P}albedo_interreflection\"\n"
+                "coeffs = [0.0, 0.0, 1.0]\n";
+            t.main = "albedo";
+            t.integration = estimated;
+        }
+        return t;
+    }
+    if (model == "lambert-sphere") {
+        if (purpose == "bsdf") {
+            t.tables = {{"brdf_mc", "brdf_mc", {}, {{"theta_i", 0, 85, 10}, {"theta_o", 0, 85, 10},
+                                                    {"phi_d", 0, 180, 7}}}};
+            t.main = "brdf_mc";
+        } else {
+            t.tables = {{"albedo_mc", "albedo_mc", {}, {{"mu_i", 0.02, 1.0, 32}}}};
+            t.main = "albedo_mc";
+        }
+        t.integration =
+            "method = \"mc\"\nsamples = 4096\ntolerance = {TOL}\nabs_floor = {FLOOR}\n"
+            "max_samples = 1048576\nseed = {SEED}\n";
+        return t;
+    }
+    if (model == "micrograin") {
+        if (purpose == "bsdf") {
+            t.tables = {{"brdf", "brdf", {}, {{"theta_i", 0, 87, 16}, {"theta_o", 0, 87, 16},
+                                              {"phi_d", 0, 180, 13}}}};
+            t.main = "brdf";
+        } else {
+            t.tables = {{"albedo", "albedo", {}, {{"theta_i", 0, 89, 30}}}};
+            t.main = "albedo";
+        }
+        t.integration = estimated;
+        return t;
+    }
+    throw std::logic_error("scene: no table template for model " + model);
+}
+
+void replace_all(std::string& s, const std::string& what, const std::string& with) {
+    for (std::size_t p = s.find(what); p != std::string::npos; p = s.find(what, p + with.size()))
+        s.replace(p, what.size(), with);
+}
+
+// The key under which materials share a table set.
+std::string share_key(const MappedMaterial& m, const std::string& purpose) {
+    std::ostringstream k;
+    k << m.model << '|' << purpose;
+    for (const auto& [n, v] : m.parameters) k << '|' << n << '=' << num(v);
+    for (const auto& [n, r] : m.parameter_ranges)
+        k << '|' << n << "=[" << num(r.first) << ',' << num(r.second) << ']';
+    for (const auto& [n, v] : m.options) k << '|' << n << '=' << v;
+    return k.str();
+}
+
+std::string spec_text(const SceneTableSet& set, const MappedMaterial& m, const SetTemplate& t,
+                      const ScenePlanSettings& settings, std::vector<std::string>& tables) {
+    std::ostringstream s;
+    s << "# Table set " << set.id << " of `brdftab scene` (" << set.purpose << ") for: ";
+    for (std::size_t k = 0; k < set.materials.size(); ++k)
+        s << (k ? ", " : "") << set.materials[k];
+    s << "\nmodel = \"" << m.model << "\"\n";
+    s << "description = \"" << m.model << " " << set.purpose << " tables for scene materials\"\n";
+    s << "\n[parameters]\n";
+    for (const auto& [n, v] : m.parameters) s << n << " = " << num(v) << "\n";
+    for (const auto& [n, v] : t.fixed_parameters)
+        if (!m.parameters.count(n)) s << n << " = " << v << "\n";
+    for (const auto& [n, v] : m.options) s << n << " = \"" << v << "\"\n";
+    auto parameter_axes = [&](std::ostringstream& o) {
+        for (const auto& [n, r] : m.parameter_ranges) {
+            const bool log = r.first > 0 && r.second / r.first > 4;
+            o << "[[tables.axes]]\nname = \"" << n << "\"\nrange = [" << num(r.first) << ", "
+              << num(r.second) << "]\ncount = 8\n";
+            if (log) o << "spacing = \"log\"\n";
+        }
+    };
+    for (const TableTemplate& tt : t.tables) {
+        if (tt.axes.empty() && !tt.parameter_axes) continue;
+        if (tt.axes.empty() && m.parameter_ranges.empty()) {
+            // A table with no axis at all is one number: kept as a 2-node
+            // table over a parameter would misstate it, so left out; the
+            // directional tables carry the information.
+            continue;
+        }
+        const std::string name = set.id + "_" + tt.suffix;
+        tables.push_back(name);
+        s << "\n[[tables]]\nname = \"" << name << "\"\nquantity = \"" << tt.quantity << "\"\n";
+        if (!tt.options.empty()) {
+            s << "[tables.parameters]\n";
+            for (const auto& [n, v] : tt.options) s << n << " = \"" << v << "\"\n";
+        }
+        for (const AxisTemplate& a : tt.axes)
+            s << "[[tables.axes]]\nname = \"" << a.name << "\"\nrange = [" << num(a.lo) << ", "
+              << num(a.hi) << "]\ncount = " << a.count << "\n";
+        std::ostringstream pa;
+        parameter_axes(pa);
+        s << pa.str();
+    }
+    if (!t.recombined.empty()) {
+        std::string rec = t.recombined;
+        replace_all(rec, "{P}", set.id + "_");
+        s << "\n" << rec;
+        tables.push_back(set.id + "_" + t.main);
+    }
+    if (!t.integration.empty()) {
+        std::string integ = t.integration;
+        replace_all(integ, "{TOL}", num(settings.accuracy));
+        replace_all(integ, "{FLOOR}", num(settings.accuracy * 0.1));
+        replace_all(integ, "{SEED}", std::to_string(settings.seed));
+        s << "\n[integration]\n" << integ;
+    }
+    s << "\n[output]\ntype = \"float32\"\ncompression = 6\nkeep_stderr = true\n";
+    return s.str();
+}
+
+}  // namespace
+
+namespace scene_detail {
+std::string read_scene_text(const std::string& path, int depth, const char* include_directive) {
+    if (depth > 32)
+        throw InputError(path + ": " + include_directive +
+                         " nested more than 32 deep (an include cycle?)");
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw InputError("cannot read scene file '" + path + "'");
+    std::ostringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+}
+}  // namespace scene_detail
+
+std::vector<SceneMaterial> read_scene_materials(const std::string& path, const std::string& format) {
+    std::string f = format;
+    if (f.empty()) {
+        if (ends_with(path, ".pbrt")) f = "pbrt";
+        else if (ends_with(path, ".xml")) f = "mitsuba";
+        else if (ends_with(path, ".toml")) f = "toml";
+        else
+            throw InputError("scene file '" + path +
+                             "': cannot tell its format from the extension (.pbrt, .xml, .toml); "
+                             "name it with --format pbrt|mitsuba|toml");
+    }
+    if (f == "pbrt") return scene_detail::read_pbrt_scene(path);
+    if (f == "mitsuba") return scene_detail::read_mitsuba_scene(path);
+    if (f == "toml") return scene_detail::read_native_materials(path);
+    throw InputError("--format '" + f + "': allowed: pbrt, mitsuba, toml");
+}
+
+ScenePurpose parse_scene_purpose(const std::string& text) {
+    if (text == "bsdf") return ScenePurpose::Bsdf;
+    if (text == "albedo") return ScenePurpose::Albedo;
+    if (text == "all") return ScenePurpose::All;
+    throw InputError("--for '" + text + "': allowed: bsdf, albedo, all");
+}
+
+ScenePlan plan_scene_tables(const std::vector<SceneMaterial>& materials,
+                            const ScenePlanSettings& settings) {
+    if (!(settings.accuracy > 0 && settings.accuracy < 1))
+        throw InputError("--accuracy " + num(settings.accuracy) + ": allowed range (0, 1)");
+    ScenePlan plan;
+    for (const SceneMaterial& m : materials) plan.materials.push_back(map_material(m));
+    std::vector<std::string> purposes;
+    if (settings.purpose != ScenePurpose::Albedo) purposes.push_back("bsdf");
+    if (settings.purpose != ScenePurpose::Bsdf) purposes.push_back("albedo");
+    std::map<std::string, std::size_t> by_key;
+    for (const std::string& purpose : purposes) {
+        for (const MappedMaterial& m : plan.materials) {
+            if (m.status != MaterialStatus::Tabulated) continue;
+            const std::string key = share_key(m, purpose);
+            auto it = by_key.find(key);
+            if (it != by_key.end()) {
+                plan.sets[it->second].materials.push_back(m.source.name);
+                continue;
+            }
+            SceneTableSet set;
+            set.id = "t" + std::to_string(plan.sets.size());
+            set.model = m.model;
+            set.purpose = purpose;
+            set.materials.push_back(m.source.name);
+            by_key[key] = plan.sets.size();
+            plan.sets.push_back(set);
+        }
+    }
+    // Spec texts once the material lists are complete (they are named in a comment).
+    for (SceneTableSet& set : plan.sets) {
+        const MappedMaterial* first = nullptr;
+        for (const MappedMaterial& m : plan.materials)
+            if (m.source.name == set.materials.front() && m.status == MaterialStatus::Tabulated)
+                first = &m;
+        const SetTemplate t = set_template(set.model, set.purpose);
+        set.spec_text = spec_text(set, *first, t, settings, set.tables);
+        set.main_table = set.id + "_" + t.main;
+    }
+    return plan;
+}
+
+nlohmann::json scene_manifest(const ScenePlan& plan, const std::string& scene_file,
+                              const std::string& table_file) {
+    nlohmann::json out;
+    out["scene"] = scene_file;
+    out["tables_file"] = table_file;
+    out["materials"] = nlohmann::json::array();
+    for (const MappedMaterial& m : plan.materials) {
+        nlohmann::json j;
+        j["name"] = m.source.name;
+        j["type"] = m.source.type;
+        j["format"] = m.source.format;
+        j["defined_at"] = m.source.where;
+        j["status"] = to_string(m.status);
+        j["reason"] = m.reason;
+        j["model"] = m.model.empty() ? nlohmann::json() : nlohmann::json(m.model);
+        nlohmann::json params = nlohmann::json::object();
+        for (const auto& [n, v] : m.parameters) params[n] = v;
+        for (const auto& [n, r] : m.parameter_ranges) params[n] = {{"range", {r.first, r.second}}};
+        for (const auto& [n, v] : m.options) params[n] = v;
+        j["parameters"] = params;
+        nlohmann::json tables = nlohmann::json::object();
+        for (const SceneTableSet& set : plan.sets)
+            if (std::find(set.materials.begin(), set.materials.end(), m.source.name) !=
+                set.materials.end())
+                tables[set.purpose] = set.main_table;
+        // `table`: the BSDF table when there is one, else the albedo table.
+        if (tables.contains("bsdf")) j["table"] = tables["bsdf"];
+        else if (tables.contains("albedo")) j["table"] = tables["albedo"];
+        else j["table"] = nullptr;
+        j["tables"] = tables;
+        j["factored"] = m.factored;
+        j["notes"] = m.notes;
+        if (!m.source.wrapped_in.empty()) j["wrapped_in"] = m.source.wrapped_in;
+        out["materials"].push_back(j);
+    }
+    out["table_sets"] = nlohmann::json::array();
+    for (const SceneTableSet& set : plan.sets)
+        out["table_sets"].push_back({{"id", set.id},
+                                     {"model", set.model},
+                                     {"purpose", set.purpose},
+                                     {"tables", set.tables},
+                                     {"main_table", set.main_table},
+                                     {"materials", set.materials}});
+    return out;
+}
+
+}  // namespace brdftab
