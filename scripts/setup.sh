@@ -31,6 +31,7 @@ packages=(
   doctest-dev libtomlplusplus-dev libcli11-dev nlohmann-json3-dev
   python3-h5py python3-numpy                                # format tests read files with h5py
   python3-dev pybind11-dev python3-pybind11 python3-pytest   # Python module brdftab and its tests
+  libopenmpi-dev openmpi-bin                                # the MPI build (docs/cluster.md)
 )
 if [ $with_fuzz -eq 1 ]; then
   packages+=(clang libclang-rt-dev)

@@ -414,14 +414,13 @@ TEST_CASE("resource estimate before computing: cells, disk bytes by hand, memory
     r = estimate_resources(spec, spec.integration);
     CHECK(r.disk_bytes == 15 * 2 + 15 * (2 + 4) + 30 * 65);
 
-    // Memory grows with the cells: 65536 x 65535 cells (the issue's bad_alloc)
-    // need hundreds of GiB; the count does not wrap.
-    const double small = estimate_resources(spec, spec.integration).memory_bytes;
+    // 65536 x 65535 cells (the issue's bad_alloc): the count does not wrap.
+    // (Tables are streamed to the file in chunks: memory stays bounded,
+    // test_streaming.cpp.)
     spec.tables[0].axes[0].count = 65536;
     spec.tables[0].axes[1].count = 65535;
     r = estimate_resources(spec, spec.integration);
     CHECK(r.largest_cells == 65536.0 * 65535.0);
-    CHECK(r.memory_bytes - small > 100.0 * 65536.0 * 65535.0);
     for (auto& a : spec.tables[0].axes) a.count = 65536;
     spec.tables[0].axes.push_back(spec.tables[0].axes[0]);
     spec.tables[0].axes.push_back(spec.tables[0].axes[0]);

@@ -4,6 +4,8 @@
 #include <sys/statvfs.h>
 
 #include <cstdio>
+#include <cstdlib>
+#include <functional>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -15,8 +17,13 @@
 #include "host/cli/commands.h"
 #include "host/core/error.h"
 #include "host/engine/evaluate.h"
+#include "host/engine/opencl_runtime.h"
 #include "host/generate/checkpoint.h"
+#include "host/generate/chunked.h"
 #include "host/generate/generate.h"
+#ifdef BRDFTAB_MPI
+#include "host/generate/distributed.h"
+#endif
 #include "host/io/point_file.h"
 #include "host/spec/spec.h"
 #include "host/io/table_io.h"
@@ -186,12 +193,13 @@ double free_disk_space(const std::string& path) {
 // Refuses (InputError, exit 2) a run whose estimated memory or disk use
 // exceeds what is available, before anything is computed.
 void check_resources(const Spec& spec, const IntegrationSettings& settings,
-                     const std::string& out_path, std::uint64_t max_memory) {
-    const ResourceEstimate need = estimate_resources(spec, settings);
+                     const std::string& out_path, std::uint64_t max_memory,
+                     std::size_t chunk_cells) {
+    const ResourceEstimate need = estimate_resources(spec, settings, chunk_cells);
     const std::string cells = format_count(need.cells) + " cells (largest table " +
                               format_count(need.largest_cells) + ")";
     // --max-memory, when given, replaces MemAvailable as the limit (the
-    // estimate is an upper bound, measured about 1.5x to 2x the real peak).
+    // estimate is an upper bound, measured about 1.2x to 1.3x the real peak).
     if (max_memory && need.memory_bytes > static_cast<double>(max_memory))
         throw InputError(spec.file + ": the tables need about " + format_bytes(need.memory_bytes) +
                          " of memory for " + cells + ", above --max-memory " +
@@ -214,19 +222,315 @@ void check_resources(const Spec& spec, const IntegrationSettings& settings,
 
 }  // namespace
 
+namespace {
+
+struct GenerateArgs {
+    std::string spec_path, output, max_memory;
+    ComputeOptions compute;
+    bool quiet = false;
+    bool resume = false;
+    double checkpoint_interval = 60;
+    std::size_t chunk_cells = 0;
+};
+
+void print_summary(const std::vector<GeneratedTable>& tables) {
+    for (const auto& t : tables) {
+        const TableData& d = t.data;
+        std::cout << "  " << d.name << ": " << d.quantity << " [";
+        for (std::size_t a = 0; a < d.axes.size(); ++a)
+            std::cout << (a ? " x " : "") << d.axes[a].name << " " << d.axes[a].count;
+        std::cout << "] = " << d.cell_count() << " cells, " << method_attribute(d);
+        if (d.kind == TableKind::Computed &&
+            (d.method == Method::MonteCarlo || d.method == Method::Rqmc ||
+             d.method == Method::Quadrature))
+            std::cout << ", " << format_count(static_cast<double>(d.total_samples))
+                      << " samples, max rel. stderr " << d.tolerance_achieved;
+        std::cout << ", values in [" << t.value_min << ", " << t.value_max << "], "
+                  << format_seconds(d.elapsed_seconds) << "\n";
+        if (t.cells_unconverged)
+            std::cout << "  warning: " << t.cells_unconverged
+                      << " cell(s) reached max_samples before the tolerance\n";
+        if (t.error) print_error_summary(*t.error, d);
+    }
+}
+
+// The setting-up shared by one process and every rank of an MPI run.
+struct GenerateSetup {
+    Spec spec;
+    std::string out_path;
+    IntegrationSettings settings;
+    std::unique_ptr<Backend> backend;
+};
+
+// `writer`: the process that writes the output (checks it and the resources).
+GenerateSetup set_up_generate(const GenerateArgs& st, bool writer,
+                              const std::string& device_override) {
+    GenerateSetup g;
+    g.spec = parse_spec_file(st.spec_path);
+    g.out_path = st.output.empty() ? g.spec.output.path : st.output;
+    if (writer) check_output_writable(g.out_path);
+    g.settings = st.compute.apply(g.spec.integration);
+    check_settings(g.settings);
+    if (writer)
+        check_resources(g.spec, g.settings, g.out_path,
+                        st.max_memory.empty() ? 0 : parse_byte_size(st.max_memory, "--max-memory"),
+                        st.chunk_cells);
+    if (device_override.empty()) {
+        g.backend = st.compute.make_backend();
+    } else {
+        ComputeOptions c = st.compute;
+        c.device = device_override;
+        g.backend = c.make_backend();
+    }
+    return g;
+}
+
+void announce(const GenerateArgs& st, const GenerateSetup& g, int ranks) {
+    const Spec& spec = g.spec;
+    std::cerr << "brdftab: " << spec.model << ", " << spec.tables.size() << " table(s)";
+    if (!spec.recombined.empty()) std::cerr << " + " << spec.recombined.size() << " recombined";
+    if (!spec.errors.empty()) std::cerr << " + " << spec.errors.size() << " error table(s)";
+    if (!spec.inverted.empty()) std::cerr << " + " << spec.inverted.size() << " inverted";
+    std::cerr << " from " << st.spec_path << " on " << g.backend->device_name() << " ("
+              << precision_name(g.backend->precision()) << ")";
+    if (ranks > 1) std::cerr << " x " << ranks << " MPI ranks";
+    std::cerr << "\n";
+    std::cerr << "writing "
+              << std::filesystem::absolute(g.out_path).lexically_normal().string() << "\n";
+}
+
+// Checkpoint (host/generate/checkpoint.h): one beside the output, unless an
+// older one is there and --resume was not given.
+std::unique_ptr<Checkpoint> open_checkpoint(const GenerateArgs& st, const GenerateSetup& g) {
+    std::unique_ptr<Checkpoint> checkpoint;
+    const CheckpointPresence presence = checkpoint_presence(g.out_path);
+    if (presence != CheckpointPresence::None && !st.resume) {
+        std::cerr << "brdftab: a checkpoint of "
+                  << (presence == CheckpointPresence::InUse ? "a running" : "an interrupted")
+                  << " run exists (" << checkpoint_directory(g.out_path)
+                  << "); add --resume to continue it. This run starts from the beginning, "
+                     "writes no checkpoint and leaves that one alone.\n";
+    } else {
+        checkpoint = std::make_unique<Checkpoint>(
+            g.out_path, checkpoint_key(g.spec, g.settings, *g.backend, st.compute.kernel_dir),
+            st.resume, st.checkpoint_interval);
+        if (st.resume && presence == CheckpointPresence::None)
+            std::cerr << "brdftab: no checkpoint to resume from; starting from the "
+                         "beginning\n";
+        else if (st.resume)
+            std::cerr << "brdftab: resuming from " << checkpoint->directory() << ": "
+                      << checkpoint->resumed_summary() << "\n";
+    }
+    return checkpoint;
+}
+
+// Chunking recorded in a checkpoint ("chunk_cells=<n> ranks=<r>"), so that
+// a resumed run cuts the tables as the interrupted one did.
+std::string layout_text(std::size_t chunk_cells, int ranks) {
+    return "chunk_cells=" + std::to_string(chunk_cells) + " ranks=" + std::to_string(ranks);
+}
+bool parse_layout(const std::string& text, std::size_t& chunk_cells, int& ranks) {
+    unsigned long long c = 0;
+    int r = 0;
+    if (std::sscanf(text.c_str(), "chunk_cells=%llu ranks=%d", &c, &r) != 2 || r < 1) return false;
+    chunk_cells = static_cast<std::size_t>(c);
+    ranks = r;
+    return true;
+}
+
+// The progress display of rank 0 (or of the one process).
+GenerateProgressFn progress_display(const GenerateArgs& st,
+                                    std::unique_ptr<ProgressPrinter>& printer,
+                                    std::size_t& current) {
+    return [&st, &printer, &current](const GenerateEvent& e) {
+        if (st.quiet) return;
+        if (e.table_index != current) {
+            if (printer) printer->finish();
+            current = e.table_index;
+            printer = std::make_unique<ProgressPrinter>(
+                "[" + std::to_string(e.table_index + 1) + "/" + std::to_string(e.table_count) +
+                "] " + e.table->name);
+        }
+        (*printer)(e.progress);
+    };
+}
+
+void finish_output(const GenerateSetup& g, Checkpoint* checkpoint) {
+    std::cout << "wrote " << g.out_path << "\n";
+    if (checkpoint) {
+        const std::string why = checkpoint->remove();
+        if (!why.empty())
+            std::cerr << "brdftab: warning: cannot remove the checkpoint "
+                      << checkpoint->directory() << ": " << why << "\n";
+    }
+}
+
+void run_generate(const GenerateArgs& st) {
+    GenerateSetup g = set_up_generate(st, true, "");
+    announce(st, g, 1);
+    std::unique_ptr<Checkpoint> checkpoint = open_checkpoint(st, g);
+    StreamOptions options;
+    options.chunk_cells = st.chunk_cells;
+    options.checkpoint = checkpoint.get();
+    if (checkpoint) {
+        int ranks = 1;
+        if (!checkpoint->layout().empty() &&
+            !parse_layout(checkpoint->layout(), options.chunk_cells, ranks))
+            throw InputError("checkpoint '" + checkpoint->directory() +
+                             "': unreadable layout '" + checkpoint->layout() + "'");
+        options.ranks = ranks;
+        if (checkpoint->layout().empty())
+            checkpoint->record_layout(layout_text(options.chunk_cells, options.ranks));
+    }
+    std::unique_ptr<ProgressPrinter> printer;
+    std::size_t current = static_cast<std::size_t>(-1);
+    std::vector<GeneratedTable> tables =
+        generate_to_file(g.spec, *g.backend, g.settings, g.out_path,
+                         progress_display(st, printer, current), options);
+    if (printer) printer->finish();
+    finish_output(g, checkpoint.get());
+    print_summary(tables);
+}
+
+#ifdef BRDFTAB_MPI
+// "cells per rank: 0: 120, 1: 392 (an even split: 256 each)".
+void print_cells_per_rank(const std::vector<std::uint64_t>& cells) {
+    std::uint64_t total = 0;
+    for (std::uint64_t c : cells) total += c;
+    std::cout << "  cells per rank:";
+    for (std::size_t r = 0; r < cells.size(); ++r)
+        std::cout << (r ? ", " : " ") << r << ": " << cells[r];
+    std::cout << " (an even split: " << format_count(static_cast<double>(total) / cells.size())
+              << " each)\n";
+}
+
+// The OpenCL device of a rank: --device or $BRDFTAB_DEVICE when given (the
+// same for every rank, unless set per rank by a wrapper), otherwise the
+// node's GPUs in turn by rank on the node (local rank k takes GPU k mod the
+// number of GPUs), otherwise the default (first CPU device).  "" = default.
+std::string rank_device(const GenerateArgs& st, int local_rank) {
+    if (!st.compute.device.empty() || std::getenv("BRDFTAB_DEVICE")) return "";
+    std::vector<DeviceInfo> gpus;
+    try {
+        for (const DeviceInfo& d : list_devices())
+            if (d.is_gpu) gpus.push_back(d);
+    } catch (const Error&) {
+        return "";
+    }
+    if (gpus.empty()) return "";
+    return std::to_string(gpus[static_cast<std::size_t>(local_rank) % gpus.size()].index);
+}
+
+int error_code(const std::exception& e) {
+    return dynamic_cast<const InputError*>(&e) ? 2 : 1;
+}
+
+// `mpirun -n N brdftab generate` (host/generate/distributed.h).  A failure
+// while setting up (bad spec, unwritable output, no device) is reported once
+// and ends every rank with the same exit code; a failure while computing
+// ends the job through MPI_Abort, after a message naming the rank.
+void run_generate_mpi(const GenerateArgs& st) {
+    MpiSession mpi;
+    const int rank = mpi.rank(), size = mpi.size();
+    const std::string who = "brdftab: rank " + std::to_string(rank) + ": ";
+    GenerateSetup g;
+    std::unique_ptr<Checkpoint> checkpoint;
+    std::string layout;
+    auto agree = [&](const std::function<void()>& step) {
+        int code = 0;
+        std::string message;
+        try {
+            step();
+        } catch (const std::exception& e) {
+            code = error_code(e);
+            message = e.what();
+        }
+        const int rank0_code = mpi.broadcast(code), worst = mpi.max(code);
+        if (worst == 0) return;
+        // Every rank reads the same spec and options: rank 0 speaks for
+        // them; a rank fails alone only on its own trouble (its device).
+        if (code && (rank == 0 || rank0_code == 0))
+            std::cerr << (rank == 0 ? std::string("brdftab: ") : who) << "error: " << message
+                      << std::endl;
+        checkpoint.reset();
+        mpi.finalize();
+        std::exit(worst);
+    };
+    agree([&] {
+        g = set_up_generate(st, rank == 0, rank_device(st, mpi.local_rank()));
+        if (rank == 0) announce(st, g, size);
+    });
+    agree([&] {
+        if (rank != 0) return;
+        checkpoint = open_checkpoint(st, g);
+        std::size_t chunk_cells = st.chunk_cells;
+        int ranks = size;
+        if (checkpoint && !checkpoint->layout().empty() &&
+            !parse_layout(checkpoint->layout(), chunk_cells, ranks))
+            throw InputError("checkpoint '" + checkpoint->directory() +
+                             "': unreadable layout '" + checkpoint->layout() + "'");
+        if (checkpoint && checkpoint->layout().empty())
+            checkpoint->record_layout(layout_text(chunk_cells, ranks));
+        layout = (checkpoint ? "checkpoint " : "none ") + layout_text(chunk_cells, ranks);
+    });
+    mpi.broadcast(layout);
+    const bool with_checkpoint = layout.rfind("checkpoint ", 0) == 0;
+    std::size_t chunk_cells = 0;
+    int ranks = 1;
+    parse_layout(layout.substr(layout.find(' ') + 1), chunk_cells, ranks);
+    agree([&] {
+        if (rank != 0 && with_checkpoint)
+            checkpoint = std::make_unique<Checkpoint>(
+                g.out_path, checkpoint_key(g.spec, g.settings, *g.backend, st.compute.kernel_dir),
+                true, st.checkpoint_interval, true);
+    });
+    // Bit-identity across ranks needs one kind of device (docs/cluster.md).
+    const std::vector<std::string> devices = mpi.gather(g.backend->device_name());
+    for (std::size_t r = 1; r < devices.size(); ++r)
+        if (devices[r] != devices[0])
+            std::cerr << "brdftab: warning: rank " << r << " computes on '" << devices[r]
+                      << "', rank 0 on '" << devices[0]
+                      << "': values may differ in the last bits between them\n";
+
+    const std::vector<CellChunk> plan = plan_chunks(g.spec, chunk_cells, ranks);
+    try {
+        if (rank == 0) {
+            MpiChunkSharing sharing(mpi, plan);
+            StreamOptions options;
+            options.chunk_cells = chunk_cells;
+            options.ranks = ranks;
+            options.checkpoint = checkpoint.get();
+            options.sharing = &sharing;
+            options.temporary_created = remove_temporaries_on_termination;
+            std::unique_ptr<ProgressPrinter> printer;
+            std::size_t current = static_cast<std::size_t>(-1);
+            std::vector<GeneratedTable> tables =
+                generate_to_file(g.spec, *g.backend, g.settings, g.out_path,
+                                 progress_display(st, printer, current), options);
+            if (printer) printer->finish();
+            finish_output(g, checkpoint.get());
+            print_summary(tables);
+            print_cells_per_rank(sharing.cells_per_process());
+            std::cout << "  " << sharing.statistics() << "\n";
+        } else {
+            ChunkComputer computer(g.spec, *g.backend, g.settings);
+            run_chunk_worker(mpi, computer, plan, checkpoint.get());
+        }
+    } catch (const std::exception& e) {
+        std::cerr << who << "error: " << e.what() << std::endl;
+        mpi.abort(error_code(e));
+    }
+}
+#endif
+
+}  // namespace
+
 void register_generate(CLI::App& app) {
     auto* cmd = app.add_subcommand(
         "generate",
         "compute every table of a TOML spec (see tables/ and docs/spec.md) and write them to "
         "one HDF5 file");
-    struct State {
-        std::string spec_path, output, max_memory;
-        ComputeOptions compute;
-        bool quiet = false;
-        bool resume = false;
-        double checkpoint_interval = 60;
-    };
-    auto state = std::make_shared<State>();  // owned by the callback
+    auto state = std::make_shared<GenerateArgs>();  // owned by the callback
     cmd->add_option("SPEC", state->spec_path, "table specification (TOML)")->required();
     cmd->add_option("-o,--output", state->output, "output file (default: the spec's output.path)")
         ->check(non_empty_path());
@@ -246,92 +550,18 @@ void register_generate(CLI::App& app) {
                     "seconds between checkpoints of a table in progress (default 60; 0: "
                     "checkpoint finished tables only)")
         ->check(number_in(0, true, 1e308, "seconds >= 0"));
+    cmd->add_option("--chunk-cells", state->chunk_cells,
+                    "cells per chunk: tables are computed and written to the file in chunks of "
+                    "this many cells, and MPI ranks share them (default 0: automatic, "
+                    "262144 cells, or about 8 chunks per rank under MPI; results do not "
+                    "depend on it). See docs/cluster.md")
+        ->check(number_in(0, true, 1e18, "cells >= 0 (0: automatic)"));
     state->compute.add_to(*cmd);
     cmd->callback([state] {
-        const State& st = *state;
-        Spec spec = parse_spec_file(st.spec_path);
-        const std::string out_path = st.output.empty() ? spec.output.path : st.output;
-        check_output_writable(out_path);
-        const IntegrationSettings settings = st.compute.apply(spec.integration);
-        check_settings(settings);
-        check_resources(spec, settings, out_path,
-                        st.max_memory.empty() ? 0 : parse_byte_size(st.max_memory, "--max-memory"));
-        auto backend = st.compute.make_backend();
-        std::cerr << "brdftab: " << spec.model << ", " << spec.tables.size() << " table(s)";
-        if (!spec.recombined.empty()) std::cerr << " + " << spec.recombined.size() << " recombined";
-        if (!spec.errors.empty()) std::cerr << " + " << spec.errors.size() << " error table(s)";
-        if (!spec.inverted.empty()) std::cerr << " + " << spec.inverted.size() << " inverted";
-        std::cerr << " from " << st.spec_path << " on " << backend->device_name()
-                  << " (" << precision_name(backend->precision()) << ")\n";
-        std::cerr << "writing " << std::filesystem::absolute(out_path).lexically_normal().string()
-                  << "\n";
-        // Checkpoint (host/generate/checkpoint.h): one beside the output,
-        // unless an older one is there and --resume was not given.
-        std::unique_ptr<Checkpoint> checkpoint;
-        const CheckpointPresence presence = checkpoint_presence(out_path);
-        if (presence != CheckpointPresence::None && !st.resume) {
-            std::cerr << "brdftab: a checkpoint of "
-                      << (presence == CheckpointPresence::InUse ? "a running" : "an interrupted")
-                      << " run exists (" << checkpoint_directory(out_path)
-                      << "); add --resume to continue it. This run starts from the beginning, "
-                         "writes no checkpoint and leaves that one alone.\n";
-        } else {
-            checkpoint = std::make_unique<Checkpoint>(
-                out_path, checkpoint_key(spec, settings, *backend, st.compute.kernel_dir),
-                st.resume, st.checkpoint_interval);
-            if (st.resume && presence == CheckpointPresence::None)
-                std::cerr << "brdftab: no checkpoint to resume from; starting from the "
-                             "beginning\n";
-            else if (st.resume)
-                std::cerr << "brdftab: resuming from " << checkpoint->directory() << ": "
-                          << checkpoint->resumed_summary() << "\n";
-        }
-        std::unique_ptr<ProgressPrinter> printer;
-        std::size_t current = static_cast<std::size_t>(-1);
-        auto on_progress = [&](const GenerateEvent& e) {
-            if (st.quiet) return;
-            if (e.table_index != current) {
-                if (printer) printer->finish();
-                current = e.table_index;
-                printer = std::make_unique<ProgressPrinter>(
-                    "[" + std::to_string(e.table_index + 1) + "/" +
-                    std::to_string(e.table_count) + "] " + e.table->name);
-            }
-            (*printer)(e.progress);
-        };
-        std::vector<GeneratedTable> tables = generate_tables(spec, *backend, settings, on_progress,
-                                                             checkpoint.get());
-        if (printer) printer->finish();
-        std::vector<TableData> data;
-        for (auto& t : tables) data.push_back(t.data);
-        write_tables(out_path, data);
-        std::cout << "wrote " << out_path << "\n";
-        if (checkpoint) {
-            const std::string why = checkpoint->remove();
-            if (!why.empty())
-                std::cerr << "brdftab: warning: cannot remove the checkpoint "
-                          << checkpoint->directory() << ": " << why << "\n";
-        }
-        for (const auto& t : tables) {
-            const TableData& d = t.data;
-            double lo = d.value.empty() ? 0 : d.value[0], hi = lo;
-            for (double v : d.value) lo = std::min(lo, v), hi = std::max(hi, v);
-            std::cout << "  " << d.name << ": " << d.quantity << " [";
-            for (std::size_t a = 0; a < d.axes.size(); ++a)
-                std::cout << (a ? " x " : "") << d.axes[a].name << " " << d.axes[a].count;
-            std::cout << "] = " << d.cell_count() << " cells, " << method_attribute(d);
-            if (d.kind == TableKind::Computed &&
-                (d.method == Method::MonteCarlo || d.method == Method::Rqmc ||
-                 d.method == Method::Quadrature))
-                std::cout << ", " << format_count(static_cast<double>(d.total_samples))
-                          << " samples, max rel. stderr " << d.tolerance_achieved;
-            std::cout << ", values in [" << lo << ", " << hi << "], "
-                      << format_seconds(d.elapsed_seconds) << "\n";
-            if (t.cells_unconverged)
-                std::cout << "  warning: " << t.cells_unconverged
-                          << " cell(s) reached max_samples before the tolerance\n";
-            if (t.error) print_error_summary(*t.error, d);
-        }
+#ifdef BRDFTAB_MPI
+        if (MpiSession::launched()) return run_generate_mpi(*state);
+#endif
+        run_generate(*state);
     });
 }
 

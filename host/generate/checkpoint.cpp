@@ -115,8 +115,22 @@ std::string table_file(const std::string& dir, std::size_t index) {
     return dir + "/table-" + std::to_string(index) + ".state";
 }
 
-// Index of a `table-<k>.state` file name, or -1.
-long table_file_index(const std::string& name) {
+std::string chunk_file(const std::string& dir, std::size_t index, std::size_t first) {
+    return dir + "/table-" + std::to_string(index) + "-" + std::to_string(first) + ".state";
+}
+
+// Index of a `table-<k>.state` or `table-<k>-<c>.state` file name, or -1.
+long table_file_index(const std::string& file_name) {
+    std::string name = file_name;
+    const std::size_t dash = name.find('-', 6);
+    if (name.compare(0, 6, "table-") == 0 && dash != std::string::npos) {
+        const std::string first = name.substr(dash + 1);
+        if (first.size() > 6 && first.find_first_not_of("0123456789") == first.size() - 6 &&
+            first.compare(first.size() - 6, 6, ".state") == 0 && first.size() - 6 <= 19)
+            name = name.substr(0, dash) + ".state";
+        else
+            return -1;
+    }
     const std::string prefix = "table-", suffix = ".state";
     if (name.size() <= prefix.size() + suffix.size() || name.compare(0, prefix.size(), prefix) ||
         name.compare(name.size() - suffix.size(), suffix.size(), suffix))
@@ -297,9 +311,21 @@ EstimateState decode_table_state(const std::string& bytes, std::size_t index,
 // ------------------------------------------------------------- Checkpoint
 
 Checkpoint::Checkpoint(const std::string& output_path, CheckpointKey key, bool resume,
-                       double interval_seconds)
-    : dir_(checkpoint_directory(output_path)), key_(std::move(key)), interval_(interval_seconds) {
+                       double interval_seconds, bool helper)
+    : dir_(checkpoint_directory(output_path)), key_(std::move(key)), interval_(interval_seconds),
+      helper_(helper) {
     std::error_code ec;
+    if (helper) {
+        // The owner has checked (or started) the directory: use what is there.
+        if (!fs::is_directory(dir_, ec))
+            throw Error("checkpoint directory '" + dir_ +
+                        "' is not visible to this process (the output directory must be on a "
+                        "file system every process shares)");
+        for (fs::directory_iterator it(dir_, ec), end; !ec && it != end; it.increment(ec))
+            if (table_file_index(it->path().filename().string()) >= 0)
+                stored_.push_back(it->path().filename().string());
+        return;
+    }
     const bool existed = fs::exists(dir_, ec);
     if (existed && !fs::is_directory(dir_, ec))
         throw InputError("checkpoint '" + dir_ + "' exists and is not a directory; remove it");
@@ -347,6 +373,7 @@ Checkpoint::Checkpoint(const std::string& output_path, CheckpointKey key, bool r
                                  "\nrun with the same spec and options, or delete '" + dir_ +
                                  "' to start over");
             keep_states = true;
+            if (m.contains("layout") && m["layout"].is_string()) layout_ = m["layout"];
         }
         // Index the state files (removing any that no manifest vouches for:
         // the run that wrote them died before its manifest, which cannot be).
@@ -358,12 +385,14 @@ Checkpoint::Checkpoint(const std::string& output_path, CheckpointKey key, bool r
                 fs::remove(it->path(), ignored);
                 continue;
             }
-            stored_.push_back(static_cast<std::size_t>(k));
+            stored_.push_back(it->path().filename().string());
             // The finished flag is at a fixed offset of the header.
             std::ifstream f(it->path(), std::ios::binary);
             char head[13] = {0};
             f.read(head, sizeof head);
-            (f && head[12] ? resumed_finished_ : resumed_partial_) += 1;
+            const bool chunk = it->path().filename().string().find('-', 6) != std::string::npos;
+            (f && head[12] ? (chunk ? resumed_chunks_finished_ : resumed_finished_)
+                           : (chunk ? resumed_chunks_partial_ : resumed_partial_)) += 1;
         }
         if (!keep_states) {
             nlohmann::json settings = nlohmann::json::object();
@@ -380,22 +409,52 @@ Checkpoint::Checkpoint(const std::string& output_path, CheckpointKey key, bool r
     }
 }
 
-Checkpoint::~Checkpoint() {
+Checkpoint::~Checkpoint() {  // a helper holds no lock: lock_fd_ < 0
     if (lock_fd_ >= 0) ::close(lock_fd_);
 }
 
 std::string Checkpoint::resumed_summary() const {
-    if (resumed_finished_ + resumed_partial_ == 0) return "nothing stored yet";
-    return std::to_string(resumed_finished_) + " finished table(s), " +
-           std::to_string(resumed_partial_) + " in progress";
+    const std::size_t chunks = resumed_chunks_finished_ + resumed_chunks_partial_;
+    if (resumed_finished_ + resumed_partial_ + chunks == 0) return "nothing stored yet";
+    std::string s = std::to_string(resumed_finished_) + " finished table(s), " +
+                    std::to_string(resumed_partial_) + " in progress";
+    if (chunks)
+        s += "; chunks of tables: " + std::to_string(resumed_chunks_finished_) + " finished, " +
+             std::to_string(resumed_chunks_partial_) + " in progress";
+    return s;
+}
+
+void Checkpoint::record_layout(const std::string& layout) {
+    layout_ = layout;
+    if (helper_) return;
+    nlohmann::json settings = nlohmann::json::object();
+    for (const auto& [name, value] : key_.settings) settings[name] = value;
+    const nlohmann::json m = {{"brdftab_checkpoint", kManifestFormat},
+                              {"fingerprint", key_.fingerprint()},
+                              {"settings", settings},
+                              {"layout", layout}};
+    write_text_atomically(dir_ + "/manifest.json", m.dump(2) + "\n");
 }
 
 EstimateCheckpoint Checkpoint::table(std::size_t index, const std::string& name,
                                      std::size_t cell_count) {
+    return hooks(table_file(dir_, index), index, name, cell_count);
+}
+
+EstimateCheckpoint Checkpoint::chunk(std::size_t index, const std::string& name,
+                                     std::size_t first, std::size_t count,
+                                     std::size_t table_cells) {
+    if (first == 0 && count == table_cells) return table(index, name, count);
+    return hooks(chunk_file(dir_, index, first), index,
+                 name + " cells " + std::to_string(first) + "+" + std::to_string(count), count);
+}
+
+EstimateCheckpoint Checkpoint::hooks(const std::string& path, std::size_t index,
+                                     const std::string& name, std::size_t cell_count) {
     EstimateCheckpoint hooks;
-    const std::string path = table_file(dir_, index);
     bool restored_finished = false;
-    if (std::find(stored_.begin(), stored_.end(), index) != stored_.end())
+    if (std::find(stored_.begin(), stored_.end(), fs::path(path).filename().string()) !=
+        stored_.end())
         hooks.resume = decode_table_state(read_whole_file(path), index, name, key_.fingerprint(),
                                           cell_count, path, &restored_finished);
     double last_write = seconds_now(), write_cost = 0;
@@ -425,6 +484,7 @@ EstimateCheckpoint Checkpoint::table(std::size_t index, const std::string& name,
 
 std::string Checkpoint::remove() {
     std::error_code ec;
+    if (helper_) return "";  // the owner removes the directory
     fs::remove_all(dir_, ec);
     if (lock_fd_ >= 0) ::close(lock_fd_);
     lock_fd_ = -1;

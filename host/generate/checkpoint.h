@@ -6,6 +6,10 @@
 //   manifest.json     the settings the state is valid for, and their hash
 //   table-<k>.state   table k: finished, or in progress (rewritten at most
 //                     every `interval` seconds)
+//   table-<k>-<c>.state  the same for the chunk of table k that starts at
+//                     cell c, when a table is computed in chunks
+//                     (host/generate/chunked.h); every process of a
+//                     distributed run stores the chunks it computes here
 //   lock              held (flock) by the process writing the directory
 // Every file is replaced atomically (host/core/atomic_file.h), so a killed
 // run leaves the previous complete state.  Random numbers depend only on
@@ -15,6 +19,7 @@
 #pragma once
 
 #include <cstdint>
+#include <set>
 #include <memory>
 #include <string>
 #include <utility>
@@ -56,8 +61,12 @@ public:
     // of the time between writes, and a finished table that took less than
     // ten times as long as writing its state is not stored (it is computed
     // again on resume).
+    // `helper`: a process of a distributed run other than the one that owns
+    // the directory (host/generate/distributed.h): it neither locks nor
+    // writes the manifest, and uses the directory the owner opened (which
+    // must exist), storing the chunks it computes there.
     Checkpoint(const std::string& output_path, CheckpointKey key, bool resume,
-               double interval_seconds);
+               double interval_seconds, bool helper = false);
     ~Checkpoint();
     Checkpoint(const Checkpoint&) = delete;
     Checkpoint& operator=(const Checkpoint&) = delete;
@@ -70,6 +79,17 @@ public:
     // stored state, if any (InputError if damaged or of another shape), and
     // the function that stores new states.  The Checkpoint must outlive them.
     EstimateCheckpoint table(std::size_t index, const std::string& name, std::size_t cell_count);
+    // The same for cells [first, first + count) of table `index`, which has
+    // `table_cells` cells (the whole table: the same file as table()).
+    EstimateCheckpoint chunk(std::size_t index, const std::string& name, std::size_t first,
+                             std::size_t count, std::size_t table_cells);
+
+    // How the tables were cut into chunks (a text the caller defines, e.g.
+    // "chunk_cells=256 ranks=4"), stored in the manifest so that a resumed
+    // run cuts them the same way whatever its number of processes; "" when
+    // none was recorded.
+    const std::string& layout() const { return layout_; }
+    void record_layout(const std::string& layout);
 
     // Deletes the directory (after the output file is written); returns
     // why it could not, or "".
@@ -82,7 +102,13 @@ private:
     double write_rate_ = 100e6;  // bytes per second of state writes (measured)
     int lock_fd_ = -1;
     std::size_t resumed_finished_ = 0, resumed_partial_ = 0;
-    std::vector<std::size_t> stored_;  // indices of tables with a state file
+    std::size_t resumed_chunks_finished_ = 0, resumed_chunks_partial_ = 0;
+    std::vector<std::string> stored_;  // names of the state files present at the start
+    std::string layout_;
+    bool helper_ = false;
+
+    EstimateCheckpoint hooks(const std::string& file, std::size_t index,
+                             const std::string& name, std::size_t cell_count);
 };
 
 // Bytes of a table's state file, and back (exposed for the tests).  `reading`

@@ -12,6 +12,7 @@
 #include "host/core/error.h"
 #include "host/core/text.h"
 #include "host/generate/checkpoint.h"
+#include "host/generate/chunked.h"
 #include "host/generate/derived.h"
 
 #ifndef BRDFTAB_VERSION
@@ -100,22 +101,30 @@ void CellPoints::point(std::size_t cell, double* out) const {
 namespace {
 
 // Bytes per cell, measured (docs/spec.md, "Memory and disk"): the engine's
-// state of the table being computed (CellState, the round's work lists and
-// the result vectors), and what a finished table holds (value and stderr
-// doubles, uint32 samples) times two, as the CLI copies the tables for the
-// write.
+// state of the chunk being computed (CellState, the round's work lists and
+// the result vectors).
 constexpr double kEngineBytesPerCell = 100;
-constexpr double kHeldBytesPerValue = 2 * 8;
-constexpr double kHeldBytesPerCount = 2 * 4;
+// A chunk's results (value, stderr: 8 B each, samples: 4 B) as the engine
+// returns them, and a table kept whole for a derived table (the same).
+constexpr double kResultBytesPerCell = 8 + 8 + 4;
+// A derived table: value and stderr, and the copy its computation makes.
+constexpr double kDerivedBytesPerCell = 2 * (8 + 8);
+// HDF5's chunk cache: up to 1 MiB for each of the (at most 3) datasets of
+// every computed table, all open while the tables are computed.
+constexpr double kCacheBytesPerTable = 3.0 * 1024 * 1024;
+// One device launch (host/engine/engine.cpp): per work item its point
+// (point_stride doubles), cell and batch numbers and two results, held three
+// times: the launch, its copy with the chunk's cell numbers (chunked.cpp) and
+// the device's buffers (host memory on a CPU device).  The OpenCL backend's
+// preferred launch is 2^17 work items.
+constexpr double kLaunchCopies = 3;
+constexpr double kLaunchWorkItems = 131072;
 // Fixed overhead: the program, libhdf5, the OpenCL runtime and its compiled
 // kernels (measured: 97 MiB resident for a 4-cell run on PoCL; rounded up).
-// With it (and the checkpoint buffer below) the estimate is 201 B/cell for a
-// closed-form table (measured 111) and 209 B/cell for a Monte Carlo one
-// (measured 136): docs/spec.md.
 constexpr double kBaseBytes = 128.0 * 1024 * 1024;
 // The checkpoint beside the output (host/generate/checkpoint.cpp, kCellBytes):
 // 65 B per cell of every computed table's state on disk until the output is
-// written, and a buffer of that size for the table being saved.  Counted for
+// written, and a buffer of that size for the chunk being saved.  Counted for
 // every table (an upper bound: quick closed forms are not stored).
 constexpr double kCheckpointBytesPerCell = 65;
 
@@ -136,16 +145,16 @@ double grid_cells(const std::vector<Axis>& axes) {
 
 }  // namespace
 
-ResourceEstimate estimate_resources(const Spec& spec, const IntegrationSettings& settings) {
+ResourceEstimate estimate_resources(const Spec& spec, const IntegrationSettings& settings,
+                                    std::size_t chunk_cells) {
     const ModelInfo& model = find_model(spec.model);
     const double type_size = stored_size(spec.output.stored_type);
+    const std::vector<std::string> kept = tables_read_by_derived(spec);
     ResourceEstimate r;
-    double held = 0;
+    double held = 0, largest_chunk = 0;
     std::map<std::string, double> cells_of;  // computed table name -> cells
-    auto add_table = [&](double cells, bool has_stderr, bool has_samples) {
+    auto add_disk = [&](double cells, bool has_stderr, bool has_samples) {
         r.cells += cells;
-        // In memory every table has value and stderr (zeros for closed forms).
-        held += cells * (2 * kHeldBytesPerValue + (has_samples ? kHeldBytesPerCount : 0));
         r.disk_bytes += cells * (type_size * (has_stderr && spec.output.keep_stderr ? 2 : 1) +
                                  (has_samples ? 4 : 0));
     };
@@ -154,19 +163,100 @@ ResourceEstimate estimate_resources(const Spec& spec, const IntegrationSettings&
         cells_of[ts.name] = cells;
         const Method m = resolve_table_method(model.quantity(ts.quantity), settings.method);
         const bool closed = m == Method::ClosedForm;
-        add_table(cells, !closed, !closed);
+        add_disk(cells, !closed, !closed);
         r.disk_bytes += cells * kCheckpointBytesPerCell;
         r.largest_cells = std::max(r.largest_cells, cells);
+        const double chunk = chunk_cells ? static_cast<double>(chunk_cells)
+                                         : static_cast<double>(kDefaultChunkCells);
+        largest_chunk = std::max(largest_chunk, std::min(cells, chunk));
+        held += kCacheBytesPerTable;
+        if (std::find(kept.begin(), kept.end(), ts.name) != kept.end())
+            held += cells * kResultBytesPerCell;
     }
     // Derived tables live on their sources' grids (inverted: its new axis).
+    auto add_derived = [&](double cells) {
+        add_disk(cells, true, false);
+        held += cells * kDerivedBytesPerCell;
+    };
     for (const RecombinedSpec& rs : spec.recombined)
-        add_table(rs.terms.empty() ? 0 : cells_of[rs.terms.front().first], true, false);
-    for (const ErrorTableSpec& es : spec.errors) add_table(cells_of[es.table], true, false);
-    for (const InvertedSpec& is : spec.inverted) add_table(static_cast<double>(is.axis.count), true, false);
-    r.memory_bytes = kBaseBytes + held +
-                     r.largest_cells * (kEngineBytesPerCell + type_size + kCheckpointBytesPerCell);
+        add_derived(rs.terms.empty() ? 0 : cells_of[rs.terms.front().first]);
+    for (const ErrorTableSpec& es : spec.errors) add_derived(cells_of[es.table]);
+    for (const InvertedSpec& is : spec.inverted) add_derived(static_cast<double>(is.axis.count));
+    const double launch_items = settings.slab_work_items
+                                    ? static_cast<double>(settings.slab_work_items)
+                                    : kLaunchWorkItems;
+    const double launch_bytes =
+        kLaunchCopies * launch_items * (8.0 * static_cast<double>(model.point_stride()) + 4 + 4 + 16);
+    r.memory_bytes = kBaseBytes + held + launch_bytes +
+                     largest_chunk * (kEngineBytesPerCell + kResultBytesPerCell + type_size +
+                                      kCheckpointBytesPerCell);
     return r;
 }
+
+void fold_value_range(const double* value, std::size_t n, bool& first, double& lo, double& hi) {
+    if (n == 0) return;
+    if (first) {
+        lo = hi = value[0];
+        first = false;
+    }
+    for (std::size_t k = 0; k < n; ++k) lo = std::min(lo, value[k]), hi = std::max(hi, value[k]);
+}
+
+void set_value_range(GeneratedTable& g) {
+    bool first = true;
+    g.value_min = g.value_max = 0;
+    fold_value_range(g.data.value.data(), g.data.value.size(), first, g.value_min, g.value_max);
+}
+
+namespace generate_detail {
+
+TableData describe_table(const Spec& spec, const Backend& backend,
+                         const IntegrationSettings& settings, std::size_t table,
+                         const std::vector<int>& options, Method method) {
+    const ModelInfo& model = find_model(spec.model);
+    const TableSpec& ts = spec.tables.at(table);
+    const QuantityInfo& q = model.quantity(ts.quantity);
+    TableData d;
+    d.name = ts.name;
+    d.model = model.name;
+    d.quantity = q.name;
+    d.units = q.units;
+    d.description = ts.description.empty() ? q.description : ts.description;
+    nlohmann::json params = nlohmann::json::object();
+    for (const auto& [k, v] : ts.fixed) params[k] = v;
+    // Record every option actually used (defaults included), by name;
+    // options the quantity ignores are left out (a "side" default would
+    // misstate a table of light from inside).
+    for (std::size_t k = 0; k < model.options.size(); ++k)
+        if (std::count(q.uses_options.begin(), q.uses_options.end(), model.options[k].name))
+            params[model.options[k].name] = model.options[k].choices[options[k]];
+    // A model with a "side" option: state the side the table's light comes from.
+    if (model.find_option("side") && !params.contains("side") && incident_side(ts))
+        params["side"] = incident_side(ts);
+    d.parameters = params;
+    d.axes = ts.axes;
+    const bool closed_form = method == Method::ClosedForm;
+    d.method = method;
+    d.samples_requested = closed_form || method == Method::Quadrature
+                              ? 1
+                              : (settings.tolerance > 0 ? settings.max_samples
+                                                        : (settings.samples ? settings.samples : 4096));
+    d.tolerance_requested = closed_form ? 0 : settings.tolerance;
+    d.abs_floor = settings.abs_floor;
+    d.seed = settings.seed;
+    d.precision = precision_name(backend.precision());
+    d.device = backend.device_name();
+    d.version = BRDFTAB_VERSION;
+    // The spec's name without the machine's directories, and its text.
+    d.spec_file = std::filesystem::path(spec.file).filename().string();
+    d.spec_text = spec.text;
+    d.stored_type = spec.output.stored_type;
+    d.compression = spec.output.compression;
+    d.keep_stderr = spec.output.keep_stderr && !closed_form;
+    return d;
+}
+
+}  // namespace generate_detail
 
 std::vector<GeneratedTable> generate_tables(const Spec& spec, Backend& backend,
                                             const IntegrationSettings& settings,
@@ -207,48 +297,13 @@ std::vector<GeneratedTable> generate_tables(const Spec& spec, Backend& backend,
 
         GeneratedTable g;
         TableData& d = g.data;
-        d.name = ts.name;
-        d.model = model.name;
-        d.quantity = q.name;
-        d.units = q.units;
-        d.description = ts.description.empty() ? q.description : ts.description;
-        nlohmann::json params = nlohmann::json::object();
-        for (const auto& [k, v] : ts.fixed) params[k] = v;
-        // Record every option actually used (defaults included), by name;
-        // options the quantity ignores are left out (a "side" default would
-        // misstate a table of light from inside).
-        for (std::size_t k = 0; k < model.options.size(); ++k)
-            if (std::count(q.uses_options.begin(), q.uses_options.end(), model.options[k].name))
-                params[model.options[k].name] = model.options[k].choices[options[k]];
-        // A model with a "side" option: state the side the table's light comes from.
-        if (model.find_option("side") && !params.contains("side") && incident_side(ts))
-            params["side"] = incident_side(ts);
-        d.parameters = params;
-        d.axes = ts.axes;
+        d = generate_detail::describe_table(spec, backend, settings, t, options, r.method);
         d.value = std::move(r.value);
         d.stderr_ = std::move(r.stderr_);
-        const bool closed_form = r.method == Method::ClosedForm;
-        if (!closed_form) d.samples = std::move(r.samples);
-        d.method = r.method;
-        d.samples_requested = closed_form || r.method == Method::Quadrature
-                                  ? 1
-                                  : (settings.tolerance > 0 ? settings.max_samples
-                                                            : (settings.samples ? settings.samples : 4096));
-        d.tolerance_requested = closed_form ? 0 : settings.tolerance;
-        d.abs_floor = settings.abs_floor;
+        if (r.method != Method::ClosedForm) d.samples = std::move(r.samples);
         d.tolerance_achieved = r.tolerance_achieved;
-        d.seed = settings.seed;
-        d.precision = precision_name(backend.precision());
-        d.device = backend.device_name();
-        d.version = BRDFTAB_VERSION;
-        // The spec's name without the machine's directories, and its text.
-        d.spec_file = std::filesystem::path(spec.file).filename().string();
-        d.spec_text = spec.text;
         d.elapsed_seconds = r.elapsed_seconds;
         d.total_samples = r.total_samples;
-        d.stored_type = spec.output.stored_type;
-        d.compression = spec.output.compression;
-        d.keep_stderr = spec.output.keep_stderr && !closed_form;
         g.cells_unconverged = r.cells_unconverged;
         out.push_back(std::move(g));
     }
@@ -258,6 +313,7 @@ std::vector<GeneratedTable> generate_tables(const Spec& spec, Backend& backend,
         out.push_back(generate_detail::compare(es, out, spec));
     for (const InvertedSpec& is : spec.inverted)
         out.push_back(generate_detail::invert(is, out, spec));
+    for (GeneratedTable& g : out) set_value_range(g);
     return out;
 }
 

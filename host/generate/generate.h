@@ -41,7 +41,16 @@ struct GeneratedTable {
     TableData data;
     std::size_t cells_unconverged = 0;
     std::optional<ErrorSummary> error;  // set for [[errors]] tables
+    // Smallest and largest value (for the summary; NaNs skipped unless the
+    // first cell is one), set by set_value_range: a streamed table
+    // (host/generate/chunked.h) no longer holds its values.
+    double value_min = 0, value_max = 0;
 };
+
+// value_min/value_max of `g` from g.data.value.
+void set_value_range(GeneratedTable& g);
+// The same fold over values given piece by piece: start with `first` = true.
+void fold_value_range(const double* value, std::size_t n, bool& first, double& lo, double& hi);
 
 class Checkpoint;
 
@@ -65,14 +74,18 @@ struct ResourceEstimate {
     double memory_bytes = 0;  // peak resident memory of the tables
     double disk_bytes = 0;    // datasets as stored, before compression
 };
-// Memory model (measured with /usr/bin/time -v, docs/spec.md "Memory and
-// disk"): every table's results stay in memory until the one final write
-// (value, stderr: 8 B each, samples: 4 B), and are copied once for it, plus
-// the engine's per-cell state of the table being computed, its checkpoint
-// buffer and the write's conversion buffer.  Disk: cells x stored type size
-// for value and stderr (kept, not closed form) plus 4 B for samples
-// (estimated tables), plus the checkpoint's 65 B per computed cell.
-ResourceEstimate estimate_resources(const Spec& spec, const IntegrationSettings& settings);
+// Memory model of `brdftab generate` (generate_to_file, host/generate/
+// chunked.h; measured with /usr/bin/time -v, docs/spec.md "Memory and disk"):
+// tables are computed in chunks of `chunk_cells` cells (0: automatic) and
+// each finished chunk is written to the file, so what is held is the
+// engine's per-cell state of one chunk, its results, their conversion for
+// the file and its checkpoint buffer; plus HDF5's chunk cache of every open
+// dataset, and, whole, the computed tables a derived table reads and the
+// derived tables.  Disk: cells x stored type size for value and stderr
+// (kept, not closed form) plus 4 B for samples (estimated tables), plus the
+// checkpoint's 65 B per computed cell.
+ResourceEstimate estimate_resources(const Spec& spec, const IntegrationSettings& settings,
+                                    std::size_t chunk_cells = 0);
 
 // Kernel point of one table cell: fixed values + the cell's axis values.
 // The full PointBuilder (validation, defaults, name resolution) runs once, on

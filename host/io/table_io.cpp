@@ -65,7 +65,9 @@ void check_link_name(const std::string& name, const std::string& what) {
                          "' cannot be an HDF5 name (must be non-empty, without '/')");
 }
 
-void validate_table(const TableData& t) {
+// `with_data`: also check the sizes of value, stderr and samples (the
+// streaming writer checks each range of cells as it comes instead).
+void validate_table(const TableData& t, bool with_data = true) {
     check_link_name(t.name, "table");
     const std::string where = "table '" + t.name + "': ";
     std::set<std::string> seen;
@@ -86,13 +88,13 @@ void validate_table(const TableData& t) {
                         " but " + std::to_string(a.values.size()) + " node values");
     }
     const std::size_t n = checked_cell_count(t.axes, where);
-    if (t.value.size() != n)
+    if (with_data && t.value.size() != n)
         throw Error(where + "value has " + std::to_string(t.value.size()) +
                     " entries, the axes need " + std::to_string(n));
-    if (!t.stderr_.empty() && t.stderr_.size() != n)
+    if (with_data && !t.stderr_.empty() && t.stderr_.size() != n)
         throw Error(where + "stderr has " + std::to_string(t.stderr_.size()) +
                     " entries, the axes need " + std::to_string(n));
-    if (!t.samples.empty() && t.samples.size() != n)
+    if (with_data && !t.samples.empty() && t.samples.size() != n)
         throw Error(where + "samples has " + std::to_string(t.samples.size()) +
                     " entries, the axes need " + std::to_string(n));
     if (t.compression < 0 || t.compression > 9)
@@ -145,49 +147,30 @@ Handle create_dataset(hid_t group, const char* name, hid_t file_type,
                   H5Dclose, "H5Dcreate2", name);
 }
 
-Handle write_real_dataset(hid_t group, const char* name, const std::vector<double>& data,
-                          StoredType type, const std::vector<hsize_t>& dims, int compression) {
-    switch (type) {
-    case StoredType::Float64: {
-        Handle ds = create_dataset(group, name, H5T_IEEE_F64LE, dims, compression);
-        check(H5Dwrite(ds, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, data.data()),
-              "H5Dwrite", name);
-        return ds;
-    }
-    case StoredType::Float32: {
-        // Our own cast (round to nearest) rather than HDF5's conversion path,
-        // so the stored value is exactly (float)x.
-        std::vector<float> f(data.begin(), data.end());
-        Handle ds = create_dataset(group, name, H5T_IEEE_F32LE, dims, compression);
-        check(H5Dwrite(ds, H5T_NATIVE_FLOAT, H5S_ALL, H5S_ALL, H5P_DEFAULT, f.data()),
-              "H5Dwrite", name);
-        return ds;
-    }
-    case StoredType::Float16: {
-        std::vector<std::uint16_t> h(data.size());
-        std::transform(data.begin(), data.end(), h.begin(), half_bits);
-        Handle ht = half_type();
-        Handle ds = create_dataset(group, name, ht, dims, compression);
-        // Memory type = file type: HDF5 copies the bits without converting.
-        check(H5Dwrite(ds, ht, H5S_ALL, H5S_ALL, H5P_DEFAULT, h.data()), "H5Dwrite", name);
-        return ds;
-    }
-    }
-    throw Error("unknown stored type");
-}
+// The HDF5 objects of one table being written: its group, the axis datasets
+// (dimension scales) and the data datasets (value, then stderr and samples
+// when present).  Shared by the whole-table writer (write_table) and the
+// streaming one (TableFileWriter), so both lay out a table the same way.
+struct TableObjects {
+    Handle group;
+    std::vector<Handle> axis_ds;
+    std::vector<hsize_t> dims;
+    Handle value, stderr_, samples;  // stderr_, samples: invalid when absent
+};
 
-void write_table(hid_t file, const TableData& t) {
+// The group, the axis datasets (written) and empty data datasets of `t`.
+TableObjects create_table_objects(hid_t file, const TableData& t, bool with_stderr,
+                                  bool with_samples) {
     htri_t exists = H5Lexists(file, t.name.c_str(), H5P_DEFAULT);
     check(exists, "H5Lexists", t.name);
     if (exists > 0) throw InputError("table name '" + t.name + "' used twice in one file");
 
-    Handle group(H5Gcreate2(file, t.name.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
-                 H5Gclose, "H5Gcreate2", t.name);
+    TableObjects o;
+    o.group = Handle(H5Gcreate2(file, t.name.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
+                     H5Gclose, "H5Gcreate2", t.name);
+    hid_t group = o.group;
 
     // Axis datasets first: they become the dimension scales.
-    std::vector<Handle> axis_ds;
-    std::vector<hsize_t> dims;
-    nlohmann::json axis_names = nlohmann::json::array();
     for (const Axis& a : t.axes) {
         const hsize_t n = a.count;
         // Chunked (one chunk up to 1 MiB) so that the node list carries a
@@ -200,32 +183,137 @@ void write_table(hid_t file, const TableData& t) {
         write_double_attr(ds, "min", a.min);
         write_double_attr(ds, "max", a.max);
         check(H5DSset_scale(ds, a.name.c_str()), "H5DSset_scale", a.name);
-        axis_ds.push_back(std::move(ds));
-        dims.push_back(n);
-        axis_names.push_back(a.name);
+        o.axis_ds.push_back(std::move(ds));
+        o.dims.push_back(n);
     }
+    Handle half;
+    auto real_type = [&]() -> hid_t {
+        switch (t.stored_type) {
+        case StoredType::Float64: return H5T_IEEE_F64LE;
+        case StoredType::Float32: return H5T_IEEE_F32LE;
+        case StoredType::Float16: if (half.get() < 0) half = half_type(); return half;
+        }
+        throw Error("unknown stored type");
+    };
+    o.value = create_dataset(group, "value", real_type(), o.dims, t.compression);
+    if (with_stderr)
+        o.stderr_ = create_dataset(group, "stderr", real_type(), o.dims, t.compression);
+    if (with_samples)
+        o.samples = create_dataset(group, "samples", H5T_STD_U32LE, o.dims, t.compression);
+    return o;
+}
 
-    std::vector<Handle> data_ds;
-    data_ds.push_back(write_real_dataset(group, "value", t.value, t.stored_type, dims,
-                                         t.compression));
-    if (t.keep_stderr && !t.stderr_.empty())
-        data_ds.push_back(write_real_dataset(group, "stderr", t.stderr_, t.stored_type, dims,
-                                             t.compression));
-    if (!t.samples.empty()) {
-        Handle ds = create_dataset(group, "samples", H5T_STD_U32LE, dims, t.compression);
-        check(H5Dwrite(ds, H5T_NATIVE_UINT32, H5S_ALL, H5S_ALL, H5P_DEFAULT, t.samples.data()),
-              "H5Dwrite", "samples");
-        data_ds.push_back(std::move(ds));
+// Row-major cells [first, first + count) of an array of shape `dims` as
+// boxes (offset, extent) in increasing cell order: a partial row, whole rows
+// of the leading axis, a partial row, each split further along the next axis
+// (at most 2 x rank - 1 boxes).
+void cell_range_boxes(const std::vector<hsize_t>& dims, std::size_t axis,
+                      std::vector<hsize_t>& prefix, hsize_t first, hsize_t count,
+                      std::vector<std::pair<std::vector<hsize_t>, std::vector<hsize_t>>>& out) {
+    if (count == 0) return;
+    hsize_t inner = 1;
+    for (std::size_t j = axis + 1; j < dims.size(); ++j) inner *= dims[j];
+    auto whole = [&](hsize_t row, hsize_t rows) {
+        std::vector<hsize_t> offset = prefix, extent(prefix.size(), 1);
+        offset.push_back(row);
+        extent.push_back(rows);
+        for (std::size_t j = axis + 1; j < dims.size(); ++j) {
+            offset.push_back(0);
+            extent.push_back(dims[j]);
+        }
+        out.emplace_back(std::move(offset), std::move(extent));
+    };
+    auto partial = [&](hsize_t row, hsize_t from, hsize_t n) {
+        prefix.push_back(row);
+        cell_range_boxes(dims, axis + 1, prefix, from, n, out);
+        prefix.pop_back();
+    };
+    hsize_t row = first / inner, offset = first % inner;
+    if (offset != 0) {  // the end of a first, partial row
+        const hsize_t n = std::min(count, inner - offset);
+        partial(row, offset, n);
+        first += n;
+        count -= n;
+        ++row;
     }
-    for (const Handle& ds : data_ds) {
+    if (count >= inner) {
+        whole(row, count / inner);
+        row += count / inner;
+        first += (count / inner) * inner;
+        count %= inner;
+    }
+    if (count > 0) partial(row, 0, count);  // the start of a last, partial row
+}
+
+// Writes `count` elements of `data` (memory type `mem_type`) to cells
+// [first, first + count) of dataset `ds`.
+void write_cell_range(hid_t ds, const char* name, hid_t mem_type, const void* data,
+                      std::size_t elem_size, const std::vector<hsize_t>& dims, hsize_t first,
+                      hsize_t count) {
+    if (dims.empty()) {  // a scalar (a table without axes): its one cell
+        if (first != 0 || count != 1) throw Error(std::string(name) + ": a scalar has one cell");
+        check(H5Dwrite(ds, mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data), "H5Dwrite", name);
+        return;
+    }
+    std::vector<std::pair<std::vector<hsize_t>, std::vector<hsize_t>>> boxes;
+    std::vector<hsize_t> prefix;
+    cell_range_boxes(dims, 0, prefix, first, count, boxes);
+    Handle file_space(H5Dget_space(ds), H5Sclose, "H5Dget_space", name);
+    const char* bytes = static_cast<const char*>(data);
+    for (const auto& [offset, extent] : boxes) {
+        hsize_t n = 1;
+        for (hsize_t e : extent) n *= e;
+        check(H5Sselect_hyperslab(file_space, H5S_SELECT_SET, offset.data(), nullptr,
+                                  extent.data(), nullptr),
+              "H5Sselect_hyperslab", name);
+        Handle mem_space(H5Screate_simple(1, &n, nullptr), H5Sclose, "H5Screate_simple", name);
+        check(H5Dwrite(ds, mem_type, mem_space, file_space, H5P_DEFAULT, bytes), "H5Dwrite",
+              name);
+        bytes += n * elem_size;
+    }
+}
+
+// Real values of cells [first, first + count) in the table's stored type,
+// rounded by our own casts (round to nearest) rather than HDF5's conversion
+// path, so a stored float is exactly (float)x and a stored half half_bits(x);
+// for binary16 the memory type is the file type: HDF5 copies the bits.
+void write_real_cells(hid_t ds, const char* name, const double* data, StoredType type,
+                      const std::vector<hsize_t>& dims, hsize_t first, hsize_t count) {
+    switch (type) {
+    case StoredType::Float64:
+        write_cell_range(ds, name, H5T_NATIVE_DOUBLE, data, 8, dims, first, count);
+        return;
+    case StoredType::Float32: {
+        std::vector<float> f(data, data + count);
+        write_cell_range(ds, name, H5T_NATIVE_FLOAT, f.data(), 4, dims, first, count);
+        return;
+    }
+    case StoredType::Float16: {
+        std::vector<std::uint16_t> h(count);
+        std::transform(data, data + count, h.begin(), half_bits);
+        Handle ht = half_type();
+        write_cell_range(ds, name, ht, h.data(), 2, dims, first, count);
+        return;
+    }
+    }
+    throw Error("unknown stored type");
+}
+
+void attach_scales(const TableObjects& o, const TableData& t) {
+    for (const Handle* ds : {&o.value, &o.stderr_, &o.samples}) {
+        if (ds->get() < 0) continue;
         for (std::size_t i = 0; i < t.axes.size(); ++i) {
-            check(H5DSattach_scale(ds, axis_ds[i], static_cast<unsigned>(i)),
+            check(H5DSattach_scale(*ds, o.axis_ds[i], static_cast<unsigned>(i)),
                   "H5DSattach_scale", t.axes[i].name);
-            check(H5DSset_label(ds, static_cast<unsigned>(i), t.axes[i].name.c_str()),
+            check(H5DSset_label(*ds, static_cast<unsigned>(i), t.axes[i].name.c_str()),
                   "H5DSset_label", t.axes[i].name);
         }
     }
+}
 
+void write_table_attributes(hid_t group, const TableData& t) {
+    nlohmann::json axis_names = nlohmann::json::array();
+    for (const Axis& a : t.axes) axis_names.push_back(a.name);
     write_string_attr(group, "model", t.model);
     write_string_attr(group, "quantity", t.quantity);
     write_string_attr(group, "description", t.description);
@@ -246,6 +334,21 @@ void write_table(hid_t file, const TableData& t) {
     write_double_attr(group, "elapsed_seconds", t.elapsed_seconds);
     write_u64_attr(group, "total_samples", t.total_samples);
     write_string_attr(group, "stored_type", stored_type_name(t.stored_type));
+}
+
+
+void write_table(hid_t file, const TableData& t) {
+    const bool with_stderr = t.keep_stderr && !t.stderr_.empty();
+    TableObjects o = create_table_objects(file, t, with_stderr, !t.samples.empty());
+    const hsize_t n = t.value.size();
+    write_real_cells(o.value, "value", t.value.data(), t.stored_type, o.dims, 0, n);
+    if (with_stderr)
+        write_real_cells(o.stderr_, "stderr", t.stderr_.data(), t.stored_type, o.dims, 0, n);
+    if (!t.samples.empty())
+        write_cell_range(o.samples, "samples", H5T_NATIVE_UINT32, t.samples.data(), 4, o.dims,
+                         0, n);
+    attach_scales(o, t);
+    write_table_attributes(o.group, t);
 }
 
 // ---------------------------------------------------------------- reading ---
@@ -641,6 +744,98 @@ TableData read_table(const std::string& path, const std::string& name) {
 
 nlohmann::json read_file_attributes(const std::string& path) {
     return TableReader(path).file_attributes();
+}
+
+// ------------------------------------------------------- streaming writer --
+
+struct TableFileWriter::Impl {
+    std::unique_ptr<AtomicOutput> tmp;
+    Handle file;
+    struct Open {
+        TableObjects objects;
+        StoredType type = StoredType::Float64;
+        std::size_t cells = 0;
+        std::string name;
+    };
+    std::vector<std::unique_ptr<Open>> tables;  // null once finished
+
+    Open& open_table(std::size_t k) {
+        if (k >= tables.size() || !tables[k]) throw Error("table file writer: no such open table");
+        return *tables[k];
+    }
+};
+
+TableFileWriter::TableFileWriter(const std::string& path) : impl_(std::make_unique<Impl>()) {
+    silence_hdf5();
+    if (H5Zfilter_avail(H5Z_FILTER_DEFLATE) <= 0 || H5Zfilter_avail(H5Z_FILTER_SHUFFLE) <= 0 ||
+        H5Zfilter_avail(H5Z_FILTER_FLETCHER32) <= 0)
+        throw Error("this HDF5 library lacks the deflate, shuffle or fletcher32 filter");
+    impl_->tmp = std::make_unique<AtomicOutput>(path);
+    Handle fapl = make_plist(H5P_FILE_ACCESS, "file access");
+    // As write_tables: the oldest object formats that hold what we write.
+    check(H5Pset_libver_bounds(fapl, H5F_LIBVER_EARLIEST, H5F_LIBVER_V18),
+          "H5Pset_libver_bounds");
+    impl_->file = Handle(H5Fcreate(impl_->tmp->path().c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl),
+                         H5Fclose, "H5Fcreate", impl_->tmp->path());
+    write_i32_attr(impl_->file, "brdftab_format", kFormatVersion);
+    write_string_attr(impl_->file, "brdftab_version", BRDFTAB_VERSION);
+    write_string_attr(impl_->file, "created", utc_now_iso8601());
+}
+
+TableFileWriter::~TableFileWriter() {
+    // Handles close before the temporary file is removed.
+    impl_->tables.clear();
+    impl_->file = Handle();
+    impl_->tmp.reset();
+}
+
+const std::string& TableFileWriter::temporary_path() const { return impl_->tmp->path(); }
+
+std::size_t TableFileWriter::begin_table(const TableData& t, bool with_stderr, bool with_samples) {
+    validate_table(t, false);
+    auto open = std::make_unique<Impl::Open>();
+    open->objects = create_table_objects(impl_->file, t, with_stderr, with_samples);
+    open->type = t.stored_type;
+    open->cells = checked_cell_count(t.axes, "table '" + t.name + "': ");
+    open->name = t.name;
+    impl_->tables.push_back(std::move(open));
+    return impl_->tables.size() - 1;
+}
+
+void TableFileWriter::write_cells(std::size_t table, std::size_t first, std::size_t count,
+                                  const double* value, const double* stderr_,
+                                  const std::uint32_t* samples) {
+    Impl::Open& t = impl_->open_table(table);
+    if (first > t.cells || count > t.cells - first)
+        throw Error("table '" + t.name + "': cells " + std::to_string(first) + " + " +
+                    std::to_string(count) + " beyond its " + std::to_string(t.cells));
+    const TableObjects& o = t.objects;
+    write_real_cells(o.value, "value", value, t.type, o.dims, first, count);
+    if (o.stderr_.get() >= 0)
+        write_real_cells(o.stderr_, "stderr", stderr_, t.type, o.dims, first, count);
+    if (o.samples.get() >= 0)
+        write_cell_range(o.samples, "samples", H5T_NATIVE_UINT32, samples, 4, o.dims, first,
+                         count);
+}
+
+void TableFileWriter::finish_table(std::size_t table, const TableData& t) {
+    Impl::Open& open = impl_->open_table(table);
+    attach_scales(open.objects, t);
+    write_table_attributes(open.objects.group, t);
+    impl_->tables[table].reset();
+}
+
+void TableFileWriter::add_table(const TableData& t) {
+    validate_table(t);
+    write_table(impl_->file, t);
+}
+
+void TableFileWriter::commit() {
+    for (const auto& t : impl_->tables)
+        if (t) throw Error("table file writer: table '" + t->name + "' was not finished");
+    impl_->tables.clear();
+    impl_->file.close("H5Fclose", impl_->tmp->path());
+    impl_->tmp->commit();
 }
 
 }  // namespace brdftab

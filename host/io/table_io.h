@@ -5,6 +5,7 @@
 // provenance as attributes.  Files are readable by h5py without our code.
 #pragma once
 
+#include <cstdint>
 #include <memory>
 #include <string>
 #include <vector>
@@ -17,6 +18,44 @@ namespace brdftab {
 // beside `path` and renamed over it only when complete, so a failure never
 // leaves a partial file nor damages an existing one.  Throws Error.
 void write_tables(const std::string& path, const std::vector<TableData>& tables);
+
+// The same file written piece by piece (issue #15: a table need not be held
+// whole in memory).  Tables are begun with their description (every field of
+// TableData but value, stderr_ and samples, which may be empty), filled with
+// ranges of cells in any order, and finished with their provenance; whole
+// tables can be added too.  The file is a temporary one beside `path` until
+// commit(), which renames it over `path`; destroyed uncommitted, it is
+// removed.  The committed file holds exactly what write_tables() would write
+// for the same tables (every dataset and attribute, bit for bit).
+class TableFileWriter {
+public:
+    explicit TableFileWriter(const std::string& path);
+    ~TableFileWriter();
+    TableFileWriter(const TableFileWriter&) = delete;
+    TableFileWriter& operator=(const TableFileWriter&) = delete;
+
+    // Creates table `t` (checked as write_tables checks it): its group, its
+    // axes and empty datasets: value, stderr when `with_stderr` (write_tables
+    // writes it when t.keep_stderr and stderr_ is filled) and samples when
+    // `with_samples`.  Returns the table's handle for the calls below.
+    std::size_t begin_table(const TableData& t, bool with_stderr, bool with_samples);
+    // Cells [first, first + count) in row-major order; stderr_/samples are
+    // ignored when the table has no such dataset.
+    void write_cells(std::size_t table, std::size_t first, std::size_t count, const double* value,
+                     const double* stderr_, const std::uint32_t* samples);
+    // Attaches the axes as dimension scales and writes the table's attributes
+    // (from `t`, whose data may be empty); closes the table.
+    void finish_table(std::size_t table, const TableData& t);
+    // A whole table at once, as write_tables writes it.
+    void add_table(const TableData& t);
+    // Closes the file and renames it over `path`.  Throws Error.
+    void commit();
+    const std::string& temporary_path() const;
+
+private:
+    struct Impl;
+    std::unique_ptr<Impl> impl_;
+};
 
 // A table file opened once for reading: the listing, the file attributes and
 // any number of tables come from the same open file, so a file replaced
