@@ -39,6 +39,65 @@
     } while (0)
 
 #if BT_DEVICE
+/* Specialisation.  The engine builds one program per (model, quantity,
+ * options, method) it runs, passing them as compile-time constants:
+ *     -D BT_SPEC_QUANTITY=<id> -D BT_SPEC_METHOD=<BT_METHOD_*>
+ *     -D BT_SPEC_OPTIONS=<o0>,<o1>,...  -D BT_SPEC_STRIDE=<point stride>
+ * so every branch of the model on them folds away at compile time and PoCL
+ * sees one straight path for all work items.  The runtime arguments stay in
+ * the signature (ignored then), so generic and specialised programs are
+ * launched alike.  The arithmetic of a work item is the same either way:
+ * constants replace loads, nothing is reordered, so results are bit-identical. */
+#if defined(BT_SPEC_QUANTITY)
+#define BT_KERNEL_QUANTITY_(runtime) (BT_SPEC_QUANTITY)
+#else
+#define BT_KERNEL_QUANTITY_(runtime) (runtime)
+#endif
+#if defined(BT_SPEC_METHOD)
+#define BT_KERNEL_METHOD_(runtime) (BT_SPEC_METHOD)
+/* Closed forms and quadrature always run one-sample batches (engine.cpp):
+ * a constant trip count removes the loop. */
+#if BT_SPEC_METHOD == BT_METHOD_CLOSED || BT_SPEC_METHOD == BT_METHOD_QUADRATURE
+#define BT_KERNEL_BATCH_SIZE_(runtime) (1u)
+#endif
+#else
+#define BT_KERNEL_METHOD_(runtime) (runtime)
+#endif
+#if !defined(BT_KERNEL_BATCH_SIZE_)
+#define BT_KERNEL_BATCH_SIZE_(runtime) (runtime)
+#endif
+#if defined(BT_SPEC_STRIDE)
+#define BT_KERNEL_STRIDE_(runtime) ((uint)(BT_SPEC_STRIDE))
+#else
+#define BT_KERNEL_STRIDE_(runtime) (runtime)
+#endif
+#if defined(BT_SPEC_OPTIONS)
+#define BT_KERNEL_LOAD_OPTIONS_(o, options, n_options)                         \
+    const int o[BT_MAX_OPTIONS] = {BT_SPEC_OPTIONS};
+#else
+#define BT_KERNEL_LOAD_OPTIONS_(o, options, n_options)                         \
+    int o[BT_MAX_OPTIONS];                                                     \
+    for (uint k = 0; k < BT_MAX_OPTIONS; ++k)                                  \
+        o[k] = k < n_options ? options[k] : 0;
+#endif
+/* The sample loop's synchronisation point.  PoCL runs the work items of a
+ * work group as a loop around the kernel body; a barrier inside the sample
+ * loop (whose trip count is the same for every work item) makes PoCL put that
+ * work-item loop *inside* the sample loop, where its loop vectoriser can turn
+ * it into SIMD lanes.  It never changes a work item's arithmetic.  Measured in
+ * docs/benchmarks.md; -D BT_SAMPLE_BARRIER=0 turns it off. */
+#if !defined(BT_SAMPLE_BARRIER)
+#define BT_SAMPLE_BARRIER 1
+#endif
+#if BT_SAMPLE_BARRIER
+#define BT_KERNEL_SAMPLE_SYNC_() barrier(CLK_LOCAL_MEM_FENCE)
+#else
+#define BT_KERNEL_SAMPLE_SYNC_() ((void)0)
+#endif
+
+/* Work items past n_work (the launch is padded to a multiple of the work
+ * group) run the loop too, on a copy of item 0's inputs, and store nothing:
+ * every work item of a group must reach the same barriers. */
 #define BT_DEFINE_ESTIMATE_KERNEL(kernel_name, sample_fn)                      \
     __kernel void kernel_name(                                                 \
         __global const REAL* points, uint stride, __global const int* options, \
@@ -47,28 +106,31 @@
         uint n_work, uint batch_size, __global ACCUM* out_mean,                \
         __global ACCUM* out_m2)                                                \
     {                                                                          \
-        uint w = (uint)get_global_id(0);                                       \
-        if (w >= n_work) return;                                               \
+        const uint gid = (uint)get_global_id(0);                               \
+        const uint w = gid < n_work ? gid : 0u;                                \
+        const uint stride_ = BT_KERNEL_STRIDE_(stride);                        \
         REAL p[BT_MAX_POINT];                                                  \
-        int o[BT_MAX_OPTIONS];                                                 \
         for (uint k = 0; k < BT_MAX_POINT; ++k)                                \
-            p[k] = k < stride ? points[(size_t)w * stride + k] : R(0.0);       \
-        for (uint k = 0; k < BT_MAX_OPTIONS; ++k)                              \
-            o[k] = k < n_options ? options[k] : 0;                             \
+            p[k] = k < stride_ ? points[(size_t)w * stride_ + k] : R(0.0);     \
+        BT_KERNEL_LOAD_OPTIONS_(o, options, n_options)                         \
         bt_sampler s;                                                          \
         s.key0 = key0;                                                         \
         s.key1 = key1;                                                         \
         s.cell = work_cell[w];                                                 \
         s.batch = work_batch[w];                                               \
-        s.method = method;                                                     \
+        s.method = BT_KERNEL_METHOD_(method);                                  \
+        const uint batch_size_ = BT_KERNEL_BATCH_SIZE_(batch_size);            \
         ACCUM mean = 0, m2 = 0;                                                \
-        for (uint k = 0; k < batch_size; ++k) {                                \
+        for (uint k = 0; k < batch_size_; ++k) {                               \
             s.sample = k;                                                      \
-            ACCUM x = (ACCUM)sample_fn(p, o, quantity, &s);                    \
+            ACCUM x = (ACCUM)sample_fn(p, o, BT_KERNEL_QUANTITY_(quantity), &s); \
             BT_WELFORD_ADD(mean, m2, x, k + 1);                                \
+            BT_KERNEL_SAMPLE_SYNC_();                                          \
         }                                                                      \
-        out_mean[w] = mean;                                                    \
-        out_m2[w] = m2;                                                        \
+        if (gid < n_work) {                                                    \
+            out_mean[gid] = mean;                                              \
+            out_m2[gid] = m2;                                                  \
+        }                                                                      \
     }
 #else
 typedef REAL (*bt_sample_fn)(const REAL* point, const int* options,
