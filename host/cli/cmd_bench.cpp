@@ -26,8 +26,11 @@ namespace brdftab::cli {
 namespace {
 
 nlohmann::json timing_json(const BackendTiming& t) {
-    return {{"backend", t.backend}, {"rate", t.rate}, {"seconds", t.seconds},
-            {"rates", t.all_rates}};
+    return {{"backend", t.backend},
+            {"rate", t.rate},
+            {"seconds", t.seconds},
+            {"rates", t.all_rates},
+            {"rate_per_cpu_second", t.rate_per_cpu_second}};
 }
 
 nlohmann::json report_json(const BenchReport& r, const BenchSettings& s) {
@@ -100,6 +103,18 @@ void print_report(const BenchReport& r) {
                     ratio_text(c.device_over_host).c_str(),
                     ratio_text(c.device_over_threads).c_str(),
                     ratio_text(c.threads_over_host).c_str());
+    std::printf("\nper CPU-second of the process (all its threads; robust on a busy machine):\n");
+    std::printf("%-22s %-9s %10s %10s %10s %9s %9s\n", "model", "quantity", "device", "host",
+                "threads", "dev/host", "dev/thr");
+    for (const BenchCaseResult& c : r.cases) {
+        auto q = [](double a, double b) { return ratio_text(b > 0 ? a / b : 0); };
+        std::printf("%-22s %-9s %10s %10s %10s %9s %9s\n", c.spec.model.c_str(),
+                    c.spec.quantity.c_str(), format_count(c.device.rate_per_cpu_second).c_str(),
+                    format_count(c.host.rate_per_cpu_second).c_str(),
+                    format_count(c.host_threads.rate_per_cpu_second).c_str(),
+                    q(c.device.rate_per_cpu_second, c.host.rate_per_cpu_second).c_str(),
+                    q(c.device.rate_per_cpu_second, c.host_threads.rate_per_cpu_second).c_str());
+    }
     for (const BenchCaseResult& c : r.cases) {
         if (c.device_gflops <= 0) continue;
         std::printf("\n%s %s: about %.0f flops per evaluation (a hand count, an estimate) -> "

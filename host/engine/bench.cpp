@@ -6,6 +6,7 @@
 #include <cmath>
 #include <map>
 #include <thread>
+#include <time.h>
 
 #include "host/core/error.h"
 #include "host/engine/opencl_runtime.h"
@@ -77,6 +78,12 @@ struct Workload {
     std::vector<double> points;  // pilot-sized or final
 };
 
+double process_cpu_seconds() {
+    timespec t{};
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+    return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
+}
+
 // Seconds of one estimate() over the first `cells` points; sets the work done.
 double time_run(Backend& backend, const Workload& w, std::size_t cells,
                 std::uint64_t& evaluations) {
@@ -106,16 +113,20 @@ BackendTiming measure_backend(Backend& backend, const Workload& w, std::size_t c
     std::uint64_t evals = 0;
     // Warm-up: builds the kernel (and PoCL's work-group specialisation).
     time_run(backend, w, std::min<std::size_t>(cells, 256), evals);
-    std::vector<double> seconds;
+    std::vector<double> seconds, cpu_rates;
     for (unsigned r = 0; r < std::max(1u, repeats); ++r) {
+        const double cpu0 = process_cpu_seconds();
         const double s = time_run(backend, w, cells, evals);
+        const double cpu = process_cpu_seconds() - cpu0;
         seconds.push_back(s);
         const double work = per_cell ? static_cast<double>(cells) : static_cast<double>(evals);
         t.all_rates.push_back(s > 0 ? work / s : 0);
+        cpu_rates.push_back(cpu > 0 ? work / cpu : 0);
     }
     evaluations = evals;
     t.seconds = median(seconds);
     t.rate = median(t.all_rates);
+    t.rate_per_cpu_second = median(cpu_rates);
     return t;
 }
 

@@ -51,6 +51,9 @@ struct BackendTiming {
     std::string backend;      // device name
     double rate = 0;          // evaluations/s (cells/s for quadratures), median
     double seconds = 0;       // median wall time of one run
+    // Work per CPU-second of the whole process (all threads, PoCL's
+    // included), median: the efficiency figure that survives a busy machine.
+    double rate_per_cpu_second = 0;
     std::vector<double> all_rates;  // every repeat
 };
 

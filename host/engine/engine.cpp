@@ -225,16 +225,21 @@ public:
     }
 
 private:
-    // Work-group size: BRDFTAB_LOCAL_SIZE (a divisor of 256, for experiments)
-    // or PoCL's own choice.
-    static cl::NDRange local_size(std::size_t global) {
-        static const std::size_t chosen = [] {
+    // Work-group size: a fixed 64 (or BRDFTAB_LOCAL_SIZE, a divisor of 256,
+    // for experiments; 0 = the driver's choice).  Fixed, because PoCL compiles
+    // a kernel again for every new work-group size, and with the driver's
+    // choice that size follows the global size, which varies from launch to
+    // launch.  64 is a multiple of every SIMD width and lets PoCL vectorise
+    // the work-item loop (docs/benchmarks.md).
+    cl::NDRange local_size(std::size_t global) const {
+        static const long chosen = [] {
             const char* env = std::getenv("BRDFTAB_LOCAL_SIZE");
-            const long v = env ? std::atol(env) : 0;
-            return v > 0 && 256 % v == 0 ? static_cast<std::size_t>(v) : std::size_t(0);
+            return env && *env ? std::atol(env) : 64L;
         }();
-        if (chosen == 0 || global % chosen != 0) return cl::NullRange;
-        return cl::NDRange(chosen);
+        if (chosen <= 0 || 256 % chosen != 0 || global % chosen != 0 ||
+            static_cast<std::size_t>(chosen) > runtime_.device_info().max_work_group_size)
+            return cl::NullRange;
+        return cl::NDRange(static_cast<std::size_t>(chosen));
     }
 
     // The program of one (model, quantity, options, method): the model's
