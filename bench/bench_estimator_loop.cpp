@@ -93,7 +93,8 @@ int main() {
     for (const Variant& v : variants) {
         // compat.h first; force-inlining redefines BT_INLINE before the
         // shared headers (estimator.h, sampler.h) define their functions.
-        std::string source = load_kernel_source("common/compat.h");
+        std::string source = "#define BT_NO_FORCE_INLINE 1\n";
+        source += load_kernel_source("common/compat.h");
         if (v.force_inline)
             source += "#undef BT_INLINE\n#define BT_INLINE static inline __attribute__((always_inline))\n";
         source += load_kernel_source("common/estimator.h");

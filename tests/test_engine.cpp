@@ -432,7 +432,8 @@ TEST_CASE("progress is reported from within a round, launch by launch") {
     const QuantityInfo& q = f.model.quantity("bsdf");
     PointBuilder builder(f.model, q);
     std::vector<double> point(f.model.point_stride());
-    builder.build({{"theta_i", 20}, {"theta_o", 30}, {"phi_d", 10}}, point.data());
+    builder.build({{"theta_i", 20}, {"theta_o", 30}, {"phi_d", 10}, {"alpha", 0.3}, {"eta", 1.5}},
+                  point.data());
     estimate(
         counting, f.model, q, f.options(), 20000,
         [&](std::size_t, double* out) { std::copy(point.begin(), point.end(), out); },

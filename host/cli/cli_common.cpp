@@ -15,8 +15,9 @@ namespace brdftab::cli {
 
 void ComputeOptions::add_to(CLI::App& app, bool with_integration) {
     app.add_option("--device", device,
-                   "OpenCL device: index or name substring (see `brdftab devices`), or `host` "
-                   "for the serial C++ reference. Default: $BRDFTAB_DEVICE, else the first CPU "
+                   "OpenCL device: index or name substring (see `brdftab devices`), `host` "
+                   "for the serial C++ reference, or `host-threads[:N]` for the same on one "
+                   "thread per core (N threads). Default: $BRDFTAB_DEVICE, else the first CPU "
                    "device");
     app.add_option("--precision", precision, "kernel floating type: double (default) or float")
         ->check(CLI::IsMember({"double", "float"}));

@@ -206,9 +206,11 @@ public:
             // Round the global size up to a multiple of 256 so PoCL can choose
             // a reasonable work-group size (the kernel ignores the padding);
             // a prime global size would force work-groups of one item.
-            const std::size_t global = (n + 255) / 256 * 256;
+            // With a fixed work-group size (local_size()), whole groups of it.
+            const std::size_t group = local_group();
+            const std::size_t global = (n + group - 1) / group * group;
             queue.enqueueNDRangeKernel(kernel, cl::NullRange, cl::NDRange(global),
-                                       local_size(global));
+                                       group == 256 ? cl::NullRange : cl::NDRange(group));
             if (accum_double) {
                 queue.enqueueReadBuffer(out_mean, CL_TRUE, 0, n * sizeof(double), mean.data());
                 queue.enqueueReadBuffer(out_m2, CL_TRUE, 0, n * sizeof(double), m2.data());
@@ -225,21 +227,22 @@ public:
     }
 
 private:
-    // Work-group size: a fixed 64 (or BRDFTAB_LOCAL_SIZE, a divisor of 256,
-    // for experiments; 0 = the driver's choice).  Fixed, because PoCL compiles
+    // Work-group size: a fixed 64 (or BRDFTAB_LOCAL_SIZE, a divisor of 256
+    // below 256, for experiments; 0 or 256 = the driver's choice, on a global
+    // size padded to a multiple of 256 as before).  Fixed, because PoCL compiles
     // a kernel again for every new work-group size, and with the driver's
     // choice that size follows the global size, which varies from launch to
     // launch.  64 is a multiple of every SIMD width and lets PoCL vectorise
     // the work-item loop (docs/benchmarks.md).
-    cl::NDRange local_size(std::size_t global) const {
+    std::size_t local_group() const {
         static const long chosen = [] {
             const char* env = std::getenv("BRDFTAB_LOCAL_SIZE");
             return env && *env ? std::atol(env) : 64L;
         }();
-        if (chosen <= 0 || 256 % chosen != 0 || global % chosen != 0 ||
+        if (chosen <= 0 || chosen >= 256 || 256 % chosen != 0 ||
             static_cast<std::size_t>(chosen) > runtime_.device_info().max_work_group_size)
-            return cl::NullRange;
-        return cl::NDRange(static_cast<std::size_t>(chosen));
+            return 256;  // the driver's choice (PoCL: within a multiple of 256)
+        return static_cast<std::size_t>(chosen);
     }
 
     // The program of one (model, quantity, options, method): the model's

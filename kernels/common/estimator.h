@@ -26,17 +26,18 @@
 
 #include "compat.h"
 
-#if BT_DEVICE && !defined(BT_NO_FORCE_INLINE)
-/* Force inlining of every shared function into the kernel.  PoCL's inliner
- * otherwise keeps larger helpers (bt_uniform, the microfacet G1, ...) as
- * calls, and a call in the sample loop stops the vectoriser from running
- * the work items of a group as SIMD lanes.  Measured with
- * bench/bench_estimator_loop: Philox sampling loop 7.5 M -> 43 M samples per
- * CPU-second, only with the sample-loop barrier below as well
- * (docs/benchmarks.md).  Inlining changes no arithmetic.  Redefined here,
- * before sampler.h and the model header define their functions, because the
- * estimator is the first file of every device program; it belongs in
- * compat.h. */
+#if BT_DEVICE && defined(BT_SAMPLE_BARRIER) && BT_SAMPLE_BARRIER && !defined(BT_NO_FORCE_INLINE)
+/* With the sample-loop barrier (below), force inlining of every shared
+ * function into the kernel.  PoCL's inliner otherwise keeps larger helpers
+ * (bt_uniform, the microfacet G1, ...) as calls, and a call in the sample
+ * loop stops the vectoriser from running the work items of a group as SIMD
+ * lanes.  Measured with bench/bench_estimator_loop on a trigonometry-free
+ * sample function: Philox sampling 7.5 M -> 43 M samples per CPU-second, and
+ * only with both the barrier and the inlining (docs/benchmarks.md).
+ * Inlining changes no arithmetic (-D BT_NO_FORCE_INLINE: not forced, for
+ * that comparison).  Redefined here, before sampler.h and the
+ * model header define their functions, because the estimator is the first
+ * file of every device program; it belongs in compat.h. */
 #undef BT_INLINE
 #define BT_INLINE static inline __attribute__((always_inline))
 #endif
@@ -96,24 +97,33 @@
     for (uint k = 0; k < BT_MAX_OPTIONS; ++k)                                  \
         o[k] = k < n_options ? options[k] : 0;
 #endif
-/* The sample loop's synchronisation point.  PoCL runs the work items of a
- * work group as a loop around the kernel body; a barrier inside the sample
- * loop (whose trip count is the same for every work item) makes PoCL put that
- * work-item loop *inside* the sample loop, where its loop vectoriser can turn
- * it into SIMD lanes.  It never changes a work item's arithmetic.  Measured in
- * docs/benchmarks.md; -D BT_SAMPLE_BARRIER=0 turns it off. */
+/* The sample loop's synchronisation point (off by default; the engine
+ * passes -D BT_SAMPLE_BARRIER=1 only where asked to, see docs/devices.md).
+ * PoCL runs the work items of a work group as a loop around the kernel body;
+ * a barrier inside the sample loop (whose trip count is the same for every
+ * work item) makes PoCL put that work-item loop *inside* the sample loop,
+ * where its loop vectoriser can turn it into SIMD lanes — provided the loop
+ * body has no calls left (hence the forced inlining above).  It never changes
+ * a work item's arithmetic.  Measured in docs/benchmarks.md: a large gain on
+ * a call-free body, none on today's models (whose bodies still call PoCL's
+ * scalar sin/cos/acos), and one model crashed PoCL's work-group function with
+ * it (all work items' private state is kept across the barrier), so it is
+ * not the default. */
 #if !defined(BT_SAMPLE_BARRIER)
-#define BT_SAMPLE_BARRIER 1
+#define BT_SAMPLE_BARRIER 0
 #endif
 #if BT_SAMPLE_BARRIER
 #define BT_KERNEL_SAMPLE_SYNC_() barrier(CLK_LOCAL_MEM_FENCE)
+/* Every work item of a group must reach the same barriers: items past
+ * n_work (the launch is padded to whole work groups) run the loop too, on a
+ * copy of item 0's inputs, and store nothing. */
+#define BT_KERNEL_PADDING_EXIT_(gid, n_work) ((void)0)
 #else
 #define BT_KERNEL_SAMPLE_SYNC_() ((void)0)
+#define BT_KERNEL_PADDING_EXIT_(gid, n_work)                                   \
+    if ((gid) >= (n_work)) return
 #endif
 
-/* Work items past n_work (the launch is padded to a multiple of the work
- * group) run the loop too, on a copy of item 0's inputs, and store nothing:
- * every work item of a group must reach the same barriers. */
 #define BT_DEFINE_ESTIMATE_KERNEL(kernel_name, sample_fn)                      \
     __kernel void kernel_name(                                                 \
         __global const REAL* points, uint stride, __global const int* options, \
@@ -123,6 +133,7 @@
         __global ACCUM* out_m2)                                                \
     {                                                                          \
         const uint gid = (uint)get_global_id(0);                               \
+        BT_KERNEL_PADDING_EXIT_(gid, n_work);                                  \
         const uint w = gid < n_work ? gid : 0u;                                \
         const uint stride_ = BT_KERNEL_STRIDE_(stride);                        \
         REAL p[BT_MAX_POINT];                                                  \
