@@ -114,7 +114,9 @@ void ProgressPrinter::operator()(const Progress& p) {
     // Terminal: redraw at most 10x per second.  Log: one line per interval.
     // The engine reports after every launch, and sizes launches to well under
     // a second, so these are also the longest gaps between updates.
-    if (!final && since < interval_) return;
+    // The first report is printed at once, so a log shows the run has
+    // started (and its rate) without waiting a whole interval.
+    if (!final && printed_ && since < interval_) return;
     if (final && last_fraction_ >= 1.0) return;
     last_ = now;
     last_fraction_ = p.fraction;
