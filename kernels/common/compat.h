@@ -13,9 +13,11 @@
  *               and needs fp64 even in float mode.
  *   BT_INLINE   function qualifier for shared functions (static inline).
  *   uint, ulong the OpenCL fixed-width unsigned types (32 and 64 bit).
- *   Math calls (sqrt, exp, log, cos, sin, acos, atan2, erf, fabs, fmin, fmax,
- *   floor, copysign) are written bare: OpenCL provides them as overloaded
- *   built-ins, and the C++ branch below brings the std:: overloads into scope.
+ *   Math calls (sqrt, erf, erfc, expm1, fabs, fmin, fmax, floor, copysign)
+ *   are written bare: OpenCL provides them as overloaded built-ins, and the
+ *   C++ branch below brings the std:: overloads into scope.  sin, cos, tan,
+ *   exp, log, log1p, atan, atan2, asin and acos are called as bt_sin, ...
+ *   (bt_math.h): PoCL's double built-ins of these are not vectorised.
  *   BT_TABLE    qualifier of a program-scope constant table.
  *   Shared code never calls pow(): measured, PoCL's double pow is about ten
  *   times slower than glibc's, so integer powers are written as products
@@ -89,6 +91,7 @@ BT_INLINE REAL bt_sqr(REAL x) { return x * x; }
 BT_INLINE REAL bt_clamp(REAL x, REAL lo, REAL hi) { return fmin(fmax(x, lo), hi); }
 /* sqrt that tolerates tiny negative arguments produced by rounding. */
 BT_INLINE REAL bt_safe_sqrt(REAL x) { return sqrt(fmax(x, R(0.0))); }
-BT_INLINE REAL bt_safe_acos(REAL x) { return acos(bt_clamp(x, R(-1.0), R(1.0))); }
+/* bt_safe_acos (acos of a clamped argument) lives in bt_math.h, next to the
+ * inlinable acos it calls. */
 
 #endif /* BRDFTAB_COMPAT_H */

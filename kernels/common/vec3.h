@@ -13,6 +13,7 @@
 #define BRDFTAB_VEC3_H
 
 #include "compat.h"
+#include "bt_math.h"
 
 typedef struct {
     REAL x, y, z;
@@ -73,8 +74,10 @@ BT_INLINE int bt_refract(bt_vec3 i, bt_vec3 m, REAL eta, bt_vec3* out)
 /* Spherical -> Cartesian: theta from +z in [0, pi], phi from +x. */
 BT_INLINE bt_vec3 bt_from_spherical(REAL theta, REAL phi)
 {
-    REAL st = sin(theta);
-    return bt_v3(st * cos(phi), st * sin(phi), cos(theta));
+    REAL ct, cp;
+    REAL st = bt_sincos(theta, &ct);
+    REAL sp = bt_sincos(phi, &cp);
+    return bt_v3(st * cp, st * sp, ct);
 }
 
 /* How bt_direction forms the z component (see there). */

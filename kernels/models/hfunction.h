@@ -54,6 +54,7 @@
 #define BRDFTAB_HFUNCTION_H
 
 #include "../common/compat.h"
+#include "../common/bt_math.h"
 #include "../common/gauss_legendre.h"
 #include "../common/sampler.h"
 
@@ -151,7 +152,7 @@ BT_INLINE REAL hf_k_direct(const hf_psi* P, REAL t)
     /* Eqs. 18-20 divided through by t^5 and written in u = 1/t, so that no
      * power of t above 2 is formed (t^5 overflows float for t > 5e7). */
     REAL c = P->c;
-    REAL at = atan(t);
+    REAL at = bt_atan(t);
     REAL u = R(1.0) / t;
     REAL u2 = u * u;
     REAL t2 = t * t;
@@ -197,9 +198,9 @@ BT_INLINE REAL hf_log_k_over_q(const hf_psi* P, REAL t)
         REAL rest = (P->b - beta) * t2 + hf_k_series_rest(P, t);
         REAL aq = a + bt2;
         if (!(aq > R(0.0))) return R(0.0); /* t = 0 with a = 0 */
-        return log1p(rest / aq) + log1p(bt2);
+        return bt_log1p(rest / aq) + bt_log1p(bt2);
     }
-    return log(hf_k_direct(P, t)) - log(a + bt2) + log1p(bt2);
+    return bt_log(hf_k_direct(P, t)) - bt_log(a + bt2) + bt_log1p(bt2);
 }
 
 /* H(mu) for mu >= 0 (eq. 16 with notes 2-3).  `coarse` != 0 uses every
@@ -213,7 +214,7 @@ BT_INLINE REAL hf_h(const hf_psi* P, REAL mu, int coarse)
     REAL factor = (mu + sb) / (mu * sqrt(a) + sb); /* note 2 */
     /* Integration limits in s = log t (note 3): the integrand is ~ mu b t^3
      * below t ~ 1/mu and ~ 1/(mu t^2) above max(1, 1/mu). */
-    REAL lmu = log(mu);
+    REAL lmu = bt_log(mu);
     REAL s_lo = -R(13.0) - (lmu > R(0.0) ? lmu / R(3.0) : R(0.0));
     REAL s_hi = R(18.0) + (lmu < R(0.0) ? -lmu : R(0.0));
     REAL h = HF_H_FINE;
@@ -222,11 +223,11 @@ BT_INLINE REAL hf_h(const hf_psi* P, REAL mu, int coarse)
     REAL step = coarse ? R(2.0) * h : h;
     REAL sum = R(0.0);
     for (int k = 0; k < n; ++k) {
-        REAL t = exp(s_lo + step * (REAL)k);
+        REAL t = bt_exp(s_lo + step * (REAL)k);
         REAL mt = mu * t;
         sum += hf_log_k_over_q(P, t) * mt / (R(1.0) + mt * mt);
     }
-    return factor * exp(-step * sum * BT_INV_PI);
+    return factor * bt_exp(-step * sum * BT_INV_PI);
 }
 
 

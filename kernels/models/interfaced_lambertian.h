@@ -156,7 +156,7 @@ BT_INLINE REAL il_albedo_body_sample(il_surface* s, int sampling, bt_vec3 i, REA
                                       : bt_v3(R(1.0), R(0.0), R(0.0));
     bt_vec3 t2 = bt_v3_cross(m, t1);
     REAL ct = bt_safe_sqrt(R(1.0) - r * r);
-    bt_vec3 o = bt_v3_add(bt_v3_add(bt_v3_scale(t1, r * cos(ph)), bt_v3_scale(t2, r * sin(ph))),
+    bt_vec3 o = bt_v3_add(bt_v3_add(bt_v3_scale(t1, r * bt_cos(ph)), bt_v3_scale(t2, r * bt_sin(ph))),
                           bt_v3_scale(m, ct));
     if (!(o.z > R(0.0))) return R(0.0);
     REAL g = il_g(s, i, o, m);

@@ -15,6 +15,7 @@
 #define BRDFTAB_INTERFACED_LAMBERTIAN_SURFACE_H
 
 #include "../common/compat.h"
+#include "../common/bt_math.h"
 #include "../common/fresnel.h"
 #include "../common/gauss_legendre.h"
 #include "../common/microfacet.h"
@@ -97,12 +98,12 @@ BT_INLINE REAL il_ri_quadrature(REAL ni, int n)
 {
     if (!(ni > R(1.0))) return R(0.0);
     REAL inv = R(1.0) / ni;
-    REAL tc = asin(fmin(inv, R(1.0)));
+    REAL tc = bt_asin(fmin(inv, R(1.0)));
     REAL sum = R(1.0) - inv * inv, w; /* int_{theta_c}^{pi/2} sin 2theta = cos^2 theta_c */
     for (int k = 0; k < n; ++k) {
         REAL t = bt_gauss_legendre_table(n, k, R(0.0), R(1.0), &w);
         REAL th = tc * (R(1.0) - t * t);
-        sum += w * bt_fresnel_dielectric(cos(th), inv) * sin(R(2.0) * th) * R(2.0) * tc * t;
+        sum += w * bt_fresnel_dielectric(bt_cos(th), inv) * bt_sin(R(2.0) * th) * R(2.0) * tc * t;
     }
     return sum;
 }
@@ -123,9 +124,9 @@ BT_INLINE REAL il_re(REAL ni)
     REAL q = n4 - R(1.0);
     REAL re = R(0.5) - R(2.0) * n3 * (n2 + R(2.0) * ni - R(1.0)) / ((n2 + R(1.0)) * q) +
               (ni - R(1.0)) * (R(3.0) * ni + R(1.0)) / (R(6.0) * bt_sqr(ni + R(1.0))) +
-              R(8.0) * n4 * (n4 + R(1.0)) / ((n2 + R(1.0)) * q * q) * log(ni) +
+              R(8.0) * n4 * (n4 + R(1.0)) / ((n2 + R(1.0)) * q * q) * bt_log(ni) +
               n2 * bt_sqr(n2 - R(1.0)) / ((n2 + R(1.0)) * (n2 + R(1.0)) * (n2 + R(1.0))) *
-                  log((ni - R(1.0)) / (ni + R(1.0))); /* eq. 10 */
+                  bt_log((ni - R(1.0)) / (ni + R(1.0))); /* eq. 10 */
     return re;
 }
 
@@ -169,7 +170,7 @@ BT_INLINE REAL il_gaussian_norm(REAL sigma)
     REAL sum = R(0.0), w;
     for (int k = 0; k < 32; ++k) {
         REAL t = bt_gauss_legendre_table(32, k, R(0.0), b, &w);
-        sum += w * exp(-t * t / (R(2.0) * sigma * sigma)) * sin(t);
+        sum += w * bt_exp(-t * t / (R(2.0) * sigma * sigma)) * bt_sin(t);
     }
     return R(1.0) / (BT_TWO_PI * sum);
 }
@@ -184,7 +185,7 @@ BT_INLINE REAL il_d(il_surface* s, bt_vec3 m)
         REAL th = bt_safe_acos(m.z);
         REAL e = th * th / (R(2.0) * s->sigma * s->sigma);
         if (e > R(80.0)) return R(0.0);
-        return s->gauss_c * exp(-e) / m.z;
+        return s->gauss_c * bt_exp(-e) / m.z;
     }
     return bt_mf_d(&s->mf, m);
 }
@@ -223,13 +224,13 @@ BT_INLINE bt_vec3 il_sample_gaussian(REAL sigma, const bt_sampler* smp, uint d0,
     for (int k = 0; k < IL_REJECT_TRIES; ++k) {
         REAL u = k == 0 ? bt_uniform(smp, d0) : bt_uniform(smp, IL_DIM_REJECT + 2u * (uint)k);
         REAL a = bt_uniform(smp, IL_DIM_REJECT + 2u * (uint)k + 1u);
-        th = fmin(sqrt(-s2 * log1p(-u * mass)), BT_HALF_PI);
-        REAL ratio = th > R(1e-6) ? sin(th) / th : R(1.0);
+        th = fmin(sqrt(-s2 * bt_log1p(-u * mass)), BT_HALF_PI);
+        REAL ratio = th > R(1e-6) ? bt_sin(th) / th : R(1.0);
         if (a < ratio) break;
     }
     REAL phi = BT_TWO_PI * bt_uniform(smp, d1);
-    REAL st = sin(th);
-    return bt_v3(st * cos(phi), st * sin(phi), cos(th));
+    REAL st = bt_sin(th);
+    return bt_v3(st * bt_cos(phi), st * bt_sin(phi), bt_cos(th));
 }
 
 /* pdf-free sample of m ~ D|m.n| for every pair (Gaussian: rejection above;

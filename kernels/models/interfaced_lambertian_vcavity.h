@@ -57,6 +57,7 @@
 #define BRDFTAB_INTERFACED_LAMBERTIAN_VCAVITY_H
 
 #include "../common/compat.h"
+#include "../common/bt_math.h"
 #include "../common/fresnel.h"
 #include "../common/microfacet.h"
 #include "../common/sampler.h"
@@ -186,7 +187,7 @@ BT_INLINE REAL il_vcavity_sample(il_surface* s, int sampling, int mode, bt_vec3 
             REAL spsi = fmin(sq + bt_uniform(smp, d + 1u) * (R(1.0) - sq), R(1.0));
             REAL cpsi = bt_safe_sqrt(R(1.0) - spsi * spsi);
             REAL r = sqrt(bt_uniform(smp, d + 2u));
-            REAL sg = r * sin(BT_TWO_PI * bt_uniform(smp, d + 3u)); /* out-of-plane part */
+            REAL sg = r * bt_sin(BT_TWO_PI * bt_uniform(smp, d + 3u)); /* out-of-plane part */
             REAL cg = bt_safe_sqrt(R(1.0) - sg * sg);
             dout = bt_v3_add(bt_v3_add(bt_v3_scale(e, cg * cpsi), bt_v3_scale(b1, cg * spsi)),
                              bt_v3(R(0.0), sg, R(0.0)));

@@ -91,6 +91,7 @@
 #define BRDFTAB_LAMBERT_SPHERE_H
 
 #include "../common/compat.h"
+#include "../common/bt_math.h"
 #include "../common/sampler.h"
 #include "../common/vec3.h"
 #include "hfunction.h"
@@ -143,7 +144,7 @@
 BT_INLINE REAL ls_phase(REAL mu)
 {
     mu = bt_clamp(mu, -R(1.0), R(1.0));
-    return R(2.0) * (bt_safe_sqrt(R(1.0) - mu * mu) - mu * acos(mu)) / (R(3.0) * BT_PI * BT_PI);
+    return R(2.0) * (bt_safe_sqrt(R(1.0) - mu * mu) - mu * bt_acos(mu)) / (R(3.0) * BT_PI * BT_PI);
 }
 
 /* Three-term Legendre truncation (eqs. 2, 4, 8 with A_k = 0 for k >= 3). */
@@ -156,7 +157,7 @@ BT_INLINE REAL ls_phase3(REAL mu)
 /* eq. 5: exact sample of the scattering cosine. */
 BT_INLINE REAL ls_sample_exact(REAL u1, REAL u2, REAL u3)
 {
-    return sqrt((R(1.0) - u1) * (R(1.0) - u2)) * sin(BT_TWO_PI * u3) - sqrt(u1 * u2);
+    return sqrt((R(1.0) - u1) * (R(1.0) - u2)) * bt_sin(BT_TWO_PI * u3) - sqrt(u1 * u2);
 }
 
 /* eq. 6: approximate inverse CDF (|error| < 5e-4 per the paper). */
@@ -164,9 +165,9 @@ BT_INLINE REAL ls_sample_approx(REAL u)
 {
     if (!(u > R(0.0))) return -R(1.0);
     REAL e = R(0.0401885) * u + R(1.01938);
-    REAL inner = R(1.0) - exp(e * log(u));
+    REAL inner = R(1.0) - bt_exp(e * bt_log(u));
     if (!(inner > R(0.0))) return R(1.0);
-    return R(1.0) - R(2.0) * exp(R(0.397225) * log(inner));
+    return R(1.0) - R(2.0) * bt_exp(R(0.397225) * bt_log(inner));
 }
 
 /* Direction with cosine mu to d and azimuth 2 pi u about it. */
@@ -181,8 +182,8 @@ BT_INLINE bt_vec3 ls_rotate(bt_vec3 d, REAL mu, REAL u)
     REAL st = bt_safe_sqrt(R(1.0) - mu * mu);
     REAL ph = BT_TWO_PI * u;
     return bt_v3_normalize(bt_v3_add(bt_v3_scale(d, mu),
-                                     bt_v3_add(bt_v3_scale(t1, st * cos(ph)),
-                                               bt_v3_scale(t2, st * sin(ph)))));
+                                     bt_v3_add(bt_v3_scale(t1, st * bt_cos(ph)),
+                                               bt_v3_scale(t2, st * bt_sin(ph)))));
 }
 
 #define LS_ORDER_REMAINDER (-2)
@@ -211,7 +212,7 @@ BT_INLINE REAL ls_walk(bt_vec3 i, bt_vec3 o, REAL c, int order, int max_order, i
     bt_vec3 d = bt_v3_neg(i);
     REAL w = R(1.0); /* product of the signed 3-term weights (phase3 only) */
     REAL ck = R(1.0);
-    REAL tau = -log(R(1.0) - bt_uniform(s, 1u)) * (-d.z);
+    REAL tau = -bt_log(R(1.0) - bt_uniform(s, 1u)) * (-d.z);
     REAL total = R(0.0);
     int last = order > 0 ? order : max_order;
     if (want_brdf && order == LS_ORDER_REMAINDER) last = tail_order; /* continue the walk */
@@ -225,7 +226,7 @@ BT_INLINE REAL ls_walk(bt_vec3 i, bt_vec3 o, REAL c, int order, int max_order, i
         if (want_brdf && ls_tally(order, k, max_order, 1)) {
             REAL mu = bt_v3_dot(d, o);
             REAL p = phase3 ? ls_phase3(mu) : ls_phase(mu);
-            total += w * ck * p * exp(-tau / mu_o) / mu_o;
+            total += w * ck * p * bt_exp(-tau / mu_o) / mu_o;
         }
         if (want_brdf && k == last) break;
         REAL mu_s;
@@ -237,7 +238,7 @@ BT_INLINE REAL ls_walk(bt_vec3 i, bt_vec3 o, REAL c, int order, int max_order, i
                                    bt_uniform(s, dim + 2u)); /* eq. 5 */
         }
         d = ls_rotate(d, mu_s, bt_uniform(s, dim + 3u));
-        tau -= -log(R(1.0) - bt_uniform(s, dim + 4u)) * d.z;
+        tau -= -bt_log(R(1.0) - bt_uniform(s, dim + 4u)) * d.z;
         if (tau < R(0.0)) { /* escaped after scattering k */
             if (!want_brdf && ls_tally(order, k, max_order, 0)) total += w * ck;
             break;
@@ -304,13 +305,13 @@ BT_INLINE void ls_constants(REAL c, int exact, REAL* k)
 BT_INLINE REAL ls_h0_fit(REAL mu, REAL c)
 {
     REAL s = bt_safe_sqrt(R(1.0) - c);
-    REAL s6 = s > R(0.0) ? exp(R(6.05435) * log(s)) : R(0.0);
-    REAL s96 = s > R(0.0) ? exp(R(0.961546) * log(s)) : R(0.0);
+    REAL s6 = s > R(0.0) ? bt_exp(R(6.05435) * bt_log(s)) : R(0.0);
+    REAL s96 = s > R(0.0) ? bt_exp(R(0.961546) * bt_log(s)) : R(0.0);
     REAL s7 = s * s * s * s * s * s * s;
     REAL a = (R(1.50112) * s6 + R(8.21644)) / (R(4.17593) - R(1.21222) * s);
     REAL d = (R(7.7731) - R(0.565811) * s96) / (R(8.65912) - R(0.159974) * s7);
     REAL inv_hinf = bt_safe_sqrt((c - R(16.0)) * (c - R(1.0)) * (R(4.0) * c + R(9.0))) / R(12.0);
-    REAL amd = mu > R(0.0) ? a * exp(d * log(mu)) : R(0.0);
+    REAL amd = mu > R(0.0) ? a * bt_exp(d * bt_log(mu)) : R(0.0);
     return (R(1.0) + amd) / (R(1.0) + amd * inv_hinf);
 }
 
@@ -324,12 +325,12 @@ BT_INLINE REAL ls_h0_fit(REAL mu, REAL c)
 BT_INLINE REAL ls_h1_fit(REAL mu, REAL c, int variant)
 {
     REAL e = ((-R(1.12831) * mu + R(1.85728)) * mu - R(1.07879)) * mu + R(0.459442);
-    REAL mue = mu > R(0.0) ? exp(e * log(mu)) : R(0.0);
+    REAL mue = mu > R(0.0) ? bt_exp(e * bt_log(mu)) : R(0.0);
     REAL log_h11 = R(0.0242851) * c * c - R(0.144839) * c; /* eq. 25 */
-    if (variant == 2) return exp(log_h11 * mue);
-    REAL hc1 = exp(-R(0.0894878) * mue);                    /* eq. 24 */
-    REAL norm = variant == 1 ? exp(R(0.0894878)) : R(1.0);  /* 1/Hc1(1) */
-    return exp(log_h11) * hc1 * norm;                       /* eq. 23 */
+    if (variant == 2) return bt_exp(log_h11 * mue);
+    REAL hc1 = bt_exp(-R(0.0894878) * mue);                    /* eq. 24 */
+    REAL norm = variant == 1 ? bt_exp(R(0.0894878)) : R(1.0);  /* 1/Hc1(1) */
+    return bt_exp(log_h11) * hc1 * norm;                       /* eq. 23 */
 }
 
 /* eq. 22 as printed (prefactor c/(6 pi)); the exact cos(phi) coefficient is
@@ -358,7 +359,7 @@ BT_INLINE REAL ls_ss0(REAL mi, REAL mo, REAL c)
 BT_INLINE REAL ls_fm1_fast(REAL mi, REAL mo, REAL c)
 {
     REAL S = bt_safe_sqrt((R(1.0) - mi * mi) * (R(1.0) - mo * mo));
-    return -R(0.0117) * c * atan(c) * S * sqrt(tanh(mi + mi * mo + mo)) / (mi + mo);
+    return -R(0.0117) * c * bt_atan(c) * S * sqrt(tanh(mi + mi * mo + mo)) / (mi + mo);
 }
 
 /* eq. 40 */
@@ -375,8 +376,8 @@ BT_INLINE REAL ls_kd_fit(REAL c)
 BT_INLINE REAL ls_c_fit(REAL kd)
 {
     REAL x = R(1.0) - kd;
-    REAL a = x > R(0.0) ? exp(R(2.67103) * log(x)) : R(0.0);
-    REAL b = x > R(0.0) ? exp(R(2.44559) * log(x)) : R(0.0);
+    REAL a = x > R(0.0) ? bt_exp(R(2.67103) * bt_log(x)) : R(0.0);
+    REAL b = x > R(0.0) ? bt_exp(R(2.44559) * bt_log(x)) : R(0.0);
     return fmax((R(1.0) - R(1.00425) * a) / (R(1.0) - R(0.219924) * b), R(0.0));
 }
 
@@ -389,8 +390,8 @@ BT_INLINE REAL ls_fast(bt_vec3 i, bt_vec3 o, REAL c, REAL phi)
     REAL term = R(0.0);
     if (S > R(1e-12)) /* acos(S)/S -> inf as S -> 0: the term vanishes */
         term = R(0.0151829) * (c - R(0.249978)) * (fabs(phi) + sqrt(mi * mo)) /
-               (acos(fmin(S, R(1.0))) / S + R(0.113706));
-    REAL kdp = kd > R(0.0) ? exp(R(1.85432) * log(kd)) : R(0.0);
+               (bt_acos(fmin(S, R(1.0))) / S + R(0.113706));
+    REAL kdp = kd > R(0.0) ? bt_exp(R(1.85432) * bt_log(kd)) : R(0.0);
     return fmax(R(0.0), ls_single(i, o, c) + term + R(0.234459) * kdp);
 }
 
@@ -452,7 +453,7 @@ BT_INLINE REAL ls_single_mode(REAL ti, REAL to, REAL c, int m)
     for (int k = 0; k < n; ++k) {
         REAL ph = BT_PI * ((REAL)k + R(0.5)) / (REAL)n;
         bt_vec3 o = bt_from_spherical(to, ph);
-        sum += ls_single(i, o, c) * cos((REAL)m * ph);
+        sum += ls_single(i, o, c) * bt_cos((REAL)m * ph);
     }
     return sum / (REAL)n * (m == 0 ? R(1.0) : R(2.0));
 }
@@ -472,7 +473,7 @@ BT_INLINE REAL lambert_sphere_sample(const REAL* p, const int* o, int quantity,
     int max_order = (int)floor(p[LS_PARAM_MAX_ORDER] + R(0.5));
     int mode = (int)floor(p[LS_PARAM_MODE] + R(0.5));
     int tail_order = (int)floor(p[LS_PARAM_TAIL_ORDER] + R(0.5));
-    if (quantity == LS_Q_PHASE) return ls_phase(cos(p[2]));
+    if (quantity == LS_Q_PHASE) return ls_phase(bt_cos(p[2]));
     if (quantity == LS_Q_KD_FIT) return ls_kd_fit(c);
     if (quantity == LS_Q_C_FIT) return ls_c_fit(c);
     if (quantity == LS_Q_CONSTANT) { /* o[LS_OPT_CONSTANTS] constants, o[LS_OPT_CONSTANT] which (l, m, A..F) */
@@ -498,14 +499,14 @@ BT_INLINE REAL lambert_sphere_sample(const REAL* p, const int* o, int quantity,
         REAL weight = R(1.0);
         if (mode >= 0) { /* Fourier coefficient: phi uniform on [0, pi] */
             phi = BT_PI * bt_uniform(s, 0u);
-            weight = mode == 0 ? R(1.0) : R(2.0) * cos((REAL)mode * phi);
+            weight = mode == 0 ? R(1.0) : R(2.0) * bt_cos((REAL)mode * phi);
         }
         bt_vec3 i0 = bt_from_spherical(p[0], R(0.0));
         bt_vec3 oo = bt_from_spherical(p[2], phi);
         return weight * ls_walk(i0, oo, c, order, max_order, tail_order, o[LS_OPT_PHASE_MC], 1, s);
     }
     /* side from theta (above), cosines floored as in ls_single */
-    REAL mi = fmax(cos(p[0]), LS_MIN_MU), mo = fmax(cos(p[2]), LS_MIN_MU);
+    REAL mi = fmax(bt_cos(p[0]), LS_MIN_MU), mo = fmax(bt_cos(p[2]), LS_MIN_MU);
     if (quantity == LS_Q_BRDF_SINGLE) {
         if (mode >= 0) return ls_single_mode(p[0], p[2], c, mode);
         return ls_single(i, bt_from_spherical(p[2], p[3]), c);
@@ -517,7 +518,7 @@ BT_INLINE REAL lambert_sphere_sample(const REAL* p, const int* o, int quantity,
             bt_vec3 i0 = bt_from_spherical(p[0], R(0.0));
             for (int k = 0; k < n; ++k) {
                 REAL ph = BT_PI * ((REAL)k + R(0.5)) / (REAL)n;
-                sum += ls_fast(i0, bt_from_spherical(p[2], ph), c, ph) * cos((REAL)mode * ph);
+                sum += ls_fast(i0, bt_from_spherical(p[2], ph), c, ph) * bt_cos((REAL)mode * ph);
             }
             return sum / (REAL)n * (mode == 0 ? R(1.0) : R(2.0));
         }
@@ -539,8 +540,8 @@ BT_INLINE REAL lambert_sphere_sample(const REAL* p, const int* o, int quantity,
             REAL ms = mode == 0 ? fm0 : mode == 1 ? w1 * fm1 : mode == 2 ? fm2 : R(0.0);
             return ls_single_mode(p[0], p[2], c, mode) + ms;
         }
-        return ls_single(i, bt_from_spherical(p[2], p[3]), c) + fm0 + w1 * fm1 * cos(phi) +
-               fm2 * cos(R(2.0) * phi); /* eqs. 11-12 */
+        return ls_single(i, bt_from_spherical(p[2], p[3]), c) + fm0 + w1 * fm1 * bt_cos(phi) +
+               fm2 * bt_cos(R(2.0) * phi); /* eqs. 11-12 */
     }
     return R(0.0);
 }

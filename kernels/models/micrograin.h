@@ -75,6 +75,7 @@
 #define BRDFTAB_MICROGRAIN_H
 
 #include "../common/compat.h"
+#include "../common/bt_math.h"
 #include "../common/fresnel.h"
 #include "../common/microfacet.h"
 #include "../common/sampler.h"
@@ -149,7 +150,7 @@ BT_INLINE REAL mg_ndf(bt_vec3 m, REAL tau0, REAL bx, REAL by)
     REAL c2 = m.z * m.z;
     REAL ggx_den = c2 * (R(1.0) + t2); /* cos^2 (1 + t^2), finite at grazing */
     REAL dggx = R(1.0) / (BT_PI * bx * by * ggx_den * ggx_den);  /* eq. 12 */
-    return -L / tau0 * exp(s * L) * dggx;                       /* eqs. 11-12 */
+    return -L / tau0 * bt_exp(s * L) * dggx;                       /* eqs. 11-12 */
 }
 
 /* m with pdf D(m) m.z: eqs. 13-15.  Inverting eq. 13 for s = t^2/(1+t^2):
@@ -160,11 +161,11 @@ BT_INLINE REAL mg_ndf(bt_vec3 m, REAL tau0, REAL bx, REAL by)
 BT_INLINE bt_vec3 mg_sample_ndf(REAL u0, REAL u1, REAL tau0, REAL bx, REAL by)
 {
     REAL L = mg_log1m(tau0);
-    REAL s = log1p(-u0 * tau0) / L;                   /* eq. 14 */
+    REAL s = bt_log1p(-u0 * tau0) / L;                   /* eq. 14 */
     s = bt_clamp(s, R(0.0), R(1.0) - R(1e-7));
     REAL t = sqrt(s / (R(1.0) - s));
     REAL ph = BT_TWO_PI * u1;                          /* eq. 15 via slopes */
-    REAL sx = bx * t * cos(ph), sy = by * t * sin(ph);
+    REAL sx = bx * t * bt_cos(ph), sy = by * t * bt_sin(ph);
     REAL inv = R(1.0) / sqrt(R(1.0) + sx * sx + sy * sy);
     return bt_v3(sx * inv, sy * inv, inv);
 }
@@ -179,7 +180,7 @@ BT_INLINE bt_vec3 mg_sample_m(REAL u0, REAL u1, REAL tau0, REAL bx, REAL by, REA
     } else {
         REAL z = (u0 - MG_P_NDF) / (R(1.0) - MG_P_NDF);
         REAL r = bt_safe_sqrt(R(1.0) - z * z), ph = BT_TWO_PI * u1;
-        m = bt_v3(r * cos(ph), r * sin(ph), fmax(z, R(1e-12)));
+        m = bt_v3(r * bt_cos(ph), r * bt_sin(ph), fmax(z, R(1e-12)));
     }
     *pdf = MG_P_NDF * mg_ndf(m, tau0, bx, by) * m.z + (R(1.0) - MG_P_NDF) * R(0.5) * BT_INV_PI;
     return m;
@@ -251,13 +252,13 @@ BT_INLINE REAL mg_ellipse_sweep(bt_vec3 v, REAL h, REAL psa, REAL psb)
     REAL st = sqrt(v.x * v.x + v.y * v.y);
     REAL cx = st > R(0.0) ? v.x / st : R(1.0), cy = st > R(0.0) ? v.y / st : R(0.0);
     REAL ex = h * v.x / ct, ey = h * v.y / ct;
-    REAL ua_x = cos(psa), ua_y = sin(psa), ub_x = cos(psb), ub_y = sin(psb);
+    REAL ua_x = bt_cos(psa), ua_y = bt_sin(psa), ub_x = bt_cos(psb), ub_y = bt_sin(psb);
     REAL ra = mg_ellipse_radius(v, h, ua_x, ua_y), rb = mg_ellipse_radius(v, h, ub_x, ub_y);
     REAL pax = ra * ua_x, pay = ra * ua_y, pbx = rb * ub_x, pby = rb * ub_y;
     /* Parameters t: unit-circle coordinates of p - e. */
     REAL a1 = ((pax - ex) * cx + (pay - ey) * cy) * ct, b1 = -(pax - ex) * cy + (pay - ey) * cx;
     REAL a2 = ((pbx - ex) * cx + (pby - ey) * cy) * ct, b2 = -(pbx - ex) * cy + (pby - ey) * cx;
-    REAL dt = atan2(a1 * b2 - b1 * a2, a1 * a2 + b1 * b2);
+    REAL dt = bt_atan2(a1 * b2 - b1 * a2, a1 * a2 + b1 * b2);
     /* t increases with psi (the origin is inside the convex ellipse); a
      * rounding-negative dt for a tiny arc must not become 2 pi. */
     if (dt < R(0.0)) dt = (psb - psa < R(1e-3)) ? R(0.0) : dt + BT_TWO_PI;
@@ -284,8 +285,8 @@ BT_INLINE REAL mg_overlap_area_sphere(bt_vec3 vi, bt_vec3 vo, REAL h)
     REAL rho = sqrt(fmax(R(1.0) - h * h, R(0.0)));
     REAL wi = bt_safe_acos((h / rho) * (ci_ / si)); /* pi - phi_q */
     REAL wo = bt_safe_acos((h / rho) * (co_ / so));
-    REAL cen_i = atan2(vi.y, vi.x) + BT_PI;
-    REAL d = mg_wrap_pi(atan2(vo.y, vo.x) + BT_PI - cen_i);
+    REAL cen_i = bt_atan2(vi.y, vi.x) + BT_PI;
+    REAL d = mg_wrap_pi(bt_atan2(vo.y, vo.x) + BT_PI - cen_i);
     REAL lo = fmax(-wi, d - wo), hi = fmin(wi, d + wo);
     if (!(hi > lo)) return R(0.0); /* case 1: disjoint arcs, no overlap */
     /* Split angles: where L_h = {p : p.(i - o) = 0} meets E_h(i) (on L_h
@@ -308,7 +309,7 @@ BT_INLINE REAL mg_overlap_area_sphere(bt_vec3 vi, bt_vec3 vo, REAL h)
             REAL sq = sqrt(disc);
             for (int k = 0; k < 2; ++k) {
                 REAL s = (-qb + (k ? sq : -sq)) / (R(2.0) * qa);
-                REAL ang = mg_wrap_pi(atan2(py + s * dy, px + s * dx) - cen_i);
+                REAL ang = mg_wrap_pi(bt_atan2(py + s * dy, px + s * dx) - cen_i);
                 if (ang > lo && ang < hi) cuts[ncut++] = ang;
             }
         }
@@ -324,8 +325,8 @@ BT_INLINE REAL mg_overlap_area_sphere(bt_vec3 vi, bt_vec3 vo, REAL h)
         REAL a = cuts[k], b = cuts[k + 1];
         if (!(b > a)) continue;
         REAL mid = cen_i + R(0.5) * (a + b);
-        REAL ri = mg_ellipse_radius(vi, h, cos(mid), sin(mid));
-        REAL ro = mg_ellipse_radius(vo, h, cos(mid), sin(mid));
+        REAL ri = mg_ellipse_radius(vi, h, bt_cos(mid), bt_sin(mid));
+        REAL ro = mg_ellipse_radius(vo, h, bt_cos(mid), bt_sin(mid));
         bt_vec3 inner = ri <= ro ? vi : vo; /* case 2 when one wins the whole arc */
         area += mg_ellipse_sweep(inner, h, cen_i + a, cen_i + b) - R(0.5) * rho * rho * (b - a);
     }
@@ -355,7 +356,7 @@ BT_INLINE REAL mg_overlap_area(bt_vec3 i, bt_vec3 o, REAL h, REAL bx, REAL by)
 BT_INLINE REAL mg_g1_dist(bt_vec3 i, REAL h, REAL tau0, REAL bx, REAL by)
 {
     REAL ss = mg_shadow_area_sphere(mg_to_sphere_dir(i, bx, by), h);
-    return exp(mg_log1m(tau0) * BT_INV_PI * ss);
+    return bt_exp(mg_log1m(tau0) * BT_INV_PI * ss);
 }
 
 /* G_dist(i, o, h): eq. 19 (direction-correlated) or eq. 17 (product). */
@@ -364,7 +365,7 @@ BT_INLINE REAL mg_g_dist(bt_vec3 i, bt_vec3 o, REAL h, REAL tau0, REAL bx, REAL 
     bt_vec3 ip = mg_to_sphere_dir(i, bx, by), op = mg_to_sphere_dir(o, bx, by);
     REAL a = mg_shadow_area_sphere(ip, h) + mg_shadow_area_sphere(op, h);
     if (corr == MG_CORR_DIRECTION) a -= mg_overlap_area_sphere(ip, op, h); /* eq. 18 */
-    return exp(mg_log1m(tau0) * BT_INV_PI * fmax(a, R(0.0)));
+    return bt_exp(mg_log1m(tau0) * BT_INV_PI * fmax(a, R(0.0)));
 }
 
 /* V_p(i, o) = (1 - tau0) G_dist(i, o, 0), eq. 23. */
@@ -460,7 +461,7 @@ BT_INLINE REAL mg_albedo_sample(bt_vec3 i, const REAL* p, const int* opt, const 
     }
     REAL u2 = bt_uniform(s, 2), u3 = bt_uniform(s, 3);
     REAL r = sqrt(u2), ph = BT_TWO_PI * u3;
-    bt_vec3 o = bt_v3(r * cos(ph), r * sin(ph), fmax(sqrt(fmax(R(1.0) - u2, R(0.0))), MG_MIN_COS));
+    bt_vec3 o = bt_v3(r * bt_cos(ph), r * bt_sin(ph), fmax(sqrt(fmax(R(1.0) - u2, R(0.0))), MG_MIN_COS));
     REAL ws, wb;
     mg_weights(i, o, p, opt, &ws, &wb);
     REAL fd = mg_f_diffuse_sample(i, o, p, opt, bt_uniform(s, 4), bt_uniform(s, 5));

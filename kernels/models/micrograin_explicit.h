@@ -46,6 +46,7 @@
 #define BRDFTAB_MICROGRAIN_EXPLICIT_H
 
 #include "../common/compat.h"
+#include "../common/bt_math.h"
 #include "../common/philox.h"
 #include "../common/sampler.h"
 #include "../common/vec3.h"
@@ -84,7 +85,7 @@ BT_INLINE int mgx_cell_count(const mgx_field* f, int cx, int cy)
     uint w[4];
     bt_philox4x32_10((uint)cx, (uint)cy, 0u, 0x6D67u, f->k0, f->k1, w);
     REAL u = bt_u32_to_unit(w[0]);
-    REAL pk = exp(-f->lambda), F = pk;
+    REAL pk = bt_exp(-f->lambda), F = pk;
     int n = 0;
     while (u >= F && n < MGX_MAX_PER_CELL) {
         ++n;

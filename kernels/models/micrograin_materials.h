@@ -15,6 +15,7 @@
 #define BRDFTAB_MICROGRAIN_MATERIALS_H
 
 #include "../common/compat.h"
+#include "../common/bt_math.h"
 #include "../common/fresnel.h"
 #include "../common/microfacet.h"
 #include "../common/vec3.h"
@@ -54,7 +55,7 @@ using std::log1p;
 #define MG_BASE_CONDUCTOR 2
 #define MG_BASE_DIELECTRIC 3
 
-BT_INLINE REAL mg_log1m(REAL tau0) { return log1p(-tau0); } /* ln(1 - tau0) */
+BT_INLINE REAL mg_log1m(REAL tau0) { return bt_log1p(-tau0); } /* ln(1 - tau0) */
 
 /* -------------------------------------------------------------- Fresnel */
 

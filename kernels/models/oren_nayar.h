@@ -82,6 +82,7 @@
 #define BRDFTAB_OREN_NAYAR_H
 
 #include "../common/compat.h"
+#include "../common/bt_math.h"
 #include "../common/gauss_legendre.h"
 #include "../common/sampler.h"
 #include "../common/vec3.h"
@@ -157,14 +158,14 @@ BT_INLINE on_geom on_make_geom(const REAL* p)
     REAL wx = g.s.z * g.v.x - g.v.z * g.s.x;
     REAL wy = g.s.z * g.v.y - g.v.z * g.s.y;
     g.has_x = wx * wx + wy * wy > R(1e-20);
-    g.phi_x = g.has_x ? atan2(wy, wx) + BT_HALF_PI : R(0.0);
+    g.phi_x = g.has_x ? bt_atan2(wy, wx) + BT_HALF_PI : R(0.0);
     return g;
 }
 
 BT_INLINE bt_vec3 on_facet_normal(REAL theta_a, REAL phi_a)
 {
-    REAL st = sin(theta_a);
-    return bt_v3(st * cos(phi_a), st * sin(phi_a), cos(theta_a));
+    REAL st = bt_sin(theta_a);
+    return bt_v3(st * bt_cos(phi_a), st * bt_sin(phi_a), bt_cos(theta_a));
 }
 
 /* d(x, y) of eq. 20 with c2 = cos 2 theta_a. */
@@ -243,7 +244,7 @@ BT_INLINE int on_add_dir_breaks(REAL phi_d, REAL td, REAL ta, int is_source, int
 {
     REAL k = ta * td;
     if (!(k > R(1.0))) return nb;
-    REAL c = acos(R(1.0) / k);
+    REAL c = bt_acos(R(1.0) / k);
     b[nb++] = on_wrap(phi_d + c);
     b[nb++] = on_wrap(phi_d - c);
     b[nb++] = on_wrap(phi_d + BT_PI + c);
@@ -265,7 +266,7 @@ BT_INLINE void on_phi_integral(const on_geom* g, REAL theta_a, int want, int n, 
 {
     REAL b[ON_MAX_BREAKS + 1];
     int nb = 0;
-    REAL ta = tan(theta_a);
+    REAL ta = bt_tan(theta_a);
     int layer = (want & ON_WANT_INTER) != 0;
     nb = on_add_dir_breaks(g->phi_s, g->tan_s, ta, 1, layer, b, nb);
     nb = on_add_dir_breaks(g->phi_v, g->tan_v, ta, 0, layer, b, nb);
@@ -332,19 +333,19 @@ BT_INLINE void on_gauss_quadrature(const on_geom* g, REAL sigma, int want, int n
     int nc = 0;
     cand[nc] = R(3.0) * sigma;
     ckind[nc++] = 0;
-    cand[nc] = BT_HALF_PI - atan(g->tan_s);
+    cand[nc] = BT_HALF_PI - bt_atan(g->tan_s);
     ckind[nc++] = 1;
-    cand[nc] = BT_HALF_PI - atan(g->tan_v);
+    cand[nc] = BT_HALF_PI - bt_atan(g->tan_v);
     ckind[nc++] = 1;
     if (g->has_x) {
-        REAL cs = fabs(cos(g->phi_x - g->phi_s)) * g->tan_s;
-        REAL cv = fabs(cos(g->phi_x - g->phi_v)) * g->tan_v;
+        REAL cs = fabs(bt_cos(g->phi_x - g->phi_s)) * g->tan_s;
+        REAL cv = fabs(bt_cos(g->phi_x - g->phi_v)) * g->tan_v;
         if (cs > R(1e-12)) {
-            cand[nc] = atan(R(1.0) / cs);
+            cand[nc] = bt_atan(R(1.0) / cs);
             ckind[nc++] = 0;
         }
         if (cv > R(1e-12)) {
-            cand[nc] = atan(R(1.0) / cv);
+            cand[nc] = bt_atan(R(1.0) / cv);
             ckind[nc++] = 0;
         }
     }
@@ -376,7 +377,7 @@ BT_INLINE void on_gauss_quadrature(const on_geom* g, REAL sigma, int want, int n
                 th = lo + L * t;
                 jac = L;
             }
-            REAL wp = wt * jac * exp(-th * th * inv2s2) * sin(th);
+            REAL wp = wt * jac * bt_exp(-th * th * inv2s2) * bt_sin(th);
             REAL d1, d2;
             on_phi_integral(g, th, want, n, gx, gw, &d1, &d2);
             z += wp;
@@ -401,7 +402,7 @@ BT_INLINE REAL on_norm_ratio(REAL sigma)
 {
     REAL s2 = sigma * sigma;
     REAL X = BT_HALF_PI * BT_HALF_PI / (R(2.0) * s2);
-    REAL ex = exp(-X);
+    REAL ex = bt_exp(-X);
     REAL zr = R(1.0) - ex;
     REAL sum = R(0.0);
     REAL coef = R(1.0);   /* (2s^2)^k k! / (2k+1)! with sign */
@@ -429,10 +430,10 @@ BT_INLINE REAL on_sample_facet(REAL sigma, REAL ratio, REAL u0, REAL u1, bt_vec3
 {
     REAL s2 = sigma * sigma;
     REAL X = BT_HALF_PI * BT_HALF_PI / (R(2.0) * s2);
-    REAL q = R(1.0) - u0 * (R(1.0) - exp(-X));
-    REAL th = fmin(sigma * sqrt(fmax(-R(2.0) * log(q), R(0.0))), BT_HALF_PI);
+    REAL q = R(1.0) - u0 * (R(1.0) - bt_exp(-X));
+    REAL th = fmin(sigma * sqrt(fmax(-R(2.0) * bt_log(q), R(0.0))), BT_HALF_PI);
     *a = on_facet_normal(th, BT_TWO_PI * u1);
-    REAL sinc = th > R(1e-4) ? sin(th) / th : R(1.0) - th * th / R(6.0);
+    REAL sinc = th > R(1e-4) ? bt_sin(th) / th : R(1.0) - th * th / R(6.0);
     return sinc * ratio;
 }
 
@@ -442,35 +443,35 @@ BT_INLINE REAL on_sample_facet(REAL sigma, REAL ratio, REAL u0, REAL u1, bt_vec3
 BT_INLINE REAL on_phi_c(REAL ta, REAL td)
 {
     REAL k = ta * td;
-    return k > R(1.0) ? acos(R(1.0) / k) : R(0.0);
+    return k > R(1.0) ? bt_acos(R(1.0) / k) : R(0.0);
 }
 
 BT_INLINE REAL on_tan_clamped(REAL theta)
 {
-    return sin(theta) / fmax(cos(theta), ON_MIN_COS);
+    return bt_sin(theta) / fmax(bt_cos(theta), ON_MIN_COS);
 }
 
 /* Isotropic single-slope direct term, eq. 45 (with eqs. 39-44), per unit
  * rho, divided by E0 cos theta_i. */
 BT_INLINE REAL on_single_slope_direct_cf(REAL ti, REAL tr, REAL phi, REAL theta_a)
 {
-    REAL ta = tan(theta_a);
+    REAL ta = bt_tan(theta_a);
     REAL tan_i = on_tan_clamped(ti), tan_r = on_tan_clamped(tr);
     REAL pci = on_phi_c(ta, tan_i), pcr = on_phi_c(ta, tan_r);
     int i_is_alpha = ti >= tr;
     REAL tan_a = i_is_alpha ? tan_i : tan_r, tan_b = i_is_alpha ? tan_r : tan_i;
     REAL pca = i_is_alpha ? pci : pcr, pcb = i_is_alpha ? pcr : pci;
-    REAL cphi = cos(phi);
-    REAL A1 = ta * R(2.0) * sin(pca) * BT_INV_PI +
-              R(0.5) * ta * ta * tan_a * (R(1.0) - (R(2.0) * pca + sin(R(2.0) * pca)) * BT_INV_PI);
-    REAL A2 = cphi < R(0.0) ? R(2.0) * pcb * BT_INV_PI - ta * tan_b * R(2.0) * sin(pcb) * BT_INV_PI
+    REAL cphi = bt_cos(phi);
+    REAL A1 = ta * R(2.0) * bt_sin(pca) * BT_INV_PI +
+              R(0.5) * ta * ta * tan_a * (R(1.0) - (R(2.0) * pca + bt_sin(R(2.0) * pca)) * BT_INV_PI);
+    REAL A2 = cphi < R(0.0) ? R(2.0) * pcb * BT_INV_PI - ta * tan_b * R(2.0) * bt_sin(pcb) * BT_INV_PI
                             : R(0.0);
     REAL A3 = R(0.0);
     if (pci + pcr > BT_HALF_PI)
         A3 = R(0.5) - (pci + pcr) * BT_INV_PI + bt_safe_sqrt(tan_r * tan_r * ta * ta - R(1.0)) * BT_INV_PI +
              bt_safe_sqrt(tan_i * tan_i * ta * ta - R(1.0)) * BT_INV_PI -
              ta * sqrt(tan_i * tan_i + tan_r * tan_r) * BT_INV_PI;
-    return BT_INV_PI * cos(theta_a) *
+    return BT_INV_PI * bt_cos(theta_a) *
            (R(1.0) + cphi * (A1 * tan_b + A2) + (R(1.0) - fabs(cphi)) * A3);
 }
 
@@ -478,15 +479,15 @@ BT_INLINE REAL on_single_slope_direct_cf(REAL ti, REAL tr, REAL phi, REAL theta_
  * approximation eq. 48), per unit rho^2, divided by E0 cos theta_i. */
 BT_INLINE REAL on_single_slope_inter_cf(REAL ti, REAL tr, REAL phi, REAL theta_a)
 {
-    REAL ta = tan(theta_a), ca = cos(theta_a);
+    REAL ta = bt_tan(theta_a), ca = bt_cos(theta_a);
     REAL tan_i = on_tan_clamped(ti), tan_r = on_tan_clamped(tr);
     int i_is_alpha = ti >= tr;
     REAL tan_a = i_is_alpha ? tan_i : tan_r, tan_b = i_is_alpha ? tan_r : tan_i;
     REAL pca = on_phi_c(ta, tan_a), pcb = on_phi_c(ta, tan_b);
-    REAL br = R(2.0) * pcb * BT_INV_PI + R(2.0) * ta * tan_b * (sin(pca) - sin(pcb)) * BT_INV_PI +
+    REAL br = R(2.0) * pcb * BT_INV_PI + R(2.0) * ta * tan_b * (bt_sin(pca) - bt_sin(pcb)) * BT_INV_PI +
               R(0.5) * ta * ta * tan_a * tan_b *
-                  (R(1.0) - (R(2.0) * pca + sin(R(2.0) * pca)) * BT_INV_PI);
-    return BT_INV_PI * ca * (R(1.0) - ca) * (R(1.0) - cos(phi) * br);
+                  (R(1.0) - (R(2.0) * pca + bt_sin(R(2.0) * pca)) * BT_INV_PI);
+    return BT_INV_PI * ca * (R(1.0) - ca) * (R(1.0) - bt_cos(phi) * br);
 }
 
 /* Functional approximation, eqs. 27-29, as a BRDF at rho. */
@@ -494,11 +495,11 @@ BT_INLINE REAL on_functional(REAL ti, REAL tr, REAL phi, REAL sigma, REAL rho)
 {
     REAL s2 = sigma * sigma;
     REAL al = fmax(ti, tr), be = fmin(ti, tr);
-    REAL cphi = cos(phi);
+    REAL cphi = bt_cos(phi);
     REAL C1 = R(1.0) - R(0.5) * s2 / (s2 + R(0.33));
     REAL k2 = R(0.45) * s2 / (s2 + R(0.09));
     REAL tb = R(2.0) * be * BT_INV_PI;
-    REAL C2 = cphi >= R(0.0) ? k2 * sin(al) : k2 * (sin(al) - tb * tb * tb);
+    REAL C2 = cphi >= R(0.0) ? k2 * bt_sin(al) : k2 * (bt_sin(al) - tb * tb * tb);
     REAL q = R(4.0) * al * be * BT_INV_PI * BT_INV_PI;
     REAL C3 = R(0.125) * (s2 / (s2 + R(0.09))) * q * q;
     REAL L1 = C1 + cphi * C2 * on_tan_clamped(be) +
@@ -514,7 +515,7 @@ BT_INLINE REAL on_qualitative(REAL ti, REAL tr, REAL phi, REAL sigma, REAL rho, 
     REAL al = fmax(ti, tr), be = fmin(ti, tr);
     REAL A = R(1.0) - R(0.5) * s2 / (s2 + (variant ? R(0.57) : R(0.33)));
     REAL B = R(0.45) * s2 / (s2 + R(0.09));
-    return rho * BT_INV_PI * (A + B * fmax(R(0.0), cos(phi)) * sin(al) * on_tan_clamped(be));
+    return rho * BT_INV_PI * (A + B * fmax(R(0.0), bt_cos(phi)) * bt_sin(al) * on_tan_clamped(be));
 }
 
 /* --------------------------------------------------------- quantities */
@@ -581,7 +582,7 @@ BT_INLINE REAL on_albedo_sample(REAL theta_i, REAL sigma, REAL c1, REAL c2, cons
     REAL mu = sqrt(bt_uniform(s, 2u)); /* cos theta_o, pdf mu / pi */
     pt[0] = theta_i;
     pt[1] = R(0.0);
-    pt[2] = acos(fmin(mu, R(1.0)));
+    pt[2] = bt_acos(fmin(mu, R(1.0)));
     pt[3] = BT_TWO_PI * bt_uniform(s, 3u);
     on_geom g = on_make_geom(pt);
     REAL f1, f2, w = R(1.0);
@@ -598,7 +599,7 @@ BT_INLINE REAL on_albedo_sample(REAL theta_i, REAL sigma, REAL c1, REAL c2, cons
 BT_INLINE REAL on_avg_theta(const bt_sampler* s)
 {
     REAL mu = sqrt(bt_uniform(s, 4u));
-    return acos(fmin(mu, R(1.0)));
+    return bt_acos(fmin(mu, R(1.0)));
 }
 
 /* The model's sample function (estimator.h signature). */
