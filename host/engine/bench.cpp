@@ -179,6 +179,13 @@ BenchReport run_bench(Backend& device, const BenchSettings& in, const BenchStart
         }
         const double scale = settings.host_seconds / std::max(s, 1e-6);
         cells = std::clamp<std::size_t>(static_cast<std::size_t>(cells * scale), 64, 1u << 24);
+        // A device needs many work items to fill its cores (an MC cell is one
+        // work item per batch): an expensive integral trades samples per cell
+        // for cells, down to 64 samples, to get at least 512 cells.
+        while (integral && cells < 512 && w.settings.samples >= 128) {
+            w.settings.samples /= 2;
+            cells *= 2;
+        }
         w.points = bench_points(*w.model, *w.quantity, c, cells);
 
         BenchCaseResult r;
@@ -186,7 +193,7 @@ BenchReport run_bench(Backend& device, const BenchSettings& in, const BenchStart
         r.method = to_string(method);
         r.unit = c.per_cell ? "cells/s" : "evals/s";
         r.cells = cells;
-        r.samples_per_cell = integral ? settings.samples : 1;
+        r.samples_per_cell = integral ? w.settings.samples : 1;
         r.device = measure_backend(device, w, cells, c.per_cell, settings.repeats, evals);
         r.evaluations = evals;
         r.host = measure_backend(*host, w, cells, c.per_cell, settings.repeats, evals);
