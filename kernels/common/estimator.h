@@ -112,6 +112,13 @@
 #if !defined(BT_SAMPLE_BARRIER)
 #define BT_SAMPLE_BARRIER 0
 #endif
+/* A one-sample loop (closed forms, quadrature) has nothing to vectorise
+ * inside it: no barrier there (the PoCL crash above was in such a kernel). */
+#if defined(BT_SPEC_METHOD) && BT_SAMPLE_BARRIER &&                            \
+    (BT_SPEC_METHOD == BT_METHOD_CLOSED || BT_SPEC_METHOD == BT_METHOD_QUADRATURE)
+#undef BT_SAMPLE_BARRIER
+#define BT_SAMPLE_BARRIER 0
+#endif
 #if BT_SAMPLE_BARRIER
 #define BT_KERNEL_SAMPLE_SYNC_() barrier(CLK_LOCAL_MEM_FENCE)
 /* Every work item of a group must reach the same barriers: items past
