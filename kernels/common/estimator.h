@@ -26,6 +26,18 @@
 
 #include "compat.h"
 
+/* The sample-loop barrier (see "The sample loop's synchronisation point"
+ * below) is only for loops of several samples: a one-sample loop (closed
+ * forms: BT_METHOD_CLOSED = 2, quadrature: BT_METHOD_QUADRATURE = 3, see
+ * sampler.h) has nothing to vectorise inside it, and PoCL crashed on one such
+ * kernel with the barrier and forced inlining. */
+#if defined(BT_SPEC_METHOD) && defined(BT_SAMPLE_BARRIER)
+#if BT_SAMPLE_BARRIER && (BT_SPEC_METHOD == 2 || BT_SPEC_METHOD == 3)
+#undef BT_SAMPLE_BARRIER
+#define BT_SAMPLE_BARRIER 0
+#endif
+#endif
+
 #if BT_DEVICE && defined(BT_SAMPLE_BARRIER) && BT_SAMPLE_BARRIER && !defined(BT_NO_FORCE_INLINE)
 /* With the sample-loop barrier (below), force inlining of every shared
  * function into the kernel.  PoCL's inliner otherwise keeps larger helpers
@@ -110,13 +122,6 @@
  * it (all work items' private state is kept across the barrier), so it is
  * not the default. */
 #if !defined(BT_SAMPLE_BARRIER)
-#define BT_SAMPLE_BARRIER 0
-#endif
-/* A one-sample loop (closed forms, quadrature) has nothing to vectorise
- * inside it: no barrier there (the PoCL crash above was in such a kernel). */
-#if defined(BT_SPEC_METHOD) && BT_SAMPLE_BARRIER &&                            \
-    (BT_SPEC_METHOD == BT_METHOD_CLOSED || BT_SPEC_METHOD == BT_METHOD_QUADRATURE)
-#undef BT_SAMPLE_BARRIER
 #define BT_SAMPLE_BARRIER 0
 #endif
 #if BT_SAMPLE_BARRIER
