@@ -8,9 +8,9 @@
 source "$(dirname "$0")/cli_lib.sh"
 cli_setup "$1" "$2"
 
-# 80 x 125 = 10000 cells: the engine's launches start at 1024 work items and
+# 80 x 125 = 10000 cells: the engine's launches start at 256 work items and
 # grow at most 4x per launch, so the only round of this table takes at least
-# three launches (1024 + 4096 + 4880), each reported.
+# four launches (256 + 1024 + 4096 + 4624), each reported.
 cat >progress.toml <<'TOML'
 model = "rough-dielectric"
 [parameters]
