@@ -38,9 +38,15 @@
 #endif
 #endif
 
-#if BT_DEVICE && defined(BT_SAMPLE_BARRIER) && BT_SAMPLE_BARRIER && !defined(BT_NO_FORCE_INLINE)
-/* With the sample-loop barrier (below), force inlining of every shared
- * function into the kernel.  PoCL's inliner otherwise keeps larger helpers
+#if !defined(BT_SAMPLE_BARRIER)
+#define BT_SAMPLE_BARRIER 0
+#endif
+#if !defined(BT_FORCE_INLINE)
+#define BT_FORCE_INLINE BT_SAMPLE_BARRIER
+#endif
+#if BT_DEVICE && BT_FORCE_INLINE && !defined(BT_NO_FORCE_INLINE)
+/* With the sample-loop barrier (below), or with -D BT_FORCE_INLINE=1, force
+ * inlining of every shared function into the kernel.  PoCL's inliner otherwise keeps larger helpers
  * (bt_uniform, the microfacet G1, ...) as calls, and a call in the sample
  * loop stops the vectoriser from running the work items of a group as SIMD
  * lanes.  Measured with bench/bench_estimator_loop on a trigonometry-free
