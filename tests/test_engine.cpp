@@ -389,3 +389,63 @@ TEST_CASE("Phong needs alpha < 1: every cell checked before any launch (issue #1
     CHECK_FALSE(f.model.check_cell(q, point.data(), f.options("phong")).empty());
     CHECK(f.model.check_cell(q, point.data(), f.options("ggx")).empty());
 }
+
+TEST_CASE("host-threads: bit-identical to the serial host for any thread count") {
+    Fixture f;
+    auto serial = make_backend("host", Precision::Double);
+    std::vector<std::map<std::string, double>> pts;
+    for (int k = 0; k < 29; ++k)
+        pts.push_back({{"theta_i", 3.0 * k}, {"alpha", 0.05 + 0.02 * k}, {"eta", 1.4}});
+    for (const char* selector : {"host-threads", "host-threads:1", "host-threads:3",
+                                 "host-threads:64"}) {
+        CAPTURE(selector);
+        auto threaded = make_backend(selector, Precision::Double);
+        for (Method method : {Method::MonteCarlo, Method::Rqmc}) {
+            IntegrationSettings s;
+            s.method = method;
+            s.samples = 96;
+            s.batch_size = 16;  // several batches per cell, split across threads
+            s.slab_work_items = 37;
+            auto a = f.run(*serial, "albedo_t", pts, s);
+            auto b = f.run(*threaded, "albedo_t", pts, s);
+            CHECK(a.value == b.value);
+            CHECK(a.stderr_ == b.stderr_);
+            CHECK(a.samples == b.samples);
+        }
+        auto closed_pts = f.random_points(101, true);
+        auto a = f.run(*serial, "bsdf", closed_pts, IntegrationSettings{});
+        auto b = f.run(*threaded, "bsdf", closed_pts, IntegrationSettings{});
+        CHECK(a.value == b.value);
+    }
+    CHECK_THROWS_AS(make_backend("host-threads:0", Precision::Double), InputError);
+    CHECK_THROWS_AS(make_backend("host-threads:x", Precision::Double), InputError);
+    CHECK_THROWS_AS(make_backend("host-threads", Precision::Float), InputError);
+}
+
+TEST_CASE("progress is reported from within a round, launch by launch") {
+    // 20000 closed-form cells are one round; the backend's preferred slab
+    // (1024) caps every launch, so the round takes 20 launches, each of which
+    // reports progress: cells done grows within the round.
+    Fixture f;
+    CountingBackend counting;  // preferred slab 1024
+    std::vector<Progress> seen;
+    const QuantityInfo& q = f.model.quantity("bsdf");
+    PointBuilder builder(f.model, q);
+    std::vector<double> point(f.model.point_stride());
+    builder.build({{"theta_i", 20}, {"theta_o", 30}, {"phi_d", 10}, {"alpha", 0.3}, {"eta", 1.5}},
+                  point.data());
+    estimate(
+        counting, f.model, q, f.options(), 20000,
+        [&](std::size_t, double* out) { std::copy(point.begin(), point.end(), out); },
+        IntegrationSettings{}, [&](const Progress& p) { seen.push_back(p); });
+    CHECK(counting.launches >= 19);
+    REQUIRE(seen.size() >= 3);
+    for (std::size_t k = 1; k < seen.size(); ++k) {
+        CHECK(seen[k].cells_done >= seen[k - 1].cells_done);
+        CHECK(seen[k].fraction >= seen[k - 1].fraction);
+    }
+    CHECK(seen.front().cells_done > 0);
+    CHECK(seen.front().cells_done < 20000);
+    CHECK(seen.back().cells_done == 20000);
+    CHECK(seen.back().fraction == 1.0);
+}

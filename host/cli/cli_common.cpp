@@ -15,8 +15,9 @@ namespace brdftab::cli {
 
 void ComputeOptions::add_to(CLI::App& app, bool with_integration) {
     app.add_option("--device", device,
-                   "OpenCL device: index or name substring (see `brdftab devices`), or `host` "
-                   "for the serial C++ reference. Default: $BRDFTAB_DEVICE, else the first CPU "
+                   "OpenCL device: index or name substring (see `brdftab devices`), `host` "
+                   "for the serial C++ reference, or `host-threads[:N]` for the same on one "
+                   "thread per core (N threads). Default: $BRDFTAB_DEVICE, else the first CPU "
                    "device");
     app.add_option("--precision", precision, "kernel floating type: double (default) or float")
         ->check(CLI::IsMember({"double", "float"}));
@@ -88,16 +89,34 @@ std::unique_ptr<Backend> ComputeOptions::make_backend() const {
     return brdftab::make_backend(device, parse_precision(precision), kernel_dir);
 }
 
+namespace {
+// Seconds between two progress lines in a log: 30, or
+// $BRDFTAB_PROGRESS_INTERVAL (seconds, > 0; for tests and impatient users).
+double log_interval() {
+    const char* env = std::getenv("BRDFTAB_PROGRESS_INTERVAL");
+    if (env && *env) {
+        char* end = nullptr;
+        const double v = std::strtod(env, &end);
+        if (end && *end == '\0' && v > 0 && std::isfinite(v)) return v;
+    }
+    return 30.0;
+}
+}  // namespace
+
 ProgressPrinter::ProgressPrinter(std::string label)
     : label_(std::move(label)), tty_(isatty(STDERR_FILENO) != 0),
-      last_(std::chrono::steady_clock::now()) {}
+      last_(std::chrono::steady_clock::now()), interval_(tty_ ? 0.1 : log_interval()) {}
 
 void ProgressPrinter::operator()(const Progress& p) {
     const auto now = std::chrono::steady_clock::now();
     const double since = std::chrono::duration<double>(now - last_).count();
     const bool final = p.fraction >= 1.0;
-    // Terminal: redraw at most 10x per second.  Log: a line every 5 s.
-    if (!final && since < (tty_ ? 0.1 : 5.0)) return;
+    // Terminal: redraw at most 10x per second.  Log: one line per interval.
+    // The engine reports after every launch, and sizes launches to well under
+    // a second, so these are also the longest gaps between updates.
+    // The first report is printed at once, so a log shows the run has
+    // started (and its rate) without waiting a whole interval.
+    if (!final && printed_ && since < interval_) return;
     if (final && last_fraction_ >= 1.0) return;
     last_ = now;
     last_fraction_ = p.fraction;

@@ -40,7 +40,9 @@ struct ComputeOptions {
     std::unique_ptr<Backend> make_backend() const;
 };
 
-// Progress on stderr: a redrawn bar on a terminal, plain lines otherwise.
+// Progress on stderr: a redrawn bar on a terminal (at most 10 redraws a
+// second), otherwise a plain line every 30 s ($BRDFTAB_PROGRESS_INTERVAL
+// seconds when set), each with cells done, samples/s, elapsed time and ETA.
 class ProgressPrinter {
 public:
     explicit ProgressPrinter(std::string label);
@@ -51,6 +53,7 @@ private:
     std::string label_;
     bool tty_;
     std::chrono::steady_clock::time_point last_;
+    double interval_;
     bool printed_ = false;
     double last_fraction_ = -1;
 };

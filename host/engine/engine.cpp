@@ -4,8 +4,11 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdlib>
 #include <cmath>
 #include <map>
+#include <mutex>
+#include <thread>
 
 #include "kernels/common/estimator.h"
 #include "host/core/error.h"
@@ -41,6 +44,21 @@ namespace {
 
 // ------------------------------------------------------------ host backend
 
+// Work items [begin, end) of a launch on the host: the very same kernel math,
+// compiled as C++, one work item after another.
+void run_host_items(const BatchLaunch& l, std::size_t begin, std::size_t end, double* mean,
+                    double* m2) {
+    int opts[BT_MAX_OPTIONS] = {0};
+    for (std::size_t k = 0; k < l.options.size() && k < BT_MAX_OPTIONS; ++k)
+        opts[k] = l.options[k];
+    REAL point[BT_MAX_POINT] = {0};
+    for (std::size_t w = begin; w < end; ++w) {
+        std::copy_n(&l.points[w * l.stride], l.stride, point);
+        bt_estimate_batch(l.model->host_fn, point, opts, l.quantity, l.method, l.key0, l.key1,
+                          l.cells[w], l.batches[w], l.batch_size, &mean[w], &m2[w]);
+    }
+}
+
 // Serial C++ evaluation of the very same kernel math: the reference path.
 class HostBackend final : public Backend {
 public:
@@ -53,20 +71,74 @@ public:
         const std::size_t n = l.cells.size();
         mean.assign(n, 0.0);
         m2.assign(n, 0.0);
-        int opts[BT_MAX_OPTIONS] = {0};
-        for (std::size_t k = 0; k < l.options.size() && k < BT_MAX_OPTIONS; ++k)
-            opts[k] = l.options[k];
-        REAL point[BT_MAX_POINT] = {0};
-        for (std::size_t w = 0; w < n; ++w) {
-            std::copy_n(&l.points[w * l.stride], l.stride, point);
-            bt_estimate_batch(l.model->host_fn, point, opts, l.quantity, l.method, l.key0,
-                              l.key1, l.cells[w], l.batches[w], l.batch_size, &mean[w],
-                              &m2[w]);
-        }
+        run_host_items(l, 0, n, mean.data(), m2.data());
     }
 };
 
+// The host path on every core: the launch's work items split into one
+// contiguous range per thread.  Each work item is computed exactly as by the
+// serial backend (same function, same inputs, its own accumulators), so the
+// results are bit-identical to --device host whatever the thread count.
+class ThreadedHostBackend final : public Backend {
+public:
+    explicit ThreadedHostBackend(unsigned threads) : threads_(std::max(1u, threads)) {}
+    std::string device_name() const override {
+        return "host-threads (" + std::to_string(threads_) + " threads)";
+    }
+    Precision precision() const override { return Precision::Double; }
+    std::size_t preferred_slab() const override { return (1u << 14) * threads_; }
+
+    void run(const BatchLaunch& l, std::vector<double>& mean,
+             std::vector<double>& m2) override {
+        const std::size_t n = l.cells.size();
+        mean.assign(n, 0.0);
+        m2.assign(n, 0.0);
+        const std::size_t parts = std::min<std::size_t>(threads_, n);
+        if (parts <= 1) {
+            run_host_items(l, 0, n, mean.data(), m2.data());
+            return;
+        }
+        std::vector<std::thread> pool;
+        std::vector<std::exception_ptr> errors(parts);
+        for (std::size_t t = 0; t < parts; ++t) {
+            const std::size_t begin = n * t / parts, end = n * (t + 1) / parts;
+            pool.emplace_back([&, t, begin, end] {
+                try {
+                    run_host_items(l, begin, end, mean.data(), m2.data());
+                } catch (...) {
+                    errors[t] = std::current_exception();
+                }
+            });
+        }
+        for (auto& th : pool) th.join();
+        for (auto& e : errors)
+            if (e) std::rethrow_exception(e);
+    }
+
+private:
+    unsigned threads_;
+};
+
 // ---------------------------------------------------------- OpenCL backend
+
+// Built programs of this process, keyed by context, build options and source.
+// A program holds a reference to its context, so a context's handle cannot be
+// reused for another one while an entry names it.  PoCL's disk cache still
+// makes the first build in a new process cheap.
+cl::Program cached_program(ClRuntime& runtime, const std::string& source,
+                           const std::string& options) {
+    static std::mutex mutex;
+    static std::map<std::string, cl::Program> programs;
+    const std::string key = std::to_string(reinterpret_cast<std::uintptr_t>(runtime.context()())) +
+                            "\n" + options + "\n" + source;
+    std::lock_guard<std::mutex> lock(mutex);
+    auto it = programs.find(key);
+    if (it != programs.end()) return it->second;
+    cl::Program program = runtime.build_program(source, options);
+    programs.emplace(key, program);
+    return program;
+}
+
 
 class OpenCLBackend final : public Backend {
 public:
@@ -87,7 +159,7 @@ public:
         mean.assign(n, 0.0);
         m2.assign(n, 0.0);
         if (n == 0) return;
-        cl::Kernel& kernel = kernel_for(*l.model);
+        cl::Kernel& kernel = kernel_for(l);
         const bool real_float = precision_ == Precision::Float;
         const bool accum_double = runtime_.device_info().has_fp64;
         try {
@@ -134,9 +206,11 @@ public:
             // Round the global size up to a multiple of 256 so PoCL can choose
             // a reasonable work-group size (the kernel ignores the padding);
             // a prime global size would force work-groups of one item.
-            const std::size_t global = (n + 255) / 256 * 256;
+            // With a fixed work-group size (local_size()), whole groups of it.
+            const std::size_t group = local_group();
+            const std::size_t global = (n + group - 1) / group * group;
             queue.enqueueNDRangeKernel(kernel, cl::NullRange, cl::NDRange(global),
-                                       cl::NullRange);
+                                       group == 256 ? cl::NullRange : cl::NDRange(group));
             if (accum_double) {
                 queue.enqueueReadBuffer(out_mean, CL_TRUE, 0, n * sizeof(double), mean.data());
                 queue.enqueueReadBuffer(out_m2, CL_TRUE, 0, n * sizeof(double), m2.data());
@@ -153,19 +227,53 @@ public:
     }
 
 private:
-    cl::Kernel& kernel_for(const ModelInfo& model) {
-        auto it = kernels_.find(model.name);
-        if (it != kernels_.end()) return it->second;
-        const std::string source =
-            estimate_kernel_source(model.kernel_header, model.sample_function, kernel_dir_);
+    // Work-group size: a fixed 64 (or BRDFTAB_LOCAL_SIZE, a divisor of 256
+    // below 256, for experiments; 0 or 256 = the driver's choice, on a global
+    // size padded to a multiple of 256 as before).  Fixed, because PoCL compiles
+    // a kernel again for every new work-group size, and with the driver's
+    // choice that size follows the global size, which varies from launch to
+    // launch.  64 is a multiple of every SIMD width and lets PoCL vectorise
+    // the work-item loop (docs/benchmarks.md).
+    std::size_t local_group() const {
+        static const long chosen = [] {
+            const char* env = std::getenv("BRDFTAB_LOCAL_SIZE");
+            return env && *env ? std::atol(env) : 64L;
+        }();
+        if (chosen <= 0 || chosen >= 256 || 256 % chosen != 0 ||
+            static_cast<std::size_t>(chosen) > runtime_.device_info().max_work_group_size)
+            return 256;  // the driver's choice (PoCL: within a multiple of 256)
+        return static_cast<std::size_t>(chosen);
+    }
+
+    // The program of one (model, quantity, options, method): the model's
+    // generic source built with them as compile-time constants
+    // (kernels/common/estimator.h, "Specialisation").
+    cl::Kernel& kernel_for(const BatchLaunch& l) {
+        const ModelInfo& model = *l.model;
         std::string options = "-cl-std=CL1.2";
         options += runtime_.device_info().has_fp64 ? " -D BT_HAS_FP64=1" : " -D BT_HAS_FP64=0";
         if (precision_ == Precision::Float) options += " -D BT_REAL_IS_FLOAT=1";
-        cl::Program program = runtime_.build_program(source, options);
+        // BRDFTAB_KERNEL_OPTIONS: extra build options, for experiments
+        // (e.g. "-D BT_SAMPLE_BARRIER=0"); BRDFTAB_GENERIC_KERNELS=1 builds
+        // the one generic program per model that r4 used.
+        static const std::string extra = [] {
+            const char* env = std::getenv("BRDFTAB_KERNEL_OPTIONS");
+            return env && *env ? " " + std::string(env) : std::string();
+        }();
+        static const bool generic = [] {
+            const char* env = std::getenv("BRDFTAB_GENERIC_KERNELS");
+            return env && std::string(env) == "1";
+        }();
+        if (!generic) options += specialisation_options(l.quantity, l.options, l.method, l.stride);
+        options += extra;
+        const std::string key = model.name + "\n" + options;
+        auto it = kernels_.find(key);
+        if (it != kernels_.end()) return it->second;
+        const std::string source =
+            estimate_kernel_source(model.kernel_header, model.sample_function, kernel_dir_);
+        cl::Program program = cached_program(runtime_, source, options);
         try {
-            programs_.push_back(program);
-            return kernels_.emplace(model.name, cl::Kernel(program, kEstimateKernelName))
-                .first->second;
+            return kernels_.emplace(key, cl::Kernel(program, kEstimateKernelName)).first->second;
         } catch (const cl::Error& e) {
             throw OpenCLError(e.what(), e.err(), "entry point of model '" + model.name +
                                                      "' (kernels/" + model.kernel_header + ")");
@@ -175,7 +283,6 @@ private:
     ClRuntime runtime_;
     Precision precision_;
     std::string kernel_dir_;
-    std::vector<cl::Program> programs_;
     std::map<std::string, cl::Kernel> kernels_;
 };
 
@@ -241,6 +348,25 @@ std::unique_ptr<Backend> make_backend(const std::string& device_selector, Precis
         if (precision != Precision::Double)
             throw InputError("--device host computes in double only; drop --precision float");
         return std::make_unique<HostBackend>();
+    }
+    const std::string threaded = "host-threads";
+    if (device_selector.compare(0, threaded.size(), threaded) == 0) {
+        const std::string rest = device_selector.substr(threaded.size());
+        unsigned threads = std::max(1u, std::thread::hardware_concurrency());
+        if (!rest.empty()) {
+            const bool digits = rest.size() >= 2 && rest.size() <= 5 && rest[0] == ':' &&
+                                rest.find_first_not_of("0123456789", 1) == std::string::npos;
+            const long n = digits ? std::stol(rest.substr(1)) : 0;
+            if (n < 1 || n > 1024)
+                throw InputError("device '" + device_selector +
+                                 "' is not valid; use host-threads or host-threads:N with N in "
+                                 "[1, 1024]");
+            threads = static_cast<unsigned>(n);
+        }
+        if (precision != Precision::Double)
+            throw InputError("--device " + device_selector +
+                             " computes in double only; drop --precision float");
+        return std::make_unique<ThreadedHostBackend>(threads);
     }
     return std::make_unique<OpenCLBackend>(select_device(device_selector), precision,
                                            kernel_dir);
@@ -320,8 +446,31 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
     EstimateState state;
     std::vector<CellState>& cells = state.cells;
     cells.resize(cell_count);
-    const std::size_t slab = settings.slab_work_items ? settings.slab_work_items
-                                                       : backend.preferred_slab();
+    // Launch size.  A fixed --slab is kept as given.  Otherwise launches start
+    // small (256 work items) and grow (at most 4x per launch) towards
+    // kLaunchSeconds each, capped
+    // by the backend's preferred slab: progress is then reported every
+    // fraction of a second even when one work item runs thousands of samples,
+    // while closed forms still get launches large enough to amortise the
+    // launch overhead.  Results do not depend on the launch size.
+    // Sizes are whole multiples of kMinLaunch (four work groups of 64), so
+    // that the groups of a launch spread evenly over 2 or 4 cores: with odd
+    // group counts one core idles at the end of every launch (measured: 5 %
+    // of the throughput with 0.4 s launches of ~585 work items).
+    constexpr double kLaunchSeconds = 0.5;
+    constexpr std::size_t kMinLaunch = 256, kFirstLaunch = 256;
+    const bool fixed_slab = settings.slab_work_items != 0;
+    const std::size_t max_slab =
+        std::max<std::size_t>(1, fixed_slab ? settings.slab_work_items : backend.preferred_slab());
+    std::size_t slab = fixed_slab ? max_slab : std::min(max_slab, kFirstLaunch);
+    auto resize_slab = [&](std::size_t items, double seconds) {
+        if (fixed_slab || items < slab) return;  // a short tail launch says little
+        double ideal = seconds > 0 ? kLaunchSeconds * static_cast<double>(items) / seconds
+                                   : static_cast<double>(max_slab);
+        ideal = std::clamp(ideal, static_cast<double>(slab) / 4, static_cast<double>(slab) * 4);
+        const std::size_t rounded = static_cast<std::size_t>(ideal) / kMinLaunch * kMinLaunch;
+        slab = std::clamp(rounded, std::min(kMinLaunch, max_slab), max_slab);
+    };
     std::vector<double> slab_mean, slab_m2;
     std::vector<double> point(launch.stride);
 
@@ -382,7 +531,9 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
                 ++batch_cursor;
                 advance_to_work();
             }
+            const double launch_start = elapsed();
             backend.run(launch, slab_mean, slab_m2);
+            resize_slab(launch.cells.size(), elapsed() - launch_start);
             for (std::size_t w = 0; w < launch.cells.size(); ++w)
                 merge_batch(cells[launch.cells[w]], slab_mean[w], slab_m2[w], batch_size);
             work_done += launch.cells.size();

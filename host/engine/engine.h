@@ -83,8 +83,10 @@ public:
     virtual std::size_t preferred_slab() const = 0;
 };
 
-// "host" selects the serial C++ reference; anything else selects an OpenCL
-// device (index or name substring; empty = $BRDFTAB_DEVICE or first CPU).
+// "host" selects the serial C++ reference; "host-threads" the same code on one
+// std::thread per core ("host-threads:N": N threads), bit-identical to "host";
+// anything else selects an OpenCL device (index or name substring; empty =
+// $BRDFTAB_DEVICE or first CPU).
 std::unique_ptr<Backend> make_backend(const std::string& device_selector,
                                       Precision precision,
                                       const std::string& kernel_dir = "");

@@ -219,6 +219,16 @@ std::string estimate_kernel_source(const std::string& kernel_header,
     return source;
 }
 
+std::string specialisation_options(int quantity, const std::vector<int>& options,
+                                   unsigned method, std::size_t stride) {
+    std::string list;
+    for (int o : options) list += (list.empty() ? "" : ",") + std::to_string(o);
+    if (list.empty()) list = "0";  // an array initialiser needs one element
+    return " -D BT_SPEC_QUANTITY=" + std::to_string(quantity) +
+           " -D BT_SPEC_METHOD=" + std::to_string(method) + " -D BT_SPEC_OPTIONS=" + list +
+           " -D BT_SPEC_STRIDE=" + std::to_string(stride);
+}
+
 std::string load_kernel_source(const std::string& relative_path, const std::string& kernel_dir) {
     SourceStore store(kernel_dir);
     if (store.from_disk() && !is_directory(kernel_dir))

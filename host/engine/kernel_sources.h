@@ -26,6 +26,13 @@ std::string load_kernel_source(const std::string& relative_path,
 std::string estimate_kernel_source(const std::string& kernel_header,
                                    const std::string& sample_function,
                                    const std::string& kernel_dir = "");
+// The -D definitions that specialise the program of estimate_kernel_source()
+// to one quantity, option set, method (BT_METHOD_*) and point stride
+// (kernels/common/estimator.h, "Specialisation"), with a leading space:
+// " -D BT_SPEC_QUANTITY=2 -D BT_SPEC_METHOD=1 -D BT_SPEC_OPTIONS=0,1 -D BT_SPEC_STRIDE=6".
+std::string specialisation_options(int quantity, const std::vector<int>& options,
+                                   unsigned method, std::size_t stride);
+
 // Adds kernel files (path relative to kernels/ -> text) to the embedded set,
 // for models compiled outside kernels/ (the test-only toy model: see
 // docs/adding-a-model.md).  Existing paths are kept.  Returns true, so that a

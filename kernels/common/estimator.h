@@ -25,6 +25,41 @@
 #define BRDFTAB_ESTIMATOR_H
 
 #include "compat.h"
+
+/* The sample-loop barrier (see "The sample loop's synchronisation point"
+ * below) is only for loops of several samples: a one-sample loop (closed
+ * forms: BT_METHOD_CLOSED = 2, quadrature: BT_METHOD_QUADRATURE = 3, see
+ * sampler.h) has nothing to vectorise inside it, and PoCL crashed on one such
+ * kernel with the barrier and forced inlining. */
+#if defined(BT_SPEC_METHOD) && defined(BT_SAMPLE_BARRIER)
+#if BT_SAMPLE_BARRIER && (BT_SPEC_METHOD == 2 || BT_SPEC_METHOD == 3)
+#undef BT_SAMPLE_BARRIER
+#define BT_SAMPLE_BARRIER 0
+#endif
+#endif
+
+#if !defined(BT_SAMPLE_BARRIER)
+#define BT_SAMPLE_BARRIER 0
+#endif
+#if !defined(BT_FORCE_INLINE)
+#define BT_FORCE_INLINE BT_SAMPLE_BARRIER
+#endif
+#if BT_DEVICE && BT_FORCE_INLINE && !defined(BT_NO_FORCE_INLINE)
+/* With the sample-loop barrier (below), or with -D BT_FORCE_INLINE=1, force
+ * inlining of every shared function into the kernel.  PoCL's inliner otherwise keeps larger helpers
+ * (bt_uniform, the microfacet G1, ...) as calls, and a call in the sample
+ * loop stops the vectoriser from running the work items of a group as SIMD
+ * lanes.  Measured with bench/bench_estimator_loop on a trigonometry-free
+ * sample function: Philox sampling 7.5 M -> 43 M samples per CPU-second, and
+ * only with both the barrier and the inlining (docs/benchmarks.md).
+ * Inlining changes no arithmetic (-D BT_NO_FORCE_INLINE: not forced, for
+ * that comparison).  Redefined here, before sampler.h and the
+ * model header define their functions, because the estimator is the first
+ * file of every device program; it belongs in compat.h. */
+#undef BT_INLINE
+#define BT_INLINE static inline __attribute__((always_inline))
+#endif
+
 #include "sampler.h"
 
 #define BT_MAX_POINT 16
@@ -39,6 +74,74 @@
     } while (0)
 
 #if BT_DEVICE
+/* Specialisation.  The engine builds one program per (model, quantity,
+ * options, method) it runs, passing them as compile-time constants:
+ *     -D BT_SPEC_QUANTITY=<id> -D BT_SPEC_METHOD=<BT_METHOD_*>
+ *     -D BT_SPEC_OPTIONS=<o0>,<o1>,...  -D BT_SPEC_STRIDE=<point stride>
+ * so every branch of the model on them folds away at compile time and PoCL
+ * sees one straight path for all work items.  The runtime arguments stay in
+ * the signature (ignored then), so generic and specialised programs are
+ * launched alike.  The arithmetic of a work item is the same either way:
+ * constants replace loads, nothing is reordered, so results are bit-identical. */
+#if defined(BT_SPEC_QUANTITY)
+#define BT_KERNEL_QUANTITY_(runtime) (BT_SPEC_QUANTITY)
+#else
+#define BT_KERNEL_QUANTITY_(runtime) (runtime)
+#endif
+#if defined(BT_SPEC_METHOD)
+#define BT_KERNEL_METHOD_(runtime) (BT_SPEC_METHOD)
+/* Closed forms and quadrature always run one-sample batches (engine.cpp):
+ * a constant trip count removes the loop. */
+#if BT_SPEC_METHOD == BT_METHOD_CLOSED || BT_SPEC_METHOD == BT_METHOD_QUADRATURE
+#define BT_KERNEL_BATCH_SIZE_(runtime) (1u)
+#endif
+#else
+#define BT_KERNEL_METHOD_(runtime) (runtime)
+#endif
+#if !defined(BT_KERNEL_BATCH_SIZE_)
+#define BT_KERNEL_BATCH_SIZE_(runtime) (runtime)
+#endif
+#if defined(BT_SPEC_STRIDE)
+#define BT_KERNEL_STRIDE_(runtime) ((uint)(BT_SPEC_STRIDE))
+#else
+#define BT_KERNEL_STRIDE_(runtime) (runtime)
+#endif
+#if defined(BT_SPEC_OPTIONS)
+#define BT_KERNEL_LOAD_OPTIONS_(o, options, n_options)                         \
+    const int o[BT_MAX_OPTIONS] = {BT_SPEC_OPTIONS};
+#else
+#define BT_KERNEL_LOAD_OPTIONS_(o, options, n_options)                         \
+    int o[BT_MAX_OPTIONS];                                                     \
+    for (uint k = 0; k < BT_MAX_OPTIONS; ++k)                                  \
+        o[k] = k < n_options ? options[k] : 0;
+#endif
+/* The sample loop's synchronisation point (off by default; the engine
+ * passes -D BT_SAMPLE_BARRIER=1 only where asked to, see docs/devices.md).
+ * PoCL runs the work items of a work group as a loop around the kernel body;
+ * a barrier inside the sample loop (whose trip count is the same for every
+ * work item) makes PoCL put that work-item loop *inside* the sample loop,
+ * where its loop vectoriser can turn it into SIMD lanes — provided the loop
+ * body has no calls left (hence the forced inlining above).  It never changes
+ * a work item's arithmetic.  Measured in docs/benchmarks.md: a large gain on
+ * a call-free body, none on today's models (whose bodies still call PoCL's
+ * scalar sin/cos/acos), and one model crashed PoCL's work-group function with
+ * it (all work items' private state is kept across the barrier), so it is
+ * not the default. */
+#if !defined(BT_SAMPLE_BARRIER)
+#define BT_SAMPLE_BARRIER 0
+#endif
+#if BT_SAMPLE_BARRIER
+#define BT_KERNEL_SAMPLE_SYNC_() barrier(CLK_LOCAL_MEM_FENCE)
+/* Every work item of a group must reach the same barriers: items past
+ * n_work (the launch is padded to whole work groups) run the loop too, on a
+ * copy of item 0's inputs, and store nothing. */
+#define BT_KERNEL_PADDING_EXIT_(gid, n_work) ((void)0)
+#else
+#define BT_KERNEL_SAMPLE_SYNC_() ((void)0)
+#define BT_KERNEL_PADDING_EXIT_(gid, n_work)                                   \
+    if ((gid) >= (n_work)) return
+#endif
+
 #define BT_DEFINE_ESTIMATE_KERNEL(kernel_name, sample_fn)                      \
     __kernel void kernel_name(                                                 \
         __global const REAL* points, uint stride, __global const int* options, \
@@ -47,28 +150,32 @@
         uint n_work, uint batch_size, __global ACCUM* out_mean,                \
         __global ACCUM* out_m2)                                                \
     {                                                                          \
-        uint w = (uint)get_global_id(0);                                       \
-        if (w >= n_work) return;                                               \
+        const uint gid = (uint)get_global_id(0);                               \
+        BT_KERNEL_PADDING_EXIT_(gid, n_work);                                  \
+        const uint w = gid < n_work ? gid : 0u;                                \
+        const uint stride_ = BT_KERNEL_STRIDE_(stride);                        \
         REAL p[BT_MAX_POINT];                                                  \
-        int o[BT_MAX_OPTIONS];                                                 \
         for (uint k = 0; k < BT_MAX_POINT; ++k)                                \
-            p[k] = k < stride ? points[(size_t)w * stride + k] : R(0.0);       \
-        for (uint k = 0; k < BT_MAX_OPTIONS; ++k)                              \
-            o[k] = k < n_options ? options[k] : 0;                             \
+            p[k] = k < stride_ ? points[(size_t)w * stride_ + k] : R(0.0);     \
+        BT_KERNEL_LOAD_OPTIONS_(o, options, n_options)                         \
         bt_sampler s;                                                          \
         s.key0 = key0;                                                         \
         s.key1 = key1;                                                         \
         s.cell = work_cell[w];                                                 \
         s.batch = work_batch[w];                                               \
-        s.method = method;                                                     \
+        s.method = BT_KERNEL_METHOD_(method);                                  \
+        const uint batch_size_ = BT_KERNEL_BATCH_SIZE_(batch_size);            \
         ACCUM mean = 0, m2 = 0;                                                \
-        for (uint k = 0; k < batch_size; ++k) {                                \
+        for (uint k = 0; k < batch_size_; ++k) {                               \
             s.sample = k;                                                      \
-            ACCUM x = (ACCUM)sample_fn(p, o, quantity, &s);                    \
+            ACCUM x = (ACCUM)sample_fn(p, o, BT_KERNEL_QUANTITY_(quantity), &s); \
             BT_WELFORD_ADD(mean, m2, x, k + 1);                                \
+            BT_KERNEL_SAMPLE_SYNC_();                                          \
         }                                                                      \
-        out_mean[w] = mean;                                                    \
-        out_m2[w] = m2;                                                        \
+        if (gid < n_work) {                                                    \
+            out_mean[gid] = mean;                                              \
+            out_m2[gid] = m2;                                                  \
+        }                                                                      \
     }
 #else
 typedef REAL (*bt_sample_fn)(const REAL* point, const int* options,

@@ -1,0 +1,295 @@
+// bench.cpp — the engine benchmark behind `brdftab bench` (bench.h).
+#include "host/engine/bench.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <map>
+#include <thread>
+#include <time.h>
+
+#include "host/core/error.h"
+#include "host/engine/opencl_runtime.h"
+
+namespace brdftab {
+
+std::vector<BenchCase> default_bench_cases() {
+    // flops_estimate of rough-dielectric bsdf: counted by hand in
+    // kernels/models/rough_dielectric.h for a reflection pair (two
+    // directions from angles, half vector, GGX D, two Smith G1, dielectric
+    // Fresnel, the eq. 20 quotient): about 110 additions/multiplications
+    // plus 4 sin/cos, 3 sqrt and 6 divisions, each of those counted as 10.
+    // An estimate, only to put the achieved rate next to the peak.
+    std::vector<BenchCase> cases;
+    cases.push_back({"rough-dielectric", "bsdf", false, 240, 179});
+    cases.push_back({"rough-dielectric", "albedo_r", false, 0, 89});
+    cases.push_back({"rough-dielectric", "albedo_t", false, 0, 89});
+    cases.push_back({"oren-nayar", "brdf", true, 0, 89});
+    cases.push_back({"interfaced-lambertian", "body", false, 0, 89});
+    cases.push_back({"interfaced-lambertian", "vcavity", false, 0, 89});
+    cases.push_back({"hfunction", "H", true, 0, 89});
+    cases.push_back({"lambert-sphere", "brdf_mc", false, 0, 89});
+    cases.push_back({"micrograin", "g_dist", false, 0, 89});
+    cases.push_back({"micrograin", "brdf", false, 0, 89});
+    return cases;
+}
+
+namespace {
+
+// The k-th of `count` points: the quantity's directions spread by an
+// additive recurrence (fractional parts of k * irrational), everything else
+// at its default.  Quantities without directions spread their first
+// parameter over its range (hfunction's mu over [0, 1]).
+std::vector<double> bench_points(const ModelInfo& model, const QuantityInfo& q,
+                                 const BenchCase& c, std::size_t count) {
+    PointBuilder builder(model, q);
+    const std::size_t stride = model.point_stride();
+    std::vector<double> points(count * stride);
+    auto has = [&](const char* d) {
+        return std::find(q.directions.begin(), q.directions.end(), d) != q.directions.end();
+    };
+    for (std::size_t k = 0; k < count; ++k) {
+        auto frac = [&](double g) {
+            const double x = static_cast<double>(k + 1) * g;
+            return x - std::floor(x);
+        };
+        std::map<std::string, double> values;
+        if (has("theta_i")) values["theta_i"] = 89.0 * frac(0.7548776662466927);
+        if (has("theta_o")) values["theta_o"] = c.theta_o_max * frac(0.5698402909980532);
+        if (has("phi_o")) values["phi_d"] = 360.0 * frac(0.6180339887498949) - 180.0;
+        if (q.directions.empty() && !model.parameters.empty()) {
+            const ParameterInfo& p = model.parameters.front();
+            const double lo = p.min, hi = std::min(p.max, p.min + 1.0);
+            values[p.name] = lo + (hi - lo) * (0.02 + 0.96 * frac(0.7548776662466927));
+        }
+        for (const ParameterInfo& p : model.parameters)
+            if (!values.count(p.name) && !p.default_value)
+                values[p.name] = 0.5 * (p.min + std::min(p.max, p.min + 2.0));
+        builder.build(values, &points[k * stride]);
+    }
+    return points;
+}
+
+struct Workload {
+    const ModelInfo* model = nullptr;
+    const QuantityInfo* quantity = nullptr;
+    std::vector<int> options;
+    IntegrationSettings settings;
+    std::vector<double> points;  // pilot-sized or final
+};
+
+double process_cpu_seconds() {
+    timespec t{};
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+    return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
+}
+
+// Seconds of one estimate() over the first `cells` points; sets the work done.
+double time_run(Backend& backend, const Workload& w, std::size_t cells,
+                std::uint64_t& evaluations) {
+    const std::size_t stride = w.model->point_stride();
+    auto point_of = [&](std::size_t cell, double* out) {
+        std::copy_n(&w.points[cell * stride], stride, out);
+    };
+    const auto t0 = std::chrono::steady_clock::now();
+    EstimateResult r =
+        estimate(backend, *w.model, *w.quantity, w.options, cells, point_of, w.settings);
+    const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    evaluations = r.total_samples;
+    return s;
+}
+
+double median(std::vector<double> v) {
+    if (v.empty()) return 0;
+    std::sort(v.begin(), v.end());
+    const std::size_t n = v.size();
+    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+BackendTiming measure_backend(Backend& backend, const Workload& w, std::size_t cells,
+                              bool per_cell, unsigned repeats, std::uint64_t& evaluations) {
+    BackendTiming t;
+    t.backend = backend.device_name();
+    std::uint64_t evals = 0;
+    // Warm-up: builds the kernel (and PoCL's work-group specialisation).
+    time_run(backend, w, std::min<std::size_t>(cells, 256), evals);
+    std::vector<double> seconds, cpu_rates;
+    for (unsigned r = 0; r < std::max(1u, repeats); ++r) {
+        const double cpu0 = process_cpu_seconds();
+        const double s = time_run(backend, w, cells, evals);
+        const double cpu = process_cpu_seconds() - cpu0;
+        seconds.push_back(s);
+        const double work = per_cell ? static_cast<double>(cells) : static_cast<double>(evals);
+        t.all_rates.push_back(s > 0 ? work / s : 0);
+        cpu_rates.push_back(cpu > 0 ? work / cpu : 0);
+    }
+    evaluations = evals;
+    t.seconds = median(seconds);
+    t.rate = median(t.all_rates);
+    t.rate_per_cpu_second = median(cpu_rates);
+    return t;
+}
+
+}  // namespace
+
+BenchReport run_bench(Backend& device, const BenchSettings& in, const BenchStartFn& on_start) {
+    BenchSettings settings = in;
+    std::vector<BenchCase> cases;
+    for (const BenchCase& c : default_bench_cases()) {
+        if (!settings.model_filter.empty() && c.model != settings.model_filter) continue;
+        if (!settings.quantity_filter.empty() && c.quantity != settings.quantity_filter) continue;
+        cases.push_back(c);
+    }
+    if (cases.empty()) {
+        std::string list;
+        for (const BenchCase& c : default_bench_cases())
+            list += (list.empty() ? "" : ", ") + c.model + " " + c.quantity;
+        throw InputError("bench: no case matches --model '" + settings.model_filter +
+                         "' --quantity '" + settings.quantity_filter + "'; cases: " + list);
+    }
+
+    auto host = make_backend("host", Precision::Double);
+    auto threads = make_backend("host-threads", Precision::Double);
+    BenchReport report;
+    report.device_name = device.device_name();
+    report.precision = precision_name(device.precision());
+    report.host_threads = std::max(1u, std::thread::hardware_concurrency());
+
+    for (const BenchCase& c : cases) {
+        if (on_start) on_start(c);
+        Workload w;
+        w.model = &find_model(c.model);
+        w.quantity = &w.model->quantity(c.quantity);
+        w.options = resolve_options(*w.model, nlohmann::json::object(), "");
+        const Method method = resolve_method(*w.quantity, Method::Auto);
+        w.settings.method = method;
+        w.settings.samples = settings.samples;
+        const bool integral = method == Method::MonteCarlo || method == Method::Rqmc;
+
+        // Pilot on the serial host: how many cells take host_seconds there.
+        std::size_t cells = integral ? 16 : 256;
+        std::uint64_t evals = 0;
+        w.points = bench_points(*w.model, *w.quantity, c, cells);
+        time_run(*host, w, std::min<std::size_t>(cells, 8), evals);  // first-call costs
+        double s = time_run(*host, w, cells, evals);
+        while (s < 0.05 && cells < (1u << 24)) {
+            cells *= 4;
+            w.points = bench_points(*w.model, *w.quantity, c, cells);
+            s = time_run(*host, w, cells, evals);
+        }
+        const double scale = settings.host_seconds / std::max(s, 1e-6);
+        cells = std::clamp<std::size_t>(static_cast<std::size_t>(cells * scale), 64, 1u << 24);
+        // A device needs many work items to fill its cores (an MC cell is one
+        // work item per batch): an expensive integral trades samples per cell
+        // for cells, down to 64 samples, to get at least 512 cells.
+        while (integral && cells < 512 && w.settings.samples >= 128) {
+            w.settings.samples /= 2;
+            cells *= 2;
+        }
+        w.points = bench_points(*w.model, *w.quantity, c, cells);
+
+        BenchCaseResult r;
+        r.spec = c;
+        r.method = to_string(method);
+        r.unit = c.per_cell ? "cells/s" : "evals/s";
+        r.cells = cells;
+        r.samples_per_cell = integral ? w.settings.samples : 1;
+        r.device = measure_backend(device, w, cells, c.per_cell, settings.repeats, evals);
+        r.evaluations = evals;
+        r.host = measure_backend(*host, w, cells, c.per_cell, settings.repeats, evals);
+        r.host_threads = measure_backend(*threads, w, cells, c.per_cell, settings.repeats, evals);
+        auto ratio = [](double a, double b) { return b > 0 ? a / b : 0.0; };
+        r.device_over_host = ratio(r.device.rate, r.host.rate);
+        r.device_over_threads = ratio(r.device.rate, r.host_threads.rate);
+        r.threads_over_host = ratio(r.host_threads.rate, r.host.rate);
+        if (c.flops_estimate > 0 && !c.per_cell)
+            r.device_gflops = r.device.rate * c.flops_estimate / 1e9;
+        report.cases.push_back(std::move(r));
+    }
+    return report;
+}
+
+PeakFma measure_peak_fma(const std::string& device_selector, double target_seconds) {
+    const DeviceInfo info = select_device(device_selector);
+    if (!info.has_fp64)
+        throw Error("device '" + info.name + "' has no double precision (cl_khr_fp64)");
+    ClRuntime runtime(info);
+    // Twelve independent chains of double8 FMAs per work item: enough
+    // independent work to cover the FMA latency on every unit; the result is
+    // stored so that nothing is optimised away.
+    const std::string source = R"CLC(
+#pragma OPENCL EXTENSION cl_khr_fp64 : enable
+__kernel void bt_peak_fma(__global double* out, uint iterations)
+{
+    const double8 x = (double8)((double)get_global_id(0) * 1e-9);
+    const double8 b = (double8)(0.9999999), c = (double8)(1e-9);
+    double8 a0 = x + 0.1, a1 = x + 0.2, a2 = x + 0.3, a3 = x + 0.4, a4 = x + 0.5, a5 = x + 0.6;
+    double8 a6 = x + 0.7, a7 = x + 0.8, a8 = x + 0.9, a9 = x + 1.0, a10 = x + 1.1, a11 = x + 1.2;
+    for (uint k = 0; k < iterations; ++k) {
+        a0 = fma(a0, b, c); a1 = fma(a1, b, c); a2 = fma(a2, b, c); a3 = fma(a3, b, c);
+        a4 = fma(a4, b, c); a5 = fma(a5, b, c); a6 = fma(a6, b, c); a7 = fma(a7, b, c);
+        a8 = fma(a8, b, c); a9 = fma(a9, b, c); a10 = fma(a10, b, c); a11 = fma(a11, b, c);
+    }
+    double8 s = ((a0 + a1) + (a2 + a3)) + ((a4 + a5) + (a6 + a7)) + ((a8 + a9) + (a10 + a11));
+    out[get_global_id(0)] = s.s0 + s.s1 + s.s2 + s.s3 + s.s4 + s.s5 + s.s6 + s.s7;
+}
+)CLC";
+    constexpr std::uint64_t kChains = 12, kLanes = 8;
+    try {
+        cl::Program program = runtime.build_program(source, "-cl-std=CL1.2");
+        cl::Kernel kernel(program, "bt_peak_fma");
+        const std::size_t global =
+            std::max<std::size_t>(64, static_cast<std::size_t>(info.compute_units) * 64);
+        cl::Buffer out(runtime.context(), CL_MEM_WRITE_ONLY, global * sizeof(double));
+        kernel.setArg(0, out);
+        auto run = [&](cl_uint iterations) {
+            kernel.setArg(1, iterations);
+            const auto t0 = std::chrono::steady_clock::now();
+            runtime.queue().enqueueNDRangeKernel(kernel, cl::NullRange, cl::NDRange(global),
+                                                 cl::NullRange);
+            runtime.queue().finish();
+            return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        };
+        run(16);  // warm-up (build, work-group specialisation)
+        cl_uint iterations = 1024;
+        double s = run(iterations);
+        while (s < 0.05 && iterations < (1u << 28)) {
+            iterations *= 4;
+            s = run(iterations);
+        }
+        const double want = std::max(0.05, target_seconds);
+        iterations = static_cast<cl_uint>(std::clamp(iterations * want / std::max(s, 1e-6), 1.0,
+                                                     static_cast<double>(1u << 30)));
+        std::vector<double> times;
+        for (int r = 0; r < 3; ++r) times.push_back(run(iterations));
+        PeakFma p;
+        p.seconds = *std::min_element(times.begin(), times.end());
+        p.flops = static_cast<std::uint64_t>(global) * iterations * kChains * kLanes * 2;
+        p.gflops = static_cast<double>(p.flops) / p.seconds / 1e9;
+        return p;
+    } catch (const cl::Error& e) {
+        throw OpenCLError(e.what(), e.err(), "while measuring the peak FMA rate");
+    }
+}
+
+BenchTargets evaluate_targets(const BenchReport& report) {
+    BenchTargets t;
+    std::vector<double> dh, dt;
+    for (const BenchCaseResult& r : report.cases) {
+        dh.push_back(r.device_over_host);
+        dt.push_back(r.device_over_threads);
+        if (r.spec.model == "rough-dielectric" && r.spec.quantity == "bsdf")
+            t.bsdf_rate = r.device.rate;
+    }
+    if (dh.empty()) return t;
+    t.min_device_over_host = *std::min_element(dh.begin(), dh.end());
+    t.median_device_over_host = median(dh);
+    t.min_device_over_threads = *std::min_element(dt.begin(), dt.end());
+    t.device_over_host_each = t.min_device_over_host >= 3.5;
+    t.device_over_host_median = t.median_device_over_host >= 4.0;
+    t.device_over_threads_each = t.min_device_over_threads >= 1.7;
+    t.bsdf_rate_met = t.bsdf_rate >= 30e6;
+    return t;
+}
+
+}  // namespace brdftab

@@ -1,0 +1,110 @@
+// bench.h — throughput of the engine's backends on every model's main
+// quantities (`brdftab bench`), and the peak double FMA rate of an OpenCL
+// device.  The library measures and returns structs; the CLI prints.
+//
+// Each case is run, with the same points and the same samples, on the OpenCL
+// device, the serial host path (--device host) and the threaded host path
+// (--device host-threads).  Points are spread over the quantity's directions
+// (low-discrepancy, fixed) with the model's default parameters.  A case's size
+// is chosen from a short pilot run on the serial host so that the serial host
+// takes about `host_seconds`; every backend then evaluates that same work
+// `repeats` times and the median rate is reported.  Timings include the
+// engine's own work (points, merging), not kernel builds (a warm-up run
+// builds them first).
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "host/engine/engine.h"
+
+namespace brdftab {
+
+struct BenchCase {
+    std::string model, quantity;
+    // Closed forms and integrals report evaluations of the integrand per
+    // second; quadratures report cells per second (one cell = the accurate
+    // and the coarse rule).
+    bool per_cell = false;
+    // Arithmetic operations of one evaluation, counted by hand from the
+    // kernel source (an estimate; 0 = not counted).  Gives the achieved
+    // GFLOP-equivalent next to the measured peak.
+    double flops_estimate = 0;
+    // theta_o range in degrees: 90 (upper hemisphere) or 180 (both sides).
+    double theta_o_max = 89;
+};
+
+// The cases `brdftab bench` runs, in order (issue #12's list).
+std::vector<BenchCase> default_bench_cases();
+
+struct BenchSettings {
+    bool quick = false;           // shorter runs, one repeat
+    double host_seconds = 1.0;    // target serial-host time per case (quick: 0.15)
+    unsigned repeats = 3;         // timed runs per backend (quick: 1); median reported
+    std::uint64_t samples = 1024; // samples per cell for integrals (quick: 256)
+    std::string model_filter, quantity_filter;  // empty = all
+};
+
+struct BackendTiming {
+    std::string backend;      // device name
+    double rate = 0;          // evaluations/s (cells/s for quadratures), median
+    double seconds = 0;       // median wall time of one run
+    // Work per CPU-second of the whole process (all threads, PoCL's
+    // included), median: the efficiency figure that survives a busy machine.
+    double rate_per_cpu_second = 0;
+    std::vector<double> all_rates;  // every repeat
+};
+
+struct BenchCaseResult {
+    BenchCase spec;
+    std::string method;        // method name (registry vocabulary)
+    std::string unit;          // "evals/s" or "cells/s"
+    std::size_t cells = 0;
+    std::uint64_t samples_per_cell = 0;
+    std::uint64_t evaluations = 0;  // per run
+    BackendTiming device, host, host_threads;
+    double device_over_host = 0, device_over_threads = 0, threads_over_host = 0;
+    double device_gflops = 0;  // with flops_estimate; 0 when not counted
+};
+
+struct PeakFma {
+    double gflops = 0;   // double FMA, 2 flops each
+    double seconds = 0;
+    std::uint64_t flops = 0;
+};
+
+struct BenchReport {
+    std::string device_name, precision;
+    unsigned host_threads = 0;
+    PeakFma peak;
+    std::vector<BenchCaseResult> cases;
+};
+
+// Called before each case starts (for a progress line); may be empty.
+using BenchStartFn = std::function<void(const BenchCase&)>;
+
+// Runs the cases selected by the filters (InputError when the filters select
+// none or name an unknown model/quantity).  `device` is the OpenCL backend
+// (any backend works; its name is reported).
+BenchReport run_bench(Backend& device, const BenchSettings& settings,
+                      const BenchStartFn& on_start = nullptr);
+
+// The peak double FMA rate of an OpenCL device: a kernel of independent
+// double8 FMA chains.  Throws Error when the device has no fp64.
+PeakFma measure_peak_fma(const std::string& device_selector, double target_seconds);
+
+// Targets of issue #12 for one report (medians over the cases).
+struct BenchTargets {
+    double min_device_over_host = 0, median_device_over_host = 0;
+    double min_device_over_threads = 0;
+    double bsdf_rate = 0;  // rough-dielectric bsdf on the device, evals/s
+    bool device_over_host_each = false;   // >= 3.5x for every case
+    bool device_over_host_median = false; // median >= 4x
+    bool device_over_threads_each = false;  // >= 1.7x for every case
+    bool bsdf_rate_met = false;           // >= 30 M evals/s
+};
+BenchTargets evaluate_targets(const BenchReport& report);
+
+}  // namespace brdftab
