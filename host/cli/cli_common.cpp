@@ -242,4 +242,23 @@ CLI::Validator number_in(double min, bool min_inclusive, double max, const std::
         "NUMBER");
 }
 
+GenerateProgressFn TableProgress::callback() {
+    return [this](const GenerateEvent& e) {
+        if (quiet_) return;
+        if (e.table_index != current_) {
+            if (printer_) printer_->finish();
+            current_ = e.table_index;
+            printer_ = std::make_unique<ProgressPrinter>(
+                "[" + prefix_ + std::to_string(e.table_index + 1) + "/" +
+                std::to_string(e.table_count) + "] " + e.table->name);
+        }
+        (*printer_)(e.progress);
+    };
+}
+
+void TableProgress::finish() {
+    if (printer_) printer_->finish();
+    printer_.reset();
+}
+
 }  // namespace brdftab::cli

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "host/engine/engine.h"
+#include "host/generate/generate.h"
 #include "host/io/point_file.h"
 #include "host/models/registry.h"
 
@@ -56,6 +57,23 @@ private:
     double interval_;
     bool printed_ = false;
     double last_fraction_ = -1;
+};
+
+// The progress display of generate_tables() and friends: one ProgressPrinter
+// per table, labelled "[<prefix>k/n] <table>"; nothing when `quiet`.  The
+// callback refers to this object, which must outlive the run.
+class TableProgress {
+public:
+    explicit TableProgress(bool quiet, std::string prefix = "")
+        : quiet_(quiet), prefix_(std::move(prefix)) {}
+    GenerateProgressFn callback();
+    void finish();  // ends the last table's display
+
+private:
+    bool quiet_;
+    std::string prefix_;
+    std::unique_ptr<ProgressPrinter> printer_;
+    std::size_t current_ = static_cast<std::size_t>(-1);
 };
 
 // Split "name=value"; throws InputError naming the argument.  Numbers are

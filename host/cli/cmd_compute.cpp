@@ -338,23 +338,6 @@ bool parse_layout(const std::string& text, std::size_t& chunk_cells, int& ranks)
     return true;
 }
 
-// The progress display of rank 0 (or of the one process).
-GenerateProgressFn progress_display(const GenerateArgs& st,
-                                    std::unique_ptr<ProgressPrinter>& printer,
-                                    std::size_t& current) {
-    return [&st, &printer, &current](const GenerateEvent& e) {
-        if (st.quiet) return;
-        if (e.table_index != current) {
-            if (printer) printer->finish();
-            current = e.table_index;
-            printer = std::make_unique<ProgressPrinter>(
-                "[" + std::to_string(e.table_index + 1) + "/" + std::to_string(e.table_count) +
-                "] " + e.table->name);
-        }
-        (*printer)(e.progress);
-    };
-}
-
 void finish_output(const GenerateSetup& g, Checkpoint* checkpoint) {
     std::cout << "wrote " << g.out_path << "\n";
     if (checkpoint) {
@@ -382,12 +365,10 @@ void run_generate(const GenerateArgs& st) {
         if (checkpoint->layout().empty())
             checkpoint->record_layout(layout_text(options.chunk_cells, options.ranks));
     }
-    std::unique_ptr<ProgressPrinter> printer;
-    std::size_t current = static_cast<std::size_t>(-1);
-    std::vector<GeneratedTable> tables =
-        generate_to_file(g.spec, *g.backend, g.settings, g.out_path,
-                         progress_display(st, printer, current), options);
-    if (printer) printer->finish();
+    TableProgress progress(st.quiet);
+    std::vector<GeneratedTable> tables = generate_to_file(g.spec, *g.backend, g.settings,
+                                                          g.out_path, progress.callback(), options);
+    progress.finish();
     finish_output(g, checkpoint.get());
     print_summary(tables);
 }
@@ -502,12 +483,10 @@ void run_generate_mpi(const GenerateArgs& st) {
             options.checkpoint = checkpoint.get();
             options.sharing = &sharing;
             options.temporary_created = remove_temporaries_on_termination;
-            std::unique_ptr<ProgressPrinter> printer;
-            std::size_t current = static_cast<std::size_t>(-1);
-            std::vector<GeneratedTable> tables =
-                generate_to_file(g.spec, *g.backend, g.settings, g.out_path,
-                                 progress_display(st, printer, current), options);
-            if (printer) printer->finish();
+            TableProgress progress(st.quiet);
+            std::vector<GeneratedTable> tables = generate_to_file(
+                g.spec, *g.backend, g.settings, g.out_path, progress.callback(), options);
+            progress.finish();
             finish_output(g, checkpoint.get());
             print_summary(tables);
             print_cells_per_rank(sharing.cells_per_process());

@@ -201,23 +201,12 @@ void register_scene(CLI::App& app) {
                   << backend->device_name() << "\n";
         std::vector<TableData> data;
         for (std::size_t k = 0; k < specs.size(); ++k) {
-            std::unique_ptr<ProgressPrinter> printer;
-            std::size_t current = static_cast<std::size_t>(-1);
-            auto on_progress = [&](const GenerateEvent& e) {
-                if (st.quiet) return;
-                if (e.table_index != current) {
-                    if (printer) printer->finish();
-                    current = e.table_index;
-                    printer = std::make_unique<ProgressPrinter>(
-                        "[" + plan.sets[k].id + " " + std::to_string(e.table_index + 1) + "/" +
-                        std::to_string(e.table_count) + "] " + e.table->name);
-                }
-                (*printer)(e.progress);
-            };
+            TableProgress progress(st.quiet, plan.sets[k].id + " ");
             const IntegrationSettings settings_k = st.compute.apply(specs[k].integration);
-            for (GeneratedTable& t : generate_tables(specs[k], *backend, settings_k, on_progress))
+            for (GeneratedTable& t :
+                 generate_tables(specs[k], *backend, settings_k, progress.callback()))
                 data.push_back(std::move(t.data));
-            if (printer) printer->finish();
+            progress.finish();
         }
         write_tables(out_path, data);
         write_text_atomically(manifest_path,

@@ -8,24 +8,13 @@
 
 #include "host/core/error.h"
 #include "host/core/text.h"
+#include "host/core/splitmix.h"
 #include "host/engine/evaluate.h"
 
 namespace brdftab {
 
 namespace {
 
-// splitmix64: a tiny, fully specified generator so the validation points
-// depend only on the seed, on every platform and standard library.
-struct SplitMix {
-    std::uint64_t s;
-    std::uint64_t next() {
-        std::uint64_t z = (s += 0x9E3779B97F4A7C15ull);
-        z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-        z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-        return z ^ (z >> 31);
-    }
-    double uniform() { return (next() >> 11) * (1.0 / 9007199254740992.0); }  // [0, 1)
-};
 
 nlohmann::json stats_json(const ErrorStats& s) {
     return {{"max", s.max}, {"rms", s.rms}, {"p50", s.p50}, {"p95", s.p95}, {"p99", s.p99}};

@@ -12,6 +12,7 @@
 
 #include "host/core/error.h"
 #include "host/core/text.h"
+#include "host/core/splitmix.h"
 #include "host/engine/evaluate.h"
 #include "host/generate/validate.h"
 #include "host/models/registry.h"
@@ -20,17 +21,6 @@ namespace brdftab {
 
 namespace {
 
-// splitmix64: the pilot's random lines and cells depend only on the seed.
-struct SplitMix {
-    std::uint64_t s;
-    std::uint64_t next() {
-        std::uint64_t z = (s += 0x9E3779B97F4A7C15ull);
-        z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-        z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-        return z ^ (z >> 31);
-    }
-    std::size_t below(std::size_t n) { return static_cast<std::size_t>(next() % n); }
-};
 
 constexpr std::size_t kMinCount = 4, kMaxCount = 65536;
 constexpr double kMaxCells = 4294967295.0;  // the kernels' 32-bit cell index
