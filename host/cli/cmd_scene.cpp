@@ -126,11 +126,13 @@ void register_scene(CLI::App& app) {
             }
         }
         std::vector<Spec> specs;
+        std::vector<double> set_cells;
         double cells = 0;
         for (const SceneTableSet& set : plan.sets) {
             specs.push_back(parse_spec_string(set.spec_text, "<scene table set " + set.id + ">"));
             specs.back().file = st.scene;
-            cells += estimate_resources(specs.back(), specs.back().integration).cells;
+            set_cells.push_back(estimate_resources(specs.back(), specs.back().integration).cells);
+            cells += set_cells.back();
         }
         const std::string out_path =
             !st.output.empty() ? st.output : fs::path(st.scene).stem().string() + ".tables.h5";
@@ -151,7 +153,7 @@ void register_scene(CLI::App& app) {
         for (std::size_t k = 0; k < plan.sets.size(); ++k) {
             const SceneTableSet& set = plan.sets[k];
             std::cout << "  " << set.id << " " << set.model << " " << set.purpose << " ("
-                      << cells_text(estimate_resources(specs[k], specs[k].integration).cells)
+                      << cells_text(set_cells[k])
                       << "): ";
             for (std::size_t i = 0; i < set.materials.size(); ++i)
                 std::cout << (i ? ", " : "") << set.materials[i];

@@ -92,12 +92,10 @@ public:
         }
         file_ = path;
         legacy_ = legacy;
-        int index = 0;
         std::map<std::string, int> counts;
         for (pugi::xml_node child : scene.children()) {
             const std::string tag = child.name();
             const std::string path_here = "scene/" + tag + "[" + std::to_string(counts[tag]++) + "]";
-            ++index;
             if (tag == "bsdf") {
                 const std::string id = child.attribute("id").as_string();
                 std::size_t first = read_bsdf(child, path_here, id, false, "");

@@ -49,7 +49,6 @@ struct TableTemplate {
     const char* quantity;
     std::vector<std::pair<const char*, const char*>> options;  // extra per-table options
     std::vector<AxisTemplate> axes;  // angular axes; parameter axes are appended
-    bool parameter_axes = true;      // false: a per-material constant (no axes)
 };
 
 struct SetTemplate {
@@ -187,22 +186,11 @@ std::string spec_text(const SceneTableSet& set, const MappedMaterial& m, const S
     for (const auto& [n, v] : t.fixed_parameters)
         if (!m.parameters.count(n)) s << n << " = " << v << "\n";
     for (const auto& [n, v] : m.options) s << n << " = \"" << v << "\"\n";
-    auto parameter_axes = [&](std::ostringstream& o) {
-        for (const auto& [n, r] : m.parameter_ranges) {
-            const bool log = r.first > 0 && r.second / r.first > 4;
-            o << "[[tables.axes]]\nname = \"" << n << "\"\nrange = [" << num(r.first) << ", "
-              << num(r.second) << "]\ncount = 8\n";
-            if (log) o << "spacing = \"log\"\n";
-        }
-    };
     for (const TableTemplate& tt : t.tables) {
-        if (tt.axes.empty() && !tt.parameter_axes) continue;
-        if (tt.axes.empty() && m.parameter_ranges.empty()) {
-            // A table with no axis at all is one number: kept as a 2-node
-            // table over a parameter would misstate it, so left out; the
-            // directional tables carry the information.
-            continue;
-        }
+        // Without texture-driven axes a table with no angular axis (the
+        // average albedo at fixed parameters) would hold one number: it is
+        // left out, and the directional tables carry the information.
+        if (tt.axes.empty() && m.parameter_ranges.empty()) continue;
         const std::string name = set.id + "_" + tt.suffix;
         tables.push_back(name);
         s << "\n[[tables]]\nname = \"" << name << "\"\nquantity = \"" << tt.quantity << "\"\n";
@@ -213,9 +201,11 @@ std::string spec_text(const SceneTableSet& set, const MappedMaterial& m, const S
         for (const AxisTemplate& a : tt.axes)
             s << "[[tables.axes]]\nname = \"" << a.name << "\"\nrange = [" << num(a.lo) << ", "
               << num(a.hi) << "]\ncount = " << a.count << "\n";
-        std::ostringstream pa;
-        parameter_axes(pa);
-        s << pa.str();
+        for (const auto& [n, r] : m.parameter_ranges) {
+            s << "[[tables.axes]]\nname = \"" << n << "\"\nrange = [" << num(r.first) << ", "
+              << num(r.second) << "]\ncount = 8\n";
+            if (r.first > 0 && r.second / r.first > 4) s << "spacing = \"log\"\n";
+        }
     }
     if (!t.recombined.empty()) {
         std::string rec = t.recombined;
