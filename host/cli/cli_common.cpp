@@ -121,7 +121,8 @@ void ProgressPrinter::operator()(const Progress& p) {
     last_ = now;
     last_fraction_ = p.fraction;
     const double rate = p.elapsed_seconds > 0 ? p.samples_done / p.elapsed_seconds : 0;
-    const double eta = p.fraction > 0 ? p.elapsed_seconds * (1 - p.fraction) / p.fraction : 0;
+    // Before any cell is done there is nothing to extrapolate from: no ETA yet.
+    const double eta = p.fraction > 0 ? p.elapsed_seconds * (1 - p.fraction) / p.fraction : -1;
     std::ostringstream line;
     line << label_ << " ";
     if (tty_) {
@@ -133,7 +134,7 @@ void ProgressPrinter::operator()(const Progress& p) {
     std::snprintf(pct, sizeof pct, "%5.1f%%", 100 * p.fraction);
     line << pct << "  cells " << p.cells_done << "/" << p.cells_total << "  "
          << format_count(rate) << " samples/s  elapsed " << format_seconds(p.elapsed_seconds);
-    if (!final) line << "  ETA " << format_seconds(eta);
+    if (!final) line << "  ETA " << (eta >= 0 ? format_seconds(eta) : std::string("unknown"));
     if (tty_)
         std::cerr << "\r" << line.str() << "\033[K" << std::flush;
     else
