@@ -72,8 +72,8 @@ struct CertifyOptions {
     std::size_t local_probe_cap = 65536, integral_local_probe_cap = 4096;
     // Integrals: the reference runs under a tolerance so that its standard
     // error is at most reference_noise_fraction x E (relative measure: of
-    // max(|value|, floor)), with at least 2^12 and at most reference_max_samples
-    // samples per probe.
+    // max(|value|, floor)), with at most reference_max_samples samples per
+    // probe (the engine's adaptive rule, engine.h).
     double reference_noise_fraction = 0.2;
     std::uint64_t reference_max_samples = std::uint64_t{1} << 20;
     std::uint64_t seed = 1;
