@@ -678,7 +678,8 @@ void register_generate(CLI::App& app) {
     cmd->add_option("--accuracy", state->accuracy,
                     "certified generation: plan the spec for a max total error <= E (what a "
                     "renderer sees between nodes: interpolation + integration + storage; relative "
-                    "with --abs-floor, absolute with --abs), generate it, measure the error with "
+                    "to max(|value|, --abs-floor F), F by default 1e-3 x the largest |value|; "
+                    "absolute with --abs), generate it, measure the error with "
                     "off-grid probes, refine until the certificate passes (docs/planning.md, "
                     "\"Certified generation\"). Exit code 1 when the final certificate misses E "
                     "(the file is written, certificate_passed = 0)");

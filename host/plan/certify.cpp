@@ -489,8 +489,9 @@ CertifiedResult certified_generate(const Spec& spec, Backend& backend, const Cer
                        plan.stored_type != previous->stored_type;
             if (!changed) {
                 // Only the integration can have failed: more samples.
-                if (plan.samples) plan.samples *= 4;
-                else {
+                if (plan.samples && plan.samples < kMaxSampleCount) {
+                    plan.samples = std::min<std::uint64_t>(plan.samples * 4, kMaxSampleCount);
+                } else {
                     result.stop = "no-plan";
                     say("refine", round, "no refinement left that the error model says would help");
                     break;
