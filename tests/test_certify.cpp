@@ -260,3 +260,29 @@ TEST_CASE("the loop: a failing first round is refined into a passing one") {
     CHECK(c0->max_error > 1e-2);
     std::filesystem::remove_all(std::filesystem::path(path).parent_path());
 }
+
+TEST_CASE("integrals: node probes measure the integration noise alone, the reference is quiet") {
+    // At a node the interpolation error is zero: the difference is the
+    // table's own noise plus the reference's (independent seeds) plus
+    // rounding (float64 here: none), so it stays within a few combined
+    // standard errors.
+    auto backend = make_backend("", Precision::Double);
+    const Spec spec = parse_spec_file(data_path("rough_dielectric_albedo.toml"));
+    const TableData t = generate_and_read(spec, *backend, temp_path("albedo.h5"));
+    REQUIRE(!t.stderr_.empty());
+    double table_se = 0;
+    for (double s : t.stderr_) table_se = std::max(table_se, s);
+    CertifyOptions o;
+    o.target = 1e-2;
+    o.absolute = true;
+    const Certificate c = certify_table(t, *backend, o);
+    MESSAGE("albedo_r 5x3: max " << c.max_error << ", node max " << c.node_max << ", table stderr max "
+                                 << table_se << ", reference noise " << c.reference_noise);
+    CHECK(c.node_probes == 64);
+    CHECK(c.reference_method != "closed-form");
+    CHECK(c.reference_noise > 0);
+    CHECK(c.reference_noise <= 0.2 * o.target * 1.001);
+    CHECK(c.node_max <= 5 * std::hypot(table_se, c.reference_noise));
+    CHECK(c.max_error >= c.node_max);
+    std::filesystem::remove_all(std::filesystem::path(temp_path("albedo.h5")).parent_path());
+}
