@@ -412,7 +412,7 @@ TEST_CASE("recombined tables: shared counts, and the bound at the worst p") {
     CHECK(shared_counts(g, {{5, 30, 7}, {9, 4, 7}}) == std::vector<std::size_t>{9, 30, 7});
 
     std::vector<TablePilot> pilots(2);
-    for (TablePilot& p : pilots) p.signed_min = 0.1, p.signed_max = 1;
+    for (TablePilot& p : pilots) p.signed_min = 0.1, p.signed_max = 1, p.max_value = 1, p.rel_floor = 1e-3;
     TablePlan t1, t2;
     t1.counts = t2.counts = {9, 30, 7};
     t1.cells = t2.cells = 9 * 30 * 7;
@@ -433,6 +433,10 @@ TEST_CASE("recombined tables: shared counts, and the bound at the worst p") {
     // Relative, nonnegative terms and coefficients: the largest term error.
     PlanTarget relative;
     CHECK(predict_recombined(g, pilots, {t1, t2}, relative).error_max == doctest::Approx(5e-3));
+    // A floor above every value (albedos, floor 1): relative = absolute / floor, summed.
+    std::vector<TablePilot> floored = pilots;
+    for (TablePilot& p : floored) p.rel_floor = 1;
+    CHECK(predict_recombined(g, floored, {t1, t2}, relative).error_max == doctest::Approx(8e-3));
     // A term of mixed sign can cancel the other: no relative bound.
     pilots[1].signed_min = -0.2;
     CHECK(std::isinf(predict_recombined(g, pilots, {t1, t2}, relative).error_max));

@@ -720,16 +720,21 @@ TablePlan predict_recombined(const RecombinedGroup& group, const std::vector<Tab
     tp.table = group.name;
     if (!term_plans.empty()) tp.counts = term_plans.front().counts, tp.cells = term_plans.front().cells;
     constexpr int kSteps = 128;
-    bool nonnegative = true;
-    for (std::size_t k = 0; k < group.terms.size(); ++k)
-        nonnegative = nonnegative && pilots[group.terms[k]].signed_min >= 0;
+    bool nonnegative = true, floor_bound = true;
+    for (std::size_t k = 0; k < group.terms.size(); ++k) {
+        const TablePilot& p = pilots[group.terms[k]];
+        nonnegative = nonnegative && p.signed_min >= 0;
+        // A floor at or above every value (e.g. albedos with floor 1): the
+        // relative errors are absolute errors / floor, and add like them.
+        floor_bound = floor_bound && p.rel_floor >= p.max_value;
+    }
     for (int s = 0; s <= kSteps; ++s) {
         const double p = group.lo + (group.hi - group.lo) * double(s) / kSteps;
         TablePlan at;
         for (std::size_t k = 0; k < group.terms.size() && k < term_plans.size(); ++k) {
             const double c = polynomial_at(group.coeffs[k], p);
             const TablePlan& t = term_plans[k];
-            if (target.absolute) {
+            if (target.absolute || (floor_bound && c >= 0)) {
                 at.interpolation_max += std::fabs(c) * t.interpolation_max;
                 at.interpolation_rms += std::fabs(c) * t.interpolation_rms;
                 at.integration_max += std::fabs(c) * t.integration_max;
@@ -948,6 +953,7 @@ nlohmann::json candidate_json(const Candidate& c, const std::vector<TablePilot>&
         nlohmann::json counts = nlohmann::json::object();
         for (std::size_t a = 0; a < t.counts.size() && i < pilots.size(); ++a)
             counts[pilots[i].axes[a].name] = t.counts[a];
+        if (i >= pilots.size()) counts = t.counts;  // a recombined table: its terms' shared counts, in axis order
         tables.push_back({{"table", t.table}, {"counts", counts}, {"cells", t.cells},
                           {"predicted_error", {{"max", t.error_max}, {"rms", t.error_rms},
                                                {"interpolation_max", t.interpolation_max},

@@ -279,7 +279,10 @@ std::vector<std::size_t> shared_counts(const RecombinedGroup& group,
 //   relative:  when every c_t(p) >= 0 and every term >= 0 (the pilots' signed
 //              values), R >= c_t T_t for each t, so
 //              |dR| / R <= sum_t c_t e_t T_t / sum_t c_t T_t <= max_t e_t:
-//              the largest term error, whatever p.  Terms or coefficients of
+//              the largest term error, whatever p (values above the floor);
+//              when the floor is at or above every term's values (albedos
+//              with floor 1) the relative errors are absolute ones over one
+//              floor and add as above.  Terms or coefficients of
 //              mixed sign can cancel: no relative bound (infinite error,
 //              the candidate is dropped; plan with --abs).
 // Time is the terms' (the recombination itself is free); cells those of one term.

@@ -105,11 +105,19 @@ struct SceneTableSet {
     std::string main_table;  // the table a renderer binds a material to
     std::vector<std::string> tables;    // every table name it writes
     std::vector<std::string> materials; // names of the materials it serves
+    // Other tables a renderer binds, by role (manifest `tables`): e.g.
+    // "bsdf_transmission" for the rough-dielectric BSDF's transmission table.
+    std::map<std::string, std::string> roles;
     // Set by plan_table_set(): whether the planner chose the node counts and
     // samples (else the template's are kept, and plan_note says why), and
     // its predictions for the whole set.
     bool planned = false;
     double predicted_error = 0, predicted_seconds = 0;
+    std::map<std::string, double> table_predicted_error;  // per planned table (and recombined table)
+    // The planner's cost model for this set: engine seconds per cell at the
+    // planned samples (startup and per-run overhead excluded) and those
+    // fixed seconds; used to predict what the presets would cost.
+    double seconds_per_cell = 0, fixed_seconds = 0;
     std::string plan_note;
 };
 

@@ -57,6 +57,7 @@ struct SetTemplate {
     std::string recombined;       // TOML of [[recombined]] blocks (with {P} for the prefix)
     std::string integration;      // TOML [integration] body (with {TOL} and {FLOOR})
     std::map<std::string, std::string> fixed_parameters;  // extra fixed parameters (TOML values)
+    std::map<std::string, std::string> roles;  // manifest role -> table suffix, besides the main one
 };
 
 const AxisTemplate kThetaI85{"theta_i", 0, 85, 18}, kThetaO85{"theta_o", 0, 85, 18};
@@ -68,10 +69,19 @@ SetTemplate set_template(const std::string& model, const std::string& purpose) {
         "max_samples = 1048576\nseed = {SEED}\n";
     if (model == "rough-dielectric") {
         if (purpose == "bsdf") {
-            // Closed form: 2-degree steps cost nothing.
-            t.tables = {{"bsdf", "bsdf", {}, {{"theta_i", 0, 90, 46}, {"theta_o", 0, 180, 91},
-                                              {"phi_d", 0, 180, 37}}}};
-            t.main = "bsdf";
+            // Closed form: 2-degree steps cost nothing.  Reflection and
+            // transmission in two tables, each away from the horizon: in one
+            // `bsdf` table over theta_o 0-180 the jump between f_r and f_t at
+            // theta_o = 90 kept the relative interpolation error near 1 at any
+            // node count, and the node theta_i = theta_o = 90 held the
+            // grazing forward-scattering divergence of f_r (~1/cos theta under
+            // Smith masking: 2.5e9 1/sr at alpha = 0.32), which set the
+            // relative floor (1e-3 of the largest value) to 2.5e6 1/sr.
+            const AxisTemplate ti{"theta_i", 0, 88, 45}, pd{"phi_d", 0, 180, 37};
+            t.tables = {{"bsdf_reflection", "brdf", {}, {ti, {"theta_o", 0, 88, 45}, pd}},
+                        {"bsdf_transmission", "btdf", {}, {ti, {"theta_o", 92, 180, 45}, pd}}};
+            t.main = "bsdf_reflection";
+            t.roles = {{"bsdf_transmission", "bsdf_transmission"}};
             return t;
         }
         t.tables = {
@@ -300,6 +310,7 @@ ScenePlan plan_scene_tables(const std::vector<SceneMaterial>& materials,
         const SetTemplate t = set_template(set.model, set.purpose);
         set.spec_text = spec_text(set, *first, t, settings, set.tables);
         set.main_table = set.id + "_" + t.main;
+        for (const auto& [role, suffix] : t.roles) set.roles[role] = set.id + "_" + suffix;
     }
     return plan;
 }
@@ -327,8 +338,10 @@ nlohmann::json scene_manifest(const ScenePlan& plan, const std::string& scene_fi
         nlohmann::json tables = nlohmann::json::object();
         for (const SceneTableSet& set : plan.sets)
             if (std::find(set.materials.begin(), set.materials.end(), m.source.name) !=
-                set.materials.end())
+                set.materials.end()) {
                 tables[set.purpose] = set.main_table;
+                for (const auto& [role, name] : set.roles) tables[role] = name;
+            }
         // `table`: the BSDF table when there is one, else the albedo table.
         if (tables.contains("bsdf")) j["table"] = tables["bsdf"];
         else if (tables.contains("albedo")) j["table"] = tables["albedo"];
@@ -352,6 +365,7 @@ nlohmann::json scene_manifest(const ScenePlan& plan, const std::string& scene_fi
         if (set.planned) {
             j["predicted_error"] = set.predicted_error;
             j["predicted_seconds"] = set.predicted_seconds;
+            if (!set.table_predicted_error.empty()) j["table_predicted_error"] = set.table_predicted_error;
         }
         if (!set.plan_note.empty()) j["plan_note"] = set.plan_note;
         out["table_sets"].push_back(j);
