@@ -62,7 +62,9 @@ struct SetTemplate {
 
 const AxisTemplate kThetaI85{"theta_i", 0, 85, 18}, kThetaO85{"theta_o", 0, 85, 18};
 
-SetTemplate set_template(const std::string& model, const std::string& purpose) {
+// `anisotropic`: interfaced-lambertian with alpha_x / alpha_y (pbrt-v4
+// uroughness != vroughness): its tables need both azimuths.
+SetTemplate set_template(const std::string& model, const std::string& purpose, bool anisotropic) {
     SetTemplate t;
     const std::string estimated =
         "method = \"rqmc\"\nsamples = 1024\ntolerance = {TOL}\nabs_floor = {FLOOR}\n"
@@ -92,6 +94,23 @@ SetTemplate set_template(const std::string& model, const std::string& purpose) {
             {"albedo_avg", "albedo_avg", {{"lobe", "both"}, {"side", "outside"}}, {}},
             {"albedo_avg_inside", "albedo_avg", {{"lobe", "both"}, {"side", "inside"}}, {}}};
         t.main = "albedo_r";
+        t.integration = estimated;
+        return t;
+    }
+    if (model == "interfaced-lambertian" && anisotropic) {
+        // As tables/interfaced-lambertian-anisotropic.toml: the axis-aligned
+        // anisotropic D is even in x and in y, so phi_i in [0, 90] covers
+        // every incidence azimuth; phi_o over the full circle, from the x axis.
+        const AxisTemplate phi_i{"phi_i", 0, 90, 7};
+        if (purpose == "bsdf") {
+            t.tables = {{"body", "body", {}, {kThetaI85, phi_i, kThetaO85, {"phi_o", 0, 360, 25}}}};
+            t.main = "body";
+        } else {
+            t.tables = {{"albedo_body", "albedo_body", {}, {{"theta_i", 0, 89, 30}, phi_i}},
+                        {"albedo_specular", "albedo_specular", {}, {{"theta_i", 0, 89, 30}, phi_i}}};
+            t.fixed_parameters["kd"] = "1.0";
+            t.main = "albedo_body";
+        }
         t.integration = estimated;
         return t;
     }
@@ -307,7 +326,12 @@ ScenePlan plan_scene_tables(const std::vector<SceneMaterial>& materials,
         for (const MappedMaterial& m : plan.materials)
             if (m.source.name == set.materials.front() && m.status == MaterialStatus::Tabulated)
                 first = &m;
-        const SetTemplate t = set_template(set.model, set.purpose);
+        auto positive = [&](const char* n) {
+            auto it = first->parameters.find(n);
+            return it != first->parameters.end() && it->second > 0;
+        };
+        const SetTemplate t =
+            set_template(set.model, set.purpose, positive("alpha_x") || positive("alpha_y"));
         set.spec_text = spec_text(set, *first, t, settings, set.tables);
         set.main_table = set.id + "_" + t.main;
         for (const auto& [role, suffix] : t.roles) set.roles[role] = set.id + "_" + suffix;
