@@ -10,6 +10,7 @@
 #include <fstream>
 #include <iostream>
 #include <memory>
+#include <optional>
 #include <sstream>
 
 #include "host/core/atomic_file.h"
@@ -25,6 +26,7 @@
 #include "host/generate/distributed.h"
 #endif
 #include "host/io/point_file.h"
+#include "host/plan/certify.h"
 #include "host/spec/spec.h"
 #include "host/io/table_io.h"
 
@@ -231,6 +233,12 @@ struct GenerateArgs {
     bool resume = false;
     double checkpoint_interval = 60;
     std::size_t chunk_cells = 0;
+    // Certified generation (host/plan/certify.h, docs/planning.md).
+    std::optional<double> accuracy, budget;
+    bool absolute = false;
+    std::string interpolation;  // empty: linear (and not given)
+    std::optional<int> max_refinements;
+    bool certified() const { return accuracy || budget; }
 };
 
 void print_summary(const std::vector<GeneratedTable>& tables) {
@@ -243,8 +251,13 @@ void print_summary(const std::vector<GeneratedTable>& tables) {
         if (d.kind == TableKind::Computed &&
             (d.method == Method::MonteCarlo || d.method == Method::Rqmc ||
              d.method == Method::Quadrature))
+            // The per-cell maxima as they are, and the engine's stopping
+            // metric, max stderr / max(|value|, floor), named as what it is:
+            // with a floor the relative stderr can be far larger (issue 13).
             std::cout << ", " << format_count(static_cast<double>(d.total_samples))
-                      << " samples, max rel. stderr " << d.tolerance_achieved;
+                      << " samples, max stderr " << t.stderr_max_abs << " absolute, "
+                      << t.stderr_max_rel << " relative (tolerance metric stderr/max(|value|, floor) "
+                      << d.tolerance_achieved << ")";
         std::cout << ", values in [" << t.value_min << ", " << t.value_max << "], "
                   << format_seconds(d.elapsed_seconds) << "\n";
         if (t.cells_unconverged)
@@ -371,6 +384,133 @@ void run_generate(const GenerateArgs& st) {
     progress.finish();
     finish_output(g, checkpoint.get());
     print_summary(tables);
+}
+
+std::string sci_text(double v) {
+    if (!std::isfinite(v)) return v > 0 ? "inf" : "nan";
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.3g", v);
+    return buf;
+}
+
+// `generate SPEC --accuracy E | --budget T`: plan, generate (the streamed,
+// checkpointed path of run_generate), certify, refine (host/plan/certify.h).
+// The output is written under a temporary name and renamed over the target
+// only once the last round's certificates are stored in it.  A final
+// certificate that misses E still leaves a valid, certified-as-failed file
+// (certificate_passed = 0) and ends with exit code 1.
+void run_certified_generate(const GenerateArgs& st) {
+    PlanTarget target;
+    target.accuracy = st.accuracy;
+    target.budget = st.budget;
+    target.absolute = st.absolute;
+    target.interpolation = st.interpolation == "cubic" ? Interpolation::Cubic : Interpolation::Linear;
+    check_target(target);
+    const int max_refinements = st.max_refinements.value_or(2);
+    if (max_refinements < 0)
+        throw InputError("--max-refinements must be an integer >= 0, got " + std::to_string(max_refinements));
+    if (st.compute.samples_given || st.compute.tolerance_given || st.compute.max_samples_given ||
+        !st.compute.method.empty())
+        throw InputError("--samples, --tolerance, --max-samples and --method cannot be combined with "
+                         "--accuracy/--budget: the plan chooses the method and the samples");
+    if (st.compute.abs_floor == 0)
+        throw InputError("--abs-floor must be > 0 with --accuracy/--budget (omit it for the automatic floor)");
+    const Spec spec = parse_spec_file(st.spec_path);
+    const std::string out_path = st.output.empty() ? spec.output.path : st.output;
+    check_output_writable(out_path);
+    if (!spec.recombined.empty() || !spec.errors.empty() || !spec.inverted.empty())
+        throw InputError(st.spec_path + ": --accuracy/--budget do not handle [[recombined]], [[errors]] or "
+                         "[[inverted]] tables yet; generate a copy of the spec without them");
+    const std::uint64_t max_memory =
+        st.max_memory.empty() ? 0 : parse_byte_size(st.max_memory, "--max-memory");
+    auto backend = st.compute.make_backend();
+    std::cerr << "brdftab: " << spec.model << ", " << spec.tables.size() << " table(s) from "
+              << st.spec_path << " on " << backend->device_name() << " ("
+              << precision_name(backend->precision()) << "), certified: "
+              << (target.accuracy ? "max total " + std::string(target.absolute ? "absolute" : "relative") +
+                                        " error <= " + sci_text(*target.accuracy)
+                                  : "time budget " + sci_text(*target.budget) + " s")
+              << ", " << (st.interpolation.empty() ? "linear" : st.interpolation) << " interpolation\n";
+    std::cerr << "writing " << std::filesystem::absolute(out_path).lexically_normal().string() << "\n";
+
+    CertifiedGenerateOptions options;
+    options.target = target;
+    options.pilot.abs_floor = st.compute.abs_floor > 0 ? st.compute.abs_floor : 0;
+    options.max_refinements = max_refinements;
+    options.spec_label = st.spec_path;
+
+    AtomicOutput out(out_path);
+    std::vector<GeneratedTable> tables;
+    // One round's generation: exactly run_generate's path, into the
+    // temporary file; the checkpoint lives beside the final output and is
+    // removed when the round's file is complete.
+    const GenerateToFn generate = [&](const Spec& planned, const std::string& path, int round) {
+        const IntegrationSettings settings = st.compute.apply(planned.integration);
+        check_settings(settings);
+        check_resources(planned, settings, out_path, max_memory, st.chunk_cells);
+        std::unique_ptr<Checkpoint> checkpoint;
+        const CheckpointPresence presence = checkpoint_presence(out_path);
+        if (presence == CheckpointPresence::None || st.resume)
+            checkpoint = std::make_unique<Checkpoint>(
+                out_path, checkpoint_key(planned, settings, *backend, st.compute.kernel_dir),
+                st.resume && presence != CheckpointPresence::None, st.checkpoint_interval);
+        StreamOptions stream;
+        stream.chunk_cells = st.chunk_cells;
+        stream.checkpoint = checkpoint.get();
+        TableProgress progress(st.quiet, "round " + std::to_string(round) + ": ");
+        tables = generate_to_file(planned, *backend, settings, path, progress.callback(), stream);
+        progress.finish();
+        if (checkpoint) checkpoint->remove();
+    };
+    double last_shown = -1;
+    const CertifyProgressFn progress = [&](const CertifyEvent& e) {
+        if (st.quiet) return;
+        if (!e.message.empty()) {
+            std::cerr << "brdftab: " << e.message << "\n";
+            last_shown = -1;
+        } else if (e.progress.elapsed_seconds >= 2 && e.progress.elapsed_seconds - last_shown >= 5) {
+            last_shown = e.progress.elapsed_seconds;
+            std::cerr << "brdftab: " << e.stage << ": " << static_cast<int>(100 * e.progress.fraction) << "% "
+                      << format_seconds(e.progress.elapsed_seconds) << "\n";
+        }
+    };
+    const CertifiedResult result = certified_generate(spec, *backend, options, out.path(), generate, progress);
+    out.commit();
+    std::cout << "wrote " << out_path << "\n";
+    print_summary(tables);
+    const CertifiedRound& last = result.rounds.back();
+    for (const Certificate& c : last.certificates) {
+        std::cout << "  " << c.table << ": certificate " << (c.passed ? "passed" : "FAILED") << ": max "
+                  << (c.absolute ? "absolute" : "relative") << " total error " << sci_text(c.max_error)
+                  << " at (";
+        for (std::size_t a = 0; a < c.axis_names.size(); ++a)
+            std::cout << (a ? ", " : "") << c.axis_names[a] << " " << sci_text(c.max_at[a]);
+        std::cout << "), RMS " << sci_text(c.rms_error) << "; target " << sci_text(c.target)
+                  << (c.mode == "budget" ? " (the plan's prediction)" : "") << ", predicted "
+                  << sci_text(c.predicted_max) << "; " << c.probes << " probes, " << (c.interpolation == Interpolation::Cubic ? "cubic" : "linear")
+                  << " interpolation";
+        if (!c.absolute) std::cout << ", floor " << sci_text(c.abs_floor);
+        if (c.reference_noise > 0) std::cout << ", reference noise " << sci_text(c.reference_noise);
+        std::cout << "\n";
+    }
+    std::cout << "  certification: " << result.rounds.size() << " round(s) (" << (result.rounds.size() - 1)
+              << " refinement(s)), pilot " << format_seconds(result.pilot_seconds) << ", total "
+              << format_seconds(result.total_seconds) << "; ";
+    if (result.stop == "passed")
+        std::cout << "every certificate passed\n";
+    else if (result.stop == "budget")
+        std::cout << "a certificate missed the plan's prediction (--budget: no refinement)\n";
+    else if (result.stop == "max-refinements")
+        std::cout << "stopped after --max-refinements " << max_refinements << "\n";
+    else
+        std::cout << "stopped: no plan is predicted to reach the target with the corrected error model\n";
+    if (!result.passed && target.accuracy)
+        throw Error("the certificate missed --accuracy " + sci_text(*target.accuracy) + " (" +
+                    (result.stop == "max-refinements" ? "--max-refinements " + std::to_string(max_refinements) +
+                                                            " reached"
+                                                      : "no further refinement predicted to reach it") +
+                    "); " + out_path + " was written with certificate_passed = 0; raise --max-refinements, "
+                    "or relax --accuracy");
 }
 
 #ifdef BRDFTAB_MPI
@@ -535,8 +675,35 @@ void register_generate(CLI::App& app) {
                     "262144 cells, or about 8 chunks per rank under MPI; results do not "
                     "depend on it). See docs/cluster.md")
         ->check(number_in(0, true, 1e18, "cells >= 0 (0: automatic)"));
+    cmd->add_option("--accuracy", state->accuracy,
+                    "certified generation: plan the spec for a max total error <= E (what a "
+                    "renderer sees between nodes: interpolation + integration + storage; relative "
+                    "with --abs-floor, absolute with --abs), generate it, measure the error with "
+                    "off-grid probes, refine until the certificate passes (docs/planning.md, "
+                    "\"Certified generation\"). Exit code 1 when the final certificate misses E "
+                    "(the file is written, certificate_passed = 0)");
+    cmd->add_option("--budget", state->budget,
+                    "certified generation: the most accurate plan predicted to finish within "
+                    "SECONDS, then certified (no refinement)");
+    cmd->add_flag("--abs", state->absolute, "with --accuracy/--budget: absolute errors (default: relative)");
+    cmd->add_option("--interpolation", state->interpolation,
+                    "with --accuracy/--budget: the interpolation the tables will be read with: "
+                    "linear (default) or cubic (Catmull-Rom)")
+        ->check(CLI::IsMember({"linear", "cubic"}));
+    cmd->add_option("--max-refinements", state->max_refinements,
+                    "with --accuracy: refinement rounds after the first certificate (default 2; 0: "
+                    "certify only)");
     state->compute.add_to(*cmd);
     cmd->callback([state] {
+        if (state->certified()) {
+#ifdef BRDFTAB_MPI
+            if (MpiSession::launched())
+                throw InputError("--accuracy/--budget run in one process; not under mpirun");
+#endif
+            return run_certified_generate(*state);
+        }
+        if (state->absolute || !state->interpolation.empty() || state->max_refinements)
+            throw InputError("--abs, --interpolation and --max-refinements need --accuracy E or --budget SECONDS");
 #ifdef BRDFTAB_MPI
         if (MpiSession::launched()) return run_generate_mpi(*state);
 #endif

@@ -1,5 +1,6 @@
 // devices, models, info: commands that only describe things.
 #include <algorithm>
+#include <cmath>
 #include <iomanip>
 #include <iostream>
 #include <memory>
@@ -145,13 +146,21 @@ void print_table_summary(const TableData& t, bool verbose) {
     } else if (t.method == Method::Quadrature) {
         // A deterministic rule: no sample budget to report.
         std::cout << " (accurate and coarse rule; error estimate = their difference), "
-                     "achieved max rel. error "
+                     "tolerance metric difference/max(|value|, floor) "
                   << t.tolerance_achieved;
     } else if (t.method != Method::ClosedForm) {
         std::cout << ", samples/cell requested " << t.samples_requested;
         if (t.tolerance_requested > 0) std::cout << ", tolerance " << t.tolerance_requested;
-        std::cout << ", achieved max rel. stderr " << t.tolerance_achieved << ", total samples "
-                  << t.total_samples;
+        if (t.stderr_.size() == t.value.size() && !t.stderr_.empty()) {
+            double se_abs = 0, se_rel = 0;
+            for (std::size_t k = 0; k < t.value.size(); ++k) {
+                se_abs = std::max(se_abs, t.stderr_[k]);
+                if (t.value[k] != 0) se_rel = std::max(se_rel, t.stderr_[k] / std::fabs(t.value[k]));
+            }
+            std::cout << ", max stderr " << se_abs << " absolute, " << se_rel << " relative";
+        }
+        std::cout << ", tolerance metric stderr/max(|value|, floor) " << t.tolerance_achieved
+                  << ", total samples " << t.total_samples;
     }
     std::cout << "\n    computed on " << t.device << " (" << t.precision << ") in "
               << format_seconds(t.elapsed_seconds) << ", seed " << t.seed << ", brdftab "

@@ -303,6 +303,9 @@ std::vector<GeneratedTable> generate_into(const Spec& spec, Backend& backend,
             tb.hi = std::max(tb.hi, v);
         }
         if (c.first == 0 && !r.value.empty() && r.value[0] != r.value[0]) tb.first_nan = true;
+        if (r.stderr_.size() == r.value.size())
+            fold_stderr_max(r.value.data(), r.stderr_.data(), r.value.size(), tb.g.stderr_max_abs,
+                            tb.g.stderr_max_rel);
         if (tb.cells_done == tb.cells) {
             writer.finish_table(tb.handle, d);
             tb.finished = true;

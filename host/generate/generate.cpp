@@ -202,10 +202,23 @@ void fold_value_range(const double* value, std::size_t n, bool& first, double& l
     for (std::size_t k = 0; k < n; ++k) lo = std::min(lo, value[k]), hi = std::max(hi, value[k]);
 }
 
+void fold_stderr_max(const double* value, const double* stderr_, std::size_t n, double& max_abs,
+                     double& max_rel) {
+    for (std::size_t k = 0; k < n; ++k) {
+        const double se = std::fabs(stderr_[k]);
+        if (!(se == se)) continue;
+        max_abs = std::max(max_abs, se);
+        if (value[k] != 0 && value[k] == value[k]) max_rel = std::max(max_rel, se / std::fabs(value[k]));
+    }
+}
+
 void set_value_range(GeneratedTable& g) {
     bool first = true;
     g.value_min = g.value_max = 0;
     fold_value_range(g.data.value.data(), g.data.value.size(), first, g.value_min, g.value_max);
+    if (g.data.stderr_.size() == g.data.value.size())
+        fold_stderr_max(g.data.value.data(), g.data.stderr_.data(), g.data.value.size(),
+                        g.stderr_max_abs, g.stderr_max_rel);
 }
 
 namespace generate_detail {

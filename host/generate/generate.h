@@ -45,7 +45,13 @@ struct GeneratedTable {
     // first cell is one), set by set_value_range: a streamed table
     // (host/generate/chunked.h) no longer holds its values.
     double value_min = 0, value_max = 0;
+    // Largest per-cell standard error (the quadrature's difference), absolute
+    // and relative to |value| (cells with value 0 left out), for the summary.
+    double stderr_max_abs = 0, stderr_max_rel = 0;
 };
+// The same fold for standard errors (stderr_max_abs/_rel of GeneratedTable).
+void fold_stderr_max(const double* value, const double* stderr_, std::size_t n, double& max_abs,
+                     double& max_rel);
 
 // value_min/value_max of `g` from g.data.value.
 void set_value_range(GeneratedTable& g);

@@ -1,0 +1,564 @@
+// certify.cpp — certificates of written tables and the plan -> generate ->
+// certify -> refine loop (certify.h, docs/planning.md "Certified generation").
+#include "host/plan/certify.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <map>
+
+#include "host/core/error.h"
+#include "host/core/splitmix.h"
+#include "host/core/text.h"
+#include "host/engine/evaluate.h"
+#include "host/io/hdf5_attributes.h"
+#include "host/io/hdf5_handles.h"
+#include "host/io/table_io.h"
+#include "host/models/registry.h"
+
+namespace brdftab {
+
+namespace {
+
+double wall_seconds() {
+    using clock = std::chrono::steady_clock;
+    return std::chrono::duration<double>(clock::now().time_since_epoch()).count();
+}
+
+const char* interpolation_name(Interpolation i) { return i == Interpolation::Cubic ? "cubic" : "linear"; }
+
+void check_certify_options(const CertifyOptions& o) {
+    if (!(o.target > 0) || !std::isfinite(o.target))
+        throw InputError("certificate target must be a finite number > 0, got " + number_text(o.target, 6));
+    if (o.abs_floor < 0 || !std::isfinite(o.abs_floor))
+        throw InputError("--abs-floor must be a finite number >= 0, got " + number_text(o.abs_floor, 6));
+    if (!(o.rel_floor_factor > 0 && o.rel_floor_factor < 1))
+        throw InputError("the relative-error floor factor must be in (0, 1)");
+    if (!(o.reference_noise_fraction > 0 && o.reference_noise_fraction < 1))
+        throw InputError("the reference noise fraction must be in (0, 1)");
+    if (o.reference_max_samples < 1 || o.reference_max_samples > kMaxSampleCount)
+        throw InputError("reference_max_samples out of range; allowed: " + sample_count_range_text());
+}
+
+// The x of a point a fraction s into interval j of an axis: uniform in the
+// warped coordinate t (an explicit axis: linear between its nodes, as the
+// planner probes it).
+double interval_point(const Axis& axis, std::size_t j, double s) {
+    if (axis.spacing == Spacing::Explicit)
+        return axis.values[j] + s * (axis.values[j + 1] - axis.values[j]);
+    const double t = (double(j) + s) / double(axis.count - 1);
+    return std::clamp(axis.warp(t), axis.min, axis.max);
+}
+
+enum class ProbeKind { Line, Random, Node };
+
+}  // namespace
+
+Certificate certify_table(const TableData& stored, Backend& backend, const CertifyOptions& options,
+                          const ProgressFn& progress) {
+    const double start = wall_seconds();
+    check_certify_options(options);
+    if (stored.kind != TableKind::Computed)
+        throw InputError("table '" + stored.name + "' is " + method_attribute(stored) +
+                         ": only computed tables (a model quantity of their own) can be certified");
+    const ModelInfo& model = find_model(stored.model);
+    const QuantityInfo& q = model.quantity(stored.quantity);
+    const std::string where = "table '" + stored.name + "' parameters";
+    const LookupTable table(without_recombination(stored));
+    const TableData& t = table.table();
+    const std::size_t dims = t.axes.size();
+
+    // Fixed model inputs from the table's attributes (as validate reads them):
+    // keys the model does not know describe the storage, not the model.
+    std::map<std::string, double> fixed;
+    nlohmann::json option_values = nlohmann::json::object();
+    if (t.parameters.is_object())
+        for (auto it = t.parameters.begin(); it != t.parameters.end(); ++it) {
+            if (it.value().is_number() && (model.find_parameter(it.key()) || is_direction_coordinate(it.key())))
+                fixed[it.key()] = it.value().get<double>();
+            else if (it.value().is_string() && model.find_option(it.key()))
+                option_values[it.key()] = it.value();
+        }
+    const std::vector<int> model_options = resolve_options(model, option_values, where);
+    const bool integral = q.kind != QuantityKind::ClosedForm;
+
+    // ---- the probes
+    SplitMix rng{options.seed * 0x9E3779B97F4A7C15ull + t.seed + 0xCE27};
+    std::vector<std::map<std::string, double>> named;
+    std::vector<std::vector<double>> coords;
+    std::vector<ProbeKind> kind;
+    std::vector<std::size_t> line_axis;  // the axis a line probe runs along
+    auto add = [&](std::vector<double> c, ProbeKind k, std::size_t axis) {
+        std::map<std::string, double> p = fixed;
+        for (std::size_t a = 0; a < dims; ++a) p[t.axes[a].name] = c[a];
+        named.push_back(std::move(p));
+        coords.push_back(std::move(c));
+        kind.push_back(k);
+        line_axis.push_back(axis);
+    };
+    const std::size_t nl = integral ? options.integral_lines : options.lines;
+    for (std::size_t a = 0; a < dims && nl > 0; ++a) {
+        // Lines along a: along every other axis the nl lines take nodes spread
+        // evenly from the first to the last (the edges always among them), in
+        // a random order per axis (the planner's design, plan.cpp).
+        std::vector<std::vector<double>> lines(nl, std::vector<double>(dims, 0.0));
+        for (std::size_t b = 0; b < dims; ++b) {
+            if (b == a) continue;
+            const Axis& other = t.axes[b];
+            std::vector<std::size_t> idx(nl);
+            for (std::size_t l = 0; l < nl; ++l)
+                idx[l] = nl == 1 ? rng.below(other.count)
+                                 : static_cast<std::size_t>(
+                                       std::lround(double(l) * double(other.count - 1) / double(nl - 1)));
+            for (std::size_t l = nl; l > 1; --l) std::swap(idx[l - 1], idx[rng.below(l)]);
+            for (std::size_t l = 0; l < nl; ++l) lines[l][b] = other.values[idx[l]];
+        }
+        const Axis& axis = t.axes[a];
+        for (const auto& line : lines)
+            for (std::size_t j = 0; j + 1 < axis.count; ++j)
+                for (double s : kProbeFractions) {
+                    std::vector<double> c = line;
+                    c[a] = interval_point(axis, j, s);
+                    add(std::move(c), ProbeKind::Line, a);
+                }
+    }
+    const std::size_t nr = integral ? options.integral_random_points : options.random_points;
+    for (std::size_t k = 0; k < nr; ++k) {
+        std::vector<double> c(dims);
+        for (std::size_t a = 0; a < dims; ++a)
+            c[a] = std::clamp(t.axes[a].warp(rng.uniform()), t.axes[a].min, t.axes[a].max);
+        add(std::move(c), ProbeKind::Random, dims);
+    }
+    if (integral)
+        for (std::size_t k = 0; k < options.node_points; ++k) {
+            std::vector<double> c(dims);
+            for (std::size_t a = 0; a < dims; ++a) c[a] = t.axes[a].values[rng.below(t.axes[a].count)];
+            add(std::move(c), ProbeKind::Node, dims);
+        }
+    if (named.empty()) throw InputError("certificate: no probes (lines and random points are 0)");
+
+    // ---- the measure: |table - reference| / max(|reference|, F), or absolute.
+    double max_table = 0;
+    for (double v : t.value)
+        if (std::isfinite(v)) max_table = std::max(max_table, std::fabs(v));
+    const double floor = options.absolute ? 0.0
+                         : options.abs_floor > 0 ? options.abs_floor
+                                                 : std::max(options.rel_floor_factor * max_table, 1e-300);
+
+    // ---- the reference: closed form, or the quantity's default method under
+    // a tolerance that keeps its noise at a fraction of the target.
+    IntegrationSettings ref;
+    ref.method = resolve_method(q, Method::Auto);
+    ref.seed = t.seed * 0x9E3779B97F4A7C15ull + options.seed + 0xCE27;
+    if (integral) {
+        const double noise = options.reference_noise_fraction * options.target;
+        if (options.absolute) {
+            ref.tolerance = 1e-12;  // never the binding one: abs_floor is
+            ref.abs_floor = noise;
+        } else {
+            ref.tolerance = std::min(noise, 0.5);
+            ref.abs_floor = noise * floor;
+        }
+        ref.max_samples = options.reference_max_samples;
+    }
+    const std::vector<double> points =
+        build_kernel_points(model, q, named, [&](std::size_t) { return where; });
+    const EstimateResult r = estimate_at(backend, model, q, model_options, points, ref, progress);
+
+    Certificate c;
+    c.table = t.name;
+    c.target = options.target;
+    c.absolute = options.absolute;
+    c.abs_floor = floor;
+    c.interpolation = options.interpolation;
+    c.reference_method = to_string(r.method);
+    for (const Axis& a : t.axes) c.axis_names.push_back(a.name);
+    c.axis_max.assign(dims, 0.0);
+    c.max_at.assign(dims, 0.0);
+    c.probes = named.size();
+    double random_sum2 = 0;
+    bool have_max = false;
+    for (std::size_t k = 0; k < named.size(); ++k) {
+        const double v = table.eval(coords[k], options.interpolation, OutOfRange::Clamp);
+        const double den = options.absolute ? 1.0 : std::max(std::fabs(r.value[k]), floor);
+        double e = std::fabs(v - r.value[k]) / den;
+        if (!std::isfinite(e)) e = std::numeric_limits<double>::infinity();  // NaN fails the certificate
+        if (integral && k < r.stderr_.size()) c.reference_noise = std::max(c.reference_noise, r.stderr_[k] / den);
+        if (!have_max || e > c.max_error) {
+            c.max_error = e;
+            c.max_at = coords[k];
+            have_max = true;
+        }
+        switch (kind[k]) {
+            case ProbeKind::Line:
+                ++c.line_probes;
+                c.axis_max[line_axis[k]] = std::max(c.axis_max[line_axis[k]], e);
+                break;
+            case ProbeKind::Random:
+                ++c.random_probes;
+                random_sum2 += e * e;
+                break;
+            case ProbeKind::Node:
+                ++c.node_probes;
+                c.node_max = std::max(c.node_max, e);
+                break;
+        }
+    }
+    c.rms_error = c.random_probes ? std::sqrt(random_sum2 / double(c.random_probes)) : 0.0;
+    c.passed = c.max_error <= c.target;
+    c.seconds = wall_seconds() - start;
+    return c;
+}
+
+Certificate certify_file_table(const std::string& path, const std::string& table, Backend& backend,
+                               const CertifyOptions& options, const ProgressFn& progress) {
+    check_certify_options(options);
+    return certify_table(read_table(path, table), backend, options, progress);
+}
+
+// ------------------------------------------------------------ attributes
+
+namespace {
+
+constexpr const char* kCertificateAttributes[] = {
+    "certificate_mode",          "certificate_target",        "certificate_measure",
+    "certificate_abs_floor",     "certificate_interpolation", "certificate_max_error",
+    "certificate_rms_error",     "certificate_max_at",        "certificate_probes",
+    "certificate_line_probes",   "certificate_random_probes", "certificate_node_probes",
+    "certificate_axis_max",      "certificate_reference_noise", "certificate_reference_method",
+    "certificate_passed",        "certificate_refinements",   "certificate_predicted_max",
+    "certificate_predicted_rms", "certificate_seconds"};
+
+}  // namespace
+
+void write_certificate(const std::string& path, const Certificate& c) {
+    using namespace hdf5;
+    silence_hdf5();
+    Handle file(H5Fopen(path.c_str(), H5F_ACC_RDWR, H5P_DEFAULT), H5Fclose, "H5Fopen", path);
+    Handle group(H5Gopen2(file, c.table.c_str(), H5P_DEFAULT), H5Gclose, "H5Gopen2", path + ": " + c.table);
+    for (const char* name : kCertificateAttributes)
+        if (has_attr(group, name)) check(H5Adelete(group, name), "H5Adelete", name);
+    nlohmann::json at = nlohmann::json::object(), axis_max = nlohmann::json::object();
+    for (std::size_t a = 0; a < c.axis_names.size(); ++a) {
+        if (a < c.max_at.size()) at[c.axis_names[a]] = c.max_at[a];
+        if (a < c.axis_max.size()) axis_max[c.axis_names[a]] = c.axis_max[a];
+    }
+    write_string_attr(group, "certificate_mode", c.mode);
+    write_double_attr(group, "certificate_target", c.target);
+    write_string_attr(group, "certificate_measure", c.absolute ? "absolute" : "relative");
+    write_double_attr(group, "certificate_abs_floor", c.abs_floor);
+    write_string_attr(group, "certificate_interpolation", interpolation_name(c.interpolation));
+    write_double_attr(group, "certificate_max_error", c.max_error);
+    write_double_attr(group, "certificate_rms_error", c.rms_error);
+    write_string_attr(group, "certificate_max_at", at.dump());
+    write_u64_attr(group, "certificate_probes", c.probes);
+    write_u64_attr(group, "certificate_line_probes", c.line_probes);
+    write_u64_attr(group, "certificate_random_probes", c.random_probes);
+    write_u64_attr(group, "certificate_node_probes", c.node_probes);
+    write_string_attr(group, "certificate_axis_max", axis_max.dump());
+    write_double_attr(group, "certificate_reference_noise", c.reference_noise);
+    write_string_attr(group, "certificate_reference_method", c.reference_method);
+    write_i32_attr(group, "certificate_passed", c.passed ? 1 : 0);
+    write_i32_attr(group, "certificate_refinements", c.refinements);
+    write_double_attr(group, "certificate_predicted_max", c.predicted_max);
+    write_double_attr(group, "certificate_predicted_rms", c.predicted_rms);
+    write_double_attr(group, "certificate_seconds", c.seconds);
+    group = Handle();
+    file.close("H5Fclose", path);
+}
+
+std::optional<Certificate> read_certificate(const std::string& path, const std::string& table) {
+    using namespace hdf5;
+    silence_hdf5();
+    Handle file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose, "H5Fopen", path);
+    Handle group(H5Gopen2(file, table.c_str(), H5P_DEFAULT), H5Gclose, "H5Gopen2", path + ": " + table);
+    if (!has_attr(group, "certificate_max_error")) return std::nullopt;
+    Certificate c;
+    c.table = table;
+    c.mode = read_string_attr(group, "certificate_mode");
+    c.target = read_double_attr(group, "certificate_target");
+    c.absolute = read_string_attr(group, "certificate_measure") == "absolute";
+    c.abs_floor = read_double_attr(group, "certificate_abs_floor");
+    c.interpolation = read_string_attr(group, "certificate_interpolation") == "cubic" ? Interpolation::Cubic
+                                                                                     : Interpolation::Linear;
+    c.max_error = read_double_attr(group, "certificate_max_error");
+    c.rms_error = read_double_attr(group, "certificate_rms_error");
+    auto parse = [&](const char* name) {
+        const nlohmann::json j = nlohmann::json::parse(read_string_attr(group, name), nullptr, false);
+        if (!j.is_object()) throw InputError(attr_location(group, name) + ": not a JSON object");
+        return j;
+    };
+    // Axis order: the table's `axes` attribute.
+    const nlohmann::json axes = nlohmann::json::parse(read_string_attr(group, "axes"), nullptr, false);
+    const nlohmann::json at = parse("certificate_max_at"), axis_max = parse("certificate_axis_max");
+    if (axes.is_array())
+        for (const auto& a : axes) {
+            const std::string name = a.is_string() ? a.get<std::string>() : std::string();
+            c.axis_names.push_back(name);
+            c.max_at.push_back(at.contains(name) && at[name].is_number() ? at[name].get<double>() : NAN);
+            c.axis_max.push_back(axis_max.contains(name) && axis_max[name].is_number()
+                                     ? axis_max[name].get<double>() : NAN);
+        }
+    c.probes = read_u64_attr(group, "certificate_probes");
+    c.line_probes = read_u64_attr(group, "certificate_line_probes");
+    c.random_probes = read_u64_attr(group, "certificate_random_probes");
+    c.node_probes = read_u64_attr(group, "certificate_node_probes");
+    c.reference_noise = read_double_attr(group, "certificate_reference_noise");
+    c.reference_method = read_string_attr(group, "certificate_reference_method");
+    c.passed = read_u64_attr(group, "certificate_passed") != 0;
+    c.refinements = static_cast<int>(read_u64_attr(group, "certificate_refinements"));
+    c.predicted_max = read_double_attr(group, "certificate_predicted_max");
+    c.predicted_rms = read_double_attr(group, "certificate_predicted_rms");
+    c.seconds = read_double_attr(group, "certificate_seconds");
+    return c;
+}
+
+// ------------------------------------------------------------ the loop
+
+namespace {
+
+std::string sci(double v) {
+    if (!std::isfinite(v)) return "inf";
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.2e", v);
+    return buf;
+}
+
+std::vector<AxisFit>& fits_of(TablePilot& p, const PlanTarget& t) {
+    return t.interpolation == Interpolation::Linear ? p.linear : p.cubic;
+}
+
+void scale_fit(PowerFit& f, double r) {
+    if (f.valid) f.c *= r;
+}
+
+// Candidate `c` with its tables' counts replaced and its predictions redone.
+Candidate repredict(const Candidate& c, const std::vector<TablePilot>& pilots, const PlanTarget& target,
+                    const std::vector<std::vector<std::size_t>>& counts) {
+    Candidate out = c;
+    out.error_max = out.error_rms = out.seconds = out.bytes = 0;
+    for (std::size_t i = 0; i < pilots.size(); ++i) {
+        out.tables[i] = predict_table(pilots[i], target, counts[i], c.method, c.samples, c.stored_type);
+        out.error_max = std::max(out.error_max, out.tables[i].error_max);
+        out.error_rms = std::max(out.error_rms, out.tables[i].error_rms);
+        out.seconds += out.tables[i].seconds;
+    }
+    return out;
+}
+
+}  // namespace
+
+CertifiedResult certified_generate(const Spec& spec, Backend& backend, const CertifiedGenerateOptions& options,
+                                   const std::string& path, const GenerateToFn& generate,
+                                   const CertifyProgressFn& progress) {
+    const double start = wall_seconds();
+    const PlanTarget& target = options.target;
+    check_target(target);
+    if (!target.accuracy && !target.budget)
+        throw InputError("certified generation needs a target: --accuracy E or --budget SECONDS");
+    if (options.max_refinements < 0)
+        throw InputError("--max-refinements must be >= 0, got " + std::to_string(options.max_refinements));
+    if (options.pilot.abs_floor < 0 || !std::isfinite(options.pilot.abs_floor))
+        throw InputError("--abs-floor must be a finite number >= 0, got " + number_text(options.pilot.abs_floor, 6));
+    if (!spec.recombined.empty() || !spec.errors.empty() || !spec.inverted.empty())
+        throw InputError(spec.file + ": certified generation does not handle [[recombined]], [[errors]] or "
+                         "[[inverted]] tables yet; generate a copy of the spec without them");
+    const bool budget_mode = target.budget.has_value();
+    const char* measure = target.absolute ? "absolute" : "relative";
+    auto say = [&](const std::string& stage, int round, const std::string& message, const Progress& p = {}) {
+        if (progress) progress(CertifyEvent{stage, round, message, p});
+    };
+    auto stage_progress = [&](const std::string& stage, int round) -> ProgressFn {
+        if (!progress) return nullptr;
+        return [&progress, stage, round](const Progress& p) { progress(CertifyEvent{stage, round, "", p}); };
+    };
+
+    CertifiedResult result;
+    std::vector<std::size_t> indices;
+    for (std::size_t i = 0; i < spec.tables.size(); ++i) {
+        indices.push_back(i);
+        result.pilots.push_back(run_pilot(spec, i, backend, options.pilot, [&](const std::string& s, const Progress& p) {
+            if (progress) progress(CertifyEvent{"pilot: " + s, 0, "", p});
+        }));
+        say("pilot", 0, "pilot '" + result.pilots.back().table + "': " +
+                            std::to_string(result.pilots.back().pilot_evaluations) + " direct evaluations, " +
+                            number_text(result.pilots.back().pilot_seconds, 3) + " s");
+    }
+    result.pilot_seconds = wall_seconds() - start;
+
+    std::optional<Candidate> previous;
+    for (int round = 0;; ++round) {
+        const std::vector<Candidate> front = pareto_front(make_candidates(result.pilots, target));
+        const std::optional<std::size_t> choice = choose_plan(front, target);
+        if (!choice) {
+            if (round == 0)
+                throw Error(target.accuracy ? "no candidate plan is predicted to reach a max total " +
+                                                  std::string(measure) + " error of " + sci(*target.accuracy)
+                                            : "no candidate plan is predicted to finish within " +
+                                                  sci(*target.budget) + " s");
+            result.stop = "no-plan";
+            say("refine", round, "no plan is predicted to reach the target with the corrected error model");
+            break;
+        }
+        Candidate plan = front[*choice];
+        if (previous) {
+            // Refinement only adds: never fewer nodes on an axis than the last
+            // round, nor fewer samples with the same method.  An axis whose
+            // lines failed and whose count the new plan would not raise gets
+            // 1.5 x the intervals, so that every round changes the table.
+            std::vector<std::vector<std::size_t>> counts(plan.tables.size());
+            const CertifiedRound& last = result.rounds.back();
+            bool changed = false;
+            for (std::size_t i = 0; i < plan.tables.size(); ++i) {
+                counts[i] = plan.tables[i].counts;
+                for (std::size_t a = 0; a < counts[i].size(); ++a) {
+                    const std::size_t old = previous->tables[i].counts[a];
+                    counts[i][a] = std::max(counts[i][a], old);
+                    const Certificate& c = last.certificates[i];
+                    if (!c.passed && a < c.axis_max.size() && c.axis_max[a] > c.target && counts[i][a] == old &&
+                        result.pilots[i].axes[a].spacing != Spacing::Explicit)
+                        counts[i][a] = std::min<std::size_t>(65536, old + std::max<std::size_t>((old - 1) / 2, 1));
+                    changed |= counts[i][a] != old;
+                }
+            }
+            if (plan.method == previous->method && plan.samples < previous->samples) plan.samples = previous->samples;
+            changed |= plan.method != previous->method || plan.samples != previous->samples ||
+                       plan.stored_type != previous->stored_type;
+            if (!changed) {
+                // Only the integration can have failed: more samples.
+                if (plan.samples) plan.samples *= 4;
+                else {
+                    result.stop = "no-plan";
+                    say("refine", round, "no refinement left that the error model says would help");
+                    break;
+                }
+            }
+            plan = repredict(plan, result.pilots, target, counts);
+        }
+        CertifiedRound rnd;
+        rnd.round = round;
+        rnd.plan = plan;
+        std::vector<std::string> header = {
+            "Planned by `brdftab generate` (certified) from " + spec.file + " for " +
+                (target.accuracy ? "max total " + std::string(measure) + " error <= " + sci(*target.accuracy)
+                                 : "a time budget of " + sci(*target.budget) + " s") +
+                " (" + interpolation_name(target.interpolation) + " interpolation, device " +
+                backend.device_name() + "), round " + std::to_string(round) + ".",
+            "Predicted: max total error " + sci(plan.error_max) + ", RMS " + sci(plan.error_rms) + " (" +
+                measure + "), engine time " + sci(plan.seconds) + " s.  docs/planning.md"};
+        rnd.spec_text = planned_spec_text(spec, indices, plan, header);
+        const Spec planned = parse_spec_string(rnd.spec_text, options.spec_label.empty() ? spec.file : options.spec_label);
+        {
+            std::string nodes;
+            for (std::size_t i = 0; i < plan.tables.size(); ++i) {
+                if (i) nodes += "; ";
+                for (std::size_t a = 0; a < plan.tables[i].counts.size(); ++a)
+                    nodes += (a ? "x" : "") + std::to_string(plan.tables[i].counts[a]);
+            }
+            say("plan", round, "round " + std::to_string(round) + ": nodes " + nodes + ", " + to_string(plan.method) +
+                                   (plan.samples ? " " + std::to_string(plan.samples) : std::string()) + ", " +
+                                   stored_type_name(plan.stored_type) + "; predicted max " + sci(plan.error_max) +
+                                   ", time " + sci(plan.seconds) + " s");
+        }
+        double t0 = wall_seconds();
+        generate(planned, path, round);
+        rnd.generate_seconds = wall_seconds() - t0;
+
+        t0 = wall_seconds();
+        rnd.passed = true;
+        for (std::size_t i = 0; i < planned.tables.size(); ++i) {
+            CertifyOptions co = options.certify;
+            co.absolute = target.absolute;
+            co.abs_floor = options.pilot.abs_floor;
+            co.interpolation = target.interpolation;
+            co.target = target.accuracy ? *target.accuracy : plan.tables[i].error_max;
+            Certificate c = certify_file_table(path, planned.tables[i].name, backend, co,
+                                               stage_progress("certify", round));
+            c.mode = budget_mode ? "budget" : "accuracy";
+            c.refinements = round;
+            c.predicted_max = plan.tables[i].error_max;
+            c.predicted_rms = plan.tables[i].error_rms;
+            rnd.passed = rnd.passed && c.passed;
+            say("certify", round, "certificate '" + c.table + "': max " + sci(c.max_error) + ", RMS " +
+                                      sci(c.rms_error) + " (" + measure + ", target " + sci(c.target) + "): " +
+                                      (c.passed ? "passed" : "FAILED"));
+            rnd.certificates.push_back(std::move(c));
+        }
+        for (const Certificate& c : rnd.certificates) write_certificate(path, c);
+        rnd.certify_seconds = wall_seconds() - t0;
+        result.rounds.push_back(rnd);
+        previous = plan;
+
+        if (rnd.passed) {
+            result.stop = "passed";
+            break;
+        }
+        if (budget_mode) {
+            result.stop = "budget";
+            break;
+        }
+        if (round >= options.max_refinements) {
+            result.stop = "max-refinements";
+            break;
+        }
+        // Correct the error model with what the probes measured: an axis whose
+        // lines exceeded E has its interpolation law scaled by measured /
+        // predicted (at least 1.5 so that the next plan differs); a node
+        // probe above half of E (integration noise plus rounding) scales the
+        // integration law the same way.
+        for (std::size_t i = 0; i < result.pilots.size(); ++i) {
+            const Certificate& c = rnd.certificates[i];
+            if (c.passed) continue;
+            TablePilot& pilot = result.pilots[i];
+            const TablePlan& tp = plan.tables[i];
+            std::vector<AxisFit>& fits = fits_of(pilot, target);
+            bool any_axis = false;
+            for (std::size_t a = 0; a < fits.size() && a < c.axis_max.size(); ++a) {
+                if (!(c.axis_max[a] > c.target)) continue;
+                any_axis = true;
+                PowerFit& fm = target.absolute ? fits[a].max_abs : fits[a].max_rel;
+                PowerFit& fr = target.absolute ? fits[a].rms_abs : fits[a].rms_rel;
+                const double h = 1.0 / double(tp.counts[a] - 1);
+                const double predicted = (fm.valid ? fm.eval(h) : 0) + tp.integration_max + tp.storage_max;
+                const double ratio = predicted > 0 ? std::max(c.axis_max[a] / predicted, 1.5) : 1.5;
+                scale_fit(fm, ratio);
+                scale_fit(fr, ratio);
+                say("refine", round, "table '" + c.table + "' axis " + pilot.axes[a].name + ": measured " +
+                                         sci(c.axis_max[a]) + " along its lines, predicted " + sci(predicted) +
+                                         ": error law x " + number_text(ratio, 3));
+            }
+            if (c.node_probes && c.node_max > 0.5 * c.target) {
+                const double ratio = tp.integration_max > 0 ? std::max(c.node_max / tp.integration_max, 1.5) : 1.5;
+                for (IntegrationFit& f : pilot.integration) {
+                    for (double& v : f.cell_abs) v *= ratio;
+                    for (double& v : f.cell_rel) v *= ratio;
+                    for (double& v : f.max_abs) v *= ratio;
+                    for (double& v : f.max_rel) v *= ratio;
+                    scale_fit(f.fit_max_abs, ratio);
+                    scale_fit(f.fit_max_rel, ratio);
+                    scale_fit(f.fit_rms_abs, ratio);
+                    scale_fit(f.fit_rms_rel, ratio);
+                }
+                say("refine", round, "table '" + c.table + "': measured " + sci(c.node_max) +
+                                         " at nodes (integration + rounding), predicted integration " +
+                                         sci(tp.integration_max) + ": error law x " + number_text(ratio, 3));
+            } else if (!any_axis) {
+                // Only random (off-line) points failed: cross terms.  Every
+                // planned axis' law by measured / predicted.
+                const double ratio = std::max(c.max_error / std::max(tp.error_max, 1e-300), 1.5);
+                for (AxisFit& f : fits) {
+                    scale_fit(target.absolute ? f.max_abs : f.max_rel, ratio);
+                    scale_fit(target.absolute ? f.rms_abs : f.rms_rel, ratio);
+                }
+                say("refine", round, "table '" + c.table + "': max " + sci(c.max_error) +
+                                         " at random points, predicted " + sci(tp.error_max) +
+                                         ": every axis' error law x " + number_text(ratio, 3));
+            }
+        }
+    }
+    result.passed = !result.rounds.empty() && result.rounds.back().passed;
+    result.total_seconds = wall_seconds() - start;
+    return result;
+}
+
+}  // namespace brdftab
