@@ -125,7 +125,7 @@ void register_scene(CLI::App& app) {
     struct State {
         std::string scene, output, manifest, format, purpose = "all", presets, max_memory;
         double accuracy = 1e-3, budget = 0;
-        bool dry_run = false, quiet = false, no_plan = false;
+        bool dry_run = false, quiet = false, no_plan = false, no_certify = false;
         ComputeOptions compute;
     };
     auto state = std::make_shared<State>();
@@ -158,6 +158,9 @@ void register_scene(CLI::App& app) {
                     "(default: the installed presets, if found)");
     cmd->add_flag("--dry-run", state->dry_run,
                   "print the materials and the planned tables; compute and write nothing");
+    cmd->add_flag("--no-certify", state->no_certify,
+                  "skip the certificates (off-grid probes of every written table against the "
+                  "model, stored in the file and the manifest)");
     cmd->add_flag("-q,--quiet", state->quiet, "no progress display");
     cmd->add_option("--max-memory", state->max_memory,
                     "refuse (exit 2) before computing when the tables are estimated to need more "
@@ -317,6 +320,30 @@ void register_scene(CLI::App& app) {
                 progress.finish();
             }
             writer.commit();
+        }
+        // Certificates: each table probed off-grid against the mapped model
+        // (host/plan/certify.h), stored in the file and the manifest.
+        if (!st.no_certify) {
+            for (SceneTableSet& set : plan.sets) {
+                double last = 0;
+                auto progress = [&](const std::string& stage, const Progress& p) {
+                    if (st.quiet || p.elapsed_seconds < 2 || p.elapsed_seconds - last < 2) return;
+                    last = p.elapsed_seconds;
+                    std::cerr << "scene: " << stage << " " << static_cast<int>(100 * p.fraction) << "%\n";
+                };
+                const double target =
+                    st.budget > 0 && set.planned ? set.predicted_error : st.accuracy;
+                certify_table_set(set, out_path, *backend, target, progress);
+                for (const SceneTableSet::TableCertificate& c : set.certificates) {
+                    std::ostringstream line;
+                    line.precision(3);
+                    line << "  certified " << c.table << ": max total error " << c.max_error
+                         << (set.purpose == "albedo" ? " (absolute)" : " (relative)") << ", target "
+                         << c.target << ": " << (c.passed ? "passed" : "FAILED")
+                         << (c.how == "measured" ? "" : " (" + c.how + ")") << "\n";
+                    std::cout << line.str();
+                }
+            }
         }
         write_text_atomically(manifest_path,
                               scene_manifest(plan, st.scene, out_path).dump(2) + "\n");

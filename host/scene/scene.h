@@ -118,6 +118,20 @@ struct SceneTableSet {
     // planned samples (startup and per-run overhead excluded) and those
     // fixed seconds; used to predict what the presets would cost.
     double seconds_per_cell = 0, fixed_seconds = 0;
+    // Set by certify_table_set(): each table's measured total error
+    // (host/plan/certify.h), in the set's measure.
+    struct TableCertificate {
+        std::string table;
+        double max_error = 0, rms_error = 0;  // rms: 0 for recombined tables (a bound)
+        double target = 0;
+        double floor = 0;  // relative errors divide by max(|value|, floor) (table units)
+        bool passed = false;
+        // "measured" (off-grid probes against the model), or for a recombined
+        // table "bound from the terms' certificates" (at the worst rho).
+        std::string how;
+        std::map<std::string, double> max_at;  // coordinates of the max (measured only)
+    };
+    std::vector<TableCertificate> certificates;
     std::string plan_note;
 };
 
@@ -146,6 +160,17 @@ class Backend;
 struct Progress;
 void plan_table_set(SceneTableSet& set, Backend& backend, double accuracy, double budget_seconds,
                     const std::function<void(const std::string&, const Progress&)>& progress);
+
+// Certifies every table of a generated set in `file` (host/plan/certify.h:
+// the stored values, interpolated linearly as a renderer does, against the
+// mapped model at off-grid probes), stores each certificate in the file and
+// in set.certificates.  `target` is the set's accuracy (max total error;
+// relative with the floor 1e-3 x max for BSDF sets, absolute for albedo
+// sets).  Recombined tables have no model quantity of their own to probe:
+// their certificate is the bound of plan.h's predict_recombined applied to
+// the terms' certificates.
+void certify_table_set(SceneTableSet& set, const std::string& file, Backend& backend, double target,
+                       const std::function<void(const std::string&, const Progress&)>& progress);
 
 // The manifest (docs/scenes.md): per material name, type, status, reason,
 // model, parameters, table, factored, notes.

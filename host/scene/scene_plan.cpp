@@ -371,6 +371,18 @@ nlohmann::json scene_manifest(const ScenePlan& plan, const std::string& scene_fi
         else if (tables.contains("albedo")) j["table"] = tables["albedo"];
         else j["table"] = nullptr;
         j["tables"] = tables;
+        // Certified: the worst of the sets serving the material.
+        bool certified = false, passed = true;
+        double worst = 0;
+        for (const SceneTableSet& set : plan.sets)
+            if (!set.certificates.empty() &&
+                std::find(set.materials.begin(), set.materials.end(), m.source.name) != set.materials.end())
+                for (const SceneTableSet::TableCertificate& c : set.certificates) {
+                    certified = true;
+                    worst = std::max(worst, c.max_error);
+                    passed = passed && c.passed;
+                }
+        if (certified) j["certified_error"] = worst, j["passed"] = passed;
         j["factored"] = m.factored;
         j["notes"] = m.notes;
         if (!m.source.wrapped_in.empty()) j["wrapped_in"] = m.source.wrapped_in;
@@ -392,6 +404,24 @@ nlohmann::json scene_manifest(const ScenePlan& plan, const std::string& scene_fi
             if (!set.table_predicted_error.empty()) j["table_predicted_error"] = set.table_predicted_error;
         }
         if (!set.plan_note.empty()) j["plan_note"] = set.plan_note;
+        if (!set.certificates.empty()) {
+            double worst = 0;
+            bool passed = true;
+            nlohmann::json per = nlohmann::json::object();
+            for (const SceneTableSet::TableCertificate& c : set.certificates) {
+                worst = std::max(worst, c.max_error);
+                passed = passed && c.passed;
+                nlohmann::json t = {{"certified_error", c.max_error}, {"passed", c.passed},
+                                    {"target", c.target}, {"how", c.how}};
+                if (c.how == "measured")
+                    t["rms_error"] = c.rms_error, t["max_at"] = c.max_at, t["floor"] = c.floor;
+                per[c.table] = t;
+            }
+            j["certified_error"] = worst;
+            j["passed"] = passed;
+            j["measure"] = set.purpose == "albedo" ? "absolute" : "relative (floor 1e-3 x max |value|)";
+            j["certificates"] = per;
+        }
         out["table_sets"].push_back(j);
     }
     return out;

@@ -5,6 +5,8 @@
 #include <sstream>
 
 #include "host/core/error.h"
+#include "host/lookup/lookup.h"
+#include "host/plan/certify.h"
 #include "host/plan/plan.h"
 #include "host/scene/scene.h"
 #include "host/spec/spec.h"
@@ -149,6 +151,63 @@ void plan_table_set(SceneTableSet& set, Backend& backend, double accuracy, doubl
     set.predicted_seconds = c.seconds;
     for (const TablePlan& t : c.tables) set.table_predicted_error[t.table] = t.error_max;
     record_cost(set, pilots, c);
+}
+
+void certify_table_set(SceneTableSet& set, const std::string& file, Backend& backend, double target,
+                       const std::function<void(const std::string&, const Progress&)>& progress) {
+    const Spec spec = parse_spec_string(set.spec_text, "<scene table set " + set.id + ">");
+    CertifyOptions options;
+    options.target = target;
+    // As the planner's measure for the set: albedos absolute (floor 1).
+    if (set.purpose == "albedo") options.abs_floor = 1.0;
+    set.certificates.clear();
+    std::map<std::string, SceneTableSet::TableCertificate> by_table;
+    for (const TableSpec& ts : spec.tables) {
+        ProgressFn stage;
+        if (progress) stage = [&progress, name = ts.name](const Progress& p) { progress(name + ": certify", p); };
+        const Certificate c = certify_file_table(file, ts.name, backend, options, stage);
+        write_certificate(file, c);
+        SceneTableSet::TableCertificate out;
+        out.table = ts.name;
+        out.max_error = c.max_error, out.rms_error = c.rms_error;
+        out.target = target;
+        out.floor = c.abs_floor;
+        out.passed = c.passed;
+        out.how = "measured";
+        for (std::size_t a = 0; a < c.axis_names.size() && a < c.max_at.size(); ++a)
+            out.max_at[c.axis_names[a]] = c.max_at[a];
+        by_table[ts.name] = out;
+        set.certificates.push_back(out);
+    }
+    // Recombined tables: the planner's bound with the certified term errors
+    // in place of the predicted ones (same measure, same rules for signs and
+    // floors), the terms' signs and largest values read from the file.
+    std::vector<std::size_t> all(spec.tables.size());
+    for (std::size_t i = 0; i < all.size(); ++i) all[i] = i;
+    for (const RecombinedGroup& g : recombined_groups(spec, all)) {
+        std::vector<TablePilot> pilots(spec.tables.size());
+        std::vector<TablePlan> terms;
+        for (std::size_t t : g.terms) {
+            const TableData d = LookupTable::open(file, spec.tables[t].name).table();
+            TablePilot& p = pilots[t];
+            p.signed_min = d.value.empty() ? 0 : *std::min_element(d.value.begin(), d.value.end());
+            for (double v : d.value) p.max_value = std::max(p.max_value, std::fabs(v));
+            p.rel_floor = options.abs_floor > 0 ? options.abs_floor : options.rel_floor_factor * p.max_value;
+            TablePlan tp;
+            tp.table = spec.tables[t].name;
+            tp.error_max = by_table[tp.table].max_error;
+            terms.push_back(tp);
+        }
+        PlanTarget measure;  // relative with the floors above
+        const TablePlan bound = predict_recombined(g, pilots, terms, measure);
+        SceneTableSet::TableCertificate out;
+        out.table = g.name;
+        out.max_error = bound.error_max;
+        out.target = target;
+        out.passed = bound.error_max <= target;
+        out.how = "bound from the terms' certificates";
+        set.certificates.push_back(out);
+    }
 }
 
 }  // namespace brdftab
