@@ -14,7 +14,10 @@
 //   - random points, uniform in every axis' warped coordinate (cross terms,
 //     and the RMS over the domain);
 //   - integrals: random nodes, where the interpolation error is zero and the
-//     difference is the table's integration noise plus rounding.
+//     difference is the table's integration noise plus rounding;
+//   - then a local search: the cells around the worst probes so far, probed
+//     inside at every combination of 1/4, 1/2, 3/4 per axis (a narrow peak's
+//     error can be largest inside a cell, off every line).
 // The certificate's max is over all probes; its RMS over the random points
 // only (the lines over-sample edges).
 //
@@ -62,10 +65,15 @@ struct CertifyOptions {
     std::size_t random_points = 1000;   // closed forms
     std::size_t integral_random_points = 256;
     std::size_t node_points = 64;       // integrals only
+    // Second stage (local search): the cells around the `local_worst` worst
+    // probes of the first stage (and their neighbours, when that fits in the
+    // cap) probed inside at every combination of 1/4, 1/2, 3/4 per axis.
+    std::size_t local_worst = 8, integral_local_worst = 4;
+    std::size_t local_probe_cap = 65536, integral_local_probe_cap = 4096;
     // Integrals: the reference runs under a tolerance so that its standard
     // error is at most reference_noise_fraction x E (relative measure: of
-    // max(|value|, floor)), with at least 2^12 and at most reference_max_samples
-    // samples per probe.
+    // max(|value|, floor)), with at most reference_max_samples samples per
+    // probe (the engine's adaptive rule, engine.h).
     double reference_noise_fraction = 0.2;
     std::uint64_t reference_max_samples = std::uint64_t{1} << 20;
     std::uint64_t seed = 1;
@@ -83,7 +91,7 @@ struct Certificate {
     double max_error = 0, rms_error = 0;  // total error, in the measure
     std::vector<std::string> axis_names;
     std::vector<double> max_at;     // coordinates of the max, one per axis
-    std::size_t probes = 0, line_probes = 0, random_probes = 0, node_probes = 0;
+    std::size_t probes = 0, line_probes = 0, random_probes = 0, node_probes = 0, local_probes = 0;
     std::vector<double> axis_max;   // per axis: max over the lines along it
     double node_max = 0;            // max over the node probes (integrals; 0 otherwise)
     double reference_noise = 0;     // largest reference stderr, in the measure (0: closed form)
