@@ -1,7 +1,10 @@
 #!/usr/bin/env bash
 # End-to-end tests of `brdftab scene`: dry run, a generated file and its
 # manifest checked field by field, table values against `brdftab eval` of the
-# mapped model, bad input, and a small mutation fuzz of the scene parsers.
+# mapped model, planned and certified sets (values within the certified error),
+# anisotropic mappings, the resource pre-check, bad input, and a small
+# mutation fuzz of the scene parsers.  About 60 s of CPU (2.5 min wall on the
+# loaded 2-core machine).
 # Usage: scene_cli_tests.sh BRDFTAB SOURCE_DIR
 source "$(dirname "$0")/cli_lib.sh"
 cli_setup "$1" "$2"
@@ -180,6 +183,34 @@ expect_grep "planned: predicted max total error" out.txt "recombined set planned
 expect_grep "hold [0-9]+ cells, predicted .* s; this scene needs [0-9]+ cells, predicted .* s" out.txt \
   "savings line with predicted times"
 expect_grep "preset time: the planner's cost model" out.txt "savings line says how preset time is predicted"
+
+# Oren-Nayar albedo (recombined rho): planned, generated and certified; the
+# recombined table's certificate is the bound from its terms' certificates,
+# and holds at random mu_i and rho against `brdftab eval` of the full albedo.
+expect_exit 0 "matte albedo certified" -- "$BT" scene matte.pbrt --for albedo --accuracy 2e-2 -o ma.h5 -q
+expect_grep "certified t0_albedo: .*bound from the terms' certificates" out.txt "recombined certificate"
+"$PY" - "$BT" <<'PY' >py.txt 2>&1 && ok || { bad "recombined albedo within its certified error"; cat py.txt; }
+import json, random, subprocess, sys
+bt = sys.argv[1]
+m = json.load(open("ma.json"))
+s = m["table_sets"][0]
+assert s["planned"] is True and s["main_table"] == "t0_albedo", s
+c = s["certificates"]
+assert c["t0_albedo"]["how"] == "bound from the terms' certificates", c
+# Albedo sets are absolute (floor 1); over rho in [0, 1] the bound is the sum.
+assert abs(c["t0_albedo"]["certified_error"] - c["t0_albedo_direct"]["certified_error"]
+           - c["t0_albedo_interreflection"]["certified_error"]) < 1e-12, c
+cert = c["t0_albedo"]["certified_error"]
+random.seed(9)
+for _ in range(4):
+    mu, rho = random.uniform(0.02, 1.0), random.uniform(0.0, 1.0)
+    q = json.loads(subprocess.check_output(
+        [bt, "query", "ma.h5", "--table", "t0_albedo", "mu_i=%r" % mu, "rho=%r" % rho, "--json"]))["value"]
+    e = json.loads(subprocess.check_output(
+        [bt, "eval", "oren-nayar", "albedo", "mu_i=%r" % mu, "sigma=20", "rho=%r" % rho,
+         "--samples", "65536", "--json"]))
+    assert abs(q - e["value"]) <= cert + 4 * e["stderr"], (mu, rho, q, e, cert)
+PY
 
 # --- resource pre-check: refused before anything is computed, nothing written
 expect_exit 2 "max-memory" -- "$BT" scene glass.pbrt --for bsdf --no-plan --max-memory 1K -o mem.h5
