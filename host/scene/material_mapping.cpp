@@ -7,7 +7,8 @@
 //                              Smith G (pbrt-v4's TrowbridgeReitz G)
 //   pbrt-v4 coateddiffuse   -> interfaced-lambertian, ggx-smith, ni = eta,
 //                              Kd = reflectance factored out (approximation:
-//                              pbrt's layered random walk is not this model)
+//                              pbrt's layered random walk is not this model);
+//                              uroughness != vroughness -> alpha_x, alpha_y
 //   pbrt-v3 matte (sigma>0) -> oren-nayar, sigma in degrees, rho = Kd factored
 //   pbrt-v3 glass           -> rough-dielectric, GGX, pbrt-v3's roughness remap,
 //                              height-correlated Smith G

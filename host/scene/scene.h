@@ -153,9 +153,11 @@ ScenePlan plan_scene_tables(const std::vector<SceneMaterial>& materials,
 // (host/plan): short pilots on `backend`, then the fastest plan predicted to
 // reach `accuracy` (max total relative error, linear interpolation), or with
 // `budget_seconds` > 0 the most accurate plan predicted to finish in that
-// time.  When the planner cannot plan the set (recombined tables, which must
-// share nodes) or no plan reaches the target, the template stays and
-// set.plan_note says why.  `progress` receives the pilot's progress.
+// time.  Recombined tables (Oren-Nayar's rho) are planned with their terms
+// on one node layout.  A closed-form set no joint plan reaches is planned
+// table by table, a table no plan reaches keeping its template counts; when
+// nothing can be planned the template stays.  set.plan_note says what was
+// kept and why.  `progress` receives the pilot's progress.
 class Backend;
 struct Progress;
 void plan_table_set(SceneTableSet& set, Backend& backend, double accuracy, double budget_seconds,

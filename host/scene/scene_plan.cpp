@@ -5,10 +5,10 @@
 // Kd are factored out of the tables, which is why those factorizations exist.
 // A parameter driven by a texture becomes an axis over the texture's range.
 //
-// The angular axes and sample budgets come from the templates below (the
-// presets' resolutions with the parameter axes removed).  They are fixed
-// choices, not planned: docs/scenes.md says so, and `--accuracy` sets the
-// integration tolerance of the estimated tables only.
+// The angular axes and sample budgets start from the templates below (the
+// presets' resolutions with the parameter axes removed); plan_table_set()
+// (scene_planning.cpp) replaces them by the planner's choice where it can,
+// and `--accuracy` is the integration tolerance of the sets it cannot plan.
 #include <algorithm>
 #include <cmath>
 #include <fstream>
