@@ -4,7 +4,8 @@
 # of a small closed-form spec is written as a spec that parses, and the table
 # generated from it has, measured by `brdftab validate`, a max error within a
 # factor 2 of the planner's prediction (both ways: not optimistic, not
-# needlessly pessimistic).  Runs in ~10 s on 2 cores.
+# needlessly pessimistic); the same for a recombined (Oren-Nayar) spec.
+# Runs in ~20 s on 2 cores.
 # Usage: plan_cli_tests.sh BRDFTAB SOURCE_DIR
 source "$(dirname "$0")/cli_lib.sh"
 cli_setup "$1" "$2"
@@ -63,5 +64,29 @@ expect_grep "^choice #[0-9]+: nodes" out.txt "choice printed"
 # --abs: absolute errors
 expect_exit 0 "plan --abs" -- "$BT" plan "$SPEC" --abs --accuracy 1e-4 --json
 expect_grep '"measure": "absolute"' out.txt "absolute measure"
+
+# ---- recombined tables (issue 14): both terms on one node layout, and the
+# recombined table's predicted error (the worst rho of [0, 1]) against what
+# validate measures on it (at rho = 1, its stored values).
+RSPEC="$DATA/plan_oren_nayar_recombined.toml"
+expect_exit 0 "plan recombined" -- "$BT" plan "$RSPEC" --accuracy 1e-2 -o planned_on.toml --json
+cp out.txt plan_on.json
+expect_exit 0 "generate planned recombined" -- "$BT" generate planned_on.toml -o planned_on.h5
+expect_exit 0 "validate recombined" -- "$BT" validate planned_on.h5 --table brdf --points 2000 --json
+cp out.txt validate_on.json
+if "$PY" - plan_on.json validate_on.json <<'PYEOF'
+import json, sys
+plan = json.load(open(sys.argv[1])); val = json.load(open(sys.argv[2]))
+tables = {t["table"]: t for t in plan["choice"]["tables"]}
+assert set(tables) == {"brdf_direct", "brdf_interreflection", "brdf"}, tables.keys()
+assert tables["brdf_direct"]["counts"] == tables["brdf_interreflection"]["counts"], "terms must share nodes"
+pred = tables["brdf"]["predicted_error"]["max"]; meas = val["linear"]["rel"]["max"]
+ratio = meas / pred
+print(f"recombined: nodes {tables['brdf_direct']['counts']}: predicted {pred:.3g}, "
+      f"measured {meas:.3g}, measured/predicted {ratio:.2f}")
+assert plan["predicted_error"] <= 1e-2
+assert 0.5 <= ratio <= 2.0, f"prediction off by more than a factor 2: {ratio:.2f}"
+PYEOF
+then ok; else bad "recombined prediction vs measurement"; fi
 
 cli_summary

@@ -1,7 +1,10 @@
 #!/usr/bin/env bash
 # End-to-end tests of `brdftab scene`: dry run, a generated file and its
 # manifest checked field by field, table values against `brdftab eval` of the
-# mapped model, bad input, and a small mutation fuzz of the scene parsers.
+# mapped model, planned and certified sets (values within the certified error),
+# anisotropic mappings, the resource pre-check, bad input, and a small
+# mutation fuzz of the scene parsers.  About 60 s of CPU (2.5 min wall on the
+# loaded 2-core machine).
 # Usage: scene_cli_tests.sh BRDFTAB SOURCE_DIR
 source "$(dirname "$0")/cli_lib.sh"
 cli_setup "$1" "$2"
@@ -22,11 +25,10 @@ Shape "sphere"
 NamedMaterial "smooth"
 Shape "sphere"
 SCENE
-expect_exit 0 "glass scene" -- "$BT" scene glass.pbrt --for bsdf -o glass.h5 -q
-# The planner cannot plan this BSDF (the reflection/transmission jump at the
-# horizon): the set keeps its template, and says why.
-expect_grep "no plan is predicted to reach .*the template is used" out.txt "unplannable set noted"
-expect_grep "wrote glass.h5 \(1 tables\) and glass.json" out.txt "summary line"
+# The template (--no-plan): reflection and transmission tables away from the
+# horizon, at 2-degree theta steps.
+expect_exit 0 "glass scene" -- "$BT" scene glass.pbrt --for bsdf --no-plan --no-certify -o glass.h5 -q
+expect_grep "wrote glass.h5 \(2 tables\) and glass.json" out.txt "summary line"
 "$PY" - <<'PY' >py.txt 2>&1 && ok || { bad "manifest fields"; cat py.txt; }
 import json, math
 m = json.load(open("glass.json"))
@@ -38,29 +40,69 @@ assert abs(g["parameters"]["alpha"] - math.sqrt(0.09)) < 1e-15, g   # pbrt-v4: a
 assert g["parameters"]["eta"] == 1.5
 assert g["parameters"]["distribution"] == "ggx"
 assert g["parameters"]["shadowing"] == "height-correlated"
-assert g["table"] == "t0_bsdf" and g["factored"] == {}, g
+assert g["table"] == "t0_bsdf_reflection" and g["factored"] == {}, g
+assert g["tables"] == {"bsdf": "t0_bsdf_reflection", "bsdf_transmission": "t0_bsdf_transmission"}, g
+assert "certified_error" not in g   # --no-certify
 s = mats["smooth"]
 assert s["status"] == "no-table-needed" and s["table"] is None, s
 assert m["table_sets"][0]["materials"] == ["glass"]
+assert m["table_sets"][0]["tables"] == ["t0_bsdf_reflection", "t0_bsdf_transmission"]
 PY
 # Values at nodes (2-degree theta steps, 5-degree phi_d steps): the table
 # stores float32, so they agree with eval to float rounding.
-for point in "theta_i=30 theta_o=40 phi_d=180" "theta_i=60 theta_o=150 phi_d=175" \
-             "theta_i=0 theta_o=88 phi_d=0" "theta_i=86 theta_o=120 phi_d=90"; do
-  # shellcheck disable=SC2086
-  q=$("$BT" query glass.h5 --table t0_bsdf $point --json)
-  # shellcheck disable=SC2086
-  e=$("$BT" eval rough-dielectric bsdf $point alpha=0.3 eta=1.5 distribution=ggx \
+for spec in "reflection theta_i=30 theta_o=40 phi_d=180" "transmission theta_i=60 theta_o=150 phi_d=175" \
+            "reflection theta_i=0 theta_o=88 phi_d=0" "transmission theta_i=86 theta_o=120 phi_d=90"; do
+  set -- $spec
+  table=$1; shift
+  # shellcheck disable=SC2068
+  q=$("$BT" query glass.h5 --table "t0_bsdf_$table" $@ --json)
+  # shellcheck disable=SC2068
+  e=$("$BT" eval rough-dielectric bsdf $@ alpha=0.3 eta=1.5 distribution=ggx \
         shadowing=height-correlated --json)
   "$PY" -c "
 import json,sys
 q=json.loads(sys.argv[1])['value']; e=json.loads(sys.argv[2])['value']
-sys.exit(0 if abs(q-e) <= 1e-6*abs(e) + 1e-12 else 1)" "$q" "$e" && ok || bad "bsdf at $point: $q vs $e"
+sys.exit(0 if abs(q-e) <= 1e-6*abs(e) + 1e-12 else 1)" "$q" "$e" && ok || bad "bsdf at $spec: $q vs $e"
 done
+set --
+
+# Planned and certified (issue 14): the reflection table is planned, the
+# transmission table (its lobe ends in a jump where the refraction
+# half-vector reaches the horizon) keeps the template; every table carries a
+# certificate, and table values at random directions equal `brdftab eval`
+# within the certified error (relative, floor 1e-3 x the table's largest value).
+expect_exit 0 "glass planned" -- "$BT" scene glass.pbrt --for bsdf --accuracy 3e-2 -o gp.h5 -q
+expect_grep "planned: predicted max total error" out.txt "BSDF set planned"
+expect_grep "for t0_bsdf_transmission .*template's node counts are kept" out.txt "transmission kept, and why"
+expect_grep "certified t0_bsdf_reflection: max total error .* passed" out.txt "reflection certified"
+"$PY" - "$BT" <<'PY' >py.txt 2>&1 && ok || { bad "values within the certified error"; cat py.txt; }
+import json, random, subprocess, sys
+bt = sys.argv[1]
+m = json.load(open("gp.json"))
+s = m["table_sets"][0]
+assert s["planned"] is True and s["predicted_error"] <= 3e-2, s
+certs = s["certificates"]
+assert set(certs) == {"t0_bsdf_reflection", "t0_bsdf_transmission"}, certs
+assert certs["t0_bsdf_reflection"]["passed"] is True, certs
+g = {x["name"]: x for x in m["materials"]}["glass"]
+assert g["certified_error"] == max(c["certified_error"] for c in certs.values()), g
+random.seed(5)
+for table, lo, hi in [("t0_bsdf_reflection", 0, 88), ("t0_bsdf_transmission", 92, 180)]:
+    cert = certs[table]["certified_error"]
+    pts = [(random.uniform(0, 88), random.uniform(lo, hi), random.uniform(0, 180)) for _ in range(8)]
+    for ti, to, pd in pts:
+        a = ["theta_i=%r" % ti, "theta_o=%r" % to, "phi_d=%r" % pd]
+        q = json.loads(subprocess.check_output([bt, "query", "gp.h5", "--table", table] + a + ["--json"]))["value"]
+        e = json.loads(subprocess.check_output(
+            [bt, "eval", "rough-dielectric", "bsdf"] + a +
+            ["alpha=0.3", "eta=1.5", "distribution=ggx", "shadowing=height-correlated", "--json"]))["value"]
+        floor = certs[table]["floor"]   # 1e-3 x the table's largest value
+        assert abs(q - e) <= cert * max(abs(e), floor), (table, ti, to, pd, q, e, cert)
+PY
 
 # --- Mitsuba 0.6 roughdiffuse: Oren-Nayar albedo with rho recombined
 expect_exit 0 "clay albedo" -- "$BT" scene "$SCENES/mitsuba06.xml" --for albedo --accuracy 3e-3 \
-  --no-plan -o clay.h5 --manifest clay-manifest.json -q
+  --no-plan --no-certify -o clay.h5 --manifest clay-manifest.json -q
 "$PY" - <<'PY' >py.txt 2>&1 && ok || { bad "clay manifest"; cat py.txt; }
 import json, math
 m = json.load(open("clay-manifest.json"))
@@ -104,6 +146,76 @@ for table, quantity, lo, hi in [("t0_albedo_r", "albedo_r", 0.02, 1.0),
         bound = s["predicted_error"] + 4 * e["stderr"]
         assert abs(q - e["value"]) <= bound, (table, mu, q, e, bound)
 PY
+
+# --- anisotropic pbrt-v4 coating: alpha_x / alpha_y, tables over phi_i (and phi_o)
+expect_exit 0 "anisotropic albedo" -- "$BT" scene "$SCENES/anisotropic.pbrt" --for albedo --no-plan \
+  --no-certify --accuracy 3e-2 -o aniso.h5 -q
+"$PY" - <<'PY' >py.txt 2>&1 && ok || { bad "anisotropic manifest"; cat py.txt; }
+import json
+m = json.load(open("aniso.json"))
+mats = {x["name"]: x for x in m["materials"]}
+b = mats["brushed-lacquer"]
+assert b["status"] == "tabulated" and b["model"] == "interfaced-lambertian", b
+assert abs(b["parameters"]["alpha_x"] - 0.1) < 1e-15 and abs(b["parameters"]["alpha_y"] - 0.4) < 1e-15, b
+assert "alpha" not in b["parameters"], b
+assert b["factored"] == {"kd": [0.5, 0.4, 0.3]}, b
+assert mats["brushed-raw"]["table"] == b["table"], "equal alphas share a table"
+assert mats["even-lacquer"]["table"] != b["table"]
+g = mats["brushed-glass"]
+assert g["status"] == "unsupported" and "isotropic" in g["reason"], g
+PY
+# A node of both axes (theta_i 0-89 in 30 nodes, phi_i 0-90 in 7): the
+# table holds albedo_body at kd = 1, estimated: within 5 stderr of eval.
+q=$("$BT" query aniso.h5 --table t0_albedo_body theta_i=46 phi_i=30 --json)
+e=$("$BT" eval interfaced-lambertian albedo_body theta_i=46 phi_i=30 alpha_x=0.1 alpha_y=0.4 ni=1.5 \
+      kd=1 distribution=ggx-smith --samples 262144 --json)
+"$PY" -c "
+import json,sys,math
+q=json.loads(sys.argv[1]); e=json.loads(sys.argv[2])
+sys.exit(0 if abs(q['value']-e['value']) <= 5*math.hypot(q.get('stderr', 0) or 3e-2*e['value']/5, e['stderr']) else 1)" \
+  "$q" "$e" && ok || bad "anisotropic albedo_body: $q vs $e"
+
+# --- Oren-Nayar BSDF (recombined rho): planned, both terms on one layout
+printf 'WorldBegin\nMaterial "matte" "float sigma" 20\nShape "sphere"\n' > matte.pbrt
+expect_exit 0 "matte planned" -- "$BT" scene matte.pbrt --for bsdf --accuracy 5e-2 --dry-run -q
+expect_grep "t0 oren-nayar bsdf .*anonymous-1" out.txt "matte set listed"
+expect_grep "planned: predicted max total error" out.txt "recombined set planned"
+expect_grep "hold [0-9]+ cells, predicted .* s; this scene needs [0-9]+ cells, predicted .* s" out.txt \
+  "savings line with predicted times"
+expect_grep "preset time: the planner's cost model" out.txt "savings line says how preset time is predicted"
+
+# Oren-Nayar albedo (recombined rho): planned, generated and certified; the
+# recombined table's certificate is the bound from its terms' certificates,
+# and holds at random mu_i and rho against `brdftab eval` of the full albedo.
+expect_exit 0 "matte albedo certified" -- "$BT" scene matte.pbrt --for albedo --accuracy 2e-2 -o ma.h5 -q
+expect_grep "certified t0_albedo: .*bound from the terms' certificates" out.txt "recombined certificate"
+"$PY" - "$BT" <<'PY' >py.txt 2>&1 && ok || { bad "recombined albedo within its certified error"; cat py.txt; }
+import json, random, subprocess, sys
+bt = sys.argv[1]
+m = json.load(open("ma.json"))
+s = m["table_sets"][0]
+assert s["planned"] is True and s["main_table"] == "t0_albedo", s
+c = s["certificates"]
+assert c["t0_albedo"]["how"] == "bound from the terms' certificates", c
+# Albedo sets are absolute (floor 1); over rho in [0, 1] the bound is the sum.
+assert abs(c["t0_albedo"]["certified_error"] - c["t0_albedo_direct"]["certified_error"]
+           - c["t0_albedo_interreflection"]["certified_error"]) < 1e-12, c
+cert = c["t0_albedo"]["certified_error"]
+random.seed(9)
+for _ in range(4):
+    mu, rho = random.uniform(0.02, 1.0), random.uniform(0.0, 1.0)
+    q = json.loads(subprocess.check_output(
+        [bt, "query", "ma.h5", "--table", "t0_albedo", "mu_i=%r" % mu, "rho=%r" % rho, "--json"]))["value"]
+    e = json.loads(subprocess.check_output(
+        [bt, "eval", "oren-nayar", "albedo", "mu_i=%r" % mu, "sigma=20", "rho=%r" % rho,
+         "--samples", "65536", "--json"]))
+    assert abs(q - e["value"]) <= cert + 4 * e["stderr"], (mu, rho, q, e, cert)
+PY
+
+# --- resource pre-check: refused before anything is computed, nothing written
+expect_exit 2 "max-memory" -- "$BT" scene glass.pbrt --for bsdf --no-plan --max-memory 1K -o mem.h5
+expect_grep "need about .* of memory, above --max-memory" err.txt "max-memory message"
+if [ -e mem.h5 ] || [ -e mem.json ]; then bad "refused scene wrote files"; else ok; fi
 
 # --- bad input: exit 2, a message naming the place, nothing overwritten
 echo "keep me" > keep.h5

@@ -401,3 +401,87 @@ TEST_CASE("expected_max_error: the median of the largest of M normal errors") {
     CHECK(expected_max_error(sigma, 1000) == doctest::Approx(maxima[1000]).epsilon(0.02));
     CHECK(expected_max_error({0.0, 0.0}, 10) == 0);
 }
+
+TEST_CASE("recombined tables: shared counts, and the bound at the worst p") {
+    // Two terms, R(p) = p T1 + p^2 T2 over p in [0, 1] (Oren-Nayar's form).
+    RecombinedGroup g;
+    g.name = "brdf";
+    g.terms = {0, 1};
+    g.coeffs = {{0.0, 1.0}, {0.0, 0.0, 1.0}};
+    g.lo = 0, g.hi = 1;
+    CHECK(shared_counts(g, {{5, 30, 7}, {9, 4, 7}}) == std::vector<std::size_t>{9, 30, 7});
+
+    std::vector<TablePilot> pilots(2);
+    for (TablePilot& p : pilots) p.signed_min = 0.1, p.signed_max = 1, p.max_value = 1, p.rel_floor = 1e-3;
+    TablePlan t1, t2;
+    t1.counts = t2.counts = {9, 30, 7};
+    t1.cells = t2.cells = 9 * 30 * 7;
+    t1.error_max = 3e-3, t1.interpolation_max = 2e-3, t1.storage_max = 1e-3;
+    t2.error_max = 5e-3, t2.interpolation_max = 5e-3;
+    PlanTarget absolute;
+    absolute.absolute = true;
+    // Absolute: |dR| <= p E1 + p^2 E2, largest at p = 1.
+    const TablePlan a = predict_recombined(g, pilots, {t1, t2}, absolute);
+    CHECK(a.error_max == doctest::Approx(8e-3));
+    CHECK(a.interpolation_max == doctest::Approx(7e-3));
+    CHECK(a.counts == t1.counts);
+    // Over p in [0, 0.5] the worst p is 0.5: 0.5 E1 + 0.25 E2.
+    RecombinedGroup half = g;
+    half.hi = 0.5;
+    CHECK(predict_recombined(half, pilots, {t1, t2}, absolute).error_max ==
+          doctest::Approx(0.5 * 3e-3 + 0.25 * 5e-3));
+    // Relative, nonnegative terms and coefficients: the largest term error.
+    PlanTarget relative;
+    CHECK(predict_recombined(g, pilots, {t1, t2}, relative).error_max == doctest::Approx(5e-3));
+    // A floor above every value (albedos, floor 1): relative = absolute / floor, summed.
+    std::vector<TablePilot> floored = pilots;
+    for (TablePilot& p : floored) p.rel_floor = 1;
+    CHECK(predict_recombined(g, floored, {t1, t2}, relative).error_max == doctest::Approx(8e-3));
+    // A term of mixed sign can cancel the other: no relative bound.
+    pilots[1].signed_min = -0.2;
+    CHECK(std::isinf(predict_recombined(g, pilots, {t1, t2}, relative).error_max));
+    // A negative coefficient over the range: likewise.
+    pilots[1].signed_min = 0.1;
+    RecombinedGroup minus = g;
+    minus.coeffs[1] = {0.0, 0.0, -1.0};
+    CHECK(std::isinf(predict_recombined(minus, pilots, {t1, t2}, relative).error_max));
+    CHECK(predict_recombined(minus, pilots, {t1, t2}, absolute).error_max == doctest::Approx(8e-3));
+}
+
+TEST_CASE("recombined groups: terms found among the piloted tables, range from the model") {
+    const std::string text = R"(
+model = "oren-nayar"
+[parameters]
+sigma = 20.0
+theta_o = 30.0
+phi_d = 0.0
+[[axes]]
+name = "theta_i"
+range = [0.0, 80.0]
+count = 5
+[[tables]]
+name = "d"
+quantity = "brdf_direct"
+[[tables]]
+name = "i"
+quantity = "brdf_interreflection"
+[[recombined]]
+name = "brdf"
+parameter = "rho"
+[[recombined.terms]]
+table = "d"
+coeffs = [0.0, 1.0]
+[[recombined.terms]]
+table = "i"
+coeffs = [0.0, 0.0, 1.0]
+)";
+    const Spec spec = parse_spec_string(text, "rec.toml");
+    const std::vector<RecombinedGroup> all = recombined_groups(spec, {0, 1});
+    REQUIRE(all.size() == 1);
+    CHECK(all[0].terms == std::vector<std::size_t>{0, 1});
+    // No range in the spec: the model's range of rho, [0, 1].
+    CHECK(all[0].lo == 0);
+    CHECK(all[0].hi == 1);
+    // Only one term piloted (plan --table d): no group.
+    CHECK(recombined_groups(spec, {0}).empty());
+}

@@ -353,3 +353,51 @@ TEST_CASE("bad input names the file and line, the XML element, or the material")
     // Unknown material types are not errors.
     CHECK(error_of(s.write("u.pbrt", "Material \"hair\"\nShape \"sphere\"\n")) == "(no error)");
 }
+
+TEST_CASE("anisotropic roughness: pbrt-v4 coateddiffuse maps to alpha_x / alpha_y, the rest is unsupported") {
+    const ScenePlan plan = plan_of("anisotropic.pbrt");
+    // pbrt-v4 remaps u and v separately: alpha = sqrt(roughness).
+    const MappedMaterial& lac = by_name(plan, "brushed-lacquer");
+    CHECK(lac.status == MaterialStatus::Tabulated);
+    CHECK(lac.model == "interfaced-lambertian");
+    CHECK(lac.parameters.at("alpha_x") == doctest::Approx(0.1).epsilon(1e-15));
+    CHECK(lac.parameters.at("alpha_y") == doctest::Approx(0.4).epsilon(1e-15));
+    CHECK(lac.parameters.count("alpha") == 0);
+    const MappedMaterial& raw = by_name(plan, "brushed-raw");
+    CHECK(raw.parameters.at("alpha_x") == 0.1);
+    CHECK(raw.parameters.at("alpha_y") == 0.4);
+    // u = v: the isotropic alpha.
+    const MappedMaterial& even = by_name(plan, "even-lacquer");
+    CHECK(even.parameters.at("alpha") == doctest::Approx(0.2).epsilon(1e-15));
+    CHECK(even.parameters.count("alpha_x") == 0);
+    const MappedMaterial& glass = by_name(plan, "brushed-glass");
+    CHECK(glass.status == MaterialStatus::Unsupported);
+    CHECK(glass.reason.find("isotropic") != std::string::npos);
+    // The anisotropic sets have both azimuths; the isotropic one phi_d.
+    const std::string aniso_set = set_of(plan, "brushed-lacquer", "bsdf");
+    // sqrt(0.01) and sqrt(0.16) round to the doubles 0.1 and 0.4: one table.
+    CHECK(aniso_set == set_of(plan, "brushed-raw", "bsdf"));
+    CHECK(aniso_set != set_of(plan, "even-lacquer", "bsdf"));
+    for (const SceneTableSet& set : plan.sets) {
+        const Spec spec = parse_spec_string(set.spec_text, set.id);
+        const bool anisotropic = set.id == aniso_set || set.id == set_of(plan, "brushed-lacquer", "albedo");
+        CAPTURE(set.spec_text);
+        std::set<std::string> axes;
+        for (const Axis& a : spec.tables.front().axes) axes.insert(a.name);
+        if (anisotropic) {
+            CHECK(axes.count("phi_i") == 1);
+            CHECK(axes.count("phi_d") == 0);
+            CHECK(axes.count("phi_o") == (set.purpose == "bsdf" ? 1 : 0));
+        } else {
+            CHECK(axes.count("phi_i") == 0);
+        }
+    }
+    const ScenePlan mi = plan_of("anisotropic.xml");
+    CHECK(by_name(mi, "brushed-glass").status == MaterialStatus::Unsupported);
+    CHECK(by_name(mi, "brushed-glass").reason.find("isotropic") != std::string::npos);
+    CHECK(by_name(mi, "even-glass").status == MaterialStatus::Tabulated);
+    CHECK(by_name(mi, "even-glass").parameters.at("alpha") == 0.2);
+    CHECK(by_name(mi, "brushed-plastic").status == MaterialStatus::Unsupported);
+    CHECK(by_name(mi, "brushed-plastic").reason.find("not parameters of Mitsuba's roughplastic") !=
+          std::string::npos);
+}

@@ -73,8 +73,8 @@ void run_plan(const PlanArgs& pa) {
         throw InputError("-o needs a target to choose a plan: give --accuracy E or --budget SECONDS");
 
     const Spec spec = parse_spec_file(pa.spec);
-    if (!spec.recombined.empty() || !spec.errors.empty() || !spec.inverted.empty())
-        throw InputError(pa.spec + ": plan does not handle [[recombined]], [[errors]] or [[inverted]] "
+    if (!spec.errors.empty() || !spec.inverted.empty())
+        throw InputError(pa.spec + ": plan does not handle [[errors]] or [[inverted]] "
                          "tables yet (their tables must share nodes); plan a copy of the spec without them");
     std::vector<std::size_t> indices;
     for (std::size_t i = 0; i < spec.tables.size(); ++i)
@@ -88,6 +88,7 @@ void run_plan(const PlanArgs& pa) {
         throw InputError("-o with --table: the written spec would keep the other tables unplanned; "
                          "plan the whole spec, or a copy with that table only");
 
+    const std::vector<RecombinedGroup> groups = recombined_groups(spec, indices);  // checked before the pilots
     auto backend = pa.compute.make_backend();
     PilotOptions po;
     po.abs_floor = pa.abs_floor;
@@ -104,7 +105,9 @@ void run_plan(const PlanArgs& pa) {
         last_shown = 0;
         pilots.push_back(run_pilot(spec, i, *backend, po, progress));
     }
-    const std::vector<Candidate> all = make_candidates(pilots, target);
+    // [[recombined]] terms share one node layout (docs/planning.md, "Recombined tables").
+    const std::vector<Candidate> all =
+        make_recombined_candidates(pilots, target, groups);
     const std::vector<Candidate> front = pareto_front(all);
     const std::optional<std::size_t> choice = choose_plan(front, target);
     const char* measure = target.absolute ? "absolute" : "relative";

@@ -1,7 +1,12 @@
 // scene: the tables a scene's materials need, and a manifest binding each
 // material to its table (host/scene/scene.h, docs/scenes.md).
+#include <sys/statvfs.h>
+
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
+#include <map>
 #include <iomanip>
 #include <set>
 #include <iostream>
@@ -11,6 +16,7 @@
 #include "host/cli/commands.h"
 #include "host/core/atomic_file.h"
 #include "host/core/error.h"
+#include "host/generate/chunked.h"
 #include "host/generate/generate.h"
 #include "host/io/table_io.h"
 #include "host/scene/scene.h"
@@ -49,6 +55,64 @@ std::string find_presets_dir(const std::string& given) {
     return "";
 }
 
+std::string seconds_text(double s) {
+    std::ostringstream o;
+    o.precision(3);
+    o << s << " s";
+    return o.str();
+}
+
+// MemAvailable of /proc/meminfo in bytes; 0 when unknown (as `generate`).
+double available_memory() {
+    std::ifstream in("/proc/meminfo");
+    std::string key, unit;
+    double kib = 0;
+    while (in >> key >> kib) {
+        std::getline(in, unit);
+        if (key == "MemAvailable:") return kib * 1024;
+    }
+    return 0;
+}
+
+// Free bytes on the file system of `path`'s directory; negative when unknown.
+double free_disk_space(const std::string& path) {
+    std::filesystem::path dir = std::filesystem::path(path).parent_path();
+    if (dir.empty()) dir = ".";
+    struct statvfs fs {};
+    if (statvfs(dir.c_str(), &fs) != 0) return -1;
+    return static_cast<double>(fs.f_bavail) * static_cast<double>(fs.f_frsize);
+}
+
+// The pre-check of `generate` for the whole scene, before anything is
+// computed (InputError, exit 2).  The sets are generated one after the
+// other into one file, each streamed in chunks (generate_into): memory is
+// the largest set's estimate, disk the sum.
+void check_scene_resources(const std::vector<Spec>& specs, const std::vector<IntegrationSettings>& settings,
+                           const std::string& out_path, std::uint64_t max_memory) {
+    double memory = 0, disk = 0, cells = 0;
+    for (std::size_t k = 0; k < specs.size(); ++k) {
+        const ResourceEstimate e = estimate_resources(specs[k], settings[k]);
+        memory = std::max(memory, e.memory_bytes);
+        disk += e.disk_bytes;
+        cells += e.cells;
+    }
+    const std::string what = "the scene's tables (" + format_count(cells) + " cells)";
+    if (max_memory && memory > static_cast<double>(max_memory))
+        throw InputError(what + " need about " + format_bytes(memory) + " of memory, above --max-memory " +
+                         format_bytes(static_cast<double>(max_memory)) +
+                         "; ask for less (--accuracy larger, or --budget), or --for bsdf / albedo alone");
+    const double available = max_memory ? 0 : available_memory();
+    if (available > 0 && memory > available)
+        throw InputError(what + " need about " + format_bytes(memory) + " of memory, but only " +
+                         format_bytes(available) + " is available (MemAvailable); ask for less "
+                         "(--accuracy larger, or --budget), or give --max-memory");
+    const double free_space = free_disk_space(out_path);
+    if (free_space >= 0 && disk > free_space)
+        throw InputError(out_path + ": " + what + " need about " + format_bytes(disk) +
+                         " on disk before compression, but only " + format_bytes(free_space) +
+                         " is free on its file system; write elsewhere (-o) or ask for less");
+}
+
 }  // namespace
 
 void register_scene(CLI::App& app) {
@@ -59,9 +123,9 @@ void register_scene(CLI::App& app) {
         "only what the materials need: one HDF5 file plus a JSON manifest binding each "
         "material to its table (docs/scenes.md)");
     struct State {
-        std::string scene, output, manifest, format, purpose = "all", presets;
+        std::string scene, output, manifest, format, purpose = "all", presets, max_memory;
         double accuracy = 1e-3, budget = 0;
-        bool dry_run = false, quiet = false, no_plan = false;
+        bool dry_run = false, quiet = false, no_plan = false, no_certify = false;
         ComputeOptions compute;
     };
     auto state = std::make_shared<State>();
@@ -94,7 +158,13 @@ void register_scene(CLI::App& app) {
                     "(default: the installed presets, if found)");
     cmd->add_flag("--dry-run", state->dry_run,
                   "print the materials and the planned tables; compute and write nothing");
+    cmd->add_flag("--no-certify", state->no_certify,
+                  "skip the certificates (off-grid probes of every written table against the "
+                  "model, stored in the file and the manifest)");
     cmd->add_flag("-q,--quiet", state->quiet, "no progress display");
+    cmd->add_option("--max-memory", state->max_memory,
+                    "refuse (exit 2) before computing when the tables are estimated to need more "
+                    "memory than this (bytes, or with K/M/G/T); default: MemAvailable, as generate");
     state->compute.add_to(*cmd, false);
     cmd->callback([state, cmd] {
         namespace fs = std::filesystem;
@@ -165,27 +235,60 @@ void register_scene(CLI::App& app) {
                      << (set.purpose == "albedo" ? " (absolute)" : " (relative)")
                      << ", predicted time " << set.predicted_seconds << " s\n";
                 std::cout << pred.str();
-            } else if (!set.plan_note.empty()) {
-                std::cout << "      " << set.plan_note << "\n";
             }
+            if (!set.plan_note.empty()) std::cout << "      " << set.plan_note << "\n";
         }
         // Against the presets of the same models (their whole parameter spaces).
         const std::string presets = find_presets_dir(st.presets);
         if (!presets.empty()) {
-            std::set<std::string> used;
-            double preset_cells = 0;
+            // Preset time: the planner's cost model applied to the preset's
+            // cells, with this run's measured cost per cell of the set that
+            // maps to it (at the set's planned samples per cell, i.e. the
+            // same integration accuracy); the preset keeps its own node
+            // counts, so its interpolation error is its own, not E.
+            std::map<std::string, double> preset_rate, preset_fixed;  // preset -> cost
+            std::map<std::string, bool> preset_unpredicted;
             for (const SceneTableSet& set : plan.sets) {
+                const std::string name = preset_for(set.model, set.purpose);
+                if (name.empty()) continue;
+                if (!set.planned) { preset_unpredicted[name] = true; continue; }
+                preset_rate[name] = std::max(preset_rate[name], set.seconds_per_cell);
+                preset_fixed[name] = std::max(preset_fixed[name], set.fixed_seconds);
+            }
+            std::set<std::string> used;
+            double preset_cells = 0, preset_seconds = 0, scene_seconds = 0;
+            bool all_predicted = true;
+            for (const SceneTableSet& set : plan.sets) {
+                all_predicted = all_predicted && set.planned;
+                scene_seconds += set.predicted_seconds;
                 const std::string name = preset_for(set.model, set.purpose);
                 if (name.empty() || !used.insert(name).second) continue;
                 const fs::path p = fs::path(presets) / (name + ".toml");
                 if (!fs::exists(p)) continue;
                 Spec preset = parse_spec_file(p.string());
-                preset_cells += estimate_resources(preset, preset.integration).cells;
+                const double c = estimate_resources(preset, preset.integration).cells;
+                preset_cells += c;
+                if (preset_unpredicted.count(name) || !preset_rate.count(name))
+                    all_predicted = false;
+                else
+                    preset_seconds += preset_fixed[name] + c * preset_rate[name];
             }
-            if (preset_cells > 0)
+            if (preset_cells > 0) {
                 std::cout << "the presets covering these models (" << presets << ") hold "
-                          << cells_text(preset_cells) << "; this scene needs "
-                          << cells_text(cells) << "\n";
+                          << cells_text(preset_cells);
+                if (all_predicted)
+                    std::cout << ", predicted " << seconds_text(preset_seconds);
+                std::cout << "; this scene needs " << cells_text(cells);
+                if (all_predicted) std::cout << ", predicted " << seconds_text(scene_seconds);
+                std::cout << "\n";
+                if (all_predicted)
+                    std::cout << "  (preset time: the planner's cost model applied to the presets' "
+                                 "cells, with this run's measured cost per cell at the planned "
+                                 "samples; the presets keep their own node counts)\n";
+                else
+                    std::cout << "  (no time comparison: a set was not planned, so its cost per "
+                                 "cell was not measured)\n";
+            }
         }
         if (st.dry_run) {
             std::cout << "dry run: nothing computed or written\n";
@@ -197,23 +300,54 @@ void register_scene(CLI::App& app) {
         }
         check_output_writable(out_path);
         check_output_writable(manifest_path);
+        std::vector<IntegrationSettings> set_settings;
+        for (const Spec& spec : specs) set_settings.push_back(st.compute.apply(spec.integration));
+        check_scene_resources(specs, set_settings, out_path,
+                              st.max_memory.empty() ? 0 : parse_byte_size(st.max_memory, "--max-memory"));
         if (!backend) backend = st.compute.make_backend();
         std::cerr << "writing " << fs::absolute(out_path).lexically_normal().string() << " and "
                   << fs::absolute(manifest_path).lexically_normal().string() << " on "
                   << backend->device_name() << "\n";
-        std::vector<TableData> data;
-        for (std::size_t k = 0; k < specs.size(); ++k) {
-            TableProgress progress(st.quiet, plan.sets[k].id + " ");
-            const IntegrationSettings settings_k = st.compute.apply(specs[k].integration);
-            for (GeneratedTable& t :
-                 generate_tables(specs[k], *backend, settings_k, progress.callback()))
-                data.push_back(std::move(t.data));
-            progress.finish();
+        // Streamed, as `generate`: each set's tables in chunks straight into
+        // one file, which appears only when every set is done.
+        std::size_t written = 0;
+        {
+            TableFileWriter writer(out_path);
+            for (std::size_t k = 0; k < specs.size(); ++k) {
+                TableProgress progress(st.quiet, plan.sets[k].id + " ");
+                written += generate_into(specs[k], *backend, set_settings[k], writer,
+                                         progress.callback()).size();
+                progress.finish();
+            }
+            writer.commit();
         }
-        write_tables(out_path, data);
+        // Certificates: each table probed off-grid against the mapped model
+        // (host/plan/certify.h), stored in the file and the manifest.
+        if (!st.no_certify) {
+            for (SceneTableSet& set : plan.sets) {
+                double last = 0;
+                auto progress = [&](const std::string& stage, const Progress& p) {
+                    if (st.quiet || p.elapsed_seconds < 2 || p.elapsed_seconds - last < 2) return;
+                    last = p.elapsed_seconds;
+                    std::cerr << "scene: " << stage << " " << static_cast<int>(100 * p.fraction) << "%\n";
+                };
+                const double target =
+                    st.budget > 0 && set.planned ? set.predicted_error : st.accuracy;
+                certify_table_set(set, out_path, *backend, target, progress);
+                for (const SceneTableSet::TableCertificate& c : set.certificates) {
+                    std::ostringstream line;
+                    line.precision(3);
+                    line << "  certified " << c.table << ": max total error " << c.max_error
+                         << (set.purpose == "albedo" ? " (absolute)" : " (relative)") << ", target "
+                         << c.target << ": " << (c.passed ? "passed" : "FAILED")
+                         << (c.how == "measured" ? "" : " (" + c.how + ")") << "\n";
+                    std::cout << line.str();
+                }
+            }
+        }
         write_text_atomically(manifest_path,
                               scene_manifest(plan, st.scene, out_path).dump(2) + "\n");
-        std::cout << "wrote " << out_path << " (" << data.size() << " tables) and "
+        std::cout << "wrote " << out_path << " (" << written << " tables) and "
                   << manifest_path << "\n";
     });
 }

@@ -171,12 +171,21 @@ std::vector<GeneratedTable> generate_to_file(const Spec& spec, Backend& backend,
                                              const std::string& output_path,
                                              const GenerateProgressFn& progress,
                                              const StreamOptions& options) {
+    TableFileWriter writer(output_path);
+    if (options.temporary_created) options.temporary_created(writer.temporary_path());
+    std::vector<GeneratedTable> out = generate_into(spec, backend, settings, writer, progress, options);
+    writer.commit();
+    return out;
+}
+
+std::vector<GeneratedTable> generate_into(const Spec& spec, Backend& backend,
+                                          const IntegrationSettings& settings,
+                                          TableFileWriter& writer,
+                                          const GenerateProgressFn& progress,
+                                          const StreamOptions& options) {
     ChunkComputer computer(spec, backend, settings);
     const std::vector<CellChunk> plan = plan_chunks(spec, options.chunk_cells, options.ranks);
     const std::vector<std::string> keep = tables_read_by_derived(spec);
-
-    TableFileWriter writer(output_path);
-    if (options.temporary_created) options.temporary_created(writer.temporary_path());
     // Every computed table, its file objects and what its chunks add up to.
     struct Table {
         GeneratedTable g;  // data.value etc. filled only when kept
@@ -382,7 +391,6 @@ std::vector<GeneratedTable> generate_to_file(const Spec& spec, Backend& backend,
         set_value_range(out[k]);
         writer.add_table(out[k].data);
     }
-    writer.commit();
     // The summary needs no data: release what was kept.
     for (GeneratedTable& g : out) {
         std::vector<double>().swap(g.data.value);

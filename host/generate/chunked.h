@@ -124,6 +124,15 @@ std::vector<GeneratedTable> generate_to_file(const Spec& spec, Backend& backend,
                                              const GenerateProgressFn& progress = nullptr,
                                              const StreamOptions& options = {});
 
+// The same into an open writer, which the caller commits: several specs'
+// tables in one file (`brdftab scene`: one spec per table set).
+class TableFileWriter;
+std::vector<GeneratedTable> generate_into(const Spec& spec, Backend& backend,
+                                          const IntegrationSettings& settings,
+                                          TableFileWriter& writer,
+                                          const GenerateProgressFn& progress = nullptr,
+                                          const StreamOptions& options = {});
+
 // The names of the computed tables whose data a derived table of `spec`
 // reads (kept whole in memory by generate_to_file).
 std::vector<std::string> tables_read_by_derived(const Spec& spec);

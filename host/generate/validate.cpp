@@ -113,9 +113,10 @@ ValidationPlan::ValidationPlan(const std::string& file, const std::string& table
     // seed differs from the table's so the reference noise is independent of
     // the table's noise.
     IntegrationSettings& s = reference_settings_;
-    // A recombined table has no method of its own: parse_method rejects its
-    // attribute ("integration method 'recombined' is not valid; ...").
-    s.method = t.kind == TableKind::Computed ? t.method : parse_method(method_attribute(t));
+    // A recombined table has no method of its own: its values (at stored_at)
+    // are checked against the quantity of its name with that quantity's
+    // default method (issue 14: plan's recombined predictions are checked so).
+    s.method = t.kind == TableKind::Computed ? t.method : Method::Auto;
     // The table's budget comes from the file, which may be hostile: capped.
     if (options_.max_samples < 1) throw InputError("--max-samples must be >= 1");
     const std::uint64_t cap = options_.max_samples;

@@ -305,7 +305,10 @@ TablePilot run_pilot(const Spec& spec, std::size_t table_index, Backend& backend
     pilot.pilot_evaluations = named.size();
     const bool noisy = r.method != Method::ClosedForm;
     pilot.min_value = std::numeric_limits<double>::infinity();
+    pilot.signed_min = r.value.empty() ? 0.0 : r.value.front();
+    pilot.signed_max = pilot.signed_min;
     for (double v : r.value) {
+        pilot.signed_min = std::min(pilot.signed_min, v), pilot.signed_max = std::max(pilot.signed_max, v);
         pilot.max_value = std::max(pilot.max_value, std::fabs(v));
         pilot.min_value = std::min(pilot.min_value, std::fabs(v));
     }
@@ -647,6 +650,194 @@ std::optional<std::size_t> choose_plan(const std::vector<Candidate>& c, const Pl
     return best;
 }
 
+// --------------------------------------------------------------- recombined tables
+
+std::vector<RecombinedGroup> recombined_groups(const Spec& spec,
+                                               const std::vector<std::size_t>& table_indices) {
+    std::vector<RecombinedGroup> out;
+    for (const RecombinedSpec& rs : spec.recombined) {
+        RecombinedGroup g;
+        g.name = rs.name;
+        bool complete = true;
+        for (const auto& [table, coeffs] : rs.terms) {
+            std::optional<std::size_t> k;
+            for (std::size_t j = 0; j < table_indices.size(); ++j)
+                if (table_indices[j] < spec.tables.size() && spec.tables[table_indices[j]].name == table) k = j;
+            if (!k) { complete = false; break; }
+            g.terms.push_back(*k);
+            g.coeffs.push_back(coeffs);
+        }
+        if (!complete || g.terms.empty()) continue;
+        // Shared nodes need the same axes (names, ranges, spacings): only the
+        // counts are planned.
+        const TableSpec& first = spec.tables[table_indices[g.terms.front()]];
+        for (std::size_t k = 1; k < g.terms.size(); ++k) {
+            const TableSpec& t = spec.tables[table_indices[g.terms[k]]];
+            bool same = t.axes.size() == first.axes.size();
+            for (std::size_t a = 0; same && a < t.axes.size(); ++a)
+                same = t.axes[a].name == first.axes[a].name && t.axes[a].min == first.axes[a].min &&
+                       t.axes[a].max == first.axes[a].max && t.axes[a].spacing == first.axes[a].spacing &&
+                       (t.axes[a].spacing != Spacing::Explicit || t.axes[a].values == first.axes[a].values);
+            if (!same)
+                throw InputError(spec.file + ": recombined table '" + rs.name + "': terms '" + first.name +
+                                 "' and '" + t.name + "' differ in their axes (names, ranges or spacings); "
+                                 "the planner can share node counts only");
+        }
+        if (rs.range) {
+            g.lo = rs.range->first, g.hi = rs.range->second;
+        } else if (const ParameterInfo* info = find_model(spec.model).find_parameter(rs.parameter)) {
+            g.lo = info->min, g.hi = info->max;
+        } else {
+            g.lo = g.hi = rs.stored_at;
+        }
+        out.push_back(std::move(g));
+    }
+    return out;
+}
+
+std::vector<std::size_t> shared_counts(const RecombinedGroup& group,
+                                       const std::vector<std::vector<std::size_t>>& counts) {
+    std::vector<std::size_t> shared;
+    for (std::size_t t : group.terms) {
+        if (shared.empty()) shared.assign(counts[t].size(), 0);
+        for (std::size_t a = 0; a < shared.size() && a < counts[t].size(); ++a)
+            shared[a] = std::max(shared[a], counts[t][a]);
+    }
+    return shared;
+}
+
+namespace {
+double polynomial_at(const std::vector<double>& coeffs, double p) {
+    double v = 0;
+    for (std::size_t k = coeffs.size(); k-- > 0;) v = v * p + coeffs[k];  // Horner
+    return v;
+}
+}  // namespace
+
+TablePlan predict_recombined(const RecombinedGroup& group, const std::vector<TablePilot>& pilots,
+                             const std::vector<TablePlan>& term_plans, const PlanTarget& target) {
+    TablePlan tp;
+    tp.table = group.name;
+    if (!term_plans.empty()) tp.counts = term_plans.front().counts, tp.cells = term_plans.front().cells;
+    constexpr int kSteps = 128;
+    bool nonnegative = true, floor_bound = true;
+    for (std::size_t k = 0; k < group.terms.size(); ++k) {
+        const TablePilot& p = pilots[group.terms[k]];
+        nonnegative = nonnegative && p.signed_min >= 0;
+        // A floor at or above every value (e.g. albedos with floor 1): the
+        // relative errors are absolute errors / floor, and add like them.
+        floor_bound = floor_bound && p.rel_floor >= p.max_value;
+    }
+    for (int s = 0; s <= kSteps; ++s) {
+        const double p = group.lo + (group.hi - group.lo) * double(s) / kSteps;
+        TablePlan at;
+        for (std::size_t k = 0; k < group.terms.size() && k < term_plans.size(); ++k) {
+            const double c = polynomial_at(group.coeffs[k], p);
+            const TablePlan& t = term_plans[k];
+            if (target.absolute || (floor_bound && c >= 0)) {
+                at.interpolation_max += std::fabs(c) * t.interpolation_max;
+                at.interpolation_rms += std::fabs(c) * t.interpolation_rms;
+                at.integration_max += std::fabs(c) * t.integration_max;
+                at.integration_rms += std::fabs(c) * t.integration_rms;
+                at.storage_max += std::fabs(c) * t.storage_max;
+                at.error_max += std::fabs(c) * t.error_max;
+                at.error_rms += std::fabs(c) * t.error_rms;
+            } else if (!(c >= 0 && nonnegative)) {
+                at.error_max = at.error_rms = std::numeric_limits<double>::infinity();
+            } else if (c > 0) {
+                // A weighted mean of the terms' relative errors is at most
+                // the largest: each part's bound is the largest term's.
+                at.interpolation_max = std::max(at.interpolation_max, t.interpolation_max);
+                at.interpolation_rms = std::max(at.interpolation_rms, t.interpolation_rms);
+                at.integration_max = std::max(at.integration_max, t.integration_max);
+                at.integration_rms = std::max(at.integration_rms, t.integration_rms);
+                at.storage_max = std::max(at.storage_max, t.storage_max);
+                at.error_max = std::max(at.error_max, t.error_max);
+                at.error_rms = std::max(at.error_rms, t.error_rms);
+            }
+        }
+        if (at.error_max >= tp.error_max) {
+            const std::vector<std::size_t> counts = tp.counts;
+            const double cells = tp.cells;
+            tp = at;
+            tp.table = group.name, tp.counts = counts, tp.cells = cells;
+        }
+    }
+    tp.seconds = 0;  // formed from the terms in memory: the terms carry the time
+    return tp;
+}
+
+std::vector<Candidate> make_recombined_candidates(const std::vector<TablePilot>& pilots,
+                                                  const PlanTarget& target,
+                                                  const std::vector<RecombinedGroup>& groups) {
+    if (groups.empty()) return make_candidates(pilots, target);
+    std::vector<Candidate> out;
+    bool integral = false, quadrature = false;
+    double scale = 0;
+    for (const TablePilot& p : pilots) {
+        integral |= p.kind == QuantityKind::Integral;
+        quadrature |= p.kind == QuantityKind::Quadrature;
+        scale = std::max(scale, p.max_value);
+    }
+    std::vector<Method> methods;
+    if (integral)
+        methods = {Method::MonteCarlo, Method::Rqmc};
+    else if (quadrature)
+        methods = {Method::Quadrature};
+    else
+        methods = {Method::ClosedForm};
+    for (int k = 1; k <= 26; ++k) {
+        const double interp_target = std::ldexp(1.0, -k) * (target.absolute ? std::max(scale, 1e-300) : 1.0);
+        std::vector<std::vector<std::size_t>> counts;
+        for (const TablePilot& p : pilots) counts.push_back(balanced_counts(p, target, interp_target));
+        // Each group's terms on one layout: per axis the largest need.
+        for (const RecombinedGroup& g : groups) {
+            const std::vector<std::size_t> shared = shared_counts(g, counts);
+            for (std::size_t t : g.terms) counts[t] = shared;
+        }
+        double cells_max = 0;
+        for (const auto& c : counts) {
+            double cells = 1;
+            for (std::size_t n : c) cells *= double(n);
+            cells_max = std::max(cells_max, cells);
+        }
+        if (cells_max > kMaxCells) continue;
+        for (Method m : methods) {
+            std::vector<std::uint64_t> budgets = {0};
+            if (m == Method::MonteCarlo || m == Method::Rqmc)
+                budgets = {1u << 8, 1u << 10, 1u << 12, 1u << 14, 1u << 16, 1u << 18, 1u << 20, 1u << 22};
+            for (std::uint64_t n : budgets)
+                for (StoredType st : {StoredType::Float16, StoredType::Float32}) {
+                    Candidate c;
+                    c.method = m;
+                    c.samples = n;
+                    c.stored_type = st;
+                    c.interpolation_target = interp_target;
+                    const double bytes_per_cell = st == StoredType::Float16 ? 2 : 4;
+                    for (std::size_t i = 0; i < pilots.size(); ++i) {
+                        c.tables.push_back(predict_table(pilots[i], target, counts[i], m, n, st));
+                        const TablePlan& tp = c.tables.back();
+                        c.error_max = std::max(c.error_max, tp.error_max);
+                        c.error_rms = std::max(c.error_rms, tp.error_rms);
+                        c.seconds += tp.seconds;
+                        c.bytes += tp.cells * bytes_per_cell;
+                    }
+                    for (const RecombinedGroup& g : groups) {
+                        std::vector<TablePlan> terms;
+                        for (std::size_t t : g.terms) terms.push_back(c.tables[t]);
+                        c.tables.push_back(predict_recombined(g, pilots, terms, target));
+                        const TablePlan& tp = c.tables.back();
+                        c.error_max = std::max(c.error_max, tp.error_max);
+                        c.error_rms = std::max(c.error_rms, tp.error_rms);
+                        c.bytes += tp.cells * bytes_per_cell;  // its values at stored_at
+                    }
+                    if (std::isfinite(c.error_max) && std::isfinite(c.seconds)) out.push_back(std::move(c));
+                }
+        }
+    }
+    return out;
+}
+
 // --------------------------------------------------------------- output
 
 std::string planned_spec_text(const Spec& spec, const std::vector<std::size_t>& table_indices,
@@ -762,6 +953,7 @@ nlohmann::json candidate_json(const Candidate& c, const std::vector<TablePilot>&
         nlohmann::json counts = nlohmann::json::object();
         for (std::size_t a = 0; a < t.counts.size() && i < pilots.size(); ++a)
             counts[pilots[i].axes[a].name] = t.counts[a];
+        if (i >= pilots.size()) counts = t.counts;  // a recombined table: its terms' shared counts, in axis order
         tables.push_back({{"table", t.table}, {"counts", counts}, {"cells", t.cells},
                           {"predicted_error", {{"max", t.error_max}, {"rms", t.error_rms},
                                                {"interpolation_max", t.interpolation_max},

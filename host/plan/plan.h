@@ -144,6 +144,7 @@ struct TablePilot {
     std::vector<Axis> axes;        // as the spec has them
     double max_value = 0;          // largest |value| seen by the pilot
     double min_value = 0;          // smallest |value| seen by the pilot
+    double signed_min = 0, signed_max = 0;  // smallest and largest value (signed): recombined bounds
     double rel_floor = 0;          // relative errors divide by max(|value|, rel_floor)
     std::vector<AxisFit> linear, cubic;  // per axis
     std::vector<IntegrationFit> integration;  // closed form: one entry with the cost per cell
@@ -245,6 +246,56 @@ std::vector<Candidate> pareto_front(const std::vector<Candidate>& candidates);
 // faster).  nullopt when none qualifies or no target is set.
 std::optional<std::size_t> choose_plan(const std::vector<Candidate>& candidates,
                                        const PlanTarget& target);
+
+// --------------------------------------------------------------- recombined tables
+
+// A [[recombined]] table R(x; p) = sum_t c_t(p) T_t(x) over piloted terms
+// (issue 14: Oren-Nayar's brdf = rho brdf_direct + rho^2 brdf_interreflection).
+// Its terms must share one node layout, so a plan gives every term of a group
+// the same counts: per axis the largest that any term needs.
+struct RecombinedGroup {
+    std::string name;
+    std::vector<std::size_t> terms;           // indices into the pilots
+    std::vector<std::vector<double>> coeffs;  // per term: coefficients of p^0, p^1, ...
+    double lo = 1, hi = 1;                    // range of p the prediction covers
+};
+
+// The groups of spec.recombined whose terms are all among the piloted
+// `table_indices` (pilots[k] is table table_indices[k]); p's range is the
+// entry's `range`, else the model's range of that parameter, else stored_at.
+// Throws InputError when the terms' axes differ in names, ranges or spacing.
+std::vector<RecombinedGroup> recombined_groups(const Spec& spec,
+                                               const std::vector<std::size_t>& table_indices);
+
+// The shared layout: per axis the largest count of the group's terms.
+std::vector<std::size_t> shared_counts(const RecombinedGroup& group,
+                                       const std::vector<std::vector<std::size_t>>& counts);
+
+// Predicted error of the recombined table from its terms' predictions
+// (`term_plans[k]` for group.terms[k], all at the shared counts, predicted
+// in the target's measure), at the worst p of the range (129 points and the
+// ends):
+//   absolute:  |dR| <= sum_t |c_t(p)| E_t   (triangle inequality);
+//   relative:  when every c_t(p) >= 0 and every term >= 0 (the pilots' signed
+//              values), R >= c_t T_t for each t, so
+//              |dR| / R <= sum_t c_t e_t T_t / sum_t c_t T_t <= max_t e_t:
+//              the largest term error, whatever p (values above the floor);
+//              when the floor is at or above every term's values (albedos
+//              with floor 1) the relative errors are absolute ones over one
+//              floor and add as above.  Terms or coefficients of
+//              mixed sign can cancel: no relative bound (infinite error,
+//              the candidate is dropped; plan with --abs).
+// Time is the terms' (the recombination itself is free); cells those of one term.
+TablePlan predict_recombined(const RecombinedGroup& group, const std::vector<TablePilot>& pilots,
+                             const std::vector<TablePlan>& term_plans, const PlanTarget& target);
+
+// make_candidates() for specs with recombined tables: the same candidate
+// set, with every group's terms on their shared layout; each candidate's
+// tables are the pilots' (in order) followed by one entry per group (its
+// counts the shared ones), and its error is the worst of all of them.
+std::vector<Candidate> make_recombined_candidates(const std::vector<TablePilot>& pilots,
+                                                  const PlanTarget& target,
+                                                  const std::vector<RecombinedGroup>& groups);
 
 // --------------------------------------------------------------- output
 

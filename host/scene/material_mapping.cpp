@@ -7,7 +7,8 @@
 //                              Smith G (pbrt-v4's TrowbridgeReitz G)
 //   pbrt-v4 coateddiffuse   -> interfaced-lambertian, ggx-smith, ni = eta,
 //                              Kd = reflectance factored out (approximation:
-//                              pbrt's layered random walk is not this model)
+//                              pbrt's layered random walk is not this model);
+//                              uroughness != vroughness -> alpha_x, alpha_y
 //   pbrt-v3 matte (sigma>0) -> oren-nayar, sigma in degrees, rho = Kd factored
 //   pbrt-v3 glass           -> rough-dielectric, GGX, pbrt-v3's roughness remap,
 //                              height-correlated Smith G
@@ -265,16 +266,22 @@ bool effectively_smooth(const Value& alpha) {
     return !alpha.ranged && alpha.value < kSmoothAlpha;
 }
 
-// Roughness of pbrt's dielectric-like materials: (alpha value, anisotropic?).
-Value pbrt_alpha(const Reader& r, bool v4, bool& anisotropic) {
+// Roughness of pbrt's dielectric-like materials: alpha along u (the
+// shading frame's dpdu, pbrt's alpha_x) and, in `alpha_v`, along v (alpha_y),
+// both remapped; `anisotropic` when they differ.
+Value pbrt_alpha(const Reader& r, bool v4, bool& anisotropic, Value* alpha_v = nullptr) {
     const bool remap = r.flag("remaproughness", true);
     const Value rough = r.number("roughness", 0);
     Value u = r.has("uroughness") ? r.number("uroughness", 0) : rough;
     Value v = r.has("vroughness") ? r.number("vroughness", 0) : rough;
     anisotropic = u.ranged || v.ranged ? (u.image != v.image)
                                        : std::fabs(u.value - v.value) > 1e-12;
-    if (!remap) return u;
-    return v4 ? u.map(pbrt_v4_roughness_to_alpha) : u.map(pbrt_v3_roughness_to_alpha);
+    if (remap) {
+        u = v4 ? u.map(pbrt_v4_roughness_to_alpha) : u.map(pbrt_v3_roughness_to_alpha);
+        v = v4 ? v.map(pbrt_v4_roughness_to_alpha) : v.map(pbrt_v3_roughness_to_alpha);
+    }
+    if (alpha_v) *alpha_v = v;
+    return u;
 }
 
 MappedMaterial map_pbrt(const SceneMaterial& m) {
@@ -287,7 +294,8 @@ MappedMaterial map_pbrt(const SceneMaterial& m) {
         const Value alpha = pbrt_alpha(r, v4, aniso);
         if (aniso)
             return mp.unsupported("anisotropic roughness (uroughness != vroughness): brdftab's "
-                                  "rough-dielectric model is isotropic");
+                                  "rough-dielectric model is isotropic (one alpha, no alpha_x / "
+                                  "alpha_y)");
         Value eta;
         if (v4) {
             auto it = m.parameters.find("eta");
@@ -323,11 +331,12 @@ MappedMaterial map_pbrt(const SceneMaterial& m) {
     }
     if (t == "coateddiffuse") {
         bool aniso = false;
-        const Value alpha = pbrt_alpha(r, true, aniso);
-        if (aniso)
-            return mp.unsupported("anisotropic coating roughness: scene tables of "
-                                  "interfaced-lambertian are isotropic");
-        if (effectively_smooth(alpha))
+        Value alpha_v;
+        const Value alpha = pbrt_alpha(r, true, aniso, &alpha_v);
+        if (aniso && (alpha.ranged || alpha_v.ranged))
+            return mp.unsupported("anisotropic coating roughness from textures: two texture axes "
+                                  "on a four-angle table are not supported; give numbers");
+        if (effectively_smooth(alpha) || (aniso && effectively_smooth(alpha_v)))
             return mp.unsupported("smooth coating (alpha below 1e-3): the interfaced-Lambertian "
                                   "model describes rough facets only");
         mp.tabulated("interfaced-lambertian",
@@ -337,7 +346,17 @@ MappedMaterial map_pbrt(const SceneMaterial& m) {
                                  "between a dielectric interface and a diffuse base; this "
                                  "model makes every facet an interface over a Lambertian "
                                  "substrate");
-        mp.set("alpha", alpha);
+        if (aniso) {
+            // pbrt-v4's TrowbridgeReitzDistribution(alpha_x = u, alpha_y = v),
+            // x along dpdu: the model's alpha_x / alpha_y, azimuths from x.
+            mp.set("alpha_x", alpha);
+            mp.set("alpha_y", alpha_v);
+            mp.out().notes.push_back("anisotropic: alpha_x along the shading frame's u (dpdu), "
+                                     "alpha_y along v; the tables have phi_i and phi_o axes "
+                                     "measured from u");
+        } else {
+            mp.set("alpha", alpha);
+        }
         mp.set("ni", r.number("eta", 1.5));
         mp.out().options = {{"distribution", "ggx-smith"}, {"sampling", "visible"}};
         mp.out().factored = {{"kd", r.factor("reflectance", 0.5)}};
@@ -408,7 +427,8 @@ MappedMaterial map_mitsuba(const SceneMaterial& m) {
         const Value alpha = alpha_of(aniso);
         if (aniso)
             return mp.unsupported("anisotropic roughness (alpha_u != alpha_v): brdftab's "
-                                  "rough-dielectric model is isotropic");
+                                  "rough-dielectric model is isotropic (one alpha, no alpha_x / "
+                                  "alpha_y)");
         double eta_value = 0;
         const Value eta = eta_of("bk7", eta_value);
         if (effectively_smooth(alpha))
@@ -433,7 +453,9 @@ MappedMaterial map_mitsuba(const SceneMaterial& m) {
                                   "' (interfaced-lambertian has beckmann and ggx)");
         bool aniso = false;
         const Value alpha = alpha_of(aniso);
-        if (aniso) return mp.unsupported("anisotropic roughness in a roughplastic");
+        if (r.has("alpha_u") || r.has("alpha_v"))
+            return mp.unsupported("alpha_u / alpha_v are not parameters of Mitsuba's roughplastic, "
+                                  "which is isotropic (alpha only)");
         if (effectively_smooth(alpha))
             return mp.unsupported("alpha below 1e-3: the interfaced-Lambertian model describes "
                                   "rough facets only");

@@ -105,11 +105,33 @@ struct SceneTableSet {
     std::string main_table;  // the table a renderer binds a material to
     std::vector<std::string> tables;    // every table name it writes
     std::vector<std::string> materials; // names of the materials it serves
+    // Other tables a renderer binds, by role (manifest `tables`): e.g.
+    // "bsdf_transmission" for the rough-dielectric BSDF's transmission table.
+    std::map<std::string, std::string> roles;
     // Set by plan_table_set(): whether the planner chose the node counts and
     // samples (else the template's are kept, and plan_note says why), and
     // its predictions for the whole set.
     bool planned = false;
     double predicted_error = 0, predicted_seconds = 0;
+    std::map<std::string, double> table_predicted_error;  // per planned table (and recombined table)
+    // The planner's cost model for this set: engine seconds per cell at the
+    // planned samples (startup and per-run overhead excluded) and those
+    // fixed seconds; used to predict what the presets would cost.
+    double seconds_per_cell = 0, fixed_seconds = 0;
+    // Set by certify_table_set(): each table's measured total error
+    // (host/plan/certify.h), in the set's measure.
+    struct TableCertificate {
+        std::string table;
+        double max_error = 0, rms_error = 0;  // rms: 0 for recombined tables (a bound)
+        double target = 0;
+        double floor = 0;  // relative errors divide by max(|value|, floor) (table units)
+        bool passed = false;
+        // "measured" (off-grid probes against the model), or for a recombined
+        // table "bound from the terms' certificates" (at the worst rho).
+        std::string how;
+        std::map<std::string, double> max_at;  // coordinates of the max (measured only)
+    };
+    std::vector<TableCertificate> certificates;
     std::string plan_note;
 };
 
@@ -131,13 +153,26 @@ ScenePlan plan_scene_tables(const std::vector<SceneMaterial>& materials,
 // (host/plan): short pilots on `backend`, then the fastest plan predicted to
 // reach `accuracy` (max total relative error, linear interpolation), or with
 // `budget_seconds` > 0 the most accurate plan predicted to finish in that
-// time.  When the planner cannot plan the set (recombined tables, which must
-// share nodes) or no plan reaches the target, the template stays and
-// set.plan_note says why.  `progress` receives the pilot's progress.
+// time.  Recombined tables (Oren-Nayar's rho) are planned with their terms
+// on one node layout.  A closed-form set no joint plan reaches is planned
+// table by table, a table no plan reaches keeping its template counts; when
+// nothing can be planned the template stays.  set.plan_note says what was
+// kept and why.  `progress` receives the pilot's progress.
 class Backend;
 struct Progress;
 void plan_table_set(SceneTableSet& set, Backend& backend, double accuracy, double budget_seconds,
                     const std::function<void(const std::string&, const Progress&)>& progress);
+
+// Certifies every table of a generated set in `file` (host/plan/certify.h:
+// the stored values, interpolated linearly as a renderer does, against the
+// mapped model at off-grid probes), stores each certificate in the file and
+// in set.certificates.  `target` is the set's accuracy (max total error;
+// relative with the floor 1e-3 x max for BSDF sets, absolute for albedo
+// sets).  Recombined tables have no model quantity of their own to probe:
+// their certificate is the bound of plan.h's predict_recombined applied to
+// the terms' certificates.
+void certify_table_set(SceneTableSet& set, const std::string& file, Backend& backend, double target,
+                       const std::function<void(const std::string&, const Progress&)>& progress);
 
 // The manifest (docs/scenes.md): per material name, type, status, reason,
 // model, parameters, table, factored, notes.

@@ -5,10 +5,10 @@
 // Kd are factored out of the tables, which is why those factorizations exist.
 // A parameter driven by a texture becomes an axis over the texture's range.
 //
-// The angular axes and sample budgets come from the templates below (the
-// presets' resolutions with the parameter axes removed).  They are fixed
-// choices, not planned: docs/scenes.md says so, and `--accuracy` sets the
-// integration tolerance of the estimated tables only.
+// The angular axes and sample budgets start from the templates below (the
+// presets' resolutions with the parameter axes removed); plan_table_set()
+// (scene_planning.cpp) replaces them by the planner's choice where it can,
+// and `--accuracy` is the integration tolerance of the sets it cannot plan.
 #include <algorithm>
 #include <cmath>
 #include <fstream>
@@ -57,21 +57,33 @@ struct SetTemplate {
     std::string recombined;       // TOML of [[recombined]] blocks (with {P} for the prefix)
     std::string integration;      // TOML [integration] body (with {TOL} and {FLOOR})
     std::map<std::string, std::string> fixed_parameters;  // extra fixed parameters (TOML values)
+    std::map<std::string, std::string> roles;  // manifest role -> table suffix, besides the main one
 };
 
 const AxisTemplate kThetaI85{"theta_i", 0, 85, 18}, kThetaO85{"theta_o", 0, 85, 18};
 
-SetTemplate set_template(const std::string& model, const std::string& purpose) {
+// `anisotropic`: interfaced-lambertian with alpha_x / alpha_y (pbrt-v4
+// uroughness != vroughness): its tables need both azimuths.
+SetTemplate set_template(const std::string& model, const std::string& purpose, bool anisotropic) {
     SetTemplate t;
     const std::string estimated =
         "method = \"rqmc\"\nsamples = 1024\ntolerance = {TOL}\nabs_floor = {FLOOR}\n"
         "max_samples = 1048576\nseed = {SEED}\n";
     if (model == "rough-dielectric") {
         if (purpose == "bsdf") {
-            // Closed form: 2-degree steps cost nothing.
-            t.tables = {{"bsdf", "bsdf", {}, {{"theta_i", 0, 90, 46}, {"theta_o", 0, 180, 91},
-                                              {"phi_d", 0, 180, 37}}}};
-            t.main = "bsdf";
+            // Closed form: 2-degree steps cost nothing.  Reflection and
+            // transmission in two tables, each away from the horizon: in one
+            // `bsdf` table over theta_o 0-180 the jump between f_r and f_t at
+            // theta_o = 90 kept the relative interpolation error near 1 at any
+            // node count, and the node theta_i = theta_o = 90 held the
+            // grazing forward-scattering divergence of f_r (~1/cos theta under
+            // Smith masking: 2.5e9 1/sr at alpha = 0.32), which set the
+            // relative floor (1e-3 of the largest value) to 2.5e6 1/sr.
+            const AxisTemplate ti{"theta_i", 0, 88, 45}, pd{"phi_d", 0, 180, 37};
+            t.tables = {{"bsdf_reflection", "brdf", {}, {ti, {"theta_o", 0, 88, 45}, pd}},
+                        {"bsdf_transmission", "btdf", {}, {ti, {"theta_o", 92, 180, 45}, pd}}};
+            t.main = "bsdf_reflection";
+            t.roles = {{"bsdf_transmission", "bsdf_transmission"}};
             return t;
         }
         t.tables = {
@@ -82,6 +94,23 @@ SetTemplate set_template(const std::string& model, const std::string& purpose) {
             {"albedo_avg", "albedo_avg", {{"lobe", "both"}, {"side", "outside"}}, {}},
             {"albedo_avg_inside", "albedo_avg", {{"lobe", "both"}, {"side", "inside"}}, {}}};
         t.main = "albedo_r";
+        t.integration = estimated;
+        return t;
+    }
+    if (model == "interfaced-lambertian" && anisotropic) {
+        // As tables/interfaced-lambertian-anisotropic.toml: the axis-aligned
+        // anisotropic D is even in x and in y, so phi_i in [0, 90] covers
+        // every incidence azimuth; phi_o over the full circle, from the x axis.
+        const AxisTemplate phi_i{"phi_i", 0, 90, 7};
+        if (purpose == "bsdf") {
+            t.tables = {{"body", "body", {}, {kThetaI85, phi_i, kThetaO85, {"phi_o", 0, 360, 25}}}};
+            t.main = "body";
+        } else {
+            t.tables = {{"albedo_body", "albedo_body", {}, {{"theta_i", 0, 89, 30}, phi_i}},
+                        {"albedo_specular", "albedo_specular", {}, {{"theta_i", 0, 89, 30}, phi_i}}};
+            t.fixed_parameters["kd"] = "1.0";
+            t.main = "albedo_body";
+        }
         t.integration = estimated;
         return t;
     }
@@ -297,9 +326,15 @@ ScenePlan plan_scene_tables(const std::vector<SceneMaterial>& materials,
         for (const MappedMaterial& m : plan.materials)
             if (m.source.name == set.materials.front() && m.status == MaterialStatus::Tabulated)
                 first = &m;
-        const SetTemplate t = set_template(set.model, set.purpose);
+        auto positive = [&](const char* n) {
+            auto it = first->parameters.find(n);
+            return it != first->parameters.end() && it->second > 0;
+        };
+        const SetTemplate t =
+            set_template(set.model, set.purpose, positive("alpha_x") || positive("alpha_y"));
         set.spec_text = spec_text(set, *first, t, settings, set.tables);
         set.main_table = set.id + "_" + t.main;
+        for (const auto& [role, suffix] : t.roles) set.roles[role] = set.id + "_" + suffix;
     }
     return plan;
 }
@@ -327,13 +362,27 @@ nlohmann::json scene_manifest(const ScenePlan& plan, const std::string& scene_fi
         nlohmann::json tables = nlohmann::json::object();
         for (const SceneTableSet& set : plan.sets)
             if (std::find(set.materials.begin(), set.materials.end(), m.source.name) !=
-                set.materials.end())
+                set.materials.end()) {
                 tables[set.purpose] = set.main_table;
+                for (const auto& [role, name] : set.roles) tables[role] = name;
+            }
         // `table`: the BSDF table when there is one, else the albedo table.
         if (tables.contains("bsdf")) j["table"] = tables["bsdf"];
         else if (tables.contains("albedo")) j["table"] = tables["albedo"];
         else j["table"] = nullptr;
         j["tables"] = tables;
+        // Certified: the worst of the sets serving the material.
+        bool certified = false, passed = true;
+        double worst = 0;
+        for (const SceneTableSet& set : plan.sets)
+            if (!set.certificates.empty() &&
+                std::find(set.materials.begin(), set.materials.end(), m.source.name) != set.materials.end())
+                for (const SceneTableSet::TableCertificate& c : set.certificates) {
+                    certified = true;
+                    worst = std::max(worst, c.max_error);
+                    passed = passed && c.passed;
+                }
+        if (certified) j["certified_error"] = worst, j["passed"] = passed;
         j["factored"] = m.factored;
         j["notes"] = m.notes;
         if (!m.source.wrapped_in.empty()) j["wrapped_in"] = m.source.wrapped_in;
@@ -352,8 +401,27 @@ nlohmann::json scene_manifest(const ScenePlan& plan, const std::string& scene_fi
         if (set.planned) {
             j["predicted_error"] = set.predicted_error;
             j["predicted_seconds"] = set.predicted_seconds;
+            if (!set.table_predicted_error.empty()) j["table_predicted_error"] = set.table_predicted_error;
         }
         if (!set.plan_note.empty()) j["plan_note"] = set.plan_note;
+        if (!set.certificates.empty()) {
+            double worst = 0;
+            bool passed = true;
+            nlohmann::json per = nlohmann::json::object();
+            for (const SceneTableSet::TableCertificate& c : set.certificates) {
+                worst = std::max(worst, c.max_error);
+                passed = passed && c.passed;
+                nlohmann::json t = {{"certified_error", c.max_error}, {"passed", c.passed},
+                                    {"target", c.target}, {"how", c.how}};
+                if (c.how == "measured")
+                    t["rms_error"] = c.rms_error, t["max_at"] = c.max_at, t["floor"] = c.floor;
+                per[c.table] = t;
+            }
+            j["certified_error"] = worst;
+            j["passed"] = passed;
+            j["measure"] = set.purpose == "albedo" ? "absolute" : "relative (floor 1e-3 x max |value|)";
+            j["certificates"] = per;
+        }
         out["table_sets"].push_back(j);
     }
     return out;
