@@ -167,9 +167,14 @@ BT_MATH_INLINE double bt_cos_poly(double r)
 BT_MATH_INLINE double bt_reduce_pio2(double x, int* quadrant)
 {
     double t = fmin(fmax(x * BT_TWO_OVER_PI, -1073741824.0), 1073741824.0);
-    double n = bt_round_small(t);
+    /* n = bt_round_small(t), and the quadrant read from the low mantissa
+     * bits of the shifted sum (t + 1.5 * 2^52 has an ulp of 1, so its last
+     * bits are n's two's complement bits): no double -> int conversion,
+     * which the SLP vectoriser pairs across two calls (see bt_sincos). */
+    double shifted = t + 6755399441055744.0; /* 1.5 * 2^52 */
+    double n = shifted - 6755399441055744.0;
     double r = (((x - n * BT_PIO2_1) - n * BT_PIO2_2) - n * BT_PIO2_3) - n * BT_PIO2_3T;
-    *quadrant = ((int)n) & 3;
+    *quadrant = (int)(bt_bits_of(shifted) & 3);
     return r;
 }
 
@@ -182,12 +187,21 @@ BT_MATH_INLINE double bt_sincos(double x, double* c)
     int odd = q & 1;
     double s = odd ? c_r : s_r;
     double co = odd ? s_r : c_r;
-    /* sin: quadrants 2, 3 negative; cos: quadrants 1, 2 negative. */
+    /* sin: quadrants 2, 3 negative; cos: quadrants 1, 2 negative.  The two
+     * signs are applied in different ways on purpose (a select of -s, a
+     * product with +-1: both exact), and inf/NaN become NaN through a factor
+     * (x - x) + 1 (1 for finite x, NaN otherwise: exact, keeps -0) rather
+     * than a branch.  Measured (docs/benchmarks.md): written alike, the sine
+     * and cosine lanes are isomorphic, and clang's SLP vectoriser, which
+     * PoCL runs when it builds the program, packs them into <2 x double>
+     * values; LLVM's loop vectoriser then refuses the work-item loop
+     * ("instruction return type cannot be vectorized"), so the whole kernel
+     * stays scalar. */
     s = (q & 2) ? -s : s;
-    co = ((q + 1) & 2) ? -co : co;
-    int finite = fabs(x) <= 1.7976931348623157e308; /* inf and NaN give NaN */
-    *c = finite ? co : BT_M_NAN;
-    return finite ? s : BT_M_NAN;
+    co = co * (1.0 - (double)((q + 1) & 2));
+    double nan_unless_finite = (x - x) + 1.0;
+    *c = co * nan_unless_finite;
+    return s * nan_unless_finite;
 }
 
 BT_MATH_INLINE double bt_sin(double x)

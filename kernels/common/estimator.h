@@ -155,6 +155,7 @@
         const uint w = gid < n_work ? gid : 0u;                                \
         const uint stride_ = BT_KERNEL_STRIDE_(stride);                        \
         REAL p[BT_MAX_POINT];                                                  \
+        _Pragma("unroll")                                                      \
         for (uint k = 0; k < BT_MAX_POINT; ++k)                                \
             p[k] = k < stride_ ? points[(size_t)w * stride_ + k] : R(0.0);     \
         BT_KERNEL_LOAD_OPTIONS_(o, options, n_options)                         \
