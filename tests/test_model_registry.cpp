@@ -260,3 +260,26 @@ TEST_CASE("integer parameters refuse fractions (the kernels would round them)") 
     CHECK_THROWS_AS(builder.build({{"theta_i", 10}, {"theta_o", 20}, {"order", 1.5}}, point.data()),
                     InputError);
 }
+
+TEST_CASE("float accuracy per quantity: the docs/precision.md measurements reach every listed quantity") {
+    // docs/precision.md "Float against double" lists 34 (model, quantity) rows;
+    // a renamed quantity would silently drop out of `brdftab models`.
+    int measured = 0;
+    for (const auto& m : all_models())
+        for (const auto& q : m.quantities)
+            if (q.float_measured()) {
+                ++measured;
+                CHECK(q.float_max_rel_diff <= 1.0);
+                // The storage verdicts follow the stored types' precision.
+                CHECK(q.float_enough_for_float32() == (q.float_max_rel_diff <= std::ldexp(1.0, -24)));
+                CHECK(q.float_enough_for_float16() == (q.float_max_rel_diff <= std::ldexp(1.0, -11)));
+            }
+    CHECK(measured == 34);
+    const QuantityInfo& bsdf = find_model("rough-dielectric").quantity("bsdf");
+    CHECK_FALSE(bsdf.float_enough_for_float16());
+    CHECK_FALSE(bsdf.float_note.empty());
+    const QuantityInfo& h = find_model("hfunction").quantity("H");
+    CHECK(h.float_enough_for_float16());
+    CHECK_FALSE(h.float_enough_for_float32());
+    CHECK(find_model("interfaced-lambertian").quantity("ri").float_enough_for_float32());
+}

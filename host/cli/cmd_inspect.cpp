@@ -77,6 +77,18 @@ void print_model(const ModelInfo& m) {
         for (const auto& d : q.directions) std::cout << " " << d;
         if (q.directions.empty()) std::cout << " no direction";
         std::cout << "] " << q.description << "  (" << q.equations << ")\n";
+        std::cout << "    " << std::string(static_cast<std::size_t>(qw), ' ') << "float: ";
+        if (!q.float_measured()) {
+            std::cout << "not measured\n";
+        } else {
+            std::cout << "max rel. |float - double| " << q.float_max_rel_diff
+                      << " on the presets; accurate enough for "
+                      << (q.float_enough_for_float32()   ? "float32 and float16 tables"
+                          : q.float_enough_for_float16() ? "float16 tables, not float32"
+                                                         : "neither float32 nor float16 tables");
+            if (!q.float_note.empty()) std::cout << " (fails at: " << q.float_note << ")";
+            std::cout << "\n";
+        }
     }
 }
 

@@ -265,6 +265,16 @@ private:
             return env && std::string(env) == "1";
         }();
         if (!generic) options += specialisation_options(l.quantity, l.options, l.method, l.stride);
+        // Forced inlining (kernels/common/estimator.h) where it was measured
+        // to help and to leave every preset table bit-identical
+        // (docs/benchmarks.md, "What vectorises, and why"): it lets PoCL run
+        // the work items of a group as SIMD lanes.  Not for every model:
+        // with it, lambert-sphere tables came out wrong and PoCL crashed
+        // (SIGSEGV) on its Horak-Chandrasekhar constants.  BRDFTAB_KERNEL_OPTIONS
+        // naming BT_FORCE_INLINE decides instead.
+        if (!generic && extra.find("BT_FORCE_INLINE") == std::string::npos &&
+            (model.name == "rough-dielectric" || model.name == "micrograin"))
+            options += " -D BT_FORCE_INLINE=1";
         options += extra;
         const std::string key = model.name + "\n" + options;
         auto it = kernels_.find(key);

@@ -100,6 +100,22 @@ struct QuantityInfo {
     std::string equations;                  // e.g. "eqs. 20-21 (Walter 2007)"
     Method default_method = Method::ClosedForm;  // never Method::Auto
     unsigned dimensions = 0;  // random dimensions per sample (integrals)
+    // Float against double (`--precision float`), as measured on the shrunk
+    // presets in docs/precision.md ("Float against double"): the largest
+    // relative |float - double| over every preset table of this quantity;
+    // negative where it was not measured.  Filled by all_models() from that
+    // table, never estimated.  float_note: where float fails, when it does.
+    double float_max_rel_diff = -1;
+    std::string float_note;
+    bool float_measured() const { return float_max_rel_diff >= 0; }
+    // Whether float reaches the precision of a stored float32 (2^-24 relative)
+    // or float16 (2^-11) table over the measured domains.
+    bool float_enough_for_float32() const {
+        return float_measured() && float_max_rel_diff <= 5.9604644775390625e-08;
+    }
+    bool float_enough_for_float16() const {
+        return float_measured() && float_max_rel_diff <= 4.8828125e-04;
+    }
 };
 
 struct ModelInfo {

@@ -3,7 +3,7 @@
  * transcendental functions the kernels call in their hot loops:
  *
  *   bt_sin, bt_cos, bt_sincos, bt_tan, bt_exp, bt_log, bt_log1p,
- *   bt_atan, bt_atan2, bt_asin, bt_acos
+ *   bt_atan, bt_atan2, bt_asin, bt_acos, bt_erf
  *
  * Why: PoCL (measured, docs/contributing.md "bt_math") calls its double
  * sin/cos/acos/atan2/log out of line, one lane at a time, so a kernel whose
@@ -37,6 +37,7 @@
  *                       denormal inputs are exact-scaled first.
  *   atan, atan2         every double, signed zeros and infinities as C99.
  *   asin, acos          [-1, 1] (outside: a number, not NaN; callers clamp).
+ *   erf                 every double; erf(+-inf) = +-1, NaN passes through.
  *
  * Float: with BT_REAL_IS_FLOAT (`--precision float`, and every device
  * without cl_khr_fp64) the names map to the OpenCL built-ins instead.  The
@@ -71,6 +72,7 @@
 #define bt_atan2(y, x) atan2((y), (x))
 #define bt_asin(x) asin(x)
 #define bt_acos(x) acos(x)
+#define bt_erf(x) erf(x)
 
 #else /* double */
 
@@ -167,9 +169,14 @@ BT_MATH_INLINE double bt_cos_poly(double r)
 BT_MATH_INLINE double bt_reduce_pio2(double x, int* quadrant)
 {
     double t = fmin(fmax(x * BT_TWO_OVER_PI, -1073741824.0), 1073741824.0);
-    double n = bt_round_small(t);
+    /* n = bt_round_small(t), and the quadrant read from the low mantissa
+     * bits of the shifted sum (t + 1.5 * 2^52 has an ulp of 1, so its last
+     * bits are n's two's complement bits): no double -> int conversion,
+     * which the SLP vectoriser pairs across two calls (see bt_sincos). */
+    double shifted = t + 6755399441055744.0; /* 1.5 * 2^52 */
+    double n = shifted - 6755399441055744.0;
     double r = (((x - n * BT_PIO2_1) - n * BT_PIO2_2) - n * BT_PIO2_3) - n * BT_PIO2_3T;
-    *quadrant = ((int)n) & 3;
+    *quadrant = (int)(bt_bits_of(shifted) & 3);
     return r;
 }
 
@@ -182,12 +189,21 @@ BT_MATH_INLINE double bt_sincos(double x, double* c)
     int odd = q & 1;
     double s = odd ? c_r : s_r;
     double co = odd ? s_r : c_r;
-    /* sin: quadrants 2, 3 negative; cos: quadrants 1, 2 negative. */
+    /* sin: quadrants 2, 3 negative; cos: quadrants 1, 2 negative.  The two
+     * signs are applied in different ways on purpose (a select of -s, a
+     * product with +-1: both exact), and inf/NaN become NaN through a factor
+     * (x - x) + 1 (1 for finite x, NaN otherwise: exact, keeps -0) rather
+     * than a branch.  Measured (docs/benchmarks.md): written alike, the sine
+     * and cosine lanes are isomorphic, and clang's SLP vectoriser, which
+     * PoCL runs when it builds the program, packs them into <2 x double>
+     * values; LLVM's loop vectoriser then refuses the work-item loop
+     * ("instruction return type cannot be vectorized"), so the whole kernel
+     * stays scalar. */
     s = (q & 2) ? -s : s;
-    co = ((q + 1) & 2) ? -co : co;
-    int finite = fabs(x) <= 1.7976931348623157e308; /* inf and NaN give NaN */
-    *c = finite ? co : BT_M_NAN;
-    return finite ? s : BT_M_NAN;
+    co = co * (1.0 - (double)((q + 1) & 2));
+    double nan_unless_finite = (x - x) + 1.0;
+    *c = co * nan_unless_finite;
+    return s * nan_unless_finite;
 }
 
 BT_MATH_INLINE double bt_sin(double x)
@@ -384,6 +400,56 @@ BT_MATH_INLINE double bt_atan2(double y, double x)
  * and acos(-1) = 2 atan(inf) = pi exactly as doubles. */
 BT_MATH_INLINE double bt_asin(double x) { return bt_atan(x / sqrt((1.0 - x) * (1.0 + x))); }
 BT_MATH_INLINE double bt_acos(double x) { return 2.0 * bt_atan(sqrt((1.0 - x) / (1.0 + x))); }
+
+/* ------------------------------------------------------------------ erf
+ * PoCL's double erf is an out-of-line call (Sleef_erf_u10, "too costly to
+ * inline"), which keeps every kernel that calls it (Beckmann's Smith G1)
+ * from being vectorised across work items.  Two branch-free pieces, both
+ * evaluated, one selected (a = |x|):
+ *   a < 2.5:  erf a = (2/sqrt(pi)) a exp(-a^2) sum_n (2a^2)^n / (1 3 5 ... (2n+1))
+ *             (the series of erf times exp(a^2): every term positive, so no
+ *             cancellation), summed by Horner to n = 36: the next term is
+ *             below 3e-17 of the sum at a = 2.5 and far smaller below;
+ *   a >= 2.5: erf a = 1 - erfc a with Laplace's continued fraction
+ *             erfc a = exp(-a^2)/sqrt(pi) / (a + (1/2)/(a + 1/(a + (3/2)/(a + ...))))
+ *             cut after 30 levels (measured: erfc within 1.5e-14 relative at
+ *             a = 2.5, better above; erfc(2.5) = 4.1e-4, so erf is off by
+ *             < 1e-17).
+ * Both pieces read exp(-a^2) from bt_exp.  The result is odd in x (signed
+ * zero kept).  Measured against glibc's long double erfl in
+ * tests/test_kernel_math.cpp (docs/contributing.md). */
+/* Fixed-count loops are unrolled on the device: a loop left inside the
+ * kernel body makes PoCL's work-item loop an outer loop, which LLVM's loop
+ * vectoriser does not touch. */
+#if BT_DEVICE
+#define BT_MATH_UNROLL _Pragma("unroll")
+#else
+#define BT_MATH_UNROLL
+#endif
+#define BT_ERF_SERIES_TERMS 36
+#define BT_ERF_CF_LEVELS 30
+#define BT_TWO_OVER_SQRT_PI 1.12837916709551257390
+#define BT_INV_SQRT_PI 0.56418958354775628695
+
+BT_MATH_INLINE double bt_erf(double x)
+{
+    double a = fabs(x);
+    double as = fmin(a, 2.5); /* the series' argument (large a: unused) */
+    double ac = fmax(a, 2.5); /* the fraction's argument (small a: unused) */
+    double e = bt_exp(-a * a);
+    double z = 2.0 * as * as;
+    double sum = 1.0;
+    BT_MATH_UNROLL
+    for (int n = BT_ERF_SERIES_TERMS; n >= 1; --n) sum = 1.0 + sum * z * (1.0 / (double)(2 * n + 1));
+    double series = BT_TWO_OVER_SQRT_PI * as * e * sum;
+    double f = ac;
+    BT_MATH_UNROLL
+    for (int n = BT_ERF_CF_LEVELS; n >= 1; --n) f = ac + (0.5 * (double)n) / f;
+    double tail = 1.0 - BT_INV_SQRT_PI * e / f;
+    double r = a < 2.5 ? series : tail;
+    r = copysign(r, x);
+    return x != x ? x : r;
+}
 
 #endif /* double */
 

@@ -44,6 +44,10 @@
 #if !defined(BT_FORCE_INLINE)
 #define BT_FORCE_INLINE BT_SAMPLE_BARRIER
 #endif
+/* The engine passes -D BT_FORCE_INLINE=1 for rough-dielectric and micrograin
+ * (host/engine/engine.cpp): measured faster there, and their preset tables
+ * bit-identical.  Not for every model: lambert-sphere tables came out wrong and
+ * PoCL crashed with it (docs/benchmarks.md). */
 #if BT_DEVICE && BT_FORCE_INLINE && !defined(BT_NO_FORCE_INLINE)
 /* With the sample-loop barrier (below), or with -D BT_FORCE_INLINE=1, force
  * inlining of every shared function into the kernel.  PoCL's inliner otherwise keeps larger helpers
@@ -142,6 +146,10 @@
     if ((gid) >= (n_work)) return
 #endif
 
+/* The point load is unrolled: left as a loop, clang vectorised it as a 4-wide
+ * inner loop before PoCL wrapped the body in its work-item loop, which was then
+ * not innermost and stayed scalar (measured on the rough-dielectric bsdf
+ * kernel, docs/contributing.md "What keeps PoCL's work-item loop scalar"). */
 #define BT_DEFINE_ESTIMATE_KERNEL(kernel_name, sample_fn)                      \
     __kernel void kernel_name(                                                 \
         __global const REAL* points, uint stride, __global const int* options, \
@@ -155,6 +163,7 @@
         const uint w = gid < n_work ? gid : 0u;                                \
         const uint stride_ = BT_KERNEL_STRIDE_(stride);                        \
         REAL p[BT_MAX_POINT];                                                  \
+        _Pragma("unroll")                                                      \
         for (uint k = 0; k < BT_MAX_POINT; ++k)                                \
             p[k] = k < stride_ ? points[(size_t)w * stride_ + k] : R(0.0);     \
         BT_KERNEL_LOAD_OPTIONS_(o, options, n_options)                         \

@@ -157,7 +157,7 @@ BT_INLINE int bt_mf_visible(bt_vec3 v, bt_vec3 m) { return bt_v3_dot(v, m) * v.z
 BT_INLINE REAL bt_beckmann_g1_exact_a(REAL a)
 {
     REAL as = a * BT_SQRT_PI;
-    return R(2.0) * as / (as * (R(1.0) + erf(a)) + bt_exp(-a * a));
+    return R(2.0) * as / (as * (R(1.0) + bt_erf(a)) + bt_exp(-a * a));
 }
 
 /* Walter's rational fit to eq. 26 (eq. 27). */
