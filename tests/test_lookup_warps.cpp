@@ -32,7 +32,7 @@ namespace {
 struct CriticalOracle {
     double lo, hi;      // mu range, within [-1, 0]
     std::size_t n, kc;  // nodes, kink node
-    double q;           // grading of the transmitting side (below the kink)
+    double q;           // grading of both sides
     double tc() const { return double(kc) / double(n - 1); }
     double kink(double eta) const {
         const double xc = -std::cos(std::asin(1.0 / eta));
@@ -42,12 +42,12 @@ struct CriticalOracle {
     double x(double t, double eta) const {
         const double xc = kink(eta);
         if (t <= tc()) return xc - (xc - lo) * std::pow((tc() - t) / tc(), q);
-        return xc + (hi - xc) * (t - tc()) / (1 - tc());
+        return xc + (hi - xc) * std::pow((t - tc()) / (1 - tc()), q);
     }
     double t(double x, double eta) const {
         const double xc = kink(eta);
         if (x <= xc) return tc() * (1 - std::pow((xc - x) / (xc - lo), 1 / q));
-        return tc() + (1 - tc()) * (x - xc) / (hi - xc);
+        return tc() + (1 - tc()) * std::pow((x - xc) / (hi - xc), 1 / q);
     }
 };
 

@@ -87,15 +87,15 @@ double Axis::warp_at(double t, double dep) const {
     const double eta = dependent() ? dep : critical_eta;
     const double x_c = critical_position(eta);
     const double t_c = double(critical_node) / double(count - 1);
-    // The transmitting side (|mu| > mu_c) is graded; the side of total
-    // internal reflection is linear.  Inside (range <= 0) that is x < x_c.
-    const bool lower_graded = max <= 0;
+    // Both sides are graded towards the kink: the transmitting side
+    // (|mu| > mu_c) rises like sqrt(|mu| - mu_c) at a smooth interface, and
+    // roughness rounds the kink over a width that both sides must resolve.
     if (t <= t_c) {
         const double s = (t_c - t) / t_c;  // 0 at the kink, 1 at min
-        return x_c - (x_c - min) * side_power(s, lower_graded ? grading : 1.0);
+        return x_c - (x_c - min) * side_power(s, grading);
     }
     const double s = (t - t_c) / (1 - t_c);  // 0 at the kink, 1 at max
-    return x_c + (max - x_c) * side_power(s, lower_graded ? 1.0 : grading);
+    return x_c + (max - x_c) * side_power(s, grading);
 }
 
 double Axis::unwarp_at(double x, double dep) const {
@@ -105,13 +105,12 @@ double Axis::unwarp_at(double x, double dep) const {
     const double eta = dependent() ? dep : critical_eta;
     const double x_c = critical_position(eta);
     const double t_c = double(critical_node) / double(count - 1);
-    const bool lower_graded = max <= 0;
     if (x <= x_c) {
         const double s = (x_c - x) / (x_c - min);
-        return t_c - t_c * side_power(s, lower_graded ? 1.0 / grading : 1.0);
+        return t_c - t_c * side_power(s, 1.0 / grading);
     }
     const double s = (x - x_c) / (max - x_c);
-    return t_c + (1 - t_c) * side_power(s, lower_graded ? 1.0 : 1.0 / grading);
+    return t_c + (1 - t_c) * side_power(s, 1.0 / grading);
 }
 
 double Axis::warp(double t) const {

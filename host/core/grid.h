@@ -23,10 +23,9 @@
 //              mu_c(eta) = sqrt(1 - r^2) with r = 1/eta for light from inside
 //              (range <= 0) and r = eta from outside (range >= 0), r the ratio
 //              of the far side's index to the near side's.  Each side of it is
-//              spaced on its own: linear on the side of total internal
-//              reflection, as s^grading (dense at the kink) on the
-//              transmitting side, where Fresnel's reflectance rises like
-//              sqrt(|mu| - mu_c).  The kink position is clamped so that each
+//              spaced on its own, node distances from the kink growing as
+//              s^grading (Fresnel's reflectance rises like sqrt(|mu| - mu_c)
+//              on the transmitting side; roughness rounds the kink on both).  The kink position is clamped so that each
 //              side keeps at least kCriticalMinSide of its share of the range
 //              (eta -> 1 moves mu_c to 0, out of a range that stops short of
 //              grazing): continuous in eta, never a zero-width cell.  eta is a

@@ -36,7 +36,8 @@ std::vector<double> local_linear_errors(const std::vector<PlacementLine>& lines,
 
 NodePlacement place_nodes(const std::vector<double>& node_x,
                           const std::vector<double>& local_error, double order,
-                          std::size_t count) {
+                          std::size_t count, double refine_order) {
+    if (!(refine_order > 0)) refine_order = order;
     const std::size_t m = local_error.size();
     if (node_x.size() != m + 1 || m < 1)
         throw InputError("node placement: " + std::to_string(node_x.size()) + " pilot nodes for " +
@@ -89,12 +90,17 @@ NodePlacement place_nodes(const std::vector<double>& node_x,
         double worst = 0;
         for (std::size_t k = 0; k + 1 < nodes.size(); ++k) {
             const double a = nodes[k], b = nodes[k + 1];
-            double integral = 0;
+            double integral = 0, inside = 0;
             for (std::size_t q = 0; q < m; ++q) {
                 const double lo_q = std::max(a, node_x[q]), hi_q = std::min(b, node_x[q + 1]);
                 if (hi_q > lo_q) integral += density[q] * (hi_q - lo_q);
+                // A cell within pilot interval q: its error scaled from e_q
+                // with the measured order.
+                if (a >= node_x[q] && b <= node_x[q + 1])
+                    inside = std::max(local_error[q], 0.0) *
+                             std::pow((b - a) / (node_x[q + 1] - node_x[q]), refine_order);
             }
-            worst = std::max(worst, std::pow(integral, order));
+            worst = std::max(worst, std::max(std::pow(integral, order), inside));
         }
         return worst;
     };
@@ -122,16 +128,21 @@ std::vector<PlacedAxis> place_plan_nodes(const std::vector<TablePilot>& pilots, 
             if (lines.empty() || a >= tp.counts.size()) continue;
             const std::vector<double> err =
                 local_linear_errors(lines, !target.absolute, pilot.rel_floor);
-            const NodePlacement p = place_nodes(lines.front().node_x, err, 2.0, tp.counts[a]);
+            // Nodes for the nominal order 2; the prediction of cells smaller
+            // than a pilot interval uses the measured order (an axis with a
+            // sqrt or log edge converges as h^1 there, not h^2).
+            const AxisFit& fit = pilot.linear.at(a);
+            const PowerFit& law = target.absolute ? fit.max_abs : fit.max_rel;
+            const double order = law.valid ? std::clamp(law.p, 0.5, 2.0) : 2.0;
+            const NodePlacement p =
+                place_nodes(lines.front().node_x, err, 2.0, tp.counts[a], order);
             PlacedAxis r;
             r.table = pilot.table;
             r.axis = pilot.axes[a].name;
             r.count = tp.counts[a];
             r.predicted_max = p.predicted_max;
             r.uniform_max = p.uniform_max;
-            const AxisFit& fit = pilot.linear.at(a);
-            r.spacing_max = (target.absolute ? fit.max_abs : fit.max_rel)
-                                .eval(1.0 / double(tp.counts[a] - 1));
+            r.spacing_max = law.eval(1.0 / double(tp.counts[a] - 1));
             if (r.predicted_max < r.spacing_max) tp.explicit_values[a] = p.values;
             out.push_back(r);
         }

@@ -49,9 +49,15 @@ struct NodePlacement {
 // interval) and the error order p (2 for linear interpolation).  Intervals
 // without measurable error get 1/1000 of the largest density, so no cell
 // grows without bound.  Throws InputError on inconsistent input.
+//
+// The prediction takes, per cell, the model's (integral of C^(1/p) dx)^p and,
+// for a cell inside one pilot interval, also that interval's error scaled by
+// (H/h)^refine_order: with refine_order below p (the axis' measured order,
+// e.g. 1 near a square-root edge) it does not promise the h^2 gain of a
+// smooth function where the pilot did not resolve one.  0: refine_order = p.
 NodePlacement place_nodes(const std::vector<double>& node_x,
                           const std::vector<double>& local_error, double order,
-                          std::size_t count);
+                          std::size_t count, double refine_order = 0);
 
 // ---- applied to a chosen plan (`brdftab plan --place-nodes`)
 

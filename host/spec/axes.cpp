@@ -180,7 +180,7 @@ Parser::AxisSrc Parser::parse_axis(const toml::table& t, const std::string& pref
             fail(spos, skey,
                  "critical spacing needs the relative index 'eta', which model '" +
                      model_->name + "' does not have");
-        double fraction = 0.5, grading = 1.0;
+        double fraction = 0.5, grading = 2.0;
         if (const toml::node* fn = t.get("critical_fraction")) {
             fraction = number(*fn, sub(prefix, "critical_fraction"));
             if (!(fraction > 0 && fraction < 1))
