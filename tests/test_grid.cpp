@@ -34,8 +34,10 @@ std::vector<Axis> sample_axes() {
 
 TEST_CASE("spacing names round-trip and unknown names are rejected") {
     for (Spacing s : {Spacing::Linear, Spacing::Cos, Spacing::Log, Spacing::Quadratic,
-                      Spacing::Explicit})
+                      Spacing::Explicit, Spacing::LogComplement, Spacing::Critical})
         CHECK(parse_spacing(spacing_name(s)) == s);
+    CHECK(std::string(spacing_name(Spacing::LogComplement)) == "log-complement");
+    CHECK(std::string(spacing_name(Spacing::Critical)) == "critical");
     CHECK_THROWS_AS(parse_spacing("Linear"), InputError);
     try {
         parse_spacing("chebyshev");
