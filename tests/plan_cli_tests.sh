@@ -64,4 +64,11 @@ expect_grep "^choice #[0-9]+: nodes" out.txt "choice printed"
 expect_exit 0 "plan --abs" -- "$BT" plan "$SPEC" --abs --accuracy 1e-4 --json
 expect_grep '"measure": "absolute"' out.txt "absolute measure"
 
+# ---- --place-nodes: explicit nodes in the written spec, which generates
+expect_exit 0 "plan --place-nodes" -- "$BT" plan "$SPEC" --accuracy 1e-2 --place-nodes -o placed.toml
+expect_grep "^placed nodes 'brdf' axis theta_i: [0-9]+ explicit nodes, predicted" out.txt "placement printed"
+expect_grep "spacing = .explicit." placed.toml "explicit nodes written"
+expect_exit 0 "generate the placed plan" -- "$BT" generate placed.toml -o placed.h5 -q
+expect_exit 2 "--place-nodes with cubic" -- "$BT" plan "$SPEC" --accuracy 1e-2 --place-nodes --interpolation cubic
+
 cli_summary
