@@ -55,6 +55,14 @@ Parser::AxisSrc Parser::parse_axis(const toml::table& t, const std::string& pref
         }
     }
 
+    // Keys of one spacing only (also refused with explicit nodes).
+    if (spacing != Spacing::LogComplement && t.get("pivot"))
+        fail(pos_of(*t.get("pivot")), sub(prefix, "pivot"),
+             "only allowed with spacing = \"log-complement\"");
+    for (const char* k : {"critical_fraction", "grading"})
+        if (spacing != Spacing::Critical && t.get(k))
+            fail(pos_of(*t.get(k)), sub(prefix, k), "only allowed with spacing = \"critical\"");
+
     AxisSrc out;
     out.pos = npos;
     out.key = prefix;
@@ -97,13 +105,7 @@ Parser::AxisSrc Parser::parse_axis(const toml::table& t, const std::string& pref
     if (const toml::node* vn = t.get("values"))
         fail(pos_of(*vn), sub(prefix, "values"),
              "only allowed with spacing = \"explicit\"; use range and count otherwise");
-    // Keys of one spacing only.
-    if (spacing != Spacing::LogComplement && t.get("pivot"))
-        fail(pos_of(*t.get("pivot")), sub(prefix, "pivot"),
-             "only allowed with spacing = \"log-complement\"");
-    for (const char* k : {"critical_fraction", "grading"})
-        if (spacing != Spacing::Critical && t.get(k))
-            fail(pos_of(*t.get(k)), sub(prefix, k), "only allowed with spacing = \"critical\"");
+
     const toml::node* rn = t.get("range");
     const std::string rkey = sub(prefix, "range");
     if (!rn) fail(tpos, rkey, "missing; give range = [min, max] (allowed: " + range_text + ")");
