@@ -80,8 +80,8 @@ struct Axis {
 // Each side of a critical axis keeps at least this fraction of the width it
 // would have with the kink at its uniform place.  Small, so that the kink
 // stays on its node over a wide range of eta (with the kink node in the
-// middle of [-1, -0.02]: 1.0013 <= eta <= 4.1); the cells of one side are
-// then at most 16 times narrower than uniform ones.
+// middle of [-1, -0.02]: 1.0013 <= eta <= 4.1), while a side never shrinks
+// to zero width (its cells stay apart and the inverse exact).
 extern const double kCriticalMinSide;  // 1/16, grid.cpp
 
 // Critical spacing: the node index of the kink for `count` nodes and a
