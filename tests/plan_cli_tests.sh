@@ -88,5 +88,11 @@ assert plan["predicted_error"] <= 1e-2
 assert 0.5 <= ratio <= 2.0, f"prediction off by more than a factor 2: {ratio:.2f}"
 PYEOF
 then ok; else bad "recombined prediction vs measurement"; fi
+# ---- --place-nodes: explicit nodes in the written spec, which generates
+expect_exit 0 "plan --place-nodes" -- "$BT" plan "$SPEC" --accuracy 1e-2 --place-nodes -o placed.toml
+expect_grep "^placed nodes 'brdf' axis theta_i: [0-9]+ explicit nodes, predicted" out.txt "placement printed"
+expect_grep "spacing = .explicit." placed.toml "explicit nodes written"
+expect_exit 0 "generate the placed plan" -- "$BT" generate placed.toml -o placed.h5 -q
+expect_exit 2 "--place-nodes with cubic" -- "$BT" plan "$SPEC" --accuracy 1e-2 --place-nodes --interpolation cubic
 
 cli_summary

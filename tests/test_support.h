@@ -95,6 +95,10 @@ inline Axis axis(const std::string& name, const std::string& unit, double lo, do
             case Spacing::Quadratic: x = lo + t * t * (hi - lo); break;
             case Spacing::Explicit:
                 throw std::invalid_argument("axis: explicit nodes are not computed");
+            case Spacing::LogComplement:
+            case Spacing::Critical:
+                throw std::invalid_argument("axis: build log-complement and critical axes with "
+                                            "make_log_complement_axis / make_critical_axis");
         }
         a.values.push_back(x);
     }

@@ -24,6 +24,7 @@ struct PlanArgs {
     std::string spec, output, table;
     std::optional<double> accuracy, budget;
     bool absolute = false, json = false, quiet = false;
+    bool place_nodes = false;  // --place-nodes (host/plan/node_placement.h)
     double abs_floor = 0;
     std::string interpolation = "linear";
     ComputeOptions compute;
@@ -112,9 +113,16 @@ void run_plan(const PlanArgs& pa) {
     const std::optional<std::size_t> choice = choose_plan(front, target);
     const char* measure = target.absolute ? "absolute" : "relative";
 
+    // --place-nodes: explicit nodes equidistributing the pilot's error.
+    std::optional<Candidate> placed;
+    std::vector<PlacedAxis> placements;
+    if (choice && pa.place_nodes) {
+        placed = front[*choice];
+        placements = place_plan_nodes(pilots, *placed, target);
+    }
     std::string text;
     if (choice && !pa.output.empty()) {
-        const Candidate& c = front[*choice];
+        const Candidate& c = placed ? *placed : front[*choice];
         std::vector<std::string> header = {
             "Planned by `brdftab plan` from " + pa.spec + " for " +
                 (target.accuracy ? "max total " + std::string(measure) + " error <= " + sci(*target.accuracy)
@@ -143,6 +151,15 @@ void run_plan(const PlanArgs& pa) {
             j["choice"]["index"] = *choice;
             j["predicted_error"] = front[*choice].error_max;
             j["predicted_seconds"] = front[*choice].seconds;
+            if (pa.place_nodes) {
+                j["placed_nodes"] = nlohmann::json::array();
+                for (const PlacedAxis& r : placements)
+                    j["placed_nodes"].push_back({{"table", r.table}, {"axis", r.axis}, {"count", r.count},
+                                                 {"predicted_max", r.predicted_max},
+                                                 {"uniform_max", r.uniform_max},
+                                                 {"spacing_max", r.spacing_max},
+                                                 {"used", r.predicted_max < r.spacing_max}});
+            }
         } else {
             j["choice"] = nullptr;
         }
@@ -217,6 +234,12 @@ void run_plan(const PlanArgs& pa) {
                       << "; predicted max total error " << sci(c.error_max) << " (RMS "
                       << sci(c.error_rms) << "), predicted time " << sci(c.seconds) << " s\n";
         }
+        for (const PlacedAxis& r : placements)
+            std::cout << "placed nodes '" << r.table << "' axis " << r.axis << ": " << r.count
+                      << " explicit nodes, predicted max interpolation error " << sci(r.predicted_max)
+                      << " (uniform in x: " << sci(r.uniform_max) << ", the axis' spacing: "
+                      << sci(r.spacing_max) << ")"
+                      << (r.predicted_max < r.spacing_max ? "" : "; not better, spacing kept") << "\n";
     }
     if ((target.accuracy || target.budget) && !choice)
         throw Error(target.accuracy
@@ -260,6 +283,9 @@ void register_plan(CLI::App& app) {
     cmd->add_option("-o,--output", st->output, "write the chosen plan as a spec")
         ->check(non_empty_path());
     cmd->add_flag("--json", st->json, "print pilots, Pareto plans and the choice as JSON");
+    cmd->add_flag("--place-nodes", st->place_nodes,
+                  "write explicit nodes that equidistribute the pilot's measured interpolation "
+                  "error along each axis (linear interpolation; docs/planning.md)");
     cmd->add_flag("-q,--quiet", st->quiet, "no progress display");
     st->compute.add_to(*cmd, false);
     cmd->callback([st] { run_plan(*st); });

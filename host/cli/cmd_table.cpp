@@ -369,8 +369,15 @@ void run_plot(const PlotArgs& pa) {
         for (std::size_t node : curve_nodes) {
             Curve cv;
             std::vector<double> c = base;
+            // A critical axis holds t_k: place its node at this point's eta.
+            auto node_at = [&](std::size_t axis, double tk) {
+                if (!axes[axis].dependent()) return tk;
+                for (std::size_t d = 0; d < axes.size(); ++d)
+                    if (axes[d].name == axes[axis].depends_on) return axes[axis].warp_at(tk, c[d]);
+                return tk;
+            };
             if (want_curves) {
-                c[ca] = axes[ca].values[node];
+                c[ca] = node_at(ca, axes[ca].values[node]);
                 cv.label = format_short(c[ca]);
             }
             for (int i = 0; i < samples; ++i) {
@@ -378,7 +385,8 @@ void run_plot(const PlotArgs& pa) {
                 cv.x.push_back(c[xa]);
                 cv.y.push_back(transform(lt.eval(c, interp, OutOfRange::Clamp)));
             }
-            for (double xn : axes[xa].values) {
+            for (double tn : axes[xa].values) {
+                const double xn = node_at(xa, tn);
                 c[xa] = xn;
                 cv.mx.push_back(xn);
                 cv.my.push_back(transform(lt.eval(c, interp, OutOfRange::Clamp)));

@@ -37,7 +37,7 @@ double explicit_warp(const std::vector<double>& v, double t) {
     return v[k] + u * (v[k + 1] - v[k]);
 }
 
-double explicit_unwarp(const std::vector<double>& v, double x) {
+double explicit_unwarp_impl(const std::vector<double>& v, double x) {
     const std::size_t n = v.size();
     // First node strictly greater than x, then step back to the cell start.
     std::size_t k = std::size_t(std::upper_bound(v.begin(), v.end(), x) - v.begin());
@@ -47,9 +47,79 @@ double explicit_unwarp(const std::vector<double>& v, double x) {
     return (double(k) + u) / double(n - 1);
 }
 
+// Power of a non-negative base (s >= 0 on each side of a critical axis, also
+// for t outside [0, 1], so the map extrapolates monotonically).
+double side_power(double s, double q) { return q == 1 ? s : std::pow(s, q); }
+
+double critical_cosine(double eta, bool inside) {
+    // r = n_far / n_near; total internal reflection for |mu| < sqrt(1 - r^2)
+    // when r < 1 (docs/models/rough-dielectric.md: eta = inside / outside).
+    if (!(eta > 0) || !std::isfinite(eta)) return 0;
+    const double r = inside ? 1.0 / eta : eta;
+    return r < 1 ? std::sqrt((1 - r) * (1 + r)) : 0.0;
+}
+
 }  // namespace
 
+const double kCriticalMinSide = 1.0 / 16;
+
+std::size_t critical_node_for(std::size_t count, double fraction) {
+    if (count < 3) return 1;
+    const double k = std::round(fraction * double(count - 1));
+    return std::size_t(std::clamp(k, 1.0, double(count - 2)));
+}
+
+double Axis::critical_position(double eta) const {
+    const bool inside = max <= 0;
+    const double mu_c = critical_cosine(eta, inside);
+    const double x_c = inside ? -mu_c : mu_c;
+    const double t_c = double(critical_node) / double(count - 1);
+    const double span = max - min;
+    const double lo = min + kCriticalMinSide * t_c * span;
+    const double hi = max - kCriticalMinSide * (1 - t_c) * span;
+    return std::clamp(x_c, lo, hi);
+}
+
+double Axis::warp_at(double t, double dep) const {
+    if (spacing != Spacing::Critical) return warp(t);
+    if (t == 0) return min;
+    if (t == 1) return max;
+    const double eta = dependent() ? dep : critical_eta;
+    const double x_c = critical_position(eta);
+    const double t_c = double(critical_node) / double(count - 1);
+    // Both sides are graded towards the kink: the transmitting side
+    // (|mu| > mu_c) rises like sqrt(|mu| - mu_c) at a smooth interface, and
+    // roughness rounds the kink over a width that both sides must resolve.
+    if (t <= t_c) {
+        const double s = (t_c - t) / t_c;  // 0 at the kink, 1 at min
+        return x_c - (x_c - min) * side_power(s, grading);
+    }
+    const double s = (t - t_c) / (1 - t_c);  // 0 at the kink, 1 at max
+    return x_c + (max - x_c) * side_power(s, grading);
+}
+
+double Axis::unwarp_at(double x, double dep) const {
+    if (spacing != Spacing::Critical) return unwarp(x);
+    if (x == min) return 0;
+    if (x == max) return 1;
+    const double eta = dependent() ? dep : critical_eta;
+    const double x_c = critical_position(eta);
+    const double t_c = double(critical_node) / double(count - 1);
+    if (x <= x_c) {
+        const double s = (x_c - x) / (x_c - min);
+        return t_c - t_c * side_power(s, 1.0 / grading);
+    }
+    const double s = (x - x_c) / (max - x_c);
+    return t_c + (1 - t_c) * side_power(s, 1.0 / grading);
+}
+
 double Axis::warp(double t) const {
+    if (spacing == Spacing::Critical) {
+        if (dependent())
+            throw Error("axis '" + name + "': its nodes depend on '" + depends_on +
+                        "'; warp needs that value (warp_at)");
+        return warp_at(t, critical_eta);
+    }
     // The end points are returned exactly: a table's first and last node must
     // be the user's min and max, not a rounding of acos(cos(min)) etc.
     if (spacing != Spacing::Explicit) {
@@ -74,11 +144,22 @@ double Axis::warp(double t) const {
             return min + t * std::fabs(t) * (max - min);
         case Spacing::Explicit:
             return explicit_warp(values, t);
+        case Spacing::LogComplement:
+            // Geometric in the distance d = P - x: d(t) = d_min (d_max/d_min)^t.
+            return pivot - (pivot - min) * std::exp(t * std::log((pivot - max) / (pivot - min)));
+        case Spacing::Critical:
+            break;  // handled above
     }
     return min;
 }
 
 double Axis::unwarp(double x) const {
+    if (spacing == Spacing::Critical) {
+        if (dependent())
+            throw Error("axis '" + name + "': its nodes depend on '" + depends_on +
+                        "'; unwarp needs that value (unwarp_at)");
+        return unwarp_at(x, critical_eta);
+    }
     if (spacing != Spacing::Explicit) {
         if (x == min) return 0;
         if (x == max) return 1;
@@ -99,10 +180,43 @@ double Axis::unwarp(double x) const {
             return r >= 0 ? std::sqrt(r) : -std::sqrt(-r);
         }
         case Spacing::Explicit:
-            return explicit_unwarp(values, x);
+            return explicit_unwarp_impl(values, x);
+        case Spacing::LogComplement: {
+            // Past the pivot there is no preimage: +-inf clamps to an end cell.
+            const double r = (pivot - x) / (pivot - min);
+            if (!(r > 0)) return (pivot > max) ? std::numeric_limits<double>::infinity()
+                                                : -std::numeric_limits<double>::infinity();
+            return std::log(r) / std::log((pivot - max) / (pivot - min));
+        }
+        case Spacing::Critical:
+            break;  // handled above
     }
     return 0;
 }
+
+namespace {
+
+// Node positions of a range-defined axis at `dep` (the coordinate a critical
+// axis depends on; ignored otherwise).  The end points are set exactly, and
+// grids so dense that neighbouring nodes collapse in double precision are
+// refused.
+void fill_nodes(Axis& a, double dep) {
+    const std::string what = "axis '" + a.name + "': ";
+    a.values.resize(a.count);
+    for (std::size_t k = 0; k < a.count; ++k)
+        a.values[k] = a.warp_at(double(k) / double(a.count - 1), dep);
+    a.values.front() = a.min;
+    a.values.back() = a.max;
+    for (std::size_t k = 1; k < a.count; ++k) {
+        if (!(a.values[k] > a.values[k - 1]))
+            throw InputError(what + "nodes " + std::to_string(k - 1) + " and " +
+                             std::to_string(k) + " coincide in double precision (" +
+                             num(a.values[k]) + (a.dependent() ? " at " + a.depends_on + " = " + num(dep) : std::string()) +
+                             "); use fewer nodes or another spacing");
+    }
+}
+
+}  // namespace
 
 Axis make_axis(const std::string& name, const std::string& unit, double min, double max,
                std::size_t count, Spacing spacing,
@@ -144,6 +258,10 @@ Axis make_axis(const std::string& name, const std::string& unit, double min, dou
     if (!(min < max))
         throw InputError(what + "min must be less than max, got [" + num(min) + ", " + num(max) +
                          "]");
+    if (spacing == Spacing::LogComplement || spacing == Spacing::Critical)
+        throw InputError(what + "spacing '" + spacing_name(spacing) +
+                         "' needs its own parameters (make_log_complement_axis, "
+                         "make_critical_axis)");
     if (spacing == Spacing::Log && !(min > 0))
         throw InputError(what + "log spacing needs min > 0, got min = " + num(min));
     if (spacing == Spacing::Cos && (min < 0 || max > 180))
@@ -153,20 +271,59 @@ Axis make_axis(const std::string& name, const std::string& unit, double min, dou
     a.min = min;
     a.max = max;
     a.count = count;
-    a.values.resize(count);
-    for (std::size_t k = 0; k < count; ++k) a.values[k] = a.warp(double(k) / double(count - 1));
-    // Guard the end points against t = k/(n-1) rounding (k = n-1 gives exactly
-    // 1.0 in IEEE arithmetic, but be explicit) and reject grids so dense that
-    // neighbouring nodes collapse in double precision.
-    a.values.front() = min;
-    a.values.back() = max;
-    for (std::size_t k = 1; k < count; ++k) {
-        if (!(a.values[k] > a.values[k - 1]))
-            throw InputError(what + "nodes " + std::to_string(k - 1) + " and " +
-                             std::to_string(k) + " coincide in double precision (" +
-                             num(a.values[k]) + "); use fewer nodes or another spacing");
+    fill_nodes(a, 0.0);
+    return a;
+}
+
+Axis make_log_complement_axis(const std::string& name, const std::string& unit, double min,
+                              double max, std::size_t count, double pivot) {
+    const std::string what = "axis '" + name + "': ";
+    Axis a = make_axis(name, unit, min, max, count, Spacing::Linear);
+    if (!std::isfinite(pivot) || (pivot >= min && pivot <= max))
+        throw InputError(what + "log-complement spacing needs a pivot outside [" + num(min) +
+                         ", " + num(max) + "], got " + num(pivot));
+    a.spacing = Spacing::LogComplement;
+    a.pivot = pivot;
+    fill_nodes(a, 0.0);
+    return a;
+}
+
+Axis make_critical_axis(const std::string& name, double min, double max, std::size_t count,
+                        std::size_t critical_node, double grading, double eta,
+                        const std::string& eta_axis) {
+    const std::string what = "axis '" + name + "': ";
+    if (count < 3)
+        throw InputError(what + "critical spacing needs at least 3 nodes, got " +
+                         std::to_string(count));
+    Axis a = make_axis(name, "1", min, max, count, Spacing::Linear);
+    if (!(min >= -1 && max <= 0) && !(min >= 0 && max <= 1))
+        throw InputError(what + "critical spacing is for a cosine axis on one side of the "
+                                "surface: the range must lie within [-1, 0] (light from inside) "
+                                "or [0, 1] (from outside), got [" + num(min) + ", " + num(max) + "]");
+    if (critical_node < 1 || critical_node > count - 2)
+        throw InputError(what + "critical node " + std::to_string(critical_node) +
+                         " is out of range; allowed: 1 .. " + std::to_string(count - 2));
+    if (!(grading >= 1 && grading <= 4))
+        throw InputError(what + "critical grading " + num(grading) +
+                         " is out of range; allowed: [1, 4]");
+    a.spacing = Spacing::Critical;
+    a.critical_node = critical_node;
+    a.grading = grading;
+    if (eta_axis.empty()) {
+        if (!(eta > 0) || !std::isfinite(eta))
+            throw InputError(what + "critical spacing needs eta > 0, got " + num(eta));
+        a.critical_eta = eta;
+        fill_nodes(a, eta);
+    } else {
+        a.depends_on = eta_axis;
+        for (std::size_t k = 0; k < count; ++k) a.values[k] = double(k) / double(count - 1);
     }
     return a;
+}
+
+void check_dependent_nodes(const Axis& a, const std::vector<double>& dep_values) {
+    Axis probe = a;
+    for (double d : dep_values) fill_nodes(probe, d);
 }
 
 std::size_t checked_cell_count(const std::vector<Axis>& axes, const std::string& where) {
@@ -188,6 +345,15 @@ Grid::Grid(std::vector<Axis> axes) : axes_(std::move(axes)) {
         if (a.count == 0 || a.values.size() != a.count)
             throw Error("grid: axis '" + a.name + "' has no nodes (build it with make_axis)");
     cell_count_ = checked_cell_count(axes_, "grid: ");
+    dependency_.assign(axes_.size(), -1);
+    for (std::size_t d = 0; d < axes_.size(); ++d) {
+        if (!axes_[d].dependent()) continue;
+        for (std::size_t e = 0; e < axes_.size(); ++e)
+            if (axes_[e].name == axes_[d].depends_on && !axes_[e].dependent()) dependency_[d] = int(e);
+        if (dependency_[d] < 0)
+            throw InputError("grid: axis '" + axes_[d].name + "' depends on '" +
+                             axes_[d].depends_on + "', which is not an axis of the table");
+    }
 }
 
 std::vector<std::size_t> Grid::index_of(std::size_t flat) const {
@@ -204,9 +370,32 @@ std::vector<std::size_t> Grid::index_of(std::size_t flat) const {
 }
 
 std::vector<double> Grid::coordinates(std::size_t flat) const {
-    const std::vector<std::size_t> idx = index_of(flat);
+    return coordinates(index_of(flat));
+}
+
+std::vector<double> Grid::coordinates(const std::vector<std::size_t>& idx) const {
     std::vector<double> x(axes_.size());
     for (std::size_t d = 0; d < axes_.size(); ++d) x[d] = axes_[d].values[idx[d]];
+    // Dependent axes hold t_k: place them at their cell's value of the axis
+    // they depend on (the same arithmetic as make_critical_axis' nodes).
+    for (std::size_t d = 0; d < axes_.size(); ++d)
+        if (dependency_[d] >= 0) {
+            const Axis& a = axes_[d];
+            x[d] = idx[d] == 0 ? a.min
+                   : idx[d] + 1 == a.count ? a.max
+                                           : a.warp_at(a.values[idx[d]], x[std::size_t(dependency_[d])]);
+        }
+    return x;
+}
+
+std::vector<double> Grid::point_at(const std::vector<double>& t) const {
+    std::vector<double> x(axes_.size());
+    for (std::size_t d = 0; d < axes_.size(); ++d)
+        if (dependency_[d] < 0) x[d] = std::clamp(axes_[d].warp(t[d]), axes_[d].min, axes_[d].max);
+    for (std::size_t d = 0; d < axes_.size(); ++d)
+        if (dependency_[d] >= 0)
+            x[d] = std::clamp(axes_[d].warp_at(t[d], x[std::size_t(dependency_[d])]), axes_[d].min,
+                              axes_[d].max);
     return x;
 }
 

@@ -13,9 +13,31 @@
 //   quadratic  dense near min: x = min + t^2 (max - min)
 //   explicit   user-given strictly increasing node list; the inverse is
 //              piecewise linear between nodes.
+//   log-complement
+//              geometric in the distance to a pivot P outside [min, max]:
+//              x = P - (P - min) ((P - max)/(P - min))^t.  With P above max the
+//              nodes crowd towards max (e.g. 1 - c for a scattering albedo c
+//              near 1), with P below min towards min.
+//   critical   a cosine axis (mu_i) whose node `critical_node` sits exactly on
+//              the cosine of the critical angle of total internal reflection,
+//              mu_c(eta) = sqrt(1 - r^2) with r = 1/eta for light from inside
+//              (range <= 0) and r = eta from outside (range >= 0), r the ratio
+//              of the far side's index to the near side's.  Each side of it is
+//              spaced on its own, node distances from the kink growing as
+//              s^grading (Fresnel's reflectance rises like sqrt(|mu| - mu_c)
+//              on the transmitting side; roughness rounds the kink on both).  The kink position is clamped so that each
+//              side keeps at least kCriticalMinSide of its share of the range
+//              (eta -> 1 moves mu_c to 0, out of a range that stops short of
+//              grazing): continuous in eta, never a zero-width cell.  eta is a
+//              fixed number (critical_eta; the node list is then an ordinary
+//              one) or another axis of the table (depends_on = "eta"): the
+//              grid is then not a tensor product in x, only in t, and
+//              `values` holds the nodes' t_k = k/(count-1), not positions;
+//              use warp_at / unwarp_at / Grid::coordinates.
 #pragma once
 
 #include <cstddef>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -30,11 +52,52 @@ struct Axis {
     std::size_t count = 0;
     Spacing spacing = Spacing::Linear;
     std::vector<double> values;  // node positions, filled by make_axis()
+                                 // (t_k for an axis with depends_on, see above)
 
-    // x(t) and t(x); t(x) is clamped to [0, 1] only by the caller.
+    // log-complement: the pivot P (outside [min, max]).
+    double pivot = std::numeric_limits<double>::quiet_NaN();
+    // critical: the node on mu_c, the grading power of the transmitting side,
+    // and where eta comes from (a fixed value, or the axis named depends_on).
+    std::size_t critical_node = 0;
+    double grading = 1;
+    double critical_eta = std::numeric_limits<double>::quiet_NaN();
+    std::string depends_on;
+
+    // x(t) and t(x); t(x) is clamped to [0, 1] only by the caller.  On an
+    // axis with depends_on they throw Error (the map needs eta: use the _at
+    // forms).
     double warp(double t) const;
     double unwarp(double x) const;
+    // The same at a given value of the coordinate the axis depends on (eta);
+    // `dep` is ignored by axes without depends_on.
+    double warp_at(double t, double dep) const;
+    double unwarp_at(double x, double dep) const;
+    bool dependent() const { return !depends_on.empty(); }
+    // critical: the kink's position for this eta (after the clamp above).
+    double critical_position(double eta) const;
 };
+
+// Each side of a critical axis keeps at least this fraction of the width it
+// would have with the kink at its uniform place.  Small, so that the kink
+// stays on its node over a wide range of eta (with the kink node in the
+// middle of [-1, -0.02]: 1.0013 <= eta <= 4.1), while a side never shrinks
+// to zero width (its cells stay apart and the inverse exact).
+extern const double kCriticalMinSide;  // 1/16, grid.cpp
+
+// Critical spacing: the node index of the kink for `count` nodes and a
+// fraction in (0, 1), within [1, count - 2].
+std::size_t critical_node_for(std::size_t count, double fraction);
+
+// Build a critical axis (spacing "critical").  `eta_axis` non-empty: eta
+// comes from that axis (values = t_k); else from `eta`, and the nodes are
+// positions.  Throws InputError for count < 3, a range not within [-1, 0] or
+// [0, 1], grading outside [1, 4], or nodes that coincide.
+Axis make_critical_axis(const std::string& name, double min, double max, std::size_t count,
+                        std::size_t critical_node, double grading, double eta,
+                        const std::string& eta_axis = {});
+// Check that a dependent axis' nodes strictly increase at each of these
+// values of the coordinate it depends on (InputError otherwise).
+void check_dependent_nodes(const Axis& a, const std::vector<double>& dep_values);
 
 // Build an axis and fill its nodes.  For Spacing::Explicit pass the nodes in
 // `explicit_values` (min/max/count are then taken from them).  Throws
@@ -43,6 +106,9 @@ struct Axis {
 Axis make_axis(const std::string& name, const std::string& unit, double min,
                double max, std::size_t count, Spacing spacing,
                const std::vector<double>& explicit_values = {});
+// log-complement with its pivot (InputError when it lies within [min, max]).
+Axis make_log_complement_axis(const std::string& name, const std::string& unit, double min,
+                              double max, std::size_t count, double pivot);
 
 // Number of cells of a table with these axes (the product of their node
 // counts), or InputError, prefixed by `where`, when the product overflows
@@ -59,11 +125,19 @@ public:
     std::size_t cell_count() const { return cell_count_; }
     // Multi-index of a flat cell index.
     std::vector<std::size_t> index_of(std::size_t flat) const;
-    // Axis values (user units) of a flat cell index, one per axis.
+    // Axis values (user units) of a flat cell index, one per axis; an axis
+    // with depends_on is placed at its cell's value of that axis.
     std::vector<double> coordinates(std::size_t flat) const;
+    std::vector<double> coordinates(const std::vector<std::size_t>& index) const;
+    // A point from normalised coordinates t (one per axis), each x clamped to
+    // its axis' [min, max]: uniform in t means uniform over the grid's cells.
+    std::vector<double> point_at(const std::vector<double>& t) const;
+    // Index of the axis that axis d depends on, or -1.
+    int dependency(std::size_t d) const { return dependency_[d]; }
 
 private:
     std::vector<Axis> axes_;
+    std::vector<int> dependency_;
     std::size_t cell_count_ = 1;
 };
 

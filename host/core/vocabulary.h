@@ -53,7 +53,7 @@ std::vector<std::string> method_names();                   // table order
 
 // Node placement along a table axis; grid.h defines each warp and its inverse.
 // The name is stored in the file as the axis' `spacing` attribute.
-enum class Spacing { Linear, Cos, Log, Quadratic, Explicit };
+enum class Spacing { Linear, Cos, Log, Quadratic, Explicit, LogComplement, Critical };
 
 inline constexpr NamedValue<Spacing> kSpacingNames[] = {
     {Spacing::Linear, "linear"},
@@ -61,11 +61,13 @@ inline constexpr NamedValue<Spacing> kSpacingNames[] = {
     {Spacing::Log, "log"},
     {Spacing::Quadratic, "quadratic"},
     {Spacing::Explicit, "explicit"},
+    {Spacing::LogComplement, "log-complement"},
+    {Spacing::Critical, "critical"},
 };
 
 const char* spacing_name(Spacing s);
 // Throws InputError: "unknown spacing 'NAME'; allowed: linear, cos, log,
-// quadratic, explicit".
+// quadratic, explicit, log-complement, critical".
 Spacing parse_spacing(const std::string& name);
 
 // ------------------------------------------------------------ table kind

@@ -54,7 +54,8 @@ CellPoints::CellPoints(const ModelInfo& model, const QuantityInfo& quantity,
     : grid_(table.axes), base_(model.point_stride()) {
     // Validate everything once through the general builder, at the first node.
     std::map<std::string, double> values = table.fixed;
-    for (const Axis& a : table.axes) values[a.name] = a.values.at(0);
+    const std::vector<double> first = grid_.coordinates(0);
+    for (std::size_t a = 0; a < table.axes.size(); ++a) values[table.axes[a].name] = first[a];
     PointBuilder(model, quantity).build(values, base_.data());
 
     const std::string phi_d = to_string(Coordinate::PhiD);
@@ -84,9 +85,10 @@ CellPoints::CellPoints(const ModelInfo& model, const QuantityInfo& quantity,
 void CellPoints::point(std::size_t cell, double* out) const {
     std::copy(base_.begin(), base_.end(), out);
     double phi_d = fixed_phi_d_;
-    const std::vector<std::size_t> index = grid_.index_of(cell);
+    // The grid places an axis whose nodes depend on another (critical) too.
+    const std::vector<double> coords = grid_.coordinates(cell);
     for (std::size_t a = 0; a < feeds_.size(); ++a) {
-        const double v = grid_.axes()[a].values[index[a]];
+        const double v = coords[a];
         switch (feeds_[a].feed) {
             case Feed::Degrees: out[feeds_[a].slot] = v * kDegToRad; break;
             case Feed::Cosine: out[feeds_[a].slot] = std::acos(v); break;

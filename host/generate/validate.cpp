@@ -100,11 +100,14 @@ ValidationPlan::ValidationPlan(const std::string& file, const std::string& table
     const std::size_t n = options_.points, dims = t.axes.size();
     coords_.resize(n * dims);
     std::vector<std::map<std::string, double>> named(n, fixed);
+    const Grid grid(t.axes);  // places axes that depend on another (critical)
+    std::vector<double> tk(dims);
     for (std::size_t k = 0; k < n; ++k) {
+        for (std::size_t a = 0; a < dims; ++a) tk[a] = rng.uniform();
+        const std::vector<double> xk = grid.point_at(tk);
         for (std::size_t a = 0; a < dims; ++a) {
-            const double x = std::clamp(t.axes[a].warp(rng.uniform()), t.axes[a].min, t.axes[a].max);
-            coords_[k * dims + a] = x;
-            named[k][t.axes[a].name] = x;
+            coords_[k * dims + a] = xk[a];
+            named[k][t.axes[a].name] = xk[a];
         }
     }
     kernel_points_ = build_kernel_points(model, q, named, [&](std::size_t) { return where; });

@@ -86,6 +86,8 @@ const char* spacing_macro(Spacing s) {
         case Spacing::Log: return "LOG";
         case Spacing::Quadratic: return "QUADRATIC";
         case Spacing::Explicit: return "EXPLICIT";
+        case Spacing::LogComplement: return "LOG_COMPLEMENT";
+        case Spacing::Critical: return "CRITICAL";  // refused by export_c_header
     }
     return "LINEAR";
 }
@@ -125,9 +127,19 @@ void export_c_header(const TableData& table, const std::string& out_path,
                          "the table is recombined from other tables at lookup time; export "
                          "each of its term tables instead (see `brdftab info`)");
     if (table.axes.empty()) throw InputError(where + "the table has no axes");
-    for (const Axis& a : table.axes)
+    bool has_pivot = false;
+    for (const Axis& a : table.axes) {
         if (a.count < 2 || a.values.size() != a.count)
             throw InputError(where + "axis '" + a.name + "' needs at least 2 nodes");
+        // The critical warp's inverse needs eta and the Fresnel critical
+        // cosine; the header's lookup does not implement it.
+        if (a.spacing == Spacing::Critical)
+            throw InputError(where + "axis '" + a.name +
+                             "' has spacing 'critical', which the C header's lookup does not "
+                             "implement; use the lookup library (brdftab::LookupTable, the "
+                             "Python module) or regenerate the table with another spacing");
+        has_pivot = has_pivot || a.spacing == Spacing::LogComplement;
+    }
     const std::size_t cells = checked_cell_count(table.axes, where);
     if (table.value.size() != cells)
         throw Error(where + "value has " + std::to_string(table.value.size()) +
@@ -232,6 +244,8 @@ void export_c_header(const TableData& table, const std::string& out_path,
     const char* spacing_names[] = {"LINEAR", "COS", "LOG", "QUADRATIC", "EXPLICIT"};
     for (int k = 0; k < 5; ++k)
         h += "#define " + id + "_SPACING_" + spacing_names[k] + " " + std::to_string(k) + "\n";
+    // Only in headers that use it, so other headers stay as they were.
+    if (has_pivot) h += "#define " + id + "_SPACING_LOG_COMPLEMENT 5\n";
     if (options.type == HeaderValueType::Uint16) {
         h += "#define " + id + "_OFFSET " + dbl(offset) + "\n";
         h += "#define " + id + "_SCALE " + dbl(scale) + "\n";
@@ -268,6 +282,13 @@ void export_c_header(const TableData& table, const std::string& out_path,
     array("int " + id + "_spacing[" + D + "]", spacings);
     array("double " + id + "_min[" + D + "]", mins);
     array("double " + id + "_max[" + D + "]", maxs);
+    if (has_pivot) {
+        std::vector<std::string> pivots;
+        for (const Axis& a : table.axes)
+            pivots.push_back(dbl(a.spacing == Spacing::LogComplement ? a.pivot : 0.0));
+        h += "/* log-complement spacing: the pivot P of each axis (0 for other spacings) */\n";
+        array("double " + id + "_pivot[" + D + "]", pivots);
+    }
     for (std::size_t d = 0; d < dims; ++d) {
         std::vector<std::string> nodes;
         for (double v : table.axes[d].values) nodes.push_back(dbl(v));
@@ -287,6 +308,15 @@ void export_c_header(const TableData& table, const std::string& out_path,
     h += "static inline double " + id + "_value(size_t i) {\n" + decode + "}\n\n";
     h += "/* Normalised coordinate t of x on axis k (node j at t = j / (count - 1));\n"
          "   the end nodes map to exactly 0 and 1. */\n";
+    const std::string log_complement_case =
+        has_pivot ? "    case " + id + "_SPACING_LOG_COMPLEMENT: {\n"
+                    "        /* distance to the pivot is geometric in t */\n"
+                    "        const double P = " + id + "_pivot[k];\n"
+                    "        const double r = (P - x) / (P - lo);\n"
+                    "        if (!(r > 0)) return P > hi ? HUGE_VAL : -HUGE_VAL;\n"
+                    "        return log(r) / log((P - hi) / (P - lo));\n"
+                    "    }\n"
+                  : std::string();
     h += "static inline double " + id + "_unwarp(int k, double x) {\n"
          "    const double lo = " + id + "_min[k], hi = " + id + "_max[k];\n"
          "    const double rad = 3.14159265358979323846 / 180.0; /* cos spacing: degrees */\n"
@@ -306,6 +336,7 @@ void export_c_header(const TableData& table, const std::string& out_path,
          "        const double r = (x - lo) / (hi - lo);\n"
          "        return r >= 0 ? sqrt(r) : -sqrt(-r);\n"
          "    }\n"
+         + log_complement_case +
          "    case " + id + "_SPACING_EXPLICIT: {\n"
          "        /* piecewise linear between the nodes: first node > x, one back */\n"
          "        const double* v = " + id + "_nodes[k];\n"

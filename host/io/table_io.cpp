@@ -147,6 +147,20 @@ Handle create_dataset(hid_t group, const char* name, hid_t file_type,
                   H5Dclose, "H5Dcreate2", name);
 }
 
+// The parameters of the spacings that need more than min/max/count
+// (docs/format.md, "Axis datasets"): log-complement's pivot; critical's
+// node, grading and eta (a fixed value, or the name of the axis it runs on).
+void write_spacing_parameters(hid_t ds, const Axis& a) {
+    if (a.spacing == Spacing::LogComplement) write_double_attr(ds, "pivot", a.pivot);
+    if (a.spacing != Spacing::Critical) return;
+    write_u64_attr(ds, "critical_node", a.critical_node);
+    write_double_attr(ds, "grading", a.grading);
+    if (a.dependent())
+        write_string_attr(ds, "depends_on", a.depends_on);
+    else
+        write_double_attr(ds, "critical_eta", a.critical_eta);
+}
+
 // The HDF5 objects of one table being written: its group, the axis datasets
 // (dimension scales) and the data datasets (value, then stderr and samples
 // when present).  Shared by the whole-table writer (write_table) and the
@@ -182,6 +196,7 @@ TableObjects create_table_objects(hid_t file, const TableData& t, bool with_stde
         write_string_attr(ds, "spacing", spacing_name(a.spacing));
         write_double_attr(ds, "min", a.min);
         write_double_attr(ds, "max", a.max);
+        write_spacing_parameters(ds, a);
         check(H5DSset_scale(ds, a.name.c_str()), "H5DSset_scale", a.name);
         o.axis_ds.push_back(std::move(ds));
         o.dims.push_back(n);
@@ -461,6 +476,77 @@ void check_read_axis(Axis& a, const std::string& where) {
     a.max = last;
 }
 
+// log-complement and critical axes: the attributes their warp needs are
+// required, the axis is rebuilt from them, and the stored node list must be
+// the rebuilt one (positions, or t_k for an axis whose nodes depend on
+// another), so an edited file is refused rather than looked up wrongly.
+void read_spacing_parameters(hid_t ds, Axis& a, const std::string& where) {
+    const std::string what = where + "axis '" + a.name + "': ";
+    auto need = [&](const char* key) {
+        if (!has_attr(ds, key))
+            throw InputError(what + "spacing '" + spacing_name(a.spacing) +
+                             "' needs the attribute '" + key + "', which is missing");
+    };
+    need("min");
+    need("max");
+    Axis built;
+    try {
+        const double lo = read_double_attr(ds, "min"), hi = read_double_attr(ds, "max");
+        if (a.spacing == Spacing::LogComplement) {
+            need("pivot");
+            built = make_log_complement_axis(a.name, a.unit, lo, hi, a.count,
+                                             read_double_attr(ds, "pivot"));
+        } else {
+            need("critical_node");
+            need("grading");
+            const std::uint64_t node = read_u64_attr(ds, "critical_node");
+            const double grading = read_double_attr(ds, "grading");
+            if (has_attr(ds, "depends_on")) {
+                built = make_critical_axis(a.name, lo, hi, a.count, std::size_t(node), grading,
+                                           0.0, read_string_attr(ds, "depends_on"));
+                if (built.depends_on.empty() || built.depends_on == a.name)
+                    throw InputError("attribute 'depends_on' must name another axis");
+            } else {
+                need("critical_eta");
+                built = make_critical_axis(a.name, lo, hi, a.count, std::size_t(node), grading,
+                                           read_double_attr(ds, "critical_eta"));
+            }
+        }
+    } catch (const InputError& e) {
+        throw InputError(what + e.what());
+    }
+    for (std::size_t k = 0; k < a.count; ++k) {
+        const double tol = 1e-9 * std::max(1.0, std::fabs(built.values[k]));
+        if (!(std::fabs(a.values[k] - built.values[k]) <= tol))
+            throw InputError(what + "node #" + std::to_string(k) + " (" +
+                             std::to_string(a.values[k]) + ") disagrees with its spacing '" +
+                             spacing_name(a.spacing) + "' (" + std::to_string(built.values[k]) +
+                             ")");
+    }
+    built.unit = a.unit;
+    built.values = a.values;
+    a = std::move(built);
+}
+
+// An axis whose nodes depend on another must find it among the table's axes,
+// and its nodes must increase at each of that axis' nodes.
+void check_dependent_axes(const std::vector<Axis>& axes, const std::string& where) {
+    for (const Axis& a : axes) {
+        if (!a.dependent()) continue;
+        const Axis* dep = nullptr;
+        for (const Axis& b : axes)
+            if (b.name == a.depends_on && !b.dependent()) dep = &b;
+        if (!dep)
+            throw InputError(where + "axis '" + a.name + "' depends on '" + a.depends_on +
+                             "', which is not an axis of the table");
+        try {
+            check_dependent_nodes(a, dep->values);
+        } catch (const InputError& e) {
+            throw InputError(where + e.what());
+        }
+    }
+}
+
 herr_t collect_link(hid_t, const char* name, const H5L_info_t*, void* data) noexcept {
     try {
         static_cast<std::vector<std::string>*>(data)->emplace_back(name);
@@ -660,11 +746,16 @@ TableData read_group(hid_t file, const std::string& path, const std::string& nam
                 throw InputError(where + "axis '" + aname + "': " + e.what());
             }
         }
-        a.min = has_attr(ds, "min") ? read_double_attr(ds, "min") : a.values.front();
-        a.max = has_attr(ds, "max") ? read_double_attr(ds, "max") : a.values.back();
-        check_read_axis(a, where);
+        if (a.spacing == Spacing::LogComplement || a.spacing == Spacing::Critical) {
+            read_spacing_parameters(ds, a, where);
+        } else {
+            a.min = has_attr(ds, "min") ? read_double_attr(ds, "min") : a.values.front();
+            a.max = has_attr(ds, "max") ? read_double_attr(ds, "max") : a.values.back();
+            check_read_axis(a, where);
+        }
         t.axes.push_back(std::move(a));
     }
+    check_dependent_axes(t.axes, where);
     const std::vector<std::size_t> shape = t.shape();
     const std::size_t n = checked_cell_count(t.axes, where);
     check_fits_in_memory(n, sizeof(double), where);

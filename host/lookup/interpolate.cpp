@@ -51,9 +51,13 @@ bool is_mirror_phi(const Axis& a) {
 // Weights of the (already range-resolved) coordinate x on axis a, computed in
 // the warped coordinate u = unwarp(x) * (count - 1) (node k at u = k).
 void axis_weights(const Axis& a, double x, Interpolation interp, AxisWeights& out) {
+    axis_weights_t(a, a.unwarp(x), interp, out);
+}
+
+void axis_weights_t(const Axis& a, double t, Interpolation interp, AxisWeights& out) {
     const std::size_t n = a.count;
     out.n = 0;
-    double u = a.unwarp(x) * double(n - 1);
+    double u = t * double(n - 1);
     if (!(u >= 0)) u = 0;  // also catches NaN from a degenerate warp
     if (u > double(n - 1)) u = double(n - 1);
     std::size_t k = std::min<std::size_t>(std::size_t(u), n - 2);
@@ -126,8 +130,18 @@ double LookupTable::eval(const std::vector<double>& coords, Interpolation interp
         throw InputError("table '" + table().name + "': eval needs " + std::to_string(want) +
                          " coordinates, got " + std::to_string(coords.size()));
     std::vector<AxisWeights> ws(dims);
-    for (std::size_t d = 0; d < dims; ++d)
-        axis_weights(ax[d], resolve(ax[d], coords[d], mode, table().name), interp, ws[d]);
+    std::vector<double> x(dims);
+    for (std::size_t d = 0; d < dims; ++d) x[d] = resolve(ax[d], coords[d], mode, table().name);
+    for (std::size_t d = 0; d < dims; ++d) {
+        // An axis whose nodes depend on another (critical: mu_i on eta) is
+        // unwarped at this point's value of that axis: the table is a tensor
+        // product in (t, eta), not in (mu_i, eta).
+        if (dependency_[d] >= 0)
+            axis_weights_t(ax[d], ax[d].unwarp_at(x[d], x[std::size_t(dependency_[d])]), interp,
+                           ws[d]);
+        else
+            axis_weights(ax[d], x[d], interp, ws[d]);
+    }
     double p = 0;
     if (!terms_.empty()) {
         p = coords[dims];

@@ -26,7 +26,8 @@ void check_table(TableData& t) {
             throw InputError(where + ": axis '" + a.name + "' needs at least 2 nodes");
         if (a.values.empty()) {
             for (std::size_t k = 0; k < a.count; ++k)
-                a.values.push_back(a.warp(double(k) / double(a.count - 1)));
+                a.values.push_back(a.dependent() ? double(k) / double(a.count - 1)
+                                                 : a.warp(double(k) / double(a.count - 1)));
         }
         if (a.values.size() != a.count)
             throw InputError(where + ": axis '" + a.name + "' has " +
@@ -35,6 +36,15 @@ void check_table(TableData& t) {
         for (std::size_t k = 1; k < a.count; ++k)
             if (!(a.values[k] > a.values[k - 1]))
                 throw InputError(where + ": axis '" + a.name + "' nodes must increase");
+        // A dependent axis (critical, eta from another axis) holds its nodes'
+        // t_k, which must be k/(count-1): its positions come from the warp.
+        if (a.dependent()) {
+            for (std::size_t k = 0; k < a.count; ++k)
+                if (!(std::fabs(a.values[k] - double(k) / double(a.count - 1)) <= 1e-12))
+                    throw InputError(where + ": axis '" + a.name + "' depends on '" +
+                                     a.depends_on + "' and must hold t_k = k/(count-1)");
+            continue;
+        }
         // Interpolation warps between min and max; they must be the end nodes.
         const double tol = 1e-9 * (a.values.back() - a.values.front());
         if (!(std::fabs(a.min - a.values.front()) <= tol) ||
@@ -53,6 +63,12 @@ bool same_axes(const std::vector<Axis>& a, const std::vector<Axis>& b) {
     if (a.size() != b.size()) return false;
     for (std::size_t d = 0; d < a.size(); ++d) {
         if (a[d].name != b[d].name || a[d].count != b[d].count) return false;
+        // Dependent axes: the same t_k place nodes alike only with the same warp.
+        if (a[d].dependent() != b[d].dependent()) return false;
+        if (a[d].dependent() &&
+            (a[d].depends_on != b[d].depends_on || a[d].critical_node != b[d].critical_node ||
+             a[d].grading != b[d].grading || a[d].min != b[d].min || a[d].max != b[d].max))
+            return false;
         for (std::size_t k = 0; k < a[d].count; ++k) {
             const double scale = std::max(1.0, std::fabs(a[d].values[k]));
             if (std::fabs(a[d].values[k] - b[d].values[k]) > 1e-12 * scale) return false;
@@ -130,6 +146,17 @@ void LookupTable::init() {
             throw InputError("table '" + head.name + "': recombine term table '" +
                              pieces_[k].name + "' has different axes");
     const std::size_t dims = head.axes.size();
+    dependency_.assign(dims, -1);
+    for (std::size_t d = 0; d < dims; ++d) {
+        if (!head.axes[d].dependent()) continue;
+        for (std::size_t e = 0; e < dims; ++e)
+            if (head.axes[e].name == head.axes[d].depends_on && !head.axes[e].dependent())
+                dependency_[d] = int(e);
+        if (dependency_[d] < 0)
+            throw InputError("table '" + head.name + "': axis '" + head.axes[d].name +
+                             "' depends on '" + head.axes[d].depends_on +
+                             "', which is not an axis of the table");
+    }
     strides_.assign(dims, 1);
     for (std::size_t d = dims - 1; d-- > 0;) strides_[d] = strides_[d + 1] * head.axes[d + 1].count;
 
@@ -153,7 +180,14 @@ void LookupTable::init() {
     directional_ = L.axis_i >= 0 && L.axis_o >= 0;
     for (const auto& a : head.axes)
         if (a.name == "phi_i" || a.name == "phi_o") directional_ = false;
-    if (!directional_) {
+    bool has_dependent = false;
+    for (const auto& a : head.axes) has_dependent = has_dependent || a.dependent();
+    if (directional_ && has_dependent) {
+        directional_ = false;
+        directional_error_ = "table '" + head.name +
+                             "': direction-level lookup does not support axes whose nodes "
+                             "depend on another axis (critical spacing); use eval";
+    } else if (!directional_) {
         directional_error_ = "table '" + head.name +
                              "': direction-level lookup needs axes theta_i|mu_i, "
                              "theta_o|mu_o and optionally phi_d (isotropic tables only)";

@@ -170,6 +170,8 @@ private:
 
     std::vector<TableData> pieces_;  // pieces_[0] is the head table
     std::vector<std::size_t> strides_;
+    // Per axis: the index of the axis its nodes depend on (critical), or -1.
+    std::vector<int> dependency_;
     // Recombination (empty terms_: value = pieces_[0]).
     std::vector<Term> terms_;
     std::string rparam_;

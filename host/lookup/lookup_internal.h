@@ -56,6 +56,8 @@ struct AxisWeights {
 // Weights of a range-resolved coordinate on one axis, and their
 // tensor-product contraction with a row-major array (interpolate.cpp).
 void axis_weights(const Axis& a, double x, Interpolation interp, AxisWeights& out);
+// The same from the axis' normalised coordinate t (node k at k/(count-1)).
+void axis_weights_t(const Axis& a, double t, Interpolation interp, AxisWeights& out);
 double contract(const AxisWeights* ws, const std::size_t* strides, std::size_t dims,
                 const double* values, std::size_t d = 0, std::size_t offset = 0);
 

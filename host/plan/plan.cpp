@@ -26,6 +26,12 @@ constexpr std::size_t kMinCount = 4, kMaxCount = 65536;
 constexpr double kMaxCells = 4294967295.0;  // the kernels' 32-bit cell index
 
 Axis remade(const Axis& axis, std::size_t count) {
+    if (axis.spacing == Spacing::LogComplement)
+        return make_log_complement_axis(axis.name, axis.unit, axis.min, axis.max, count, axis.pivot);
+    if (axis.spacing == Spacing::Critical)  // fixed eta only (run_pilot refuses the others)
+        return make_critical_axis(axis.name, axis.min, axis.max, count,
+                                  critical_node_for(count, double(axis.critical_node) / double(axis.count - 1)),
+                                  axis.grading, axis.critical_eta);
     return make_axis(axis.name, axis.unit, axis.min, axis.max, count, axis.spacing);
 }
 
@@ -220,6 +226,12 @@ TablePilot run_pilot(const Spec& spec, std::size_t table_index, Backend& backend
     pilot.kind = ctx.quantity->kind;
     pilot.axes = ts.axes;
     const std::size_t dims = ts.axes.size();
+    for (const Axis& a : ts.axes)
+        if (a.dependent())
+            throw InputError(ctx.where + ": axis '" + a.name + "' has nodes that depend on '" +
+                             a.depends_on + "' (critical spacing), which plan does not handle yet; "
+                             "plan the table with another spacing, or validate it");
+    pilot.placement_lines.resize(dims);
     SplitMix rng{options.seed * 0x9E3779B97F4A7C15ull + table_index + 1};
 
     // ---- interpolation: every axis, level and line in one batch of points.
@@ -335,6 +347,14 @@ TablePilot run_pilot(const Spec& spec, std::size_t table_index, Backend& backend
                     const Axis ax = ts.axes[a].spacing == Spacing::Explicit ? ts.axes[a] : remade(ts.axes[a], n);
                     const std::vector<double> probes = probe_positions(n);
                     const std::vector<double> got = interpolate_line(ax, nodes, probes, interp);
+                    if (m == 0 && l + 1 == level_counts[a].size() && fits[a].planned) {
+                        PlacementLine pl{ax.values, nodes, {}, {}};
+                        for (std::size_t k = 0; k < probes.size(); ++k) {
+                            pl.probe_x.push_back(std::clamp(ax.warp(probes[k]), ax.min, ax.max));
+                            pl.probe_f.push_back(r.value[blk.first_probe + k]);
+                        }
+                        pilot.placement_lines[a].push_back(std::move(pl));
+                    }
                     for (std::size_t k = 0; k < probes.size(); ++k) {
                         const double want = r.value[blk.first_probe + k];
                         abs_err.push_back(got[k] - want);
@@ -860,15 +880,24 @@ std::string planned_spec_text(const Spec& spec, const std::vector<std::size_t>& 
             const Axis& ax = ts.axes[a];
             toml::table e;
             e.insert("name", ax.name);
-            if (ax.spacing == Spacing::Explicit) {
+            const std::vector<double>* placed =
+                a < plan.tables[k].explicit_values.size() && !plan.tables[k].explicit_values[a].empty()
+                    ? &plan.tables[k].explicit_values[a]
+                    : nullptr;
+            if (ax.spacing == Spacing::Explicit || placed) {
                 toml::array v;
-                for (double x : ax.values) v.push_back(x);
+                for (double x : placed ? *placed : ax.values) v.push_back(x);
                 e.insert("spacing", "explicit");
                 e.insert("values", v);
             } else {
                 e.insert("range", toml::array{ax.min, ax.max});
                 e.insert("count", static_cast<std::int64_t>(plan.tables[k].counts[a]));
                 if (ax.spacing != Spacing::Linear) e.insert("spacing", spacing_name(ax.spacing));
+                if (ax.spacing == Spacing::LogComplement) e.insert("pivot", ax.pivot);
+                if (ax.spacing == Spacing::Critical) {
+                    e.insert("critical_fraction", double(ax.critical_node) / double(ax.count - 1));
+                    e.insert("grading", ax.grading);
+                }
             }
             axes.push_back(std::move(e));
         }

@@ -35,6 +35,7 @@
 #include "host/core/table.h"
 #include "host/engine/engine.h"
 #include "host/lookup/lookup.h"
+#include "host/plan/node_placement.h"
 #include "host/spec/spec.h"
 
 namespace brdftab {
@@ -151,6 +152,9 @@ struct TablePilot {
     double overhead_seconds = 0;   // fixed cost of one engine run (one launch)
     double startup_seconds = 0;    // the first run: kernel build or cache load, which
                                    // a `generate` process pays again: part of the prediction
+    // Per axis: the finest level's lines (linear pilot), for --place-nodes
+    // (node_placement.h); empty for explicit axes.
+    std::vector<std::vector<PlacementLine>> placement_lines;
     double pilot_seconds = 0;      // wall time of this table's pilot
     std::size_t pilot_evaluations = 0;  // direct evaluations made
 };
@@ -198,6 +202,9 @@ void check_target(const PlanTarget& target);
 struct TablePlan {
     std::string table;
     std::vector<std::size_t> counts;  // per axis
+    // Per axis: explicit nodes placed by --place-nodes (empty: the spec's
+    // spacing with counts[a] nodes); planned_spec_text writes them.
+    std::vector<std::vector<double>> explicit_values;
     double cells = 0;
     double interpolation_max = 0, interpolation_rms = 0;
     double integration_max = 0, integration_rms = 0;

@@ -2,6 +2,8 @@
 // runs along, its range or explicit nodes, and its spacing, checked against
 // the model's allowed ranges before the axis is built (host/core/grid.h).
 #include <cmath>
+#include <limits>
+#include <map>
 
 #include "host/core/error.h"
 #include "host/spec/parser.h"
@@ -10,7 +12,9 @@ namespace brdftab::spec_detail {
 
 Parser::AxisSrc Parser::parse_axis(const toml::table& t, const std::string& prefix,
                                    const char* free_unit) const {
-    check_keys(t, prefix, {"name", "range", "count", "spacing", "values"});
+    check_keys(t, prefix,
+               {"name", "range", "count", "spacing", "values", "pivot", "critical_fraction",
+                "grading"});
     const Pos tpos = pos_of(t);
     const std::optional<std::string> name = get_string(t, prefix, "name");
     if (!name) fail(tpos, sub(prefix, "name"), "missing; every axis needs a name");
@@ -50,6 +54,14 @@ Parser::AxisSrc Parser::parse_axis(const toml::table& t, const std::string& pref
             fail(pos_of(*t.get("spacing")), sub(prefix, "spacing"), e.what());
         }
     }
+
+    // Keys of one spacing only (also refused with explicit nodes).
+    if (spacing != Spacing::LogComplement && t.get("pivot"))
+        fail(pos_of(*t.get("pivot")), sub(prefix, "pivot"),
+             "only allowed with spacing = \"log-complement\"");
+    for (const char* k : {"critical_fraction", "grading"})
+        if (spacing != Spacing::Critical && t.get(k))
+            fail(pos_of(*t.get(k)), sub(prefix, k), "only allowed with spacing = \"critical\"");
 
     AxisSrc out;
     out.pos = npos;
@@ -93,6 +105,7 @@ Parser::AxisSrc Parser::parse_axis(const toml::table& t, const std::string& pref
     if (const toml::node* vn = t.get("values"))
         fail(pos_of(*vn), sub(prefix, "values"),
              "only allowed with spacing = \"explicit\"; use range and count otherwise");
+
     const toml::node* rn = t.get("range");
     const std::string rkey = sub(prefix, "range");
     if (!rn) fail(tpos, rkey, "missing; give range = [min, max] (allowed: " + range_text + ")");
@@ -128,12 +141,103 @@ Parser::AxisSrc Parser::parse_axis(const toml::table& t, const std::string& pref
         fail(pos_of(*t.get("count")), ckey,
              "count " + std::to_string(*count) + " is out of range; allowed: 2 .. " +
                  std::to_string(kMaxAxisCount));
+    if (spacing == Spacing::LogComplement) {
+        // Default pivot: the name's upper limit (1 for a scattering albedo c
+        // or a cosine), where such quantities have their square-root edge.
+        double pivot = std::numeric_limits<double>::quiet_NaN();
+        Pos ppos = pos_of(*t.get("spacing"));
+        std::string pkey = sub(prefix, "spacing");
+        if (const toml::node* pn = t.get("pivot")) {
+            pkey = sub(prefix, "pivot");
+            ppos = pos_of(*pn);
+            pivot = number(*pn, pkey);
+        } else if (p) {
+            pivot = p->max;
+        } else if (!free_unit) {
+            pivot = unit == "deg" ? 180.0 : 1.0;
+        }
+        if (!std::isfinite(pivot) || (pivot >= ends[0] && pivot <= ends[1]))
+            fail(ppos, pkey,
+                 "log-complement spacing crowds the nodes towards a pivot outside the range; "
+                 "give pivot = <a number above " + num(ends[1]) + " or below " + num(ends[0]) +
+                     ">" + (std::isfinite(pivot) ? " (the default, " + num(pivot) +
+                                                       ", lies within the range)"
+                                                 : std::string()));
+        try {
+            out.axis = make_log_complement_axis(*name, unit, ends[0], ends[1],
+                                                std::size_t(*count), pivot);
+        } catch (const InputError& e) {
+            fail(pos_of(*rn), rkey, e.what());
+        }
+        return out;
+    }
+    if (spacing == Spacing::Critical) {
+        const Pos spos = pos_of(*t.get("spacing"));
+        const std::string skey = sub(prefix, "spacing");
+        if (free_unit || (*name != "mu_i" && *name != "mu_o"))
+            fail(spos, skey,
+                 "critical spacing places a node on the cosine of the critical angle of total "
+                 "internal reflection; it is for a mu_i or mu_o axis, not '" + *name + "'");
+        if (!model_->find_parameter("eta"))
+            fail(spos, skey,
+                 "critical spacing needs the relative index 'eta', which model '" +
+                     model_->name + "' does not have");
+        double fraction = 0.5, grading = 2.0;
+        if (const toml::node* fn = t.get("critical_fraction")) {
+            fraction = number(*fn, sub(prefix, "critical_fraction"));
+            if (!(fraction > 0 && fraction < 1))
+                fail(pos_of(*fn), sub(prefix, "critical_fraction"),
+                     "value " + num(fraction) + " is out of range; allowed: (0, 1)");
+        }
+        if (const toml::node* gn = t.get("grading")) {
+            grading = number(*gn, sub(prefix, "grading"));
+            if (!(grading >= 1 && grading <= 4))
+                fail(pos_of(*gn), sub(prefix, "grading"),
+                     "value " + num(grading) + " is out of range; allowed: [1, 4]");
+        }
+        // eta is taken as an axis for now; resolve_critical_axes() fixes it
+        // when the table holds eta fixed instead.
+        try {
+            const std::size_t n = std::size_t(*count);
+            out.axis = make_critical_axis(*name, ends[0], ends[1], n,
+                                          critical_node_for(n, fraction), grading, 0.0, "eta");
+        } catch (const InputError& e) {
+            fail(pos_of(*rn), rkey, e.what());
+        }
+        return out;
+    }
     try {
         out.axis = make_axis(*name, unit, ends[0], ends[1], std::size_t(*count), spacing);
     } catch (const InputError& e) {
         fail(pos_of(*rn), rkey, e.what());
     }
     return out;
+}
+
+void Parser::resolve_critical_axes(std::vector<AxisSrc>& axes,
+                                   const std::map<std::string, double>& fixed) const {
+    for (AxisSrc& src : axes) {
+        Axis& a = src.axis;
+        if (a.spacing != Spacing::Critical) continue;
+        const AxisSrc* eta_axis = nullptr;
+        for (const AxisSrc& b : axes)
+            if (b.axis.name == a.depends_on) eta_axis = &b;
+        try {
+            if (eta_axis) {
+                // Every node column of the eta axis must give increasing nodes.
+                check_dependent_nodes(a, eta_axis->axis.values);
+            } else {
+                const auto it = fixed.find(a.depends_on);
+                if (it == fixed.end())
+                    throw InputError("critical spacing needs '" + a.depends_on +
+                                     "' as an axis or a fixed parameter of the table");
+                a = make_critical_axis(a.name, a.min, a.max, a.count, a.critical_node,
+                                       a.grading, it->second);
+            }
+        } catch (const InputError& e) {
+            fail(src.pos, sub(src.key, "spacing"), e.what());
+        }
+    }
 }
 
 std::vector<Parser::AxisSrc> Parser::parse_axes(const toml::array& a,

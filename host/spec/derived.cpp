@@ -15,7 +15,13 @@ namespace {
 bool same_axes(const TableSpec& a, const TableSpec& b) {
     bool same = a.axes.size() == b.axes.size();
     for (std::size_t k = 0; same && k < a.axes.size(); ++k)
-        same = a.axes[k].name == b.axes[k].name && a.axes[k].values == b.axes[k].values;
+        same = a.axes[k].name == b.axes[k].name && a.axes[k].values == b.axes[k].values &&
+               // a critical axis on an eta axis holds t_k: its warp must match too
+               a.axes[k].depends_on == b.axes[k].depends_on &&
+               (!a.axes[k].dependent() || (a.axes[k].critical_node == b.axes[k].critical_node &&
+                                           a.axes[k].grading == b.axes[k].grading &&
+                                           a.axes[k].min == b.axes[k].min &&
+                                           a.axes[k].max == b.axes[k].max));
     return same;
 }
 

@@ -78,6 +78,10 @@ private:
 
     // axes.cpp: [[axes]] lists and single axes.
     std::vector<AxisSrc> parse_axes(const toml::array& a, const std::string& prefix) const;
+    // A critical axis takes eta from the table's eta axis, or else from its
+    // fixed eta (its nodes are then positions); checks its nodes either way.
+    void resolve_critical_axes(std::vector<AxisSrc>& axes,
+                               const std::map<std::string, double>& fixed) const;
     // free_unit: an axis that is no model coordinate (e.g. the value axis of an
     // [[inverted]] table), with that unit and no range limit.
     AxisSrc parse_axis(const toml::table& t, const std::string& prefix,

@@ -244,6 +244,7 @@ TableSpec Parser::build_table(const toml::table& t, const std::string& prefix,
     for (const OptionInfo& o : model_->options) ts.options[o.name] = o.default_choice;
     for (const Choice& c : global_params.options) ts.options[c.name] = c.value;
     for (const Choice& c : local.options) ts.options[c.name] = c.value;
+    resolve_critical_axes(kept, ts.fixed);
     for (const AxisSrc& a : kept) ts.axes.push_back(a.axis);
     return ts;
 }
