@@ -21,14 +21,17 @@ method the quantity accepts: closed form, else quadrature, else RQMC with a larg
 sample budget); each table is interpolated at the same points (`brdftab query
 --points`, linear and Catmull-Rom).  This is what `brdftab validate` measures, with
 one quiet reference shared by every run of a case instead of one reference per
-table at the table's own (noisy) method.  Relative error = |table - reference| /
-max(|reference|, 1e-3 * max |reference|) (validate's floor).
+table at the table's own (noisy) method.  Measures (max and RMS over the probes):
+absolute |table - reference|; "norm", that divided by max |reference|; relative,
+|table - reference| / max(|reference|, 1e-3 * max |reference|) (validate's floor).
+Figures and the summary use absolute errors for albedos and "norm" otherwise.
 
 Methods are not hard-coded: the `--method` choices are read from
 `brdftab generate --help` and each is tried on the quantity with `brdftab eval`;
 those it accepts are measured.  A sampled method (mc, rqmc) that returns a zero
-standard error on a non-zero value computes the quantity deterministically and is
-left out (it would only repeat the same evaluation per sample).
+standard error on non-zero values computes the quantity deterministically: it is
+left out when a closed form or quadrature is accepted (it would only repeat the
+same evaluation per sample), else measured at the case's smallest budget only.
 
 Only numpy, h5py and the standard library are used; figures are drawn with a small
 PNG writer below (zlib) and the project's 5x8 bitmap font, read from
@@ -71,23 +74,25 @@ SAMPLED = ("mc", "rqmc")
 # the preset becomes a linear range over its first..last value).  hold: axis ->
 # fixed values (explicit axis, probes take these values; one value makes it a
 # parameter).  budgets: samples per cell for mc/rqmc.  ref: samples per probe of a
-# sampled reference.  quick: part of --quick (then with quick_budgets, 3 levels).
-# metric: "abs" for albedos (values in [0, 1], where absolute error is what the
-# issue's targets use and relative error explodes where the albedo goes to 0, e.g.
-# albedo_r at eta = 1); otherwise "rel", validate's relative error with its floor.
+# sampled reference.  probes: random probe points (default 300).  cap: seconds of generate for the case (default 30).  quick: part of --quick (then with quick_budgets, 3 levels).
+# levels: refinement levels (default 4).  metric: "abs" for albedos (values in [0, 1], where absolute error is what the
+# issue's targets use); otherwise max |error| / max |reference| ("norm").  Both,
+# and validate's relative error |error| / max(|reference|, 1e-3 max |reference|),
+# are in the CSV; the relative one is dominated by points where the value is near
+# zero (albedo_r at eta = 1, a BSDF away from its peak), so it is not plotted.
 CASES = [
     dict(metric="abs", name="rough-dielectric-albedo.albedo_r", preset="rough-dielectric-albedo.toml", table="albedo_r",
          refine={"mu_i": 5, "alpha": 5, "eta": 5}, budgets=[256, 4096, 65536], ref=1 << 18,
-         quick=True, quick_budgets=[256, 4096]),
+         cap=60.0, quick=True, quick_budgets=[256, 4096]),
     dict(metric="abs", name="rough-dielectric-albedo.albedo_t_inside", preset="rough-dielectric-albedo.toml",
          table="albedo_t_inside", refine={"mu_i": 5, "alpha": 5, "eta": 5}, budgets=[256, 4096, 65536],
-         ref=1 << 18),
+         ref=1 << 18, cap=60.0),
     dict(name="rough-dielectric-bsdf.bsdf", preset="rough-dielectric-bsdf.toml", table="bsdf",
          refine={"theta_i": 3, "theta_o": 3, "phi_d": 3, "alpha": 2, "eta": 2}),
     dict(name="oren-nayar-brdf.brdf_direct", preset="oren-nayar-brdf.toml", table="brdf_direct",
          refine={"theta_i": 3, "theta_o": 3, "phi_d": 3, "sigma": 2}, budgets=[64, 1024], ref=1 << 16),
     dict(metric="abs", name="oren-nayar-albedo.albedo_direct", preset="oren-nayar-albedo.toml", table="albedo_direct",
-         refine={"mu_i": 3, "sigma": 3}, budgets=[256, 4096, 65536], ref=1 << 18),
+         refine={"mu_i": 5, "sigma": 5}, levels=5, budgets=[256, 4096, 65536], ref=1 << 18),
     dict(name="oren-nayar-approx-error.functional_rel", preset="oren-nayar-approx-error.toml",
          table="functional_rel", refine={"theta_i": 3, "theta_o": 3, "phi_d": 3, "sigma": 2},
          budgets=[64, 1024], ref=1 << 16),
@@ -98,39 +103,39 @@ CASES = [
          table="body", refine={"theta_i": 3, "phi_i": 2, "theta_o": 3, "phi_o": 3},
          budgets=[64, 1024, 16384], ref=1 << 17),
     dict(name="interfaced-lambertian-vcavity.vcavity", preset="interfaced-lambertian-vcavity.toml",
-         table="vcavity", refine={"theta_o": 5}, hold={"order": [0.0], "ni": [1.5], "alpha": [0.3, 1.0],
+         table="vcavity", refine={"theta_o": 5}, levels=5, hold={"order": [0.0], "ni": [1.5], "alpha": [0.3, 1.0],
                                                       "theta_i": [30.0, 60.0], "phi_d": [0.0, 180.0]},
          budgets=[256, 4096, 65536], ref=1 << 18),
-    dict(name="hfunction-h.H0", preset="hfunction-h.toml", table="H0", refine={"mu": 5, "c": 5},
+    dict(name="hfunction-h.H0", preset="hfunction-h.toml", table="H0", refine={"mu": 9, "c": 9}, levels=6,
          quick=True),
     dict(metric="abs", name="lambert-sphere-albedo.kd_mc", preset="lambert-sphere-albedo.toml", table="kd_mc",
-         refine={"c": 5}, budgets=[1024, 16384, 262144], ref=1 << 20),
+         refine={"c": 9}, levels=5, budgets=[1024, 16384, 262144], ref=1 << 20),
     dict(name="lambert-sphere-brdf.brdf_mc", preset="lambert-sphere-brdf.toml", table="brdf_mc",
          refine={"theta_o": 3, "phi_d": 3}, hold={"theta_i": [20.0, 60.0], "c": [0.9]},
          budgets=[256, 4096, 65536], ref=1 << 18),
     dict(name="lambert-sphere-conservative.brdf_mc_1000", preset="lambert-sphere-conservative.toml",
          table="brdf_mc_1000", refine={"theta_o": 3, "phi_d": 3}, hold={"theta_i": [30.0]},
-         budgets=[64, 1024, 16384], ref=1 << 16),
+         budgets=[64, 1024, 16384], ref=1 << 16, probes=100),
     dict(name="lambert-sphere-constants.C", preset="lambert-sphere-constants.toml", table="C",
-         refine={"c": 5}, quick=True),
-    dict(name="lambert-sphere-modes.ms_mc", preset="lambert-sphere-modes.toml", table="ms_mc",
+         refine={"c": 9}, levels=6, quick=True),
+    dict(name="lambert-sphere-modes.analytic", preset="lambert-sphere-modes.toml", table="analytic",
          refine={"theta_i": 3, "theta_o": 3}, hold={"mode": [1], "c": [0.9]},
          budgets=[256, 4096, 65536], ref=1 << 18),
     dict(name="lambert-sphere-precision.brdf_analytic", preset="lambert-sphere-precision.toml",
          table="brdf_analytic", refine={"theta_i": 3, "theta_o": 3, "phi_d": 3, "c": 3},
          budgets=[256, 4096], ref=1 << 18),
     dict(name="lambert-sphere-slices.brdf_mc", preset="lambert-sphere-slices.toml", table="brdf_mc",
-         refine={"theta_o": 5}, hold={"theta_i": [40.0], "phi_d": [0.0, 180.0], "c": [0.9]},
+         refine={"theta_o": 5}, levels=5, hold={"theta_i": [40.0], "phi_d": [0.0, 180.0], "c": [0.9]},
          budgets=[256, 4096, 65536], ref=1 << 18),
     dict(name="micrograin-brdf-conductor.brdf_beta1", preset="micrograin-brdf-conductor.toml",
          table="brdf_beta1", refine={"theta_i": 3, "theta_o": 3, "phi_d": 3}, hold={"tau0": [0.5]},
-         budgets=[4, 64, 1024], ref=1 << 14),
+         budgets=[2], ref=1 << 14),
     dict(metric="abs", name="micrograin-brdf-diffuse.albedo", preset="micrograin-brdf-diffuse.toml", table="albedo",
-         refine={"theta_i": 5, "tau0": 3}, budgets=[256, 4096, 65536], ref=1 << 18),
+         refine={"theta_i": 5, "tau0": 3}, levels=5, budgets=[256, 4096, 65536], ref=1 << 18),
     dict(name="micrograin-gaf.g1_dist", preset="micrograin-gaf.toml", table="g1_dist",
-         refine={"theta_i": 3, "h": 3, "tau0": 3}),
+         refine={"theta_i": 5, "h": 5, "tau0": 5}, levels=5),
     dict(name="micrograin-slice86.diffuse_correlated", preset="micrograin-slice86.toml",
-         table="diffuse_correlated", refine={"theta_o": 5, "phi_d": 3}, budgets=[256, 4096, 65536],
+         table="diffuse_correlated", refine={"theta_o": 5, "phi_d": 3}, levels=5, budgets=[256, 4096, 65536],
          ref=1 << 18),
 ]
 
@@ -316,7 +321,7 @@ def method_choices(bt):
 
 def detect_methods(bt, info, case, probe_csv, choices, env):
     """Methods the quantity accepts, tried with `brdftab eval` at the probes."""
-    accepted, notes = [], {}
+    accepted, notes, degenerate = [], {}, []
     params = fixed_params(info, case)
     for m in choices:
         cmd = [bt, "eval", info["model"], info["quantity"], *kv_args(params), "--points", probe_csv,
@@ -329,10 +334,19 @@ def detect_methods(bt, info, case, probe_csv, choices, env):
             continue
         vals, errs = read_value_column(out, f"eval --method {m}")
         if m in SAMPLED and np.all(errs == 0) and np.any(vals != 0):
-            notes[m] = "zero standard error on non-zero values: computed deterministically, left out"
+            degenerate.append(m)
             continue
         accepted.append(m)
-    return accepted, notes
+    if degenerate and any(m not in SAMPLED for m in accepted):
+        for m in degenerate:
+            notes[m] = "zero standard error on non-zero values: computed deterministically, left out"
+    elif degenerate:
+        # No deterministic method, yet the sampled estimate has no variance (an
+        # integrand that is constant per sample): measured at one budget only.
+        for m in degenerate:
+            notes[m] = "zero standard error on non-zero values: measured at the smallest budget only"
+        accepted += degenerate
+    return accepted, notes, degenerate
 
 
 def reference_method(methods):
@@ -347,8 +361,10 @@ def reference_method(methods):
 def error_stats(values, ref, floor):
     d = np.abs(values - ref)
     rel = d / np.maximum(np.abs(ref), floor)
+    peak = floor / REL_FLOOR
     return dict(max_abs=float(d.max()), rms_abs=float(np.sqrt(np.mean(d * d))),
-                max_rel=float(rel.max()), rms_rel=float(np.sqrt(np.mean(rel * rel))))
+                max_rel=float(rel.max()), rms_rel=float(np.sqrt(np.mean(rel * rel))),
+                max_norm=float(d.max() / peak), rms_norm=float(np.sqrt(np.mean(d * d)) / peak))
 
 
 def one_run(bt, work, info, case, level, method, samples, precision, stored, probe_csv, ref, floor, env,
@@ -388,26 +404,27 @@ def one_run(bt, work, info, case, level, method, samples, precision, stored, pro
 def run_case(bt, case, args, env, clock, log):
     info = load_case(case, args.presets)
     quick = args.quick
-    levels = args.levels or (3 if quick else 4)
+    levels = args.levels or (3 if quick else case.get("levels", 4))
     budgets = case.get("quick_budgets" if quick else "budgets", case.get("budgets", [4096]))
     if quick and "quick_budgets" not in case:
         budgets = budgets[:2]
     if args.budgets:
         budgets = args.budgets
-    npoints = args.probes or (150 if quick else 300)
+    npoints = args.probes or (150 if quick else case.get("probes", 300))
     run_cap = 5.0 if quick else 15.0     # predicted engine seconds of one run
-    case_cap = 15.0 if quick else 30.0   # wall seconds of generate per case (the rest is skipped)
+    case_cap = 15.0 if quick else case.get("cap", 30.0)  # wall seconds of generate per case
     ref_cap = 4.0 if quick else 10.0     # seconds for a sampled reference (sizes its budget)
     combos = args.combos or COMBOS
     work = tempfile.mkdtemp(prefix="tradeoffs-")
     result = dict(name=case["name"], metric=case.get("metric", "rel"), preset=case["preset"], table=case["table"], model=info["model"],
                   quantity=info["quantity"], refine=case.get("refine", {}), hold=case.get("hold", {}),
-                  levels=levels, budgets=budgets, probes=npoints, runs=[], skipped=[])
+                  levels=levels, budgets=budgets, probes=npoints, runs=[], skipped=[],
+                  load_at_start=os.getloadavg()[0])
     try:
         cols, rows = make_probes(info, case, npoints, seed=2026)
         probe_csv = os.path.join(work, "probes.csv")
         write_csv(probe_csv, cols, rows)
-        methods, notes = detect_methods(bt, info, case, probe_csv, args.method_choices, env)
+        methods, notes, degenerate = detect_methods(bt, info, case, probe_csv, args.method_choices, env)
         if not methods:
             raise RuntimeError("no method accepted: " + json.dumps(notes))
         result["methods_accepted"], result["methods_left_out"] = list(methods), notes
@@ -450,13 +467,20 @@ def run_case(bt, case, args, env, clock, log):
         fits = {}  # (method, precision) -> list of (work units, engine seconds)
         plan = []
         for level in range(levels):
-            for b in budgets:
+            cells = 1
+            for a in level_axes(info, case, level):
+                cells *= a.get("count", len(a.get("values", [])))
+            for j, b in enumerate(budgets):
                 for m in methods:
-                    if m not in SAMPLED and b != budgets[0]:
+                    if (m not in SAMPLED or m in degenerate) and b != budgets[0]:
                         continue
-                    for prec, stored in combos:
-                        plan.append((level, m, b, prec, stored))
-        for level, m, b, prec, stored in plan:
+                    for k, (prec, stored) in enumerate(combos):
+                        plan.append((j, level, k, m, b, prec, stored))
+        # Every level at the smallest budget first, then at the next budget, and
+        # so on: the time caps then cut large budgets on coarse grids (where the
+        # interpolation error hides the integration error) before fine grids.
+        plan.sort(key=lambda p: p[:3])
+        for _, level, _, m, b, prec, stored in plan:
             axes = level_axes(info, case, level)
             cells = 1
             for a in axes:
@@ -483,7 +507,7 @@ def run_case(bt, case, args, env, clock, log):
             result["runs"].append(row)
             log(f"  L{level} {row['nodes']:>12} {m:>11} {row['samples']:>6} {prec:>6} {stored:>7}: "
                 f"engine {row['engine_s']:.3f}s wall {row['wall_s']:.2f}s cpu {row['cpu_s']:.2f}s "
-                f"max rel {row['linear_max_rel']:.2e} abs {row['linear_max_abs']:.2e}")
+                f"max abs {row['linear_max_abs']:.2e} norm {row['linear_max_norm']:.2e} rel {row['linear_max_rel']:.2e}")
     finally:
         if args.keep:
             log(f"  kept {work}")
@@ -505,7 +529,7 @@ def pareto(points):
 
 
 def metric_key(res):
-    return "linear_max_abs" if res.get("metric") == "abs" else "linear_max_rel"
+    return "linear_max_abs" if res.get("metric") == "abs" else "linear_max_norm"
 
 
 def reach(runs, target, metric="linear_max_rel", time_key="engine_s"):
@@ -639,7 +663,9 @@ def plot_case(res, path, machine_line):
     cv = Canvas(W, H)
     xs = [r["engine_s"] for r in runs]
     ys = [r[mk] for r in runs]
-    noise = 3 * res["reference"]["max_stderr" if mk == "linear_max_abs" else "max_rel_stderr"]
+    noise = 3 * res["reference"]["max_stderr"]
+    if mk == "linear_max_norm":
+        noise /= res["reference"]["max_abs"]
     if noise > 0:
         ys = ys + [noise]
     xa, xb = decade_range(xs)
@@ -689,7 +715,7 @@ def plot_case(res, path, machine_line):
     xl = "time: generate's engine seconds per table (log)"
     cv.text(int((L + R) / 2 - len(xl) * 3), B + 30, xl)
     yl = ("max absolute error between nodes (log)" if mk == "linear_max_abs"
-          else "max relative error between nodes (log)")
+          else "max abs. error between nodes / max |value| (log)")
     cv.text_up(22, int((T + B) / 2 + len(yl) * 3), yl)
     cv.text(10, H - 16, machine_line, dark)
     if noise > 0:
@@ -738,7 +764,7 @@ def plot_case(res, path, machine_line):
 
 CSV_KEYS = ["case", "level", "nodes", "cells", "method", "samples", "total_samples", "precision", "type",
             "engine_s", "wall_s", "cpu_s", "linear_max_rel", "linear_rms_rel", "linear_max_abs",
-            "linear_rms_abs", "cubic_max_rel", "cubic_rms_rel", "cubic_max_abs", "cubic_rms_abs"]
+            "linear_rms_abs", "linear_max_norm", "linear_rms_norm", "cubic_max_rel", "cubic_rms_rel", "cubic_max_abs", "cubic_rms_abs", "cubic_max_norm", "cubic_rms_norm"]
 
 
 def fmt_setting(r):
@@ -753,7 +779,7 @@ def summary_md(results):
            "engine s, CPU s, error |", "|---|---|---|--:|--:|---|"]
     for res in results:
         mk = metric_key(res)
-        what = "max abs" if mk == "linear_max_abs" else "max rel"
+        what = "max abs" if mk == "linear_max_abs" else "max abs / max value"
         for e in TARGETS:
             hit = reach(res["runs"], e, metric=mk)
             if hit is None:
@@ -802,6 +828,8 @@ def main():
     ap.add_argument("--combos", type=lambda s: [tuple(x.split(":")) for x in s.split(",")],
                     help="PRECISION:TYPE pairs, comma-separated (default double:float32,float:float32,"
                     "double:float16)")
+    ap.add_argument("--merge", action="store_true",
+                    help="replace (or add) the cases run now in an existing OUT/results.json, keep the others")
     ap.add_argument("--plot-only", action="store_true", help="redraw figures and summary from OUT/results.json")
     args = ap.parse_args()
 
@@ -854,6 +882,18 @@ def main():
     doc["children_cpu_s"] = Clock.now() - cpu0
     devs = {r["device"] for res in doc["cases"] for r in res["runs"]}
     doc["machine"]["device"] = ", ".join(sorted(devs))
+    old_path = os.path.join(out, "results.json")
+    if args.merge and os.path.exists(old_path):
+        with open(old_path) as f:
+            old = json.load(f)
+        new = {c["name"]: c for c in doc["cases"]}
+        update = {k: doc[k] for k in ("command", "date", "load_before", "load_after", "wall_s", "children_cpu_s")}
+        update["cases"] = list(new)
+        for c in doc["cases"]:
+            c["run_date"] = doc["date"]
+        old["cases"] = [new.pop(c["name"], c) for c in old["cases"]] + list(new.values())
+        old.setdefault("updates", []).append(update)
+        doc = old
     with open(os.path.join(out, "results.json"), "w") as f:
         json.dump(doc, f, indent=1)
     with open(os.path.join(out, "results.csv"), "w", newline="") as f:
