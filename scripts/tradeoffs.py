@@ -778,9 +778,9 @@ def summary_md(results):
     out = ["| preset.table | error | E | T (s) | N (cells) | first measured run with error <= E: setting, "
            "engine s, CPU s, error |", "|---|---|---|--:|--:|---|"]
     for res in results:
-        mk = metric_key(res)
-        what = "max abs" if mk == "linear_max_abs" else "max abs / max value"
-        for e in TARGETS:
+        mk0 = metric_key(res)
+        for mk, e in [(mk0, e) for e in TARGETS] + [(mk0.replace("_max_", "_rms_"), e) for e in TARGETS]:
+            what = ("max" if "_max_" in mk else "RMS") + (" abs" if mk.endswith("_abs") else " abs / max value")
             hit = reach(res["runs"], e, metric=mk)
             if hit is None:
                 best = min(res["runs"], key=lambda r: r[mk], default=None)
@@ -793,6 +793,51 @@ def summary_md(results):
             n = f"{hit['cells']:.0f}" if hit["how"] == "interpolated" else f"≤ {hit['cells']}"
             out.append(f"| {res['name']} | {what} | {e:.0e} | {t} | {n} | {fmt_setting(r)}, {r['engine_s']:.3g} s, "
                        f"{r['cpu_s']:.3g} s, {r[mk]:.2e} |")
+    return "\n".join(out) + "\n"
+
+
+def compact_md(results):
+    """One row per case: T seconds / N cells to reach each E, for the max and the RMS
+    error; "—" where no measured run reached it."""
+    head = " | ".join([f"max {e:.0e}" for e in TARGETS] + [f"RMS {e:.0e}" for e in TARGETS])
+    out = [f"| preset.table | error | best max (engine s) | {head} |",
+           "|---|---|---|" + "---|" * (2 * len(TARGETS))]
+    for res in results:
+        mk = metric_key(res)
+        cells = []
+        for key in (mk, mk.replace("_max_", "_rms_")):
+            for e in TARGETS:
+                hit = reach(res["runs"], e, metric=key)
+                if hit is None:
+                    cells.append("—")
+                elif hit["how"] == "interpolated":
+                    cells.append(f"{hit['seconds']:.2g} s / {hit['cells']:.0f}")
+                else:
+                    cells.append(f"≤ {hit['seconds']:.2g} s / ≤ {hit['cells']}")
+        best = min(res["runs"], key=lambda r: r[mk])
+        what = "abs" if mk.endswith("_abs") else "abs / max"
+        out.append(f"| {res['name']} | {what} | {best[mk]:.1e} ({best['engine_s']:.2g}) | " + " | ".join(cells) + " |")
+    return "\n".join(out) + "\n"
+
+
+def cases_md(doc):
+    """One row per case: what was measured, the reference and what the caps cut."""
+    out = ["| preset.table | nodes per level | held | methods measured (not measured: refused by the quantity, or deterministic) | budgets | probes, "
+           "reference (samples), its max stderr | runs (skipped) | load |", "|---|---|---|---|---|---|---|---|"]
+    for res in doc["cases"]:
+        if not res.get("runs"):
+            out.append(f"| {res['name']} | — | — | failed: {res.get('error', '')[:120]} | | | | |")
+            continue
+        nodes = sorted({(r["level"], r["nodes"]) for r in res["runs"]})
+        hold = ", ".join(f"{k} = {', '.join(str(x) for x in v)}" for k, v in res.get("hold", {}).items())
+        left = ", ".join(m for m in res.get("methods_left_out", {}) if m not in res["methods"])
+        ref = res["reference"]
+        rs = f" ({ref['samples']})" if ref["samples"] else ""
+        out.append(f"| {res['name']} | {' / '.join(n for _, n in nodes)} | {hold or '—'} | "
+                   f"{', '.join(res['methods'])}{f' ({left})' if left else ''} | "
+                   f"{', '.join(str(b) for b in res['budgets']) if any(m in SAMPLED for m in res['methods']) else '—'} | "
+                   f"{res['probes']}, {ref['method']}{rs}, {ref['max_stderr']:.1e} | "
+                   f"{len(res['runs'])} ({len(res['skipped'])}) | {res.get('load_at_start', 0):.1f} |")
     return "\n".join(out) + "\n"
 
 
@@ -895,7 +940,7 @@ def main():
         old.setdefault("updates", []).append(update)
         doc = old
     with open(os.path.join(out, "results.json"), "w") as f:
-        json.dump(doc, f, indent=1)
+        json.dump(doc, f, separators=(",", ":"))
     with open(os.path.join(out, "results.csv"), "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=CSV_KEYS, extrasaction="ignore")
         w.writeheader()
@@ -921,7 +966,8 @@ def finish(doc, out):
                            + f"; {res['probes']} probes vs {res['reference']['method']} reference")
         plot_case(res, os.path.join(out, res["name"] + ".png"), machine_line)
     with open(os.path.join(out, "summary.md"), "w") as f:
-        f.write(summary_md([r for r in doc["cases"] if r.get("runs")]))
+        done = [r for r in doc["cases"] if r.get("runs")]
+        f.write(compact_md(done) + "\n" + cases_md(doc) + "\n" + summary_md(done))
 
 
 if __name__ == "__main__":
