@@ -940,7 +940,7 @@ def main():
         old.setdefault("updates", []).append(update)
         doc = old
     with open(os.path.join(out, "results.json"), "w") as f:
-        json.dump(doc, f, separators=(",", ":"))
+        json.dump(rounded(doc), f, separators=(",", ":"))
     with open(os.path.join(out, "results.csv"), "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=CSV_KEYS, extrasaction="ignore")
         w.writeheader()
@@ -951,6 +951,18 @@ def main():
     log(f"campaign: {doc['wall_s']:.0f} s wall, {doc['children_cpu_s']:.0f} s user+sys of brdftab, "
         f"load average {load0[0]:.2f} before, {doc['load_after'][0]:.2f} after; wrote {out}")
     return 0
+
+
+def rounded(x):
+    """The document with floats to 5 significant digits (the measurements' noise is
+    far larger), to keep results.json small."""
+    if isinstance(x, float):
+        return float(f"{x:.5g}")
+    if isinstance(x, dict):
+        return {k: rounded(v) for k, v in x.items()}
+    if isinstance(x, list):
+        return [rounded(v) for v in x]
+    return x
 
 
 def finish(doc, out):
