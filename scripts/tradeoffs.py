@@ -858,15 +858,15 @@ def machine_info(bt):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--quick", action="store_true", help="a few cases, 3 levels, 2 budgets (~2 minutes)")
-    ap.add_argument("--out", help="output folder (default docs/figures/tradeoffs; --quick: ./tradeoffs-quick)")
+    ap.add_argument("--quick", action="store_true", help="three small cases, 3 levels, 2 budgets (under a minute on 2 cores)")
+    ap.add_argument("--out", help="output folder (default docs/figures/tradeoffs; --quick: build/tradeoffs-quick)")
     ap.add_argument("--brdftab", default=os.path.join(REPO, "build", "brdftab"), help="the brdftab binary")
     ap.add_argument("--presets", default=os.path.join(REPO, "tables"), help="folder of the preset specs")
     ap.add_argument("--case", action="append", default=[], help="run only this case (repeatable; prefix match)")
     ap.add_argument("--list", action="store_true", help="list the cases and exit")
     ap.add_argument("--keep", action="store_true", help="keep the working folders (specs, tables, probes)")
     ap.add_argument("--levels", type=int, help="refinement levels (default 4; --quick: 3)")
-    ap.add_argument("--budgets", type=lambda s: [int(x) for x in s.split(",")],
+    ap.add_argument("--budgets", type=lambda s: [int(x) for x in s.split(",")],  # argparse: exit 2 if not ints
                     help="samples per cell for mc/rqmc, comma-separated (default: per case)")
     ap.add_argument("--probes", type=int, help="random probe points per case (default 300; --quick: 150)")
     ap.add_argument("--methods", type=lambda s: s.split(","), help="measure only these methods (comma-separated)")
@@ -878,12 +878,22 @@ def main():
     ap.add_argument("--plot-only", action="store_true", help="redraw figures and summary from OUT/results.json")
     args = ap.parse_args()
 
+    if args.levels is not None and not 1 <= args.levels <= 8:
+        fail(f"--levels {args.levels}: must be in [1, 8]")
+    if args.probes is not None and not 2 <= args.probes <= 100000:
+        fail(f"--probes {args.probes}: must be in [2, 100000]")
+    if args.budgets is not None and not all(1 <= b <= 4294967295 for b in args.budgets):
+        fail(f"--budgets {args.budgets}: each must be in [1, 4294967295]")
+    for c in args.combos or []:
+        if len(c) != 2 or c[0] not in ("double", "float") or c[1] not in ("float16", "float32", "float64"):
+            fail(f"--combos: '{':'.join(c)}' is not PRECISION:TYPE with PRECISION double|float and "
+                 "TYPE float16|float32|float64")
     if args.list:
         for c in CASES:
             print(f"{c['name']:45} {'quick' if c.get('quick') else ''}")
         return 0
-    out = args.out or ("tradeoffs-quick" if args.quick else os.path.join(REPO, "docs", "figures", "tradeoffs"))
-    os.makedirs(out, exist_ok=True)
+    out = args.out or (os.path.join(REPO, "build", "tradeoffs-quick") if args.quick
+                       else os.path.join(REPO, "docs", "figures", "tradeoffs"))
 
     if args.plot_only:
         with open(os.path.join(out, "results.json")) as f:
@@ -902,6 +912,7 @@ def main():
         if not cases:
             fail("--case matches no case (see --list)")
     args.method_choices = method_choices(bt)
+    os.makedirs(out, exist_ok=True)
 
     def log(s):
         print(s, flush=True)

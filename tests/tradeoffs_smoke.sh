@@ -14,6 +14,9 @@ expect_exit 2 "unknown case" -- "$PY" "$SCRIPT" --brdftab "$BT" --case nosuch --
 expect_grep "--case matches no case" err.txt "unknown case message"
 expect_exit 2 "missing binary" -- "$PY" "$SCRIPT" --brdftab "$WORK/nosuch" --quick --out o
 expect_grep "not an executable" err.txt "missing binary message"
+expect_exit 2 "zero levels" -- "$PY" "$SCRIPT" --brdftab "$BT" --quick --levels 0 --out o
+expect_grep "--levels 0: must be in \[1, 8\]" err.txt "zero levels message"
+if [ -e o ]; then bad "a refused run created its output folder"; else ok; fi
 
 expect_exit 0 "quick run" -- "$PY" "$SCRIPT" --brdftab "$BT" --quick --out out \
   --case rough-dielectric-albedo.albedo_r --levels 3 --budgets 256,4096 --methods rqmc \
