@@ -670,6 +670,8 @@ def plot_case(res, path, machine_line):
     noise = 3 * res["reference"]["max_stderr"]
     if mk == "linear_max_norm":
         noise /= res["reference"]["max_abs"]
+    if noise < min(ys) / 100:
+        noise = 0  # far below every error: not drawn (it would squash the curves)
     if noise > 0:
         ys = ys + [noise]
     xa, xb = decade_range(xs)
@@ -721,6 +723,8 @@ def plot_case(res, path, machine_line):
     yl = ("max absolute error between nodes (log)" if mk == "linear_max_abs"
           else "max abs. error between nodes / max |value| (log)")
     cv.text_up(22, int((T + B) / 2 + len(yl) * 3), yl)
+    if res.get("run_date"):
+        machine_line += f"; this case re-run {res['run_date']}, load {res.get('load_at_start', 0):.1f}"
     cv.text(10, H - 16, machine_line, dark)
     if noise > 0:
         y = Y(noise)
