@@ -34,6 +34,8 @@ struct BenchCase {
     double flops_estimate = 0;
     // theta_o range in degrees: 90 (upper hemisphere) or 180 (both sides).
     double theta_o_max = 89;
+    // The method measured (Auto: the quantity's default).
+    Method method = Method::Auto;
 };
 
 // The cases `brdftab bench` runs, in order (issue #12's list).

@@ -48,6 +48,15 @@ ModelInfo rough_dielectric_model() {
         parameter_info("eta", "1", "index of refraction, interior / exterior (may be < 1)", 0, 10)
             .open_min());
 
+    b.parameter(
+        RD_PARAM_NODES,
+        parameter_info("nodes", "1",
+                       "method quadrature (albedos): Gauss-Legendre nodes per sub-interval in each "
+                       "of the two directions (the error estimate is the distance to the rule with "
+                       "half the nodes)",
+                       2, 64, 12.0)
+            .whole());
+
     b.option(
         RD_OPT_DISTRIBUTION,
         {"distribution", "microfacet normal distribution", {"beckmann", "ggx", "phong"}, "ggx"});
@@ -105,11 +114,13 @@ ModelInfo rough_dielectric_model() {
         q.id = id;
         q.description = desc;
         q.units = "1";
-        q.kind = QuantityKind::Integral;
+        // Deterministic quadrature (the default) or sampling: see the
+        // "Quadrature" section of docs/models/rough-dielectric.md.
+        q.kind = QuantityKind::Quadrature;
         q.directions = std::move(dirs);
         q.uses_options = std::move(opts);
         q.equations = eqs;
-        q.default_method = Method::Rqmc;
+        q.default_method = Method::Quadrature;
         q.dimensions = dims;
         return q;
     };

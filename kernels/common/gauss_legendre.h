@@ -135,4 +135,37 @@ BT_INLINE REAL bt_gauss_legendre_table(int n, int k, REAL a, REAL b, REAL* w)
     return a + R(0.5) * (b - a) * (x + R(1.0));
 }
 
+/* Graded map of [0, 1] onto itself for Gauss-Legendre on an interval whose
+ * ends carry a known algebraic singularity: x(t) = I_t(p, q), the regularised
+ * incomplete beta function with integer p, q >= 1, i.e. the binomial tail
+ *   I_t(p, q) = sum_{j=p}^{p+q-1} C(p+q-1, j) t^j (1 - t)^(p+q-1-j),
+ * with dx/dt = t^(p-1) (1 - t)^(q-1) / B(p, q), B(p, q) = (p-1)! (q-1)! / (p+q-1)!.
+ * Near t = 0, x ~ t^p: a term (x - x0)^s at the left end becomes t^(p s), so
+ * p = 2 turns a square root (or a 3/2 power) into a polynomial term and p = 4
+ * does the same for a 3/4 power; q acts likewise at the right end; p = q = 1 is
+ * the identity.  Returns x, *jac = dx/dt.  p + q <= 16. */
+BT_INLINE REAL bt_graded_map(REAL t, int p, int q, REAL* jac)
+{
+    int n = p + q - 1;
+    REAL u = R(1.0) - t;
+    /* C(n, j) t^j u^(n-j) for j = p .. n, by the ratio of successive terms. */
+    REAL term = R(1.0);
+    for (int k = 0; k < p; ++k) term *= t * (REAL)(n - k) / (REAL)(k + 1);
+    for (int k = p; k < n; ++k) term *= u;
+    REAL x = R(0.0);
+    for (int j = p; j <= n; ++j) {
+        x += term;
+        if (j < n) term = u > R(0.0) ? term * t * (REAL)(n - j) / ((REAL)(j + 1) * u) : R(0.0);
+    }
+    if (u <= R(0.0)) x = R(1.0);
+    /* 1 / B(p, q) = n! / ((p-1)! (q-1)!) = p C(n, p) */
+    REAL inv_beta = (REAL)p;
+    for (int k = 0; k < p; ++k) inv_beta *= (REAL)(n - k) / (REAL)(k + 1);
+    REAL d = inv_beta;
+    for (int k = 1; k < p; ++k) d *= t;
+    for (int k = 1; k < q; ++k) d *= u;
+    *jac = d;
+    return x;
+}
+
 #endif /* BRDFTAB_GAUSS_LEGENDRE_H */

@@ -13,6 +13,8 @@
  *   p[4] alpha  (> 0) roughness width (Beckmann/GGX alpha; Phong exponent
  *        alpha_p = 2/alpha^2 - 2, see microfacet.h)
  *   p[5] eta    (> 0, may be < 1) index inside (below) / index outside (above)
+ *   p[6] nodes  albedos under method quadrature: Gauss-Legendre nodes per
+ *        sub-interval and direction (rd_albedo_quadrature)
  * Options o[]:
  *   o[0] distribution   0 beckmann, 1 ggx, 2 phong
  *   o[1] g1             0 exact Smith, 1 Walter rational fit (eq. 27)
@@ -31,7 +33,9 @@
  *   4 albedo_t    directional transmittance int f_t |o.n| do
  *   5 albedo_avg  2 int_0^1 E(mu) mu dmu for the chosen lobe(s) and side
  * Random dimensions: 0, 1 sample m (visible normals or D(m)|m.n|);
- * 2 picks mu = sqrt(u) (avg).
+ * 2 picks mu = sqrt(u) (avg).  Method quadrature (the albedos' default):
+ * deterministic tensor Gauss-Legendre, batch 0 with p[6] nodes, batch 1 with
+ * half as many (the error estimate); see rd_albedo_quadrature.
  *
  * Sides.  The formulas are written for light arriving from outside (i.z > 0,
  * eta_i = 1, eta_o = eta on transmission).  When i is below the surface
@@ -63,6 +67,7 @@
 
 #include "../common/compat.h"
 #include "../common/fresnel.h"
+#include "../common/gauss_legendre.h"
 #include "../common/microfacet.h"
 #include "../common/sampler.h"
 #include "../common/vec3.h"
@@ -80,7 +85,8 @@
  * model by these names; p[0..3] are the directions (estimator.h). */
 #define RD_PARAM_ALPHA 4
 #define RD_PARAM_ETA 5
-#define RD_PARAM_COUNT 2
+#define RD_PARAM_NODES 6
+#define RD_PARAM_COUNT 3
 #define RD_OPT_DISTRIBUTION 0
 #define RD_OPT_G1 1
 #define RD_OPT_SHADOWING 2
@@ -282,6 +288,454 @@ BT_INLINE REAL rd_albedo_sample_dir(const bt_microfacet* mf, bt_vec3 i, REAL eta
     return wr + wt;
 }
 
+/* ---------------------------------------------------- albedo quadrature
+ * Deterministic tensor Gauss-Legendre for the directional albedos
+ * (method quadrature; docs/models/rough-dielectric.md, "Quadrature").
+ *
+ * The integral.  With q(m) = (i.m)+ D(m) (canonical i, i.z > 0) both albedos
+ * are q-weighted means of the visible-normal weights of rd_albedo_weights:
+ *   A = int q w dw_m / int q dw_m,  w_r = F (G1(i)/G1s(i)) G/G1(i)(o_r),
+ *   w_t = (1 - F) (G1(i)/G1s(i)) G/G1(i)(o_t),
+ * because D_v = q G1s(i) / i.z and int q dw_m = i.z / G1s(i) (Smith).  The
+ * rule is self-normalised (numerator and denominator on the same nodes), so
+ * a constant w, e.g. F at alpha -> 0, is integrated exactly.
+ *
+ * Coordinates: the stretched (unit-width) frame of the visible-normal
+ * samplers.  m = normalize(alpha m~x, alpha m~y, m~z), and the pushforward
+ * of q dw_m is (v~.m~)+ D~(m~) dw~ with v~ = normalize(alpha i.x, 0, i.z)
+ * and D~ the unit-width distribution (GGX: 1/pi, the hemisphere; Beckmann:
+ * exp(-tan^2)/ (pi cos^4)), whatever alpha is: the integrand does not
+ * sharpen as alpha -> 0.  In spherical coordinates (theta~, phi) of m~
+ * about the macro normal, dw~ = sin theta~ dtheta~ dphi, and
+ *   tan theta_m = alpha tan theta~,  phi_m = phi,
+ * so every row theta~ = const is a row of constant m.z.  Heitz's disk map
+ * (r = sqrt(u1), then the lift sqrt(1 - r^2)) is not used: it puts square
+ * roots at r = 0 and at the silhouette, where Gauss-Legendre converges
+ * slowly.  The integrand is even in phi (i in the xz plane, isotropic D), so
+ * phi runs over [0, pi].
+ *
+ * Splits.  On a row, c = i.m = sin th_m sin th_i cos phi + cos th_m cos th_i
+ * falls monotonically in phi, and every place where the weight is not
+ * smooth is a level c = c* of it, so phi* = acos((c* - cos th_m cos th_i)
+ * / (sin th_m sin th_i)) is explicit (rd_quad_row):
+ *   c* = 0                   facet turns its back to i (v~.m~ = 0): end of
+ *                            the row's visible range, the weight q has a kink;
+ *   c* = sqrt(1 - eta^2)     total internal reflection (eta < 1): F -> 1
+ *                            like sqrt(c - c*); both sub-intervals are
+ *                            graded towards phi* (bt_graded_map, power 2);
+ *   c* = i.z / (2 m.z)       reflected direction on the horizon
+ *                            (o_r.z = 2 c m.z - i.z): G1(o_r) -> 0 linearly;
+ *   c* = (K^2 - 1 + eW^2) / (2 eW K), K = eW i.z / m.z, eW = 1/eta > 1
+ *                            refracted direction on the horizon (o_t.z =
+ *                            k(c) m.z - eW i.z, k(c) = eW c - sqrt(1 - eW^2
+ *                            (1 - c^2)), solved for c; only for eta < 1, as
+ *                            o_t.z < 0 always when eta > 1);
+ *   c* = (i.z + h)/(2 m.z), h = alpha, 4 alpha   the G1(o_r) ramp (G1 ~ 2 o_r.z
+ *                            / alpha while o_r.z << alpha), no grading;
+ *   c* = c0 + w, c0 + 4w, w = sqrt|eta^2 - 1|    the Fresnel layer for eta
+ *                            near 1 (c0 = 0 or the TIR level), no grading.
+ * Between splits the weight is smooth.  Across rows, the row integral is
+ * not smooth where a split is born or dies at phi = 0 or pi, i.e. at the
+ * in-plane normals of each boundary (rd_quad_add_inplane): theta~ is split
+ * there and graded with power 2 (a split moving like sqrt(theta~ - theta~c))
+ * or 4 (the TIR edge, whose sqrt(c - c*) gives a 3/4 power); the ramp and
+ * layer levels' in-plane points too (power 2: harmless where smooth), and
+ * every interval next to a graded point is split again at 1/8 and 1/64 of
+ * its length from it (rd_quad_refine).  Beckmann's
+ * theta~ ends at atan(7) (the slope cut of its sampler; mass beyond it
+ * < 1e-21) and is split at tan theta~ = 1 and 2.5.
+ * Left to the error estimate: Walter's G1 fit (its a = 1.6 switch is a kink
+ * not split), the 3/4-power tangency terms beyond the grading, rounding.
+ *
+ * Phong (no unit-width form) runs the same rows in real theta_m with q =
+ * (i.m)+ D(m) and the absolute normalisation A = G1(i) int q G/G1(i) F / i.z
+ * (the Walter-weight integral); theta_m is split at 1, 2, 4 and 8 times
+ * alpha (the width of D). */
+
+#define RD_QUAD_MAX_NODES 64
+#define RD_QUAD_MAX_SPLITS 64
+#define RD_QUAD_LAYERS 2
+/* The coarse rule of the error estimate (batch 1). */
+#define RD_QUAD_COARSE(n) (((n) + 1) / 2)
+
+typedef struct {
+    bt_microfacet mf;
+    bt_vec3 i;        /* canonical light, i.z > 0 */
+    REAL eta;         /* canonical relative index */
+    REAL ratio, gi;   /* G1(i)/G1s(i), G1(i) of the model's G1 */
+    REAL vx, vz;      /* stretched view (v~.y = 0) */
+    int stretched;    /* 1: Beckmann/GGX rows in theta~, 0: Phong in theta_m */
+    REAL c_tir;       /* critical c (eta < 1), else -1 */
+    REAL layer[RD_QUAD_LAYERS]; /* c levels of the Fresnel layer, or -1 */
+    REAL rise[RD_QUAD_LAYERS];  /* o_r.z levels of the G1(o_r) ramp, or -1 */
+} rd_quad_ctx;
+
+/* Weights of one normal m (the visible-normal weights of rd_albedo_weights,
+ * without the sampling). */
+BT_INLINE void rd_quad_weights(const rd_quad_ctx* q, bt_vec3 m, REAL* wr, REAL* wt)
+{
+    *wr = R(0.0);
+    *wt = R(0.0);
+    REAL im = bt_v3_dot(q->i, m);
+    if (!(im > R(0.0)) || !(m.z > R(0.0))) return;
+    REAL F = bt_fresnel_dielectric(im, q->eta); /* eq. 22 */
+    bt_vec3 o_r = bt_reflect(q->i, m);          /* eq. 39 */
+    bt_vec3 o_t;
+    int has_t = F < R(1.0) && bt_refract(q->i, m, q->eta, &o_t) && o_t.z < R(0.0); /* eq. 40 */
+    int has_r = o_r.z > R(0.0) && F > R(0.0);
+    if (has_r) *wr = F * q->ratio * bt_mf_g_over_g1(&q->mf, q->gi, o_r, m);
+    if (has_t) *wt = (R(1.0) - F) * q->ratio * bt_mf_g_over_g1(&q->mf, q->gi, o_t, m);
+}
+
+/* Insert x (with grading power g) into the sorted list e[0..*ne-1]. */
+BT_INLINE void rd_quad_insert(REAL* e, int* g, int* ne, REAL x, int grade)
+{
+    if (*ne >= RD_QUAD_MAX_SPLITS) return;
+    int j = *ne - 1;
+    while (j >= 0 && e[j] > x) {
+        e[j + 1] = e[j];
+        g[j + 1] = g[j];
+        --j;
+    }
+    e[j + 1] = x;
+    g[j + 1] = grade;
+    ++*ne;
+}
+
+/* The c* levels of a row with cos theta_m = mz (see above); returns their
+ * count, *tir_index the position of the TIR level (or -1). */
+BT_INLINE int rd_quad_levels(const rd_quad_ctx* q, REAL mz, REAL* lv, int* tir_index)
+{
+    int n = 0;
+    *tir_index = -1;
+    lv[n++] = R(0.0);
+    if (q->c_tir > R(0.0)) {
+        *tir_index = n;
+        lv[n++] = q->c_tir;
+        REAL ew = R(1.0) / q->eta;
+        REAL K = ew * q->i.z / mz;
+        REAL c = (K * K - R(1.0) + ew * ew) / (R(2.0) * ew * K);
+        if (ew * c >= K) lv[n++] = c;
+    }
+    lv[n++] = q->i.z / (R(2.0) * mz);
+    for (int k = 0; k < RD_QUAD_LAYERS; ++k) {
+        if (q->layer[k] > R(0.0)) lv[n++] = q->layer[k];
+        /* o_r.z = rise: the G1(o_r) ramp */
+        if (q->rise[k] > R(0.0)) lv[n++] = (q->i.z + q->rise[k]) / (R(2.0) * mz);
+    }
+    return n;
+}
+
+/* Row integrals at cos/sin theta_m = (mz, ms): sum over phi in [0, pi] of
+ * (weights) * (row density factor in phi, i.e. v~.m~ up to the row's
+ * constant, supplied by the caller as vm(phi) = a cos phi + b).  Adds
+ * int vm (wr, wt, 1) dphi to *sr, *st, *sn. */
+BT_INLINE void rd_quad_row(const rd_quad_ctx* q, REAL mz, REAL ms, REAL va, REAL vb, int n,
+                           const REAL* gx, const REAL* gw, REAL* sr, REAL* st, REAL* sn)
+{
+    REAL lv[4 + 2 * RD_QUAD_LAYERS];
+    int tir;
+    int nl = rd_quad_levels(q, mz, lv, &tir);
+    REAL e[RD_QUAD_MAX_SPLITS + 2];
+    int g[RD_QUAD_MAX_SPLITS + 2];
+    int ne = 0;
+    REAL ss = ms * q->i.x, cc = mz * q->i.z;
+    REAL phi_end = BT_PI; /* end of the visible range */
+    if (ss > R(0.0)) {
+        for (int k = 0; k < nl; ++k) {
+            REAL x = (lv[k] - cc) / ss;
+            if (k == 0 && !(x < R(1.0))) return; /* the whole row faces away from i */
+            if (!(x > -R(1.0) && x < R(1.0))) continue;
+            REAL phi = bt_acos(x);
+            if (k == 0)
+                phi_end = phi;
+            else
+                rd_quad_insert(e, g, &ne, phi, k == tir ? 2 : 1);
+        }
+    } else if (!(cc > R(0.0))) {
+        return; /* the whole row faces away from i */
+    }
+    /* sub-intervals [0, e0, e1, ..., phi_end] */
+    REAL lo = R(0.0);
+    int glo = 1;
+    REAL a_r = R(0.0), a_t = R(0.0), a_n = R(0.0);
+    for (int k = 0; k <= ne; ++k) {
+        REAL hi = k < ne ? e[k] : phi_end;
+        int ghi = k < ne ? g[k] : 1;
+        if (hi > phi_end) {
+            hi = phi_end;
+            ghi = 1;
+        }
+        REAL L = hi - lo;
+        if (L > R(0.0)) {
+            for (int j = 0; j < n; ++j) {
+                REAL jac;
+                REAL t = bt_graded_map(R(0.5) * (gx[j] + R(1.0)), glo, ghi, &jac);
+                REAL phi = lo + L * t;
+                REAL cp = bt_cos(phi), sp = bt_sin(phi);
+                REAL wq = R(0.5) * gw[j] * jac * L * fmax(va * cp + vb, R(0.0));
+                bt_vec3 m = bt_v3(ms * cp, ms * sp, mz);
+                REAL wr, wt;
+                rd_quad_weights(q, m, &wr, &wt);
+                a_r += wq * wr;
+                a_t += wq * wt;
+                a_n += wq;
+            }
+        }
+        if (hi >= phi_end) break;
+        lo = hi;
+        glo = ghi;
+    }
+    *sr += a_r;
+    *st += a_t;
+    *sn += a_n;
+}
+
+/* theta_m of the in-plane normals (phi = 0 or pi) on a boundary: signed
+ * in-plane angles psi (from +z towards i) are added as |psi| when
+ * |psi| < pi/2, converted to the row variable (theta~ when stretched). */
+BT_INLINE void rd_quad_add_psi(const rd_quad_ctx* q, REAL psi, int grade, REAL top, REAL* e,
+                               int* g, int* ne)
+{
+    REAL th = fabs(psi);
+    if (!(th < BT_HALF_PI)) return;
+    if (q->stretched) th = bt_atan(bt_tan(th) / q->mf.ax);
+    if (th > R(0.0) && th < top) rd_quad_insert(e, g, ne, th, grade);
+}
+
+BT_INLINE void rd_quad_add_inplane(const rd_quad_ctx* q, REAL top, REAL* e, int* g, int* ne)
+{
+    REAL ti = bt_acos(fmin(q->i.z, R(1.0)));
+    /* visibility c = 0 and TIR c = c_tir: cos(theta_i - psi) = c */
+    rd_quad_add_psi(q, ti - BT_HALF_PI, 2, top, e, g, ne);
+    if (q->c_tir > R(0.0)) {
+        REAL a = bt_acos(q->c_tir);
+        rd_quad_add_psi(q, ti - a, 4, top, e, g, ne);
+        rd_quad_add_psi(q, ti + a, 4, top, e, g, ne);
+        /* o_t horizontal: m ~ i + eta o with o = (+-1, 0, 0) */
+        rd_quad_add_psi(q, bt_atan((q->i.x + q->eta) / q->i.z), 2, top, e, g, ne);
+        rd_quad_add_psi(q, bt_atan((q->i.x - q->eta) / q->i.z), 2, top, e, g, ne);
+    }
+    for (int k = 0; k < RD_QUAD_LAYERS; ++k) {
+        if (!(q->layer[k] > R(0.0))) continue;
+        REAL a = bt_acos(q->layer[k]);
+        rd_quad_add_psi(q, ti - a, 2, top, e, g, ne);
+        rd_quad_add_psi(q, ti + a, 2, top, e, g, ne);
+    }
+    /* o_r horizontal: psi = (theta_i +- pi/2)/2; o_r at height `rise`:
+     * m along i + o_r, o_r = (+-sqrt(1 - rise^2), 0, rise) */
+    rd_quad_add_psi(q, R(0.5) * (ti + BT_HALF_PI), 2, top, e, g, ne);
+    rd_quad_add_psi(q, R(0.5) * (ti - BT_HALF_PI), 2, top, e, g, ne);
+    for (int k = 0; k < RD_QUAD_LAYERS; ++k) {
+        REAL h = q->rise[k];
+        if (!(h > R(0.0))) continue;
+        REAL ox = bt_safe_sqrt(R(1.0) - h * h);
+        rd_quad_add_psi(q, bt_atan2(q->i.x + ox, q->i.z + h), 2, top, e, g, ne);
+        rd_quad_add_psi(q, bt_atan2(q->i.x - ox, q->i.z + h), 2, top, e, g, ne);
+    }
+}
+
+/* Geometric refinement towards the graded (singular) outer points: the
+ * row integral has features on scales set by alpha near them (the G1(o_r)
+ * ramp, the Fresnel layer), compressed near theta~ = pi/2, so each interval
+ * next to a graded point p gets extra splits at RD_QUAD_REFINE^-k of its
+ * length from p (k = 1 .. RD_QUAD_REFINE_LEVELS). */
+#define RD_QUAD_REFINE R(8.0)
+#define RD_QUAD_REFINE_LEVELS 2
+BT_INLINE int rd_quad_refine(REAL* e, int* g, int ne, REAL lo_end, REAL hi_end)
+{
+    REAL add[2 * RD_QUAD_MAX_SPLITS * RD_QUAD_REFINE_LEVELS];
+    int na = 0;
+    for (int k = 0; k < ne; ++k) {
+        if (g[k] < 2) continue;
+        REAL left = k > 0 ? e[k - 1] : lo_end, right = k + 1 < ne ? e[k + 1] : hi_end;
+        REAL dl = e[k] - left, dr = right - e[k];
+        for (int j = 0; j < RD_QUAD_REFINE_LEVELS; ++j) {
+            dl /= RD_QUAD_REFINE;
+            dr /= RD_QUAD_REFINE;
+            if (dl > R(0.0)) add[na++] = e[k] - dl;
+            if (dr > R(0.0)) add[na++] = e[k] + dr;
+        }
+    }
+    for (int k = 0; k < na; ++k) rd_quad_insert(e, g, &ne, add[k], 1);
+    return ne;
+}
+
+/* Both albedos for canonical light i (i.z > 0) and index eta, n nodes per
+ * sub-interval in each direction. */
+BT_INLINE void rd_albedo_quadrature(const bt_microfacet* mf, bt_vec3 i, REAL eta, int n, REAL* ar,
+                                    REAL* at)
+{
+    REAL gx[RD_QUAD_MAX_NODES], gw[RD_QUAD_MAX_NODES];
+    n = n < 2 ? 2 : (n > RD_QUAD_MAX_NODES ? RD_QUAD_MAX_NODES : n);
+    bt_gauss_legendre_rule(n, gx, gw);
+    rd_quad_ctx q;
+    q.mf = *mf;
+    q.i = i;
+    q.eta = eta;
+    q.stretched = bt_mf_has_visible(mf);
+    q.gi = bt_mf_g1_nochi(mf, i);
+    REAL gs = bt_mf_g1_smith_nochi(mf, i);
+    q.ratio = !q.stretched ? R(1.0) : (q.gi == gs ? R(1.0) : (gs > R(0.0) ? q.gi / gs : R(0.0)));
+    q.c_tir = eta < R(1.0) ? sqrt((R(1.0) - eta) * (R(1.0) + eta)) : -R(1.0);
+    {
+        /* eta near 1: F climbs from ~0 to 1 within c ~ w = sqrt(|eta^2 - 1|)
+         * of c = 0 (eta > 1) or of the TIR edge (eta < 1); levels at w and 4w
+         * past it resolve that layer (splits, no grading: F is smooth there). */
+        REAL w = sqrt(fabs((eta - R(1.0)) * (eta + R(1.0))));
+        REAL base = q.c_tir > R(0.0) ? q.c_tir : R(0.0);
+        REAL scale = R(1.0);
+        for (int k = 0; k < RD_QUAD_LAYERS; ++k, scale *= R(4.0)) {
+            REAL c = base + scale * w;
+            q.layer[k] = w > R(0.0) && w < R(0.25) && c < R(1.0) ? c : -R(1.0);
+        }
+        /* G1(o_r) ~ 2 o_r.z / alpha while o_r.z << alpha: a ramp of width
+         * ~alpha next to the o_r horizon (thin for smooth surfaces, and it
+         * carries the whole reflection lobe at grazing incidence): levels at
+         * o_r.z = alpha and 4 alpha. */
+        scale = R(1.0);
+        for (int k = 0; k < RD_QUAD_LAYERS; ++k, scale *= R(4.0)) {
+            REAL h = scale * mf->ax;
+            q.rise[k] = h < R(0.5) ? h : -R(1.0);
+        }
+    }
+    REAL alpha = mf->ax;
+    bt_vec3 v = q.stretched ? bt_mf_stretch_view(i, alpha, alpha) : i;
+    q.vx = v.x;
+    q.vz = v.z;
+
+    REAL top = BT_HALF_PI;
+    REAL e[RD_QUAD_MAX_SPLITS + 2];
+    int g[RD_QUAD_MAX_SPLITS + 2];
+    int ne = 0;
+    int beck = mf->dist == BT_MF_BECKMANN;
+    if (beck) {
+        top = bt_atan(BT_MF_SLOPE_MAX);
+        rd_quad_insert(e, g, &ne, bt_atan(R(1.0)), 1);
+        rd_quad_insert(e, g, &ne, bt_atan(R(2.5)), 1);
+    }
+    if (!q.stretched) {
+        for (REAL k = R(1.0); k <= R(8.0); k *= R(2.0))
+            if (k * alpha < top) rd_quad_insert(e, g, &ne, k * alpha, 1);
+    }
+    rd_quad_add_inplane(&q, top, e, g, &ne);
+    ne = rd_quad_refine(e, g, ne, R(0.0), top);
+
+    REAL alpha_p = bt_phong_exponent(alpha);
+    REAL sr = R(0.0), st = R(0.0), sn = R(0.0);
+    REAL lo = R(0.0);
+    int glo = 1;
+    for (int k = 0; k <= ne; ++k) {
+        REAL hi = k < ne ? e[k] : top;
+        int ghi = k < ne ? g[k] : 1;
+        REAL L = hi - lo;
+        if (L > R(0.0)) {
+            for (int j = 0; j < n; ++j) {
+                REAL jac;
+                REAL t = bt_graded_map(R(0.5) * (gx[j] + R(1.0)), glo, ghi, &jac);
+                REAL th = lo + L * t;
+                REAL st_ = bt_sin(th), ct = bt_cos(th);
+                REAL w = R(0.5) * gw[j] * jac * L * st_;
+                REAL mz, ms;
+                if (q.stretched) {
+                    /* m = normalize(alpha sin th~, ., cos th~) */
+                    REAL r = alpha * st_, len = sqrt(r * r + ct * ct);
+                    mz = ct / len;
+                    ms = r / len;
+                    /* D~(m~), constant factors dropped (self-normalised) */
+                    if (beck) {
+                        REAL t2 = st_ * st_ / (ct * ct);
+                        w *= bt_exp(-t2) / (ct * ct * ct * ct);
+                    }
+                } else {
+                    mz = ct;
+                    ms = st_;
+                    w *= bt_phong_d(mz, alpha_p);
+                }
+                /* v.m = v.x ms cos phi + v.z mz on the row */
+                REAL va = q.stretched ? q.vx * st_ : q.vx * ms;
+                REAL vb = q.stretched ? q.vz * ct : q.vz * mz;
+                REAL r_r = R(0.0), r_t = R(0.0), r_n = R(0.0);
+                rd_quad_row(&q, mz, ms, va, vb, n, gx, gw, &r_r, &r_t, &r_n);
+                sr += w * r_r;
+                st += w * r_t;
+                sn += w * r_n;
+            }
+        }
+        lo = hi;
+        glo = ghi;
+    }
+    if (q.stretched) {
+        *ar = sn > R(0.0) ? sr / sn : R(0.0);
+        *at = sn > R(0.0) ? st / sn : R(0.0);
+    } else {
+        /* Walter-weight integral: G1(i) * 2 int_0^pi (rows) / i.z; the model's
+         * G/G1(i) already sits in the weights. */
+        REAL f = R(2.0) * q.gi / i.z;
+        *ar = f * sr;
+        *at = f * st;
+    }
+}
+
+/* Node count of the quadrature for this batch: batch 0 the accurate rule
+ * (p[RD_PARAM_NODES]), batch 1 the coarse one, whose distance to it the
+ * engine reports as the error (RD_QUAD_COARSE). */
+BT_INLINE int rd_quad_nodes(const REAL* p, const bt_sampler* s)
+{
+    int n = (int)(p[RD_PARAM_NODES] + R(0.5));
+    n = n < 2 ? 2 : (n > RD_QUAD_MAX_NODES ? RD_QUAD_MAX_NODES : n);
+    if (s->batch != 0u) n = RD_QUAD_COARSE(n);
+    return n;
+}
+
+/* Directional albedo (lobe) for light direction i (either side) by quadrature. */
+BT_INLINE REAL rd_albedo_quadrature_dir(const bt_microfacet* mf, bt_vec3 i, REAL eta, int lobe,
+                                        int n)
+{
+    if (i.z < R(0.0)) {
+        i.z = -i.z;
+        eta = R(1.0) / eta;
+    }
+    REAL ar, at;
+    rd_albedo_quadrature(mf, i, eta, n, &ar, &at);
+    if (lobe == RD_LOBE_REFLECTION) return ar;
+    if (lobe == RD_LOBE_TRANSMISSION) return at;
+    return ar + at;
+}
+
+/* albedo_avg by quadrature: 2 int_0^1 E(mu) mu dmu, Gauss-Legendre in mu
+ * split at the critical cosine (the smooth-surface TIR edge, where E has a
+ * kink that roughness only softens) and graded there (power 2). */
+BT_INLINE REAL rd_albedo_avg_quadrature(const bt_microfacet* mf, REAL eta, int side, int lobe,
+                                        int n)
+{
+    REAL gx[RD_QUAD_MAX_NODES], gw[RD_QUAD_MAX_NODES];
+    int nn = n < 2 ? 2 : (n > RD_QUAD_MAX_NODES ? RD_QUAD_MAX_NODES : n);
+    bt_gauss_legendre_rule(nn, gx, gw);
+    REAL ec = side == 1 ? R(1.0) / eta : eta; /* canonical index */
+    REAL e[3];
+    int ne = 0;
+    e[ne++] = R(0.0);
+    if (ec < R(1.0)) e[ne++] = sqrt((R(1.0) - ec) * (R(1.0) + ec));
+    e[ne] = R(1.0);
+    REAL sum = R(0.0);
+    for (int k = 0; k < ne; ++k) {
+        REAL lo = e[k], L = e[k + 1] - lo;
+        int glo = k > 0 ? 2 : 1, ghi = k + 1 < ne ? 2 : 1;
+        for (int j = 0; j < nn; ++j) {
+            REAL jac;
+            REAL t = bt_graded_map(R(0.5) * (gx[j] + R(1.0)), glo, ghi, &jac);
+            REAL mu = fmax(lo + L * t, RD_MIN_COS);
+            bt_vec3 i = bt_v3(bt_safe_sqrt(R(1.0) - mu * mu), R(0.0), mu);
+            REAL ar, at;
+            rd_albedo_quadrature(mf, i, ec, nn, &ar, &at);
+            REAL a = lobe == RD_LOBE_REFLECTION ? ar : lobe == RD_LOBE_TRANSMISSION ? at : ar + at;
+            sum += R(0.5) * gw[j] * jac * L * R(2.0) * mu * a;
+        }
+    }
+    return sum;
+}
+
 /* The model's sample function (estimator.h signature). */
 BT_INLINE REAL rough_dielectric_sample(const REAL* p, const int* o, int quantity,
                                        const bt_sampler* s)
@@ -291,6 +745,20 @@ BT_INLINE REAL rough_dielectric_sample(const REAL* p, const int* o, int quantity
     if (quantity == RD_Q_BSDF) return rough_dielectric_fs(p, o);
 
     bt_microfacet mf = rd_microfacet(p, o);
+    if (s->method == BT_METHOD_QUADRATURE) {
+        int n = rd_quad_nodes(p, s);
+        if (quantity == RD_Q_ALBEDO_R || quantity == RD_Q_ALBEDO_T) {
+            bt_vec3 i;
+            bt_direction(p[0], p[1], RD_MIN_COS, BT_DIR_SIGNED_COS, &i);
+            return rd_albedo_quadrature_dir(&mf, i, p[RD_PARAM_ETA],
+                                            quantity == RD_Q_ALBEDO_R ? RD_LOBE_REFLECTION
+                                                                      : RD_LOBE_TRANSMISSION,
+                                            n);
+        }
+        if (quantity == RD_Q_ALBEDO_AVG)
+            return rd_albedo_avg_quadrature(&mf, p[RD_PARAM_ETA], o[RD_OPT_SIDE], o[RD_OPT_LOBE], n);
+        return R(0.0);
+    }
     REAL u0 = bt_uniform(s, 0u), u1 = bt_uniform(s, 1u);
     if (quantity == RD_Q_ALBEDO_R || quantity == RD_Q_ALBEDO_T) {
         bt_vec3 i;
