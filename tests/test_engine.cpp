@@ -252,7 +252,7 @@ TEST_CASE("reported standard errors are honest (coverage over independent seeds)
 TEST_CASE("method resolution and errors") {
     Fixture f;
     CHECK(resolve_method(f.model.quantity("brdf"), Method::Auto) == Method::ClosedForm);
-    CHECK(resolve_method(f.model.quantity("albedo_r"), Method::Auto) == Method::Rqmc);
+    CHECK(resolve_method(f.model.quantity("albedo_r"), Method::Auto) == Method::Quadrature);
     CHECK_THROWS_AS(resolve_method(f.model.quantity("brdf"), Method::MonteCarlo), InputError);
     CHECK_THROWS_AS(resolve_method(f.model.quantity("albedo_r"), Method::ClosedForm), InputError);
     CHECK_THROWS_AS(parse_method("simpson"), InputError);

@@ -115,14 +115,14 @@ TEST_CASE("albedo estimators (visible and Walter sampling) agree with brute-forc
                         double tho = hemi ? kPi - th : th;
                         double ring = 0;
                         for (int k = 0; k < nphi; ++k) {
-                            double p[6] = {ti, 0, tho, 2 * kPi * (k + 0.5) / nphi, alpha, eta};
+                            double p[7] = {ti, 0, tho, 2 * kPi * (k + 0.5) / nphi, alpha, eta};
                             ring += rough_dielectric_fs(p, oq);
                         }
                         double v = ring * (2 * kPi / nphi) * std::sin(th) * std::cos(th) * w;
                         bool same = (ti > kPi / 2) == (hemi == 1);
                         (same ? R : T) += v;
                     }
-            double p[6] = {ti, 0, 0, 0, alpha, eta};
+            double p[7] = {ti, 0, 0, 0, alpha, eta};
             for (int sampling : {RD_SAMPLING_VISIBLE, RD_SAMPLING_WALTER}) {
                 int o[8] = {c.dist, c.g1, c.sh, 0, 0, sampling};
                 Stat er = estimate(p, o, RD_Q_ALBEDO_R, 40000, 7 + c.dist);
@@ -156,7 +156,7 @@ TEST_CASE("energy: albedo_r + albedo_t <= 1")
                     for (double ti_deg : {0.0, 45.0, 80.0, 89.0, 100.0, 135.0, 179.0}) {
                         if (dist == BT_MF_PHONG && alpha > 0.3) continue;
                         int o[8] = {dist, 0, sh, 0, 0, RD_SAMPLING_WALTER};
-                        double p[6] = {ti_deg * kDeg, 0.3, 0, 0, alpha, eta};
+                        double p[7] = {ti_deg * kDeg, 0.3, 0, 0, alpha, eta};
                         Stat st;
                         for (int k = 0; k < 10000; ++k) {
                             bt_sampler s = mc(55, (uint)k);
@@ -194,7 +194,7 @@ TEST_CASE("visible-normal sampling: every weight <= 1 (exact G1), <= 1.0035 (Wal
                             if (g1 == 1 && dist == BT_MF_GGX) continue;  // GGX ignores g1
                             int o[8] = {dist, g1, sh, RD_LOBE_BOTH, ti > kPi / 2 ? 1 : 0,
                                         RD_SAMPLING_VISIBLE};
-                            double p[6] = {ti, 0.3, 0, 0, a, e};
+                            double p[7] = {ti, 0.3, 0, 0, a, e};
                             double bound = g1 ? 1.0035 : 1 + 1e-12;
                             ++cell;
                             for (int k = 0; k < 150; ++k) {
@@ -225,7 +225,7 @@ TEST_CASE("visible and Walter sampling estimate the same albedos")
     for (int dist : {BT_MF_BECKMANN, BT_MF_GGX})
         for (double alpha : {0.1, 1.0, 2.0})
             for (double ti_deg : {0.0, 60.0, 85.0, 135.0}) {
-                double p[6] = {ti_deg * kDeg, 0.1, 0, 0, alpha, 1.5};
+                double p[7] = {ti_deg * kDeg, 0.1, 0, 0, alpha, 1.5};
                 for (int q : {RD_Q_ALBEDO_R, RD_Q_ALBEDO_T, RD_Q_ALBEDO_AVG}) {
                     if (q == RD_Q_ALBEDO_AVG && ti_deg > 0) continue;  // no theta_i
                     int ov[8] = {dist, 0, 0, RD_LOBE_BOTH, 1, RD_SAMPLING_VISIBLE};
@@ -255,7 +255,7 @@ TEST_CASE("smooth limit: alpha -> 0 gives albedo_r = F(theta_i), R + T = 1")
         for (double ti_deg : {0.0, 30.0, 60.0, 80.0, 150.0, 120.0}) {
             const double eta = 1.5;
             int o[8] = {dist, 0, 0, 0, 0};
-            double p[6] = {ti_deg * kDeg, 0, 0, 0, 1e-4, eta};
+            double p[7] = {ti_deg * kDeg, 0, 0, 0, 1e-4, eta};
             bool inside = ti_deg > 90;
             double c = std::fabs(std::cos(ti_deg * kDeg));
             double F = fresnel_sp(c, inside ? 1 / eta : eta);
@@ -303,7 +303,7 @@ TEST_CASE("eta = 1: no reflection, transmission straight through")
             for (double alpha : {1e-3, 0.5})
                 for (double ti_deg : {0.0, 40.0, 75.0, 140.0}) {
                     int o[8] = {dist, 0, sh, 0, 0};
-                    double p[6] = {ti_deg * kDeg, 0.2, 0, 0, alpha, 1.0};
+                    double p[7] = {ti_deg * kDeg, 0.2, 0, 0, alpha, 1.0};
                     Stat r = estimate(p, o, RD_Q_ALBEDO_R, 500, 9);
                     Stat t = estimate(p, o, RD_Q_ALBEDO_T, 4000, 9);
                     CHECK(r.mean == 0.0);
@@ -336,7 +336,7 @@ TEST_CASE("albedo_avg: smooth-limit hemispherical reflectances and their identit
     }
     double ri = 1 - (1 - re) / (eta * eta);
     for (int dist = 0; dist < 3; ++dist) {
-        double p[6] = {0, 0, 0, 0, 1e-4, eta};
+        double p[7] = {0, 0, 0, 0, 1e-4, eta};
         int out_r[8] = {dist, 0, 0, RD_LOBE_REFLECTION, 0};
         int in_r[8] = {dist, 0, 0, RD_LOBE_REFLECTION, 1};
         int out_both[8] = {dist, 0, 0, RD_LOBE_BOTH, 0};
@@ -367,7 +367,7 @@ TEST_CASE("no NaN or Inf on extreme inputs")
                                 for (double dphi : {0.0, kPi, 1.0}) {
                                     int o[8] = {dist, g1, sh, (int)(n % 3), (int)(n % 2),
                                                 (int)((n / 2) % 2)};
-                                    double p[6] = {ti, 0.4, to, 0.4 + dphi, a, e};
+                                    double p[7] = {ti, 0.4, to, 0.4 + dphi, a, e};
                                     for (int q = 0; q < 6; ++q) {
                                         // Integrals: a few samples each (incl. u = 0).
                                         int ns = q < 3 ? 1 : 3;
@@ -508,7 +508,7 @@ TEST_CASE("Phong near alpha = 1 (issue #15): R + T above 1 is the fitted G1, not
             q *= (1.0 / nu) * (2 * kPi / nphi);
             const double bound = bt_mf_g1_nochi(&mf, i) * q / i.z;
             int o[8] = {BT_MF_PHONG, 0, 0, 0, 0, RD_SAMPLING_WALTER};
-            double p[6] = {ti_deg * kDeg, 0, 0, 0, alpha, 1.5};
+            double p[7] = {ti_deg * kDeg, 0, 0, 0, alpha, 1.5};
             Stat st;
             for (int k = 0; k < 20000; ++k) {
                 bt_sampler s = mc(77, (uint)k);

@@ -109,7 +109,7 @@ TEST_CASE("a complete spec parses to the expected structures") {
     CHECK(b.name == "brdf");
     CHECK(b.quantity == "brdf");
     CHECK(b.description == "reflection");
-    CHECK(b.fixed.size() == 2);
+    CHECK(b.fixed.size() == 3);  // eta, theta_o and nodes (its default)
     CHECK(b.fixed.at("eta") == 1.5);
     CHECK(b.fixed.at("theta_o") == 30);
     CHECK(b.options.at("distribution") == "beckmann");
@@ -392,7 +392,7 @@ TEST_CASE("model and quantity names") {
 
 TEST_CASE("parameter names, option choices and value ranges") {
     expect_error(lines({HEADER, "roughness = 0.2", BODY}), 5, "parameters.roughness",
-                 "alpha, eta (parameters)");
+                 "alpha, eta, nodes (parameters)");
     expect_error(lines({"model = \"rough-dielectric\"", "[parameters]", "alpha = 0.3",
                         "eta = 0", BODY}),
                  4, "parameters.eta", "(0, 10]");

@@ -634,26 +634,26 @@ BT_INLINE void rd_albedo_quadrature(const bt_microfacet* mf, bt_vec3 i, REAL eta
                 REAL jac;
                 REAL t = bt_graded_map(R(0.5) * (gx[j] + R(1.0)), glo, ghi, &jac);
                 REAL th = lo + L * t;
-                REAL st_ = bt_sin(th), ct = bt_cos(th);
-                REAL w = R(0.5) * gw[j] * jac * L * st_;
+                REAL sin_th = bt_sin(th), ct = bt_cos(th);
+                REAL w = R(0.5) * gw[j] * jac * L * sin_th;
                 REAL mz, ms;
                 if (q.stretched) {
                     /* m = normalize(alpha sin th~, ., cos th~) */
-                    REAL r = alpha * st_, len = sqrt(r * r + ct * ct);
+                    REAL r = alpha * sin_th, len = sqrt(r * r + ct * ct);
                     mz = ct / len;
                     ms = r / len;
                     /* D~(m~), constant factors dropped (self-normalised) */
                     if (beck) {
-                        REAL t2 = st_ * st_ / (ct * ct);
+                        REAL t2 = sin_th * sin_th / (ct * ct);
                         w *= bt_exp(-t2) / (ct * ct * ct * ct);
                     }
                 } else {
                     mz = ct;
-                    ms = st_;
+                    ms = sin_th;
                     w *= bt_phong_d(mz, alpha_p);
                 }
                 /* v.m = v.x ms cos phi + v.z mz on the row */
-                REAL va = q.stretched ? q.vx * st_ : q.vx * ms;
+                REAL va = q.stretched ? q.vx * sin_th : q.vx * ms;
                 REAL vb = q.stretched ? q.vz * ct : q.vz * mz;
                 REAL r_r = R(0.0), r_t = R(0.0), r_n = R(0.0);
                 rd_quad_row(&q, mz, ms, va, vb, n, gx, gw, &r_r, &r_t, &r_n);
