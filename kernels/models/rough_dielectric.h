@@ -256,7 +256,7 @@ BT_INLINE void rd_albedo_weights(const bt_microfacet* mf, bt_vec3 i, REAL eta, i
     if (!(im > R(0.0)) || !(m.z > R(0.0)) || !(pdf > R(0.0))) return; /* chi+ of G1(i,m) */
     REAL F = unit_fresnel ? R(1.0) : bt_fresnel_dielectric(im, eta); /* eq. 22 */
     bt_vec3 o_r = bt_reflect(i, m);                                  /* eq. 39 */
-    bt_vec3 o_t;
+    bt_vec3 o_t = bt_v3(R(0.0), R(0.0), R(0.0)); /* set by bt_refract; zeroed to quiet -Wmaybe-uninitialized */
     int has_t = F < R(1.0) && bt_refract(i, m, eta, &o_t) && o_t.z < R(0.0); /* eq. 40 */
     int has_r = o_r.z > R(0.0) && F > R(0.0);
     if (visible) {
