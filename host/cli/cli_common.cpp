@@ -1,10 +1,13 @@
 #include "host/cli/cli_common.h"
 
+#include <sys/statvfs.h>
 #include <unistd.h>
 
 #include <cctype>
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
+#include <fstream>
 #include <iostream>
 #include <sstream>
 
@@ -260,6 +263,25 @@ GenerateProgressFn TableProgress::callback() {
 void TableProgress::finish() {
     if (printer_) printer_->finish();
     printer_.reset();
+}
+
+double available_memory() {
+    std::ifstream in("/proc/meminfo");
+    std::string key, unit;
+    double kib = 0;
+    while (in >> key >> kib) {
+        std::getline(in, unit);
+        if (key == "MemAvailable:") return kib * 1024;
+    }
+    return 0;
+}
+
+double free_disk_space(const std::string& path) {
+    std::filesystem::path dir = std::filesystem::path(path).parent_path();
+    if (dir.empty()) dir = ".";
+    struct statvfs fs {};
+    if (statvfs(dir.c_str(), &fs) != 0) return -1;
+    return static_cast<double>(fs.f_bavail) * static_cast<double>(fs.f_frsize);
 }
 
 }  // namespace brdftab::cli

@@ -102,4 +102,12 @@ CLI::Validator number_in(double min, bool min_inclusive, double max, const std::
 std::string format_seconds(double s);
 std::string format_count(double n);
 
+// MemAvailable of /proc/meminfo in bytes; 0 when unknown (not Linux).  Used by
+// the memory pre-checks of `generate` and `scene`.
+double available_memory();
+
+// Free bytes (for an unprivileged user) on the file system of `path`'s
+// directory; negative when unknown.
+double free_disk_space(const std::string& path);
+
 }  // namespace brdftab::cli

@@ -1,7 +1,6 @@
 // eval and generate: the commands that run the engine.  The work is done by
 // host/engine/evaluate.h and host/generate/generate.h; this file parses and
 // prints.
-#include <sys/statvfs.h>
 
 #include <cstdio>
 #include <cstdlib>
@@ -169,28 +168,6 @@ void print_error_summary(const ErrorSummary& s, const TableData& d) {
 }  // namespace
 
 namespace {
-
-// MemAvailable of /proc/meminfo in bytes; 0 when unknown (not Linux).
-double available_memory() {
-    std::ifstream in("/proc/meminfo");
-    std::string key, unit;
-    double kib = 0;
-    while (in >> key >> kib) {
-        std::getline(in, unit);
-        if (key == "MemAvailable:") return kib * 1024;
-    }
-    return 0;
-}
-
-// Free bytes (for an unprivileged user) on the file system of `path`'s
-// directory; negative when unknown.
-double free_disk_space(const std::string& path) {
-    std::filesystem::path dir = std::filesystem::path(path).parent_path();
-    if (dir.empty()) dir = ".";
-    struct statvfs fs {};
-    if (statvfs(dir.c_str(), &fs) != 0) return -1;
-    return static_cast<double>(fs.f_bavail) * static_cast<double>(fs.f_frsize);
-}
 
 // Refuses (InputError, exit 2) a run whose estimated memory or disk use
 // exceeds what is available, before anything is computed.

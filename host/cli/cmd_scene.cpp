@@ -1,6 +1,5 @@
 // scene: the tables a scene's materials need, and a manifest binding each
 // material to its table (host/scene/scene.h, docs/scenes.md).
-#include <sys/statvfs.h>
 
 #include <algorithm>
 #include <cmath>
@@ -60,27 +59,6 @@ std::string seconds_text(double s) {
     o.precision(3);
     o << s << " s";
     return o.str();
-}
-
-// MemAvailable of /proc/meminfo in bytes; 0 when unknown (as `generate`).
-double available_memory() {
-    std::ifstream in("/proc/meminfo");
-    std::string key, unit;
-    double kib = 0;
-    while (in >> key >> kib) {
-        std::getline(in, unit);
-        if (key == "MemAvailable:") return kib * 1024;
-    }
-    return 0;
-}
-
-// Free bytes on the file system of `path`'s directory; negative when unknown.
-double free_disk_space(const std::string& path) {
-    std::filesystem::path dir = std::filesystem::path(path).parent_path();
-    if (dir.empty()) dir = ".";
-    struct statvfs fs {};
-    if (statvfs(dir.c_str(), &fs) != 0) return -1;
-    return static_cast<double>(fs.f_bavail) * static_cast<double>(fs.f_frsize);
 }
 
 // The pre-check of `generate` for the whole scene, before anything is

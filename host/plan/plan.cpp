@@ -572,23 +572,31 @@ TablePlan predict_table(const TablePilot& pilot, const PlanTarget& target,
     return tp;
 }
 
-std::vector<Candidate> make_candidates(const std::vector<TablePilot>& pilots, const PlanTarget& target) {
-    std::vector<Candidate> out;
-    if (pilots.empty()) return out;
+namespace {
+
+// The methods a set of pilots can be planned with (sampled methods when any
+// table is an integral, else quadrature, else the closed form), and the
+// largest |value| the pilots saw (the scale of absolute targets).
+std::vector<Method> candidate_methods(const std::vector<TablePilot>& pilots, double& scale) {
     bool integral = false, quadrature = false;
-    double scale = 0;
+    scale = 0;
     for (const TablePilot& p : pilots) {
         integral |= p.kind == QuantityKind::Integral;
         quadrature |= p.kind == QuantityKind::Quadrature;
         scale = std::max(scale, p.max_value);
     }
-    std::vector<Method> methods;
-    if (integral)
-        methods = {Method::MonteCarlo, Method::Rqmc};
-    else if (quadrature)
-        methods = {Method::Quadrature};
-    else
-        methods = {Method::ClosedForm};
+    if (integral) return {Method::MonteCarlo, Method::Rqmc};
+    if (quadrature) return {Method::Quadrature};
+    return {Method::ClosedForm};
+}
+
+}  // namespace
+
+std::vector<Candidate> make_candidates(const std::vector<TablePilot>& pilots, const PlanTarget& target) {
+    std::vector<Candidate> out;
+    if (pilots.empty()) return out;
+    double scale = 0;
+    const std::vector<Method> methods = candidate_methods(pilots, scale);
     for (int k = 1; k <= 26; ++k) {
         const double interp_target = std::ldexp(1.0, -k) * (target.absolute ? std::max(scale, 1e-300) : 1.0);
         std::vector<std::vector<std::size_t>> counts;
@@ -792,20 +800,8 @@ std::vector<Candidate> make_recombined_candidates(const std::vector<TablePilot>&
                                                   const std::vector<RecombinedGroup>& groups) {
     if (groups.empty()) return make_candidates(pilots, target);
     std::vector<Candidate> out;
-    bool integral = false, quadrature = false;
     double scale = 0;
-    for (const TablePilot& p : pilots) {
-        integral |= p.kind == QuantityKind::Integral;
-        quadrature |= p.kind == QuantityKind::Quadrature;
-        scale = std::max(scale, p.max_value);
-    }
-    std::vector<Method> methods;
-    if (integral)
-        methods = {Method::MonteCarlo, Method::Rqmc};
-    else if (quadrature)
-        methods = {Method::Quadrature};
-    else
-        methods = {Method::ClosedForm};
+    const std::vector<Method> methods = candidate_methods(pilots, scale);
     for (int k = 1; k <= 26; ++k) {
         const double interp_target = std::ldexp(1.0, -k) * (target.absolute ? std::max(scale, 1e-300) : 1.0);
         std::vector<std::vector<std::size_t>> counts;
