@@ -286,3 +286,36 @@ TEST_CASE("integrals: node probes measure the integration noise alone, the refer
     CHECK(c.max_error >= c.node_max);
     std::filesystem::remove_all(std::filesystem::path(temp_path("albedo.h5")).parent_path());
 }
+
+TEST_CASE("quadrature tables: the certificate sees the rule's own error (finer reference rule)") {
+    // With the table's own rule as reference the node probes would read zero.
+    // A 2-node rule is far from converged; the certificate's node probes must
+    // show its error, measured here independently as the table's difference
+    // from the same grid computed with a 32-node rule.
+    auto backend = make_backend("host", Precision::Double);
+    auto spec_text = [](int nodes) {
+        return "model = \"rough-dielectric\"\n[parameters]\ndistribution = \"ggx\"\neta = 1.5\nnodes = " +
+               std::to_string(nodes) +
+               "\n[[axes]]\nname = \"theta_i\"\nrange = [0.0, 85.0]\ncount = 5\n[[axes]]\nname = \"alpha\"\n"
+               "range = [0.1, 0.9]\ncount = 3\n[[tables]]\nquantity = \"albedo_t\"\n[integration]\n"
+               "method = \"quadrature\"\n[output]\ntype = \"float64\"\n";
+    };
+    const TableData coarse =
+        generate_and_read(parse_spec_string(spec_text(2), "coarse.toml"), *backend, temp_path("coarse.h5"));
+    const TableData fine =
+        generate_and_read(parse_spec_string(spec_text(32), "fine.toml"), *backend, temp_path("fine.h5"));
+    double rule_error = 0;
+    for (std::size_t i = 0; i < coarse.value.size(); ++i)
+        rule_error = std::max(rule_error, std::fabs(coarse.value[i] - fine.value[i]));
+    REQUIRE(rule_error > 1e-6);  // the 2-node rule really is coarse
+    CertifyOptions o;
+    o.target = 1e-9;
+    o.absolute = true;
+    o.node_points = 200;  // 15 cells: every node is probed with high probability
+    const Certificate c = certify_table(coarse, *backend, o);
+    MESSAGE("2-node rule: error at nodes " << rule_error << ", certificate node max " << c.node_max);
+    CHECK(c.node_max >= 0.5 * rule_error);
+    CHECK(c.node_max <= 2.0 * rule_error);
+    CHECK_FALSE(c.passed);
+    std::filesystem::remove_all(std::filesystem::path(temp_path("coarse.h5")).parent_path());
+}
