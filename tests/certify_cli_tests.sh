@@ -127,4 +127,21 @@ TOML
 expect_exit 0 "mc generate" -- "$BT" generate mc.toml -q
 expect_grep "max stderr [0-9.e+-]+ absolute, [0-9.e+-]+ relative \(tolerance metric stderr/max\(\|value\|, floor\) " out.txt "summary stderr wording"
 
+# ---- brdftab certify: an existing table (the under-resolved 5x5 closed form)
+expect_exit 0 "generate 5x5" -- "$BT" generate "$DATA/certify_under_resolved.toml" -o under.h5 -q
+expect_exit 1 "certify misses 1e-2" -- "$BT" certify under.h5 --table brdf --accuracy 1e-2 -q
+expect_grep "certificate FAILED: max relative total error" out.txt "certify prints the failed certificate"
+expect_exit 0 "certify passes 1 and stores" -- "$BT" certify under.h5 --table brdf --accuracy 1 --store -q
+if /usr/bin/python3 - <<'PYEOF'
+import h5py
+g = h5py.File("under.h5", "r")["brdf"]
+assert g.attrs["certificate_passed"] == 1
+# The 5x5 table's error is far above 1e-2 (the doctest measures 0.27 by brute force).
+assert 0.1 < g.attrs["certificate_max_error"] < 1.0
+PYEOF
+then ok; else bad "certify --store attributes"; fi
+expect_exit 2 "certify accuracy 0" -- "$BT" certify under.h5 --table brdf --accuracy 0
+expect_exit 2 "certify unknown table" -- "$BT" certify under.h5 --table nope --accuracy 1
+expect_exit 2 "certify missing file" -- "$BT" certify missing.h5 --table brdf --accuracy 1
+
 cli_summary

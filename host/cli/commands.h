@@ -17,5 +17,6 @@ void register_scene(CLI::App& app);
 // query / validate / plot (renderer-side library, issue 7)
 void register_table_commands(CLI::App& app);
 void register_plan(CLI::App& app);  // plan (issue 13)
+void register_certify(CLI::App& app);  // certify an existing table (issue 13)
 
 }  // namespace brdftab::cli

@@ -101,6 +101,7 @@ int main(int argc, char** argv) {
     cli::register_scene(app);
     cli::register_table_commands(app);
     cli::register_plan(app);
+    cli::register_certify(app);
 
     if (!known_subcommand(app, argc, argv)) return 2;
     try {
