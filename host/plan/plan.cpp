@@ -593,45 +593,9 @@ std::vector<Method> candidate_methods(const std::vector<TablePilot>& pilots, dou
 }  // namespace
 
 std::vector<Candidate> make_candidates(const std::vector<TablePilot>& pilots, const PlanTarget& target) {
-    std::vector<Candidate> out;
-    if (pilots.empty()) return out;
-    double scale = 0;
-    const std::vector<Method> methods = candidate_methods(pilots, scale);
-    for (int k = 1; k <= 26; ++k) {
-        const double interp_target = std::ldexp(1.0, -k) * (target.absolute ? std::max(scale, 1e-300) : 1.0);
-        std::vector<std::vector<std::size_t>> counts;
-        double cells_max = 0;
-        for (const TablePilot& p : pilots) {
-            counts.push_back(balanced_counts(p, target, interp_target));
-            double cells = 1;
-            for (std::size_t n : counts.back()) cells *= double(n);
-            cells_max = std::max(cells_max, cells);
-        }
-        if (cells_max > kMaxCells) continue;
-        for (Method m : methods) {
-            std::vector<std::uint64_t> budgets = {0};
-            if (m == Method::MonteCarlo || m == Method::Rqmc)
-                budgets = {1u << 8, 1u << 10, 1u << 12, 1u << 14, 1u << 16, 1u << 18, 1u << 20, 1u << 22};
-            for (std::uint64_t n : budgets)
-                for (StoredType st : {StoredType::Float16, StoredType::Float32}) {
-                    Candidate c;
-                    c.method = m;
-                    c.samples = n;
-                    c.stored_type = st;
-                    c.interpolation_target = interp_target;
-                    for (std::size_t i = 0; i < pilots.size(); ++i) {
-                        c.tables.push_back(predict_table(pilots[i], target, counts[i], m, n, st));
-                        const TablePlan& tp = c.tables.back();
-                        c.error_max = std::max(c.error_max, tp.error_max);
-                        c.error_rms = std::max(c.error_rms, tp.error_rms);
-                        c.seconds += tp.seconds;
-                        c.bytes += tp.cells * (st == StoredType::Float16 ? 2 : 4);
-                    }
-                    if (std::isfinite(c.error_max) && std::isfinite(c.seconds)) out.push_back(std::move(c));
-                }
-        }
-    }
-    return out;
+    // Plain tables are the case without recombined groups: one enumeration
+    // serves both (make_recombined_candidates).
+    return make_recombined_candidates(pilots, target, {});
 }
 
 std::vector<Candidate> pareto_front(const std::vector<Candidate>& candidates) {
@@ -798,8 +762,8 @@ TablePlan predict_recombined(const RecombinedGroup& group, const std::vector<Tab
 std::vector<Candidate> make_recombined_candidates(const std::vector<TablePilot>& pilots,
                                                   const PlanTarget& target,
                                                   const std::vector<RecombinedGroup>& groups) {
-    if (groups.empty()) return make_candidates(pilots, target);
     std::vector<Candidate> out;
+    if (pilots.empty()) return out;
     double scale = 0;
     const std::vector<Method> methods = candidate_methods(pilots, scale);
     for (int k = 1; k <= 26; ++k) {
