@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <cctype>
+#include <cstdio>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -282,6 +283,13 @@ double free_disk_space(const std::string& path) {
     struct statvfs fs {};
     if (statvfs(dir.c_str(), &fs) != 0) return -1;
     return static_cast<double>(fs.f_bavail) * static_cast<double>(fs.f_frsize);
+}
+
+std::string sci_text(double v) {
+    if (!std::isfinite(v)) return v > 0 ? "inf" : "nan";
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.3g", v);
+    return buf;
 }
 
 }  // namespace brdftab::cli

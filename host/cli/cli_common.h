@@ -106,6 +106,10 @@ std::string format_count(double n);
 // the memory pre-checks of `generate` and `scene`.
 double available_memory();
 
+// A number in three significant digits (%.3g; "inf"/"nan"), for error targets
+// and certificate figures.
+std::string sci_text(double v);
+
 // Free bytes (for an unprivileged user) on the file system of `path`'s
 // directory; negative when unknown.
 double free_disk_space(const std::string& path);

@@ -4,7 +4,6 @@
 // unless --store, which writes the certificate attributes into a copy of the
 // file and renames it over the original only when that succeeded.
 #include <cmath>
-#include <cstdio>
 #include <filesystem>
 #include <iostream>
 #include <memory>
@@ -28,16 +27,9 @@ struct CertifyArgs {
     ComputeOptions compute;
 };
 
-std::string short_number(double v) {
-    if (!std::isfinite(v)) return v > 0 ? "inf" : "nan";
-    char buf[32];
-    std::snprintf(buf, sizeof buf, "%.3g", v);
-    return buf;
-}
-
 void run_certify(const CertifyArgs& st) {
     if (!(st.accuracy > 0) || !std::isfinite(st.accuracy))
-        throw InputError("--accuracy must be a finite number > 0 (got " + short_number(st.accuracy) + ")");
+        throw InputError("--accuracy must be a finite number > 0 (got " + sci_text(st.accuracy) + ")");
     if (st.abs_floor < 0 || !std::isfinite(st.abs_floor))
         throw InputError("--abs-floor must be a finite number >= 0");
     if (!std::filesystem::is_regular_file(st.file)) throw InputError(st.file + ": no such file");
@@ -56,15 +48,15 @@ void run_certify(const CertifyArgs& st) {
     if (printer) printer->finish();
     std::cout << st.file << " table " << c.table << ": certificate " << (c.passed ? "passed" : "FAILED")
               << ": max " << (c.absolute ? "absolute" : "relative") << " total error "
-              << short_number(c.max_error) << " at (";
+              << sci_text(c.max_error) << " at (";
     for (std::size_t a = 0; a < c.axis_names.size(); ++a)
-        std::cout << (a ? ", " : "") << c.axis_names[a] << " " << short_number(c.max_at[a]);
-    std::cout << "), RMS " << short_number(c.rms_error) << "; target " << short_number(c.target) << "; "
+        std::cout << (a ? ", " : "") << c.axis_names[a] << " " << sci_text(c.max_at[a]);
+    std::cout << "), RMS " << sci_text(c.rms_error) << "; target " << sci_text(c.target) << "; "
               << c.probes << " probes, " << st.interpolation << " interpolation";
-    if (!c.absolute) std::cout << ", floor " << short_number(c.abs_floor);
+    if (!c.absolute) std::cout << ", floor " << sci_text(c.abs_floor);
     std::cout << ", reference " << c.reference_method;
-    if (c.reference_noise > 0) std::cout << " (noise " << short_number(c.reference_noise) << ")";
-    std::cout << ", " << short_number(c.seconds) << " s\n";
+    if (c.reference_noise > 0) std::cout << " (noise " << sci_text(c.reference_noise) << ")";
+    std::cout << ", " << sci_text(c.seconds) << " s\n";
     if (st.store) {
         AtomicOutput out(st.file);
         std::filesystem::copy_file(st.file, out.path(), std::filesystem::copy_options::overwrite_existing);
@@ -73,8 +65,8 @@ void run_certify(const CertifyArgs& st) {
         std::cout << "stored the certificate in " << st.file << "\n";
     }
     if (!c.passed)
-        throw Error("the certificate missed --accuracy " + short_number(st.accuracy) + ": max total error " +
-                    short_number(c.max_error));
+        throw Error("the certificate missed --accuracy " + sci_text(st.accuracy) + ": max total error " +
+                    sci_text(c.max_error));
 }
 
 }  // namespace

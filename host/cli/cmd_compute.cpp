@@ -363,13 +363,6 @@ void run_generate(const GenerateArgs& st) {
     print_summary(tables);
 }
 
-std::string sci_text(double v) {
-    if (!std::isfinite(v)) return v > 0 ? "inf" : "nan";
-    char buf[32];
-    std::snprintf(buf, sizeof buf, "%.3g", v);
-    return buf;
-}
-
 // `generate SPEC --accuracy E | --budget T`: plan, generate (the streamed,
 // checkpointed path of run_generate), certify, refine (host/plan/certify.h).
 // The output is written under a temporary name and renamed over the target
