@@ -106,7 +106,7 @@ struct QuantityInfo {
     // negative where it was not measured.  Filled by all_models() from that
     // table, never estimated.  float_note: where float fails, when it does.
     double float_max_rel_diff = -1;
-    std::string float_note;
+    std::string float_note = {};  // = {}: aggregates that stop before it stay warning-free
     bool float_measured() const { return float_max_rel_diff >= 0; }
     // Whether float reaches the precision of a stored float32 (2^-24 relative)
     // or float16 (2^-11) table over the measured domains.
