@@ -207,10 +207,10 @@ struct LineBlock {
 
 // Quadrature whose rule size the model exposes (a `nodes` parameter: the
 // rough-dielectric albedos): the finer rule the certificate takes as its
-// reference (certify.cpp: twice the nodes, at least 24, within range), or 0
-// where there is none (the spec leaves `nodes` at its default, or the model
-// has no such parameter): then the stored two-rule difference stays the
-// error term, as the certificate then adds it too.
+// reference (certify.cpp: twice the nodes, at least 24, within range; a
+// `nodes` left out of the spec is there at its default), or 0 where there is
+// none (no such parameter, or no finer rule in its range): then the stored
+// two-rule difference stays the error term, as the certificate adds it too.
 double finer_rule_nodes(const PilotContext& ctx) {
     if (ctx.quantity->kind != QuantityKind::Quadrature) return 0;
     const ParameterInfo* rule = ctx.model->find_parameter("nodes");
