@@ -242,7 +242,7 @@ void register_info(CLI::App& app) {
         std::cout << "\n";
         for (const auto& t : tables) {
             print_table_summary(t, values);
-            if (const auto c = read_certificate(path, t.name)) print_certificate(*c);
+            if (const auto c = read_certificate(reader, t.name)) print_certificate(*c);
         }
     });
 }
