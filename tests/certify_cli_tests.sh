@@ -99,6 +99,29 @@ assert a["certificate_passed"] == 1 and a["certificate_refinements"] >= 1
 assert a["certificate_max_error"] <= 1e-2 and a["certificate_predicted_max"] > 0'
 then ok; else bad "pass.h5 attributes"; fi
 
+# ---- `info` prints a stored certificate as the attributes hold it (the
+# attributes read by h5py are the oracle), FAILED ones too, and nothing for a
+# table without one.
+expect_exit 0 "info with certificate" -- "$BT" info pass.h5
+expect_grep "certificate: passed \(accuracy\), max absolute total error .* at \(theta_i .*, theta_o .*\)" out.txt "info certificate line"
+if "$PY" - <<'PYEOF'
+import h5py, re
+a = h5py.File("pass.h5", "r")["brdf"].attrs
+out = open("out.txt").read()
+m = re.search(r"total error (\S+) at .*RMS (\S+); target (\S+)", out)
+assert m, out
+for got, key in zip(m.groups(), ("certificate_max_error", "certificate_rms_error", "certificate_target")):
+    assert abs(float(got) - float(a[key])) <= 5e-3 * abs(float(a[key])), (key, got, a[key])
+assert f"{int(a['certificate_probes'])} probes" in out, out
+assert f"reference {a['certificate_reference_method']}" in out, out
+PYEOF
+then ok; else bad "info certificate figures differ from the attributes"; fi
+expect_exit 0 "info with failed certificate" -- "$BT" info fail.h5
+expect_grep "certificate: FAILED \(accuracy\)" out.txt "info FAILED certificate"
+expect_exit 0 "plain generate" -- "$BT" generate "$SPEC" -o plain.h5 -q
+expect_exit 0 "info without certificate" -- "$BT" info plain.h5
+if grep -q "certificate" out.txt; then bad "info printed a certificate for a table without one"; else ok; fi
+
 # ---- --budget: the most accurate plan predicted to fit, certified, no refinement
 expect_exit 0 "budget" -- "$BT" generate "$DATA/plan_rough_dielectric.toml" --budget 1 --interpolation cubic -o budget.h5 -q
 expect_grep "certificate (passed|FAILED).*target .* \(the plan's prediction\)" out.txt "budget certificate"

@@ -24,6 +24,8 @@
 
 #include "host/core/error.h"
 #include "host/engine/engine.h"
+#include "host/engine/evaluate.h"
+#include "host/models/registry.h"
 #include "host/io/half_float.h"
 #include "host/plan/plan.h"
 #include "host/spec/spec.h"
@@ -484,4 +486,88 @@ coeffs = [0.0, 0.0, 1.0]
     CHECK(all[0].hi == 1);
     // Only one term piloted (plan --table d): no group.
     CHECK(recombined_groups(spec, {0}).empty());
+}
+
+TEST_CASE("quadrature pilot: the integration term is the rule's own error, not the two-rule difference") {
+    // Rough-dielectric albedos with `nodes` given: the pilot measures the
+    // n-node rule against a finer one (plan.cpp, finer_rule_nodes).  On a
+    // 2 x 2 grid every pilot cell is one of four cells, so the measured max
+    // must be the largest |Q_4 - Q_64| over those four (Q_64: a much finer
+    // rule than the pilot's 24-node reference; Gauss-Legendre converges
+    // exponentially for light from outside, so the two references agree to
+    // far below Q_4's error), and the stored difference |Q_4 - Q_2|, the
+    // coarse rule's error, is much larger.
+    auto spec_text = [](const char* nodes_line) {  // "": nodes at its default
+        return std::string(R"(model = "rough-dielectric"
+[parameters]
+distribution = "ggx"
+eta = 1.5
+)") + nodes_line + R"(
+[[axes]]
+name = "theta_i"
+range = [30.0, 85.0]
+count = 2
+[[axes]]
+name = "alpha"
+range = [0.05, 0.5]
+count = 2
+[[tables]]
+quantity = "albedo_t"
+[integration]
+method = "quadrature"
+)";
+    };
+    auto backend = make_backend("host", Precision::Double);
+    PilotOptions o;
+    o.lines = 1;
+    o.cells = 8;
+    const TablePilot p = run_pilot(parse_spec_string(spec_text("nodes = 4"), "q4.toml"), 0, *backend, o);
+    REQUIRE(p.integration.size() == 1);
+    const IntegrationFit& f = p.integration[0];
+    CHECK(f.method == Method::Quadrature);
+    CHECK(f.reference_nodes == 24);
+
+    const ModelInfo& model = find_model("rough-dielectric");
+    const QuantityInfo& q = model.quantity("albedo_t");
+    std::vector<std::map<std::string, double>> cells;
+    for (double ti : {30.0, 85.0})
+        for (double alpha : {0.05, 0.5})
+            cells.push_back({{"theta_i", ti}, {"alpha", alpha}, {"eta", 1.5}, {"nodes", 4}});
+    auto at_nodes = [&](double nodes) {
+        for (auto& c : cells) c["nodes"] = nodes;
+        IntegrationSettings s;
+        s.method = Method::Quadrature;
+        return estimate_at(*backend, model, q, resolve_options(model, {{"distribution", "ggx"}}, "test"),
+                           build_kernel_points(model, q, cells, [](std::size_t) { return std::string("cell"); }), s);
+    };
+    const EstimateResult q4 = at_nodes(4), q64 = at_nodes(64);
+    double truth = 0, stored = 0;
+    for (std::size_t k = 0; k < cells.size(); ++k) {
+        truth = std::max(truth, std::fabs(q4.value[k] - q64.value[k]));
+        stored = std::max(stored, q4.stderr_[k]);
+    }
+    INFO("measured " << f.max_abs.front() << ", |Q4 - Q64| " << truth << ", stored difference " << stored);
+    REQUIRE(truth > 1e-7);
+    CHECK(f.max_abs.front() == doctest::Approx(truth).epsilon(1e-3));
+    CHECK(stored > 10 * truth);
+
+    // `nodes` left at its default: the same (the default is a given value).
+    const TablePilot d = run_pilot(parse_spec_string(spec_text(""), "default.toml"), 0, *backend, o);
+    REQUIRE(d.integration.size() == 1);
+    CHECK(d.integration[0].reference_nodes == 24);  // 2 x the default 12
+    // A quadrature without a rule size (the H-function's trapezoid): the
+    // stored two-rule difference stays the error term, as in its certificate.
+    const TablePilot h = run_pilot(parse_spec_string(R"(model = "hfunction"
+[parameters]
+c = 0.9
+[[axes]]
+name = "mu"
+range = [0.1, 1.0]
+count = 3
+[[tables]]
+quantity = "H"
+)", "h.toml"), 0, *backend, o);
+    REQUIRE(h.integration.size() == 1);
+    CHECK(h.integration[0].method == Method::Quadrature);
+    CHECK(h.integration[0].reference_nodes == 0);
 }

@@ -11,6 +11,7 @@
 #include "host/core/error.h"
 #include "host/engine/opencl_runtime.h"
 #include "host/io/table_io.h"
+#include "host/plan/certify.h"
 
 namespace brdftab::cli {
 
@@ -186,6 +187,33 @@ void print_table_summary(const TableData& t, bool verbose) {
         std::cout << "\n";
     }
 }
+// A table's stored certificate (`certificate_*` attributes, docs/format.md),
+// written by `generate --accuracy/--budget` or `certify --store`.
+void print_certificate(const Certificate& c) {
+    std::cout << "    certificate: " << (c.passed ? "passed" : "FAILED") << " (" << c.mode << "), max "
+              << (c.absolute ? "absolute" : "relative") << " total error " << sci_text(c.max_error)
+              << " at (";
+    for (std::size_t a = 0; a < c.axis_names.size(); ++a)
+        std::cout << (a ? ", " : "") << c.axis_names[a] << " " << sci_text(c.max_at[a]);
+    std::cout << "), RMS " << sci_text(c.rms_error) << "; target " << sci_text(c.target);
+    if (!c.absolute) std::cout << ", floor " << sci_text(c.abs_floor);
+    std::cout << "\n      " << (c.interpolation == Interpolation::Cubic ? "cubic" : "linear")
+              << " interpolation; " << c.probes << " probes (" << c.line_probes << " on lines, "
+              << c.random_probes << " random, " << c.node_probes << " at nodes, " << c.local_probes
+              << " local); reference " << c.reference_method;
+    if (c.reference_noise > 0) std::cout << " (noise " << sci_text(c.reference_noise) << ")";
+    std::cout << "; " << sci_text(c.seconds) << " s";
+    if (std::isfinite(c.predicted_max))
+        std::cout << "; predicted max " << sci_text(c.predicted_max) << ", RMS " << sci_text(c.predicted_rms);
+    if (c.refinements > 0) std::cout << "; after " << c.refinements << " refinement(s)";
+    std::cout << "\n";
+    if (!c.axis_names.empty()) {
+        std::cout << "      largest along the lines:";
+        for (std::size_t a = 0; a < c.axis_names.size() && a < c.axis_max.size(); ++a)
+            std::cout << " " << c.axis_names[a] << " " << sci_text(c.axis_max[a]);
+        std::cout << "\n";
+    }
+}
 }  // namespace
 
 void register_info(CLI::App& app) {
@@ -212,7 +240,10 @@ void register_info(CLI::App& app) {
         if (attrs.contains("brdftab_version") && attrs["brdftab_version"].is_string())
             std::cout << ", written by brdftab " << attrs["brdftab_version"].get<std::string>();
         std::cout << "\n";
-        for (const auto& t : tables) print_table_summary(t, values);
+        for (const auto& t : tables) {
+            print_table_summary(t, values);
+            if (const auto c = read_certificate(reader, t.name)) print_certificate(*c);
+        }
     });
 }
 

@@ -188,7 +188,10 @@ void run_plan(const PlanArgs& pa) {
                     std::cout << "  closed form: " << sci(f.seconds_per_cell) << " s per cell, "
                               << sci(p.overhead_seconds) << " s per run\n";
                 } else if (f.method == Method::Quadrature) {
-                    std::cout << "  quadrature: two-rule difference max "
+                    std::cout << (f.reference_nodes > 0
+                                      ? "  quadrature: rule error (against " + number_text(f.reference_nodes) +
+                                            " nodes) max "
+                                      : std::string("  quadrature: two-rule difference max "))
                               << sci(target.absolute ? f.max_abs.front() : f.max_rel.front()) << ", "
                               << sci(f.seconds_per_cell) << " s per cell\n";
                 } else {

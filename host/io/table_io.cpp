@@ -18,6 +18,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
+#include <type_traits>
 #include <ctime>
 #include <fcntl.h>
 #include <filesystem>
@@ -806,6 +807,9 @@ TableReader::TableReader(TableReader&&) noexcept = default;
 TableReader& TableReader::operator=(TableReader&&) noexcept = default;
 
 const std::string& TableReader::path() const { return impl_->path; }
+
+static_assert(std::is_same_v<hid_t, std::int64_t>, "TableReader::hdf5_file returns an hid_t");
+std::int64_t TableReader::hdf5_file() const { return impl_->file.get(); }
 
 std::vector<std::string> TableReader::table_names() const {
     return as_input_error(impl_->path, "'" + impl_->path + "': ",

@@ -80,6 +80,9 @@ public:
     TableData read(const std::string& name) const;
     // File-level attributes, as read_file_attributes.
     nlohmann::json file_attributes() const;
+    // The open HDF5 file (an hid_t), valid while the reader lives: for
+    // readers of further attributes of this same file (read_certificate).
+    std::int64_t hdf5_file() const;
 
 private:
     struct Impl;

@@ -388,10 +388,9 @@ void write_certificate(const std::string& path, const Certificate& c) {
     file.close("H5Fclose", path);
 }
 
-std::optional<Certificate> read_certificate(const std::string& path, const std::string& table) {
+namespace {
+std::optional<Certificate> read_certificate_in(hid_t file, const std::string& path, const std::string& table) {
     using namespace hdf5;
-    silence_hdf5();
-    Handle file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose, "H5Fopen", path);
     Handle group(H5Gopen2(file, table.c_str(), H5P_DEFAULT), H5Gclose, "H5Gopen2", path + ": " + table);
     if (!has_attr(group, "certificate_max_error")) return std::nullopt;
     Certificate c;
@@ -433,6 +432,19 @@ std::optional<Certificate> read_certificate(const std::string& path, const std::
     c.predicted_rms = read_double_attr(group, "certificate_predicted_rms");
     c.seconds = read_double_attr(group, "certificate_seconds");
     return c;
+}
+}  // namespace
+
+std::optional<Certificate> read_certificate(const std::string& path, const std::string& table) {
+    using namespace hdf5;
+    silence_hdf5();
+    Handle file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose, "H5Fopen", path);
+    return read_certificate_in(file, path, table);
+}
+
+std::optional<Certificate> read_certificate(const TableReader& reader, const std::string& table) {
+    hdf5::silence_hdf5();
+    return read_certificate_in(reader.hdf5_file(), reader.path(), table);
 }
 
 // ------------------------------------------------------------ the loop

@@ -42,6 +42,7 @@
 #include <vector>
 
 #include "host/core/table.h"
+#include "host/io/table_io.h"
 #include "host/engine/engine.h"
 #include "host/lookup/lookup.h"
 #include "host/plan/plan.h"
@@ -117,6 +118,9 @@ Certificate certify_file_table(const std::string& path, const std::string& table
 // earlier certificate); reads it back (nullopt: the table has none).
 void write_certificate(const std::string& path, const Certificate& c);
 std::optional<Certificate> read_certificate(const std::string& path, const std::string& table);
+// The same from a file already open for reading (`brdftab info`: the tables
+// and their certificates from one open file, even while it is replaced).
+std::optional<Certificate> read_certificate(const TableReader& reader, const std::string& table);
 
 // ------------------------------------------------------------ the whole loop
 

@@ -137,6 +137,10 @@ struct IntegrationFit {
     std::vector<double> cell_abs, cell_rel;
     double seconds_per_sample = 0;       // from the largest budget
     double seconds_per_cell = 0;         // closed form / quadrature
+    // Quadrature: the node count of the finer rule the errors above were
+    // measured against (the rule's own error); 0: they are the stored
+    // two-rule difference (plan.cpp, finer_rule_nodes).
+    double reference_nodes = 0;
 };
 
 struct TablePilot {

@@ -567,7 +567,9 @@ BT_INLINE void rd_albedo_quadrature(const bt_microfacet* mf, bt_vec3 i, REAL eta
                                     REAL* at)
 {
     REAL gx[RD_QUAD_MAX_NODES], gw[RD_QUAD_MAX_NODES];
-    n = n < 2 ? 2 : (n > RD_QUAD_MAX_NODES ? RD_QUAD_MAX_NODES : n);
+    /* n = 1 (one midpoint per sub-interval) only as the coarse rule of
+     * nodes = 2: clamped to 2, the two rules were one and the estimate 0. */
+    n = n < 1 ? 1 : (n > RD_QUAD_MAX_NODES ? RD_QUAD_MAX_NODES : n);
     bt_gauss_legendre_rule(n, gx, gw);
     rd_quad_ctx q;
     q.mf = *mf;
@@ -710,7 +712,7 @@ BT_INLINE REAL rd_albedo_avg_quadrature(const bt_microfacet* mf, REAL eta, int s
                                         int n)
 {
     REAL gx[RD_QUAD_MAX_NODES], gw[RD_QUAD_MAX_NODES];
-    int nn = n < 2 ? 2 : (n > RD_QUAD_MAX_NODES ? RD_QUAD_MAX_NODES : n);
+    int nn = n < 1 ? 1 : (n > RD_QUAD_MAX_NODES ? RD_QUAD_MAX_NODES : n); /* 1: see rd_albedo_quadrature */
     bt_gauss_legendre_rule(nn, gx, gw);
     REAL ec = side == 1 ? R(1.0) / eta : eta; /* canonical index */
     REAL e[3];
