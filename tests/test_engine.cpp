@@ -449,3 +449,68 @@ TEST_CASE("progress is reported from within a round, launch by launch") {
     CHECK(seen.back().cells_done == 20000);
     CHECK(seen.back().fraction == 1.0);
 }
+
+TEST_CASE("closed forms and quadratures: the direct path equals the general one") {
+    // Without a checkpoint, closed forms and quadratures skip the per-cell
+    // estimator state (engine.cpp, "direct"); with a checkpoint they run the
+    // general rounds.  Both must give the same bits, the same sample counts
+    // and the same error figures, on the device and on the host, whether a
+    // quadrature cell's two batches share a launch or not (slab 7 splits
+    // them).
+    Fixture f;
+    const ModelInfo& on = find_model("oren-nayar");
+    struct Case {
+        const ModelInfo* model;
+        const char* quantity;
+        std::vector<std::map<std::string, double>> points;
+    };
+    std::vector<Case> cases;
+    cases.push_back({&f.model, "bsdf", f.random_points(41, false)});
+    {
+        auto t = f.random_points(23, true);
+        cases.push_back({&f.model, "bsdf", t});
+    }
+    std::vector<std::map<std::string, double>> on_points;
+    for (int k = 0; k < 19; ++k)
+        on_points.push_back({{"theta_i", 4.5 * k},
+                             {"theta_o", 89 - 4.3 * k},
+                             {"phi_d", 19.0 * k - 170},
+                             {"sigma", 5 + 2.0 * k}});
+    cases.push_back({&on, "brdf", on_points});
+    auto dev = device();
+    auto host = make_backend("host", Precision::Double);
+    for (Backend* backend : {dev.get(), host.get()}) {
+        for (const Case& c : cases) {
+            const QuantityInfo& q = c.model->quantity(c.quantity);
+            const std::vector<int> options = resolve_options(*c.model, nlohmann::json::object(), "t");
+            PointBuilder builder(*c.model, q);
+            auto point_of = [&](std::size_t cell, double* out) { builder.build(c.points[cell], out); };
+            for (std::size_t slab : {std::size_t(0), std::size_t(7)}) {
+                CAPTURE(c.model->name);
+                CAPTURE(slab);
+                IntegrationSettings s;
+                s.slab_work_items = slab;
+                std::size_t direct_calls = 0, general_calls = 0;
+                const EstimateResult direct =
+                    estimate(*backend, *c.model, q, options, c.points.size(), point_of, s,
+                             [&](const Progress&) { ++direct_calls; });
+                EstimateCheckpoint with_state;
+                std::size_t saves = 0;
+                with_state.save = [&](const EstimateState&, bool) { ++saves; };
+                const EstimateResult general =
+                    estimate(*backend, *c.model, q, options, c.points.size(), point_of, s,
+                             [&](const Progress&) { ++general_calls; }, &with_state);
+                CHECK(saves > 0);  // the general path ran
+                CHECK(direct.method == general.method);
+                CHECK(direct.value == general.value);
+                CHECK(direct.stderr_ == general.stderr_);
+                CHECK(direct.samples == general.samples);
+                CHECK(direct.total_samples == general.total_samples);
+                CHECK(direct.tolerance_achieved == general.tolerance_achieved);
+                CHECK(direct.cells_unconverged == general.cells_unconverged);
+                CHECK(direct_calls == general_calls);
+                if (q.name == "brdf") CHECK(direct.method == Method::Quadrature);
+            }
+        }
+    }
+}
