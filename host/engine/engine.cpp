@@ -459,6 +459,9 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
     if (cell_count > 0xFFFFFFFFull)
         throw InputError("table has " + std::to_string(cell_count) +
                          " cells; at most 2^32 - 1 are supported");
+    if (settings.cell_base > 0xFFFFFFFFull - cell_count)
+        throw InputError("cells " + std::to_string(settings.cell_base) + " + " +
+                         std::to_string(cell_count) + " reach past cell 2^32 - 1");
     // The model's cross-checks of parameters and options (e.g. Phong needs
     // alpha < 1) on every cell before anything runs: one point per cell, far
     // cheaper than the kernel, and no launch computes a cell that is invalid.
@@ -494,6 +497,9 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
     launch.key0 = static_cast<std::uint32_t>(settings.seed);
     launch.key1 = static_cast<std::uint32_t>(settings.seed >> 32);
     launch.stride = model.point_stride();
+    // The kernels see cell numbers from cell_base on (random streams); the
+    // per-cell state here is indexed from 0.
+    const std::uint32_t cell_base = static_cast<std::uint32_t>(settings.cell_base);
 
     // Budget.  RQMC batches are independently scrambled point sets whose size
     // is a power of two (Sobol nets are balanced there); at least 4 batches give
@@ -611,7 +617,7 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
                 point_of(cell_cursor, first_point);
                 for (std::uint32_t k = 0; k < take; ++k, ++items) {
                     if (k) std::copy_n(first_point, stride, launch.points.data() + items * stride);
-                    launch.cells[items] = static_cast<std::uint32_t>(cell_cursor);
+                    launch.cells[items] = cell_base + static_cast<std::uint32_t>(cell_cursor);
                     launch.batches[items] = batch_cursor + k;
                 }
                 batch_cursor += take;
@@ -627,7 +633,7 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
             backend.run(launch, slab_mean, slab_m2);
             resize_slab(items, elapsed() - launch_start);
             for (std::size_t w = 0; w < items; ++w) {
-                const std::size_t c = launch.cells[w];
+                const std::size_t c = launch.cells[w] - cell_base;
                 const double x = slab_mean[w];
                 if (!quadrature) {
                     // merge_batch's first merge: 0 + (x - 0) * 1 / 1, which
@@ -716,7 +722,7 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
                 point_of(cell_cursor, first_point);
                 for (std::uint32_t k = 0; k < take; ++k, ++items) {
                     if (k) std::copy_n(first_point, stride, launch.points.data() + items * stride);
-                    launch.cells[items] = static_cast<std::uint32_t>(cell_cursor);
+                    launch.cells[items] = cell_base + static_cast<std::uint32_t>(cell_cursor);
                     launch.batches[items] = issued[cell_cursor]++;
                 }
                 batch_cursor += take;
@@ -729,7 +735,7 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
             backend.run(launch, slab_mean, slab_m2);
             resize_slab(launch.cells.size(), elapsed() - launch_start);
             for (std::size_t w = 0; w < launch.cells.size(); ++w)
-                merge_batch(cells[launch.cells[w]], slab_mean[w], slab_m2[w], batch_size);
+                merge_batch(cells[launch.cells[w] - cell_base], slab_mean[w], slab_m2[w], batch_size);
             work_done += launch.cells.size();
             save_state(false);
             if (progress) {
