@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <fstream>
 #include <map>
 #include <thread>
 #include <time.h>
@@ -182,6 +183,7 @@ BenchReport run_bench(Backend& device, const BenchSettings& in, const BenchStart
     report.precision = precision_name(device.precision());
     report.host_threads = std::max(1u, std::thread::hardware_concurrency());
 
+    report.load_average_start = load_average_1min();
     for (const BenchCase& c : cases) {
         if (on_start) on_start(c);
         Workload w;
@@ -233,7 +235,15 @@ BenchReport run_bench(Backend& device, const BenchSettings& in, const BenchStart
             r.device_gflops = r.device.rate * c.flops_estimate / 1e9;
         report.cases.push_back(std::move(r));
     }
+    report.load_average_end = load_average_1min();
     return report;
+}
+
+double load_average_1min() {
+    std::ifstream in("/proc/loadavg");
+    double load = -1;
+    if (!(in >> load)) return -1;
+    return load;
 }
 
 PeakFma measure_peak_fma(const std::string& device_selector, double target_seconds) {
