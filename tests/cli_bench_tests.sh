@@ -17,6 +17,10 @@ for key in ("brdftab_bench", "machine", "settings", "cases", "targets"):
 for key in ("device", "precision", "host_threads", "peak_fma_gflops"):
     assert key in r["machine"], key
 assert r["machine"]["peak_fma_gflops"] > 0
+import os
+if os.path.exists("/proc/loadavg"):  # Linux: the load around the run is reported
+    for key in ("load_average_start", "load_average_end"):
+        assert r["machine"][key] >= 0, key
 want = {("rough-dielectric", "bsdf"), ("rough-dielectric", "albedo_r"),
         ("rough-dielectric", "albedo_t"), ("oren-nayar", "brdf"),
         ("interfaced-lambertian", "body"), ("interfaced-lambertian", "vcavity"),
@@ -47,6 +51,7 @@ expect_exit 0 "bench --model --quantity" -- "$BT" bench --quick --seconds 0.02 -
 expect_grep "^micrograin +g_dist" out.txt "filtered report lists the case"
 if grep -q "^rough-dielectric" out.txt; then bad "filter let other models through"; else ok; fi
 expect_grep "issue #12 targets" out.txt "report states the targets"
+if [ -r /proc/loadavg ]; then expect_grep "^load average" out.txt "report states the load"; fi
 expect_exit 2 "bench with a filter matching nothing" -- "$BT" bench --quick --model no-such-model
 expect_grep "no case matches" err.txt "bad filter is named"
 cli_summary

@@ -449,3 +449,99 @@ TEST_CASE("progress is reported from within a round, launch by launch") {
     CHECK(seen.back().cells_done == 20000);
     CHECK(seen.back().fraction == 1.0);
 }
+
+TEST_CASE("closed forms and quadratures: the direct path equals the general one") {
+    // Without a checkpoint, closed forms and quadratures skip the per-cell
+    // estimator state (engine.cpp, "direct"); with a checkpoint they run the
+    // general rounds.  Both must give the same bits, the same sample counts
+    // and the same error figures, on the device and on the host, whether a
+    // quadrature cell's two batches share a launch or not (slab 7 splits
+    // them).
+    Fixture f;
+    const ModelInfo& on = find_model("oren-nayar");
+    struct Case {
+        const ModelInfo* model;
+        const char* quantity;
+        std::vector<std::map<std::string, double>> points;
+    };
+    std::vector<Case> cases;
+    cases.push_back({&f.model, "bsdf", f.random_points(41, false)});
+    {
+        auto t = f.random_points(23, true);
+        cases.push_back({&f.model, "bsdf", t});
+    }
+    std::vector<std::map<std::string, double>> on_points;
+    for (int k = 0; k < 19; ++k)
+        on_points.push_back({{"theta_i", 4.5 * k},
+                             {"theta_o", 89 - 4.3 * k},
+                             {"phi_d", 19.0 * k - 170},
+                             {"sigma", 5 + 2.0 * k}});
+    cases.push_back({&on, "brdf", on_points});
+    auto dev = device();
+    auto host = make_backend("host", Precision::Double);
+    for (Backend* backend : {dev.get(), host.get()}) {
+        for (const Case& c : cases) {
+            const QuantityInfo& q = c.model->quantity(c.quantity);
+            const std::vector<int> options = resolve_options(*c.model, nlohmann::json::object(), "t");
+            PointBuilder builder(*c.model, q);
+            auto point_of = [&](std::size_t cell, double* out) { builder.build(c.points[cell], out); };
+            for (std::size_t slab : {std::size_t(0), std::size_t(7)}) {
+                CAPTURE(c.model->name);
+                CAPTURE(slab);
+                IntegrationSettings s;
+                s.slab_work_items = slab;
+                std::size_t direct_calls = 0, general_calls = 0;
+                const EstimateResult direct =
+                    estimate(*backend, *c.model, q, options, c.points.size(), point_of, s,
+                             [&](const Progress&) { ++direct_calls; });
+                EstimateCheckpoint with_state;
+                std::size_t saves = 0;
+                with_state.save = [&](const EstimateState&, bool) { ++saves; };
+                const EstimateResult general =
+                    estimate(*backend, *c.model, q, options, c.points.size(), point_of, s,
+                             [&](const Progress&) { ++general_calls; }, &with_state);
+                CHECK(saves > 0);  // the general path ran
+                CHECK(direct.method == general.method);
+                CHECK(direct.value == general.value);
+                CHECK(direct.stderr_ == general.stderr_);
+                CHECK(direct.samples == general.samples);
+                CHECK(direct.total_samples == general.total_samples);
+                CHECK(direct.tolerance_achieved == general.tolerance_achieved);
+                CHECK(direct.cells_unconverged == general.cells_unconverged);
+                CHECK(direct_calls == general_calls);
+                if (q.name == "brdf") CHECK(direct.method == Method::Quadrature);
+            }
+        }
+    }
+}
+
+TEST_CASE("cell_base: a run over a table's tail draws the samples of the whole table's cells") {
+    // Cells [base, n) of one run over all n cells equal a run over those
+    // cells alone with settings.cell_base = base (what a chunk of a table
+    // does), for Monte Carlo and RQMC; without cell_base they differ.
+    Fixture f;
+    auto dev = device();
+    auto pts = f.random_points(29, false);
+    for (auto& p : pts) p.erase("theta_o"), p.erase("phi_d");
+    const std::size_t base = 11;
+    const std::vector<std::map<std::string, double>> tail(pts.begin() + base, pts.end());
+    for (Method method : {Method::MonteCarlo, Method::Rqmc}) {
+        CAPTURE(to_string(method));
+        IntegrationSettings s;
+        s.method = method;
+        s.samples = 256;
+        s.slab_work_items = 5;
+        const EstimateResult whole = f.run(*dev, "albedo_r", pts, s);
+        const EstimateResult plain = f.run(*dev, "albedo_r", tail, s);
+        s.cell_base = base;
+        const EstimateResult shifted = f.run(*dev, "albedo_r", tail, s);
+        REQUIRE(shifted.value.size() == tail.size());
+        for (std::size_t c = 0; c < tail.size(); ++c) {
+            CHECK(shifted.value[c] == whole.value[base + c]);
+            CHECK(shifted.stderr_[c] == whole.stderr_[base + c]);
+        }
+        CHECK(plain.value[0] != whole.value[base]);
+        s.cell_base = 0xFFFFFFFFull - tail.size() + 1;  // one past the last cell id
+        CHECK_THROWS_AS(f.run(*dev, "albedo_r", tail, s), InputError);
+    }
+}

@@ -72,6 +72,9 @@ nlohmann::json report_json(const BenchReport& r, const BenchSettings& s) {
                               {"precision", r.precision},
                               {"host_threads", r.host_threads},
                               {"peak_fma_gflops", r.peak.gflops}};
+    // 1-minute load averages around the cases (absent where unknown).
+    if (r.load_average_start >= 0) machine["load_average_start"] = r.load_average_start;
+    if (r.load_average_end >= 0) machine["load_average_end"] = r.load_average_end;
     nlohmann::json settings = {{"quick", s.quick},
                                {"host_seconds", s.host_seconds},
                                {"repeats", s.repeats},
@@ -92,6 +95,10 @@ void print_report(const BenchReport& r) {
     if (r.peak.gflops > 0)
         std::printf("peak double FMA rate of the device (double8 FMA chains): %.1f GFLOP/s\n",
                     r.peak.gflops);
+    if (r.load_average_start >= 0 && r.load_average_end >= 0)
+        std::printf("load average (1 min): %.2f at the start, %.2f at the end (%u logical CPUs; a "
+                    "higher load slows the wall-time figures)\n",
+                    r.load_average_start, r.load_average_end, r.host_threads);
     std::printf("\n%-22s %-9s %-11s %8s %9s %10s %10s %10s %9s %9s %9s\n", "model", "quantity",
                 "method", "unit", "cells", "device", "host", "threads", "dev/host",
                 "dev/thr", "thr/host");

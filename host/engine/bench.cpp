@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <fstream>
 #include <map>
 #include <thread>
 #include <time.h>
@@ -50,7 +51,7 @@ std::vector<double> bench_points(const ModelInfo& model, const QuantityInfo& q,
     auto has = [&](const char* d) {
         return std::find(q.directions.begin(), q.directions.end(), d) != q.directions.end();
     };
-    for (std::size_t k = 0; k < count; ++k) {
+    auto values_of = [&](std::size_t k) {
         auto frac = [&](double g) {
             const double x = static_cast<double>(k + 1) * g;
             return x - std::floor(x);
@@ -67,7 +68,32 @@ std::vector<double> bench_points(const ModelInfo& model, const QuantityInfo& q,
         for (const ParameterInfo& p : model.parameters)
             if (!values.count(p.name) && !p.default_value)
                 values[p.name] = 0.5 * (p.min + std::min(p.max, p.min + 2.0));
-        builder.build(values, &points[k * stride]);
+        return values;
+    };
+    if (count == 0) return points;
+    if (q.directions.empty()) {
+        for (std::size_t k = 0; k < count; ++k) builder.build(values_of(k), &points[k * stride]);
+        return points;
+    }
+    // Only the directions change from point to point: the first point goes
+    // through the builder (names, ranges, defaults, the model's checks), the
+    // others copy it and set their direction slots with the builder's own
+    // conversions (degrees to radians, phi_o = phi_i + phi_d).  Building
+    // every point through the builder's maps took longer than the timed runs
+    // of a closed-form case.
+    builder.build(values_of(0), points.data());
+    constexpr double kDegToRad = 3.14159265358979323846 / 180.0;
+    const bool theta_i = has("theta_i"), theta_o = has("theta_o"), phi_o = has("phi_o");
+    for (std::size_t k = 1; k < count; ++k) {
+        auto frac = [&](double g) {  // as in values_of
+            const double x = static_cast<double>(k + 1) * g;
+            return x - std::floor(x);
+        };
+        double* out = &points[k * stride];
+        std::copy_n(points.data(), stride, out);
+        if (theta_i) out[0] = 89.0 * frac(0.7548776662466927) * kDegToRad;
+        if (theta_o) out[2] = c.theta_o_max * frac(0.5698402909980532) * kDegToRad;
+        if (phi_o) out[3] = out[1] + (360.0 * frac(0.6180339887498949) - 180.0) * kDegToRad;
     }
     return points;
 }
@@ -157,6 +183,7 @@ BenchReport run_bench(Backend& device, const BenchSettings& in, const BenchStart
     report.precision = precision_name(device.precision());
     report.host_threads = std::max(1u, std::thread::hardware_concurrency());
 
+    report.load_average_start = load_average_1min();
     for (const BenchCase& c : cases) {
         if (on_start) on_start(c);
         Workload w;
@@ -208,7 +235,15 @@ BenchReport run_bench(Backend& device, const BenchSettings& in, const BenchStart
             r.device_gflops = r.device.rate * c.flops_estimate / 1e9;
         report.cases.push_back(std::move(r));
     }
+    report.load_average_end = load_average_1min();
     return report;
+}
+
+double load_average_1min() {
+    std::ifstream in("/proc/loadavg");
+    double load = -1;
+    if (!(in >> load)) return -1;
+    return load;
 }
 
 PeakFma measure_peak_fma(const std::string& device_selector, double target_seconds) {

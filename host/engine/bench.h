@@ -80,6 +80,11 @@ struct PeakFma {
 struct BenchReport {
     std::string device_name, precision;
     unsigned host_threads = 0;
+    // The machine's 1-minute load average (/proc/loadavg) when the cases
+    // started and when they ended; negative where the system does not
+    // provide it.  Timings of a loaded machine are not comparable with a
+    // quiet one's: reports should say the load.
+    double load_average_start = -1, load_average_end = -1;
     PeakFma peak;
     std::vector<BenchCaseResult> cases;
 };
@@ -108,5 +113,8 @@ struct BenchTargets {
     bool bsdf_rate_met = false;           // >= 30 M evals/s
 };
 BenchTargets evaluate_targets(const BenchReport& report);
+
+// The 1-minute load average of the machine, or -1 where unavailable.
+double load_average_1min();
 
 }  // namespace brdftab

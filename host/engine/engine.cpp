@@ -69,8 +69,8 @@ public:
     void run(const BatchLaunch& l, std::vector<double>& mean,
              std::vector<double>& m2) override {
         const std::size_t n = l.cells.size();
-        mean.assign(n, 0.0);
-        m2.assign(n, 0.0);
+        mean.resize(n);  // every entry is written
+        m2.resize(n);
         run_host_items(l, 0, n, mean.data(), m2.data());
     }
 };
@@ -156,53 +156,56 @@ public:
     void run(const BatchLaunch& l, std::vector<double>& mean,
              std::vector<double>& m2) override {
         const std::size_t n = l.cells.size();
-        mean.assign(n, 0.0);
-        m2.assign(n, 0.0);
+        // Every entry is overwritten by the read below: no zero-fill.
+        mean.resize(n);
+        m2.resize(n);
         if (n == 0) return;
         cl::Kernel& kernel = kernel_for(l);
         const bool real_float = precision_ == Precision::Float;
         const bool accum_double = runtime_.device_info().has_fp64;
         try {
-            cl::Context& ctx = runtime_.context();
             cl::CommandQueue& queue = runtime_.queue();
-            std::vector<float> points_f;
-            cl::Buffer points;
-            if (real_float) {
-                points_f.assign(l.points.begin(), l.points.end());
-                points = cl::Buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR,
-                                    points_f.size() * sizeof(float), points_f.data());
-            } else {
-                points = cl::Buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR,
-                                    l.points.size() * sizeof(double),
-                                    const_cast<double*>(l.points.data()));
-            }
-            std::vector<int> opts = l.options;
-            if (opts.empty()) opts.push_back(0);
-            cl::Buffer options(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR,
-                               opts.size() * sizeof(int), opts.data());
-            cl::Buffer cells(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR,
-                             n * sizeof(std::uint32_t), const_cast<std::uint32_t*>(l.cells.data()));
-            cl::Buffer batches(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR,
-                               n * sizeof(std::uint32_t),
-                               const_cast<std::uint32_t*>(l.batches.data()));
+            const std::size_t real_size = real_float ? sizeof(float) : sizeof(double);
             const std::size_t accum_size = accum_double ? sizeof(double) : sizeof(float);
-            cl::Buffer out_mean(ctx, CL_MEM_WRITE_ONLY, n * accum_size);
-            cl::Buffer out_m2(ctx, CL_MEM_WRITE_ONLY, n * accum_size);
+            reserve_buffers(n, l.points.size() * real_size, accum_size);
+            // The writes need not block: the in-order queue runs them before
+            // the kernel, and their sources (the launch, points_f_) are not
+            // touched before the blocking read at the end.
+            if (real_float) {
+                points_f_.assign(l.points.begin(), l.points.end());
+                queue.enqueueWriteBuffer(points_, CL_FALSE, 0, points_f_.size() * sizeof(float),
+                                         points_f_.data());
+            } else {
+                queue.enqueueWriteBuffer(points_, CL_FALSE, 0, l.points.size() * sizeof(double),
+                                         l.points.data());
+            }
+            if (!options_known_ || l.options != options_written_) {
+                int opts[BT_MAX_OPTIONS] = {0};
+                std::copy_n(l.options.begin(), std::min<std::size_t>(l.options.size(), BT_MAX_OPTIONS),
+                            opts);
+                queue.enqueueWriteBuffer(options_, CL_TRUE, 0, sizeof(opts), opts);
+                options_written_ = l.options;
+                options_known_ = true;
+            }
+            queue.enqueueWriteBuffer(cells_, CL_FALSE, 0, n * sizeof(std::uint32_t),
+                                     l.cells.data());
+            queue.enqueueWriteBuffer(batches_, CL_FALSE, 0, n * sizeof(std::uint32_t),
+                                     l.batches.data());
             int a = 0;
-            kernel.setArg(a++, points);
+            kernel.setArg(a++, points_);
             kernel.setArg(a++, static_cast<cl_uint>(l.stride));
-            kernel.setArg(a++, options);
+            kernel.setArg(a++, options_);
             kernel.setArg(a++, static_cast<cl_uint>(l.options.size()));
             kernel.setArg(a++, static_cast<cl_int>(l.quantity));
             kernel.setArg(a++, static_cast<cl_uint>(l.method));
             kernel.setArg(a++, static_cast<cl_uint>(l.key0));
             kernel.setArg(a++, static_cast<cl_uint>(l.key1));
-            kernel.setArg(a++, cells);
-            kernel.setArg(a++, batches);
+            kernel.setArg(a++, cells_);
+            kernel.setArg(a++, batches_);
             kernel.setArg(a++, static_cast<cl_uint>(n));
             kernel.setArg(a++, static_cast<cl_uint>(l.batch_size));
-            kernel.setArg(a++, out_mean);
-            kernel.setArg(a++, out_m2);
+            kernel.setArg(a++, out_mean_);
+            kernel.setArg(a++, out_m2_);
             // Round the global size up to a multiple of 256 so PoCL can choose
             // a reasonable work-group size (the kernel ignores the padding);
             // a prime global size would force work-groups of one item.
@@ -212,16 +215,24 @@ public:
             queue.enqueueNDRangeKernel(kernel, cl::NullRange, cl::NDRange(global),
                                        group == 256 ? cl::NullRange : cl::NDRange(group));
             if (accum_double) {
-                queue.enqueueReadBuffer(out_mean, CL_TRUE, 0, n * sizeof(double), mean.data());
-                queue.enqueueReadBuffer(out_m2, CL_TRUE, 0, n * sizeof(double), m2.data());
+                queue.enqueueReadBuffer(out_mean_, CL_FALSE, 0, n * sizeof(double), mean.data());
+                queue.enqueueReadBuffer(out_m2_, CL_TRUE, 0, n * sizeof(double), m2.data());
             } else {
-                std::vector<float> tmp(n);
-                queue.enqueueReadBuffer(out_mean, CL_TRUE, 0, n * sizeof(float), tmp.data());
-                std::copy(tmp.begin(), tmp.end(), mean.begin());
-                queue.enqueueReadBuffer(out_m2, CL_TRUE, 0, n * sizeof(float), tmp.data());
-                std::copy(tmp.begin(), tmp.end(), m2.begin());
+                std::vector<float>& tmp = accum_f_;
+                tmp.resize(2 * n);
+                queue.enqueueReadBuffer(out_mean_, CL_FALSE, 0, n * sizeof(float), tmp.data());
+                queue.enqueueReadBuffer(out_m2_, CL_TRUE, 0, n * sizeof(float), tmp.data() + n);
+                std::copy_n(tmp.begin(), n, mean.begin());
+                std::copy_n(tmp.begin() + static_cast<std::ptrdiff_t>(n), n, m2.begin());
             }
         } catch (const cl::Error& e) {
+            // Writes may still be pending from the launch's memory, which the
+            // caller frees after the throw: let them finish first.
+            try {
+                runtime_.queue().finish();
+            } catch (const cl::Error&) {
+            }
+            options_known_ = false;
             throw OpenCLError(e.what(), e.err(), "while running the kernel of model '" + l.model->name + "'");
         }
     }
@@ -249,6 +260,22 @@ private:
     // generic source built with them as compile-time constants
     // (kernels/common/estimator.h, "Specialisation").
     cl::Kernel& kernel_for(const BatchLaunch& l) {
+        // Consecutive launches of one estimate() use the same kernel: skip
+        // building its key (strings, a map look-up) then.
+        if (last_kernel_ && last_model_ == l.model && last_quantity_ == l.quantity &&
+            last_method_ == l.method && last_stride_ == l.stride && last_options_ == l.options)
+            return *last_kernel_;
+        cl::Kernel& kernel = lookup_kernel(l);
+        last_kernel_ = &kernel;  // std::map: the reference stays valid
+        last_model_ = l.model;
+        last_quantity_ = l.quantity;
+        last_method_ = l.method;
+        last_stride_ = l.stride;
+        last_options_ = l.options;
+        return kernel;
+    }
+
+    cl::Kernel& lookup_kernel(const BatchLaunch& l) {
         const ModelInfo& model = *l.model;
         std::string options = "-cl-std=CL1.2";
         options += runtime_.device_info().has_fp64 ? " -D BT_HAS_FP64=1" : " -D BT_HAS_FP64=0";
@@ -290,10 +317,51 @@ private:
         }
     }
 
+    // Device buffers kept from launch to launch and grown when a launch
+    // needs more: creating them per launch cost an allocation, a copy and
+    // fresh pages (page faults) for every launch, which on a CPU device
+    // weighed more than a closed-form kernel itself (docs/benchmarks.md,
+    // session 6).  Sizes are for `buffer_items_` work items and
+    // `buffer_point_bytes_` bytes of points.
+    void reserve_buffers(std::size_t items, std::size_t point_bytes, std::size_t accum_size) {
+        cl::Context& ctx = runtime_.context();
+        if (items > buffer_items_ || accum_size != buffer_accum_size_) {
+            // Grow geometrically, so that launches that grow step by step
+            // (engine.cpp: at most 4x per launch) reallocate a few times only.
+            const std::size_t want = std::max(items, 2 * buffer_items_);
+            cells_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, want * sizeof(std::uint32_t));
+            batches_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, want * sizeof(std::uint32_t));
+            out_mean_ = cl::Buffer(ctx, CL_MEM_WRITE_ONLY, want * accum_size);
+            out_m2_ = cl::Buffer(ctx, CL_MEM_WRITE_ONLY, want * accum_size);
+            buffer_items_ = want;
+            buffer_accum_size_ = accum_size;
+        }
+        if (point_bytes > buffer_point_bytes_) {
+            const std::size_t want = std::max(point_bytes, 2 * buffer_point_bytes_);
+            points_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, want);
+            buffer_point_bytes_ = want;
+        }
+        if (!options_()) {
+            options_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, BT_MAX_OPTIONS * sizeof(int));
+            options_known_ = false;
+        }
+    }
+
     ClRuntime runtime_;
     Precision precision_;
     std::string kernel_dir_;
     std::map<std::string, cl::Kernel> kernels_;
+    cl::Buffer points_, options_, cells_, batches_, out_mean_, out_m2_;
+    std::size_t buffer_items_ = 0, buffer_point_bytes_ = 0, buffer_accum_size_ = 0;
+    cl::Kernel* last_kernel_ = nullptr;  // the kernel of the last launch, and its key
+    const ModelInfo* last_model_ = nullptr;
+    int last_quantity_ = 0;
+    std::uint32_t last_method_ = 0;
+    std::size_t last_stride_ = 0;
+    std::vector<int> last_options_;
+    std::vector<int> options_written_;  // contents of options_, when options_known_
+    bool options_known_ = false;
+    std::vector<float> points_f_, accum_f_;  // float precision staging
 };
 
 void merge_batch(CellState& c, double mean, double m2, std::uint32_t batch_size) {
@@ -391,6 +459,9 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
     if (cell_count > 0xFFFFFFFFull)
         throw InputError("table has " + std::to_string(cell_count) +
                          " cells; at most 2^32 - 1 are supported");
+    if (settings.cell_base > 0xFFFFFFFFull - cell_count)
+        throw InputError("cells " + std::to_string(settings.cell_base) + " + " +
+                         std::to_string(cell_count) + " reach past cell 2^32 - 1");
     // The model's cross-checks of parameters and options (e.g. Phong needs
     // alpha < 1) on every cell before anything runs: one point per cell, far
     // cheaper than the kernel, and no launch computes a cell that is invalid.
@@ -426,6 +497,9 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
     launch.key0 = static_cast<std::uint32_t>(settings.seed);
     launch.key1 = static_cast<std::uint32_t>(settings.seed >> 32);
     launch.stride = model.point_stride();
+    // The kernels see cell numbers from cell_base on (random streams); the
+    // per-cell state here is indexed from 0.
+    const std::uint32_t cell_base = static_cast<std::uint32_t>(settings.cell_base);
 
     // Budget.  RQMC batches are independently scrambled point sets whose size
     // is a power of two (Sobol nets are balanced there); at least 4 batches give
@@ -455,7 +529,6 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
 
     EstimateState state;
     std::vector<CellState>& cells = state.cells;
-    cells.resize(cell_count);
     // Launch size.  A fixed --slab is kept as given.  Otherwise launches start
     // small (256 work items) and grow (at most 4x per launch) towards
     // kLaunchSeconds each, capped
@@ -482,10 +555,115 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
         slab = std::clamp(rounded, std::min(kMinLaunch, max_slab), max_slab);
     };
     std::vector<double> slab_mean, slab_m2;
-    std::vector<double> point(launch.stride);
 
     Progress prog;
     prog.cells_total = cell_count;
+    // The figures every path derives from the per-cell results in the same
+    // way: the worst relative error, unconverged cells, the last progress.
+    auto finish = [&](double elapsed_before_run) {
+        double worst = 0;
+        std::size_t unconverged = 0;
+        // Relative error with the absolute floor folded in: under a tolerance
+        // a cell whose stderr met abs_floor scores at most `tolerance`, so the
+        // figure is comparable with the requested tolerance.
+        const double floor_value =
+            adaptive ? settings.abs_floor / settings.tolerance : settings.abs_floor;
+        for (std::size_t c = 0; c < cell_count; ++c) {
+            const double rel = result.stderr_[c] / std::max(std::fabs(result.value[c]), floor_value);
+            worst = std::max(worst, rel);
+            if (adaptive && result.stderr_[c] > std::max(settings.tolerance * std::fabs(result.value[c]),
+                                                         settings.abs_floor))
+                ++unconverged;
+        }
+        result.tolerance_achieved = worst;
+        result.cells_unconverged = unconverged;
+        result.elapsed_seconds = elapsed_before_run + elapsed();
+        if (progress) {
+            prog.cells_done = cell_count;
+            prog.fraction = 1.0;
+            prog.elapsed_seconds = result.elapsed_seconds;
+            prog.samples_done = result.total_samples;
+            progress(prog);
+        }
+    };
+
+    // Closed forms and quadratures without a checkpoint: every cell runs its
+    // fixed one (closed form) or two (quadrature: accurate and coarse rule)
+    // one-sample batches and nothing else, so the per-cell estimator state,
+    // the work lists and the stopping rule are not needed: each launch's
+    // results go straight into the result arrays.  Measured: the state alone
+    // (72 bytes per cell, fresh memory on every call) cost more page faults
+    // and memory traffic than the closed-form kernel (docs/benchmarks.md,
+    // session 6).  The values are those the general path below computes.
+    const bool direct = closed && !(checkpoint && (checkpoint->save || checkpoint->resume));
+    if (direct) {
+        result.value.resize(cell_count);
+        result.stderr_.assign(cell_count, 0.0);
+        result.samples.assign(cell_count, 1u);
+        const std::size_t stride = launch.stride;
+        std::size_t cell_cursor = 0;
+        std::uint32_t batch_cursor = 0;  // next batch of cell_cursor
+        std::uint64_t work_done = 0;
+        const std::uint64_t total_work = static_cast<std::uint64_t>(cell_count) * first_batches;
+        while (cell_cursor < cell_count) {
+            launch.cells.resize(slab);
+            launch.batches.resize(slab);
+            launch.points.resize(slab * stride);
+            std::size_t items = 0;
+            while (cell_cursor < cell_count && items < slab) {
+                const std::uint32_t take = static_cast<std::uint32_t>(
+                    std::min<std::size_t>(first_batches - batch_cursor, slab - items));
+                double* const first_point = launch.points.data() + items * stride;
+                point_of(cell_cursor, first_point);
+                for (std::uint32_t k = 0; k < take; ++k, ++items) {
+                    if (k) std::copy_n(first_point, stride, launch.points.data() + items * stride);
+                    launch.cells[items] = cell_base + static_cast<std::uint32_t>(cell_cursor);
+                    launch.batches[items] = batch_cursor + k;
+                }
+                batch_cursor += take;
+                if (batch_cursor == first_batches) {
+                    ++cell_cursor;
+                    batch_cursor = 0;
+                }
+            }
+            launch.cells.resize(items);
+            launch.batches.resize(items);
+            launch.points.resize(items * stride);
+            const double launch_start = elapsed();
+            backend.run(launch, slab_mean, slab_m2);
+            resize_slab(items, elapsed() - launch_start);
+            for (std::size_t w = 0; w < items; ++w) {
+                const std::size_t c = launch.cells[w] - cell_base;
+                const double x = slab_mean[w];
+                if (!quadrature) {
+                    // merge_batch's first merge: 0 + (x - 0) * 1 / 1, which
+                    // turns -0 into +0; the rest of it is exact.
+                    result.value[c] = 0.0 + x;
+                } else if (launch.batches[w] == 0) {
+                    result.value[c] = x;  // the accurate rule, taken as it is
+                } else {
+                    // Batch 0 of this cell came first (same or earlier launch).
+                    result.stderr_[c] = std::fabs(result.value[c] - x);
+                }
+            }
+            work_done += items;
+            if (progress) {
+                // A cell is finished once its last batch is merged.
+                prog.cells_done = cell_cursor;
+                prog.samples_done = work_done;
+                prog.elapsed_seconds = elapsed();
+                prog.fraction = std::min(1.0, static_cast<double>(work_done) /
+                                                  static_cast<double>(std::max<std::uint64_t>(
+                                                      total_work, 1)));
+                progress(prog);
+            }
+        }
+        result.total_samples = total_work;  // batch_size is 1
+        finish(0.0);
+        return result;
+    }
+
+    cells.resize(cell_count);
     // Per-cell batches wanted this round (0 = cell done).
     std::vector<std::uint32_t> wanted(cell_count, first_batches);
     // Batches handed out so far per cell: the next batch's index.  (A cell's
@@ -526,26 +704,38 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
         // No early exit when the round has no work: continued from a stored
         // state, it may only lack the stopping rule below.
         while (cell_cursor < cell_count) {
-            launch.cells.clear();
-            launch.batches.clear();
-            launch.points.clear();
-            std::size_t last_cell = static_cast<std::size_t>(-1);
-            while (cell_cursor < cell_count && launch.cells.size() < slab) {
-                if (cell_cursor != last_cell) {
-                    point_of(cell_cursor, point.data());
-                    last_cell = cell_cursor;
+            // The launch's arrays are written in place (they keep their
+            // capacity from launch to launch); a cell's point is built
+            // straight into its first work item's slot and copied to the
+            // cell's further work items of this launch.
+            const std::size_t stride = launch.stride;
+            launch.cells.resize(slab);
+            launch.batches.resize(slab);
+            launch.points.resize(slab * stride);
+            std::size_t items = 0;
+            while (cell_cursor < cell_count && items < slab) {
+                // This cell's remaining batches of the round, as many as fit.
+                const std::size_t first = items;
+                const std::uint32_t take = static_cast<std::uint32_t>(std::min<std::size_t>(
+                    wanted[cell_cursor] - batch_cursor, slab - items));
+                double* const first_point = launch.points.data() + first * stride;
+                point_of(cell_cursor, first_point);
+                for (std::uint32_t k = 0; k < take; ++k, ++items) {
+                    if (k) std::copy_n(first_point, stride, launch.points.data() + items * stride);
+                    launch.cells[items] = cell_base + static_cast<std::uint32_t>(cell_cursor);
+                    launch.batches[items] = issued[cell_cursor]++;
                 }
-                launch.cells.push_back(static_cast<std::uint32_t>(cell_cursor));
-                launch.batches.push_back(issued[cell_cursor]++);
-                launch.points.insert(launch.points.end(), point.begin(), point.end());
-                ++batch_cursor;
+                batch_cursor += take;
                 advance_to_work();
             }
+            launch.cells.resize(items);
+            launch.batches.resize(items);
+            launch.points.resize(items * stride);
             const double launch_start = elapsed();
             backend.run(launch, slab_mean, slab_m2);
             resize_slab(launch.cells.size(), elapsed() - launch_start);
             for (std::size_t w = 0; w < launch.cells.size(); ++w)
-                merge_batch(cells[launch.cells[w]], slab_mean[w], slab_m2[w], batch_size);
+                merge_batch(cells[launch.cells[w] - cell_base], slab_mean[w], slab_m2[w], batch_size);
             work_done += launch.cells.size();
             save_state(false);
             if (progress) {
@@ -603,8 +793,6 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
     result.value.resize(cell_count);
     result.stderr_.resize(cell_count);
     result.samples.resize(cell_count);
-    double worst = 0;
-    std::size_t unconverged = 0;
     for (std::size_t c = 0; c < cell_count; ++c) {
         const CellState& s = cells[c];
         // RQMC: the mean of the batch means is the estimator whose error we report.
@@ -615,27 +803,8 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
                                        : cell_stderr(s, rqmc);
         result.samples[c] = quadrature ? 1u : static_cast<std::uint32_t>(std::min<std::uint64_t>(s.samples, 0xFFFFFFFFu));
         result.total_samples += s.samples;
-        // Relative error with the absolute floor folded in: under a tolerance
-        // a cell whose stderr met abs_floor scores at most `tolerance`, so the
-        // figure is comparable with the requested tolerance.
-        const double floor_value =
-            adaptive ? settings.abs_floor / settings.tolerance : settings.abs_floor;
-        const double rel = result.stderr_[c] / std::max(std::fabs(result.value[c]), floor_value);
-        worst = std::max(worst, rel);
-        if (adaptive &&
-            result.stderr_[c] > std::max(settings.tolerance * std::fabs(result.value[c]), settings.abs_floor))
-            ++unconverged;
     }
-    result.tolerance_achieved = worst;
-    result.cells_unconverged = unconverged;
-    result.elapsed_seconds = elapsed_before + elapsed();
-    if (progress) {
-        prog.cells_done = cell_count;
-        prog.fraction = 1.0;
-        prog.elapsed_seconds = result.elapsed_seconds;
-        prog.samples_done = result.total_samples;
-        progress(prog);
-    }
+    finish(elapsed_before);
     return result;
 }
 

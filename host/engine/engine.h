@@ -40,6 +40,11 @@ struct IntegrationSettings {
     std::uint64_t seed = 1;
     std::uint32_t batch_size = 0;     // 0 = automatic
     std::size_t slab_work_items = 0;  // 0 = automatic; work items per device launch
+    // Number of the run's first cell in the random streams: cell c of the
+    // run draws the samples of cell cell_base + c, so a chunk of a table
+    // computes its cells exactly as the whole table would (cell_base +
+    // cell count must stay below 2^32).
+    std::uint64_t cell_base = 0;
 };
 
 // The largest per-cell sample count (and max_samples) the engine accepts:

@@ -17,33 +17,6 @@
 
 namespace brdftab {
 
-namespace {
-
-// The engine numbers the cells of a run from 0; a chunk's run passes them
-// here, which adds the chunk's first cell, so the kernels draw the random
-// numbers of the cells' places in the whole table.
-class OffsetBackend : public Backend {
-public:
-    OffsetBackend(Backend& inner, std::uint32_t offset) : inner_(inner), offset_(offset) {}
-    std::string device_name() const override { return inner_.device_name(); }
-    Precision precision() const override { return inner_.precision(); }
-    std::size_t preferred_slab() const override { return inner_.preferred_slab(); }
-    void run(const BatchLaunch& launch, std::vector<double>& mean,
-             std::vector<double>& m2) override {
-        if (offset_ == 0) return inner_.run(launch, mean, m2);
-        shifted_ = launch;  // reuses the buffers of the previous launch
-        for (std::uint32_t& c : shifted_.cells) c += offset_;
-        inner_.run(shifted_, mean, m2);
-    }
-
-private:
-    Backend& inner_;
-    std::uint32_t offset_;
-    BatchLaunch shifted_;
-};
-
-}  // namespace
-
 std::size_t chunk_cells_for(std::size_t table_cells, std::size_t chunk_cells, int ranks) {
     if (chunk_cells) return chunk_cells;
     if (ranks <= 1) return kDefaultChunkCells;
@@ -144,13 +117,16 @@ ChunkResult ChunkComputer::compute(const CellChunk& chunk, Checkpoint* checkpoin
     if (n > 0xFFFFFFFFull)
         throw InputError("table has " + std::to_string(n) +
                          " cells; at most 2^32 - 1 are supported");
-    OffsetBackend shifted(impl_->backend, static_cast<std::uint32_t>(chunk.first));
+    // The chunk's cells draw the random numbers of their places in the
+    // whole table.
+    IntegrationSettings settings = t.settings;
+    settings.cell_base = chunk.first;
     const std::string& name = impl_->spec.tables[chunk.table].name;
     EstimateCheckpoint stored;
     if (checkpoint) stored = checkpoint->chunk(chunk.table, name, chunk.first, chunk.count, n);
     EstimateResult r = estimate(
-        shifted, impl_->model, *t.quantity, t.options, chunk.count,
-        [&](std::size_t cell, double* p) { points.point(chunk.first + cell, p); }, t.settings,
+        impl_->backend, impl_->model, *t.quantity, t.options, chunk.count,
+        [&](std::size_t cell, double* p) { points.point(chunk.first + cell, p); }, settings,
         after_launch, checkpoint ? &stored : nullptr);
     ChunkResult out;
     out.chunk = chunk;

@@ -1,0 +1,89 @@
+// bench_engine_closed_form — the engine's own cost on a closed form: one
+// estimate() over N rough-dielectric bsdf cells on one backend, timed in wall
+// and process CPU seconds, through the direct path (no checkpoint) and
+// through the general per-cell-state path (a checkpoint whose save does
+// nothing, as `brdftab generate` passes one).  docs/benchmarks.md, session 6.
+//
+//   build/bench/bench_engine_closed_form [cells=2000000] [repeats=5] [device]
+//
+// Points are held in one array and copied per cell, as `brdftab bench` does.
+#include <time.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "host/engine/engine.h"
+#include "host/models/registry.h"
+
+using namespace brdftab;
+
+namespace {
+double cpu_seconds() {
+    timespec t{};
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+    return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
+}
+}  // namespace
+
+int main(int argc, char** argv) {
+    const std::size_t cells = argc > 1 ? std::strtoull(argv[1], nullptr, 10) : 2000000;
+    const int repeats = argc > 2 ? std::atoi(argv[2]) : 5;
+    const std::string device = argc > 3 ? argv[3] : "";
+    if (cells == 0 || repeats < 1) {
+        std::fprintf(stderr, "usage: bench_engine_closed_form [cells >= 1] [repeats >= 1] [device]\n");
+        return 2;
+    }
+    const ModelInfo& model = find_model("rough-dielectric");
+    const QuantityInfo& q = model.quantity("bsdf");
+    const std::vector<int> options = resolve_options(model, nlohmann::json::object(), "");
+    const std::size_t stride = model.point_stride();
+    // Directions spread by additive recurrences (as `brdftab bench`), alpha
+    // and eta fixed: theta_o over both hemispheres.
+    std::vector<double> first(stride);
+    PointBuilder(model, q).build(
+        {{"theta_i", 10}, {"theta_o", 20}, {"phi_d", 30}, {"alpha", 0.3}, {"eta", 1.5}},
+        first.data());
+    std::vector<double> points(cells * stride);
+    constexpr double kDegToRad = 3.14159265358979323846 / 180.0;
+    for (std::size_t k = 0; k < cells; ++k) {
+        auto frac = [&](double g) {
+            const double x = static_cast<double>(k + 1) * g;
+            return x - std::floor(x);
+        };
+        double* p = &points[k * stride];
+        std::copy(first.begin(), first.end(), p);
+        p[0] = 89.0 * frac(0.7548776662466927) * kDegToRad;
+        p[2] = 179.0 * frac(0.5698402909980532) * kDegToRad;
+        p[3] = p[1] + (360.0 * frac(0.6180339887498949) - 180.0) * kDegToRad;
+    }
+    auto backend = make_backend(device, Precision::Double);
+    const IntegrationSettings settings;
+    auto point_of = [&](std::size_t c, double* out) { std::copy_n(&points[c * stride], stride, out); };
+    estimate(*backend, model, q, options, std::min<std::size_t>(cells, 256), point_of, settings);
+    std::printf("%s, %zu cells of rough-dielectric bsdf\n", backend->device_name().c_str(), cells);
+    for (const bool with_checkpoint : {false, true}) {
+        for (int r = 0; r < repeats; ++r) {
+            EstimateCheckpoint checkpoint;
+            checkpoint.save = [](const EstimateState&, bool) {};
+            const double cpu0 = cpu_seconds();
+            const auto t0 = std::chrono::steady_clock::now();
+            const EstimateResult result =
+                estimate(*backend, model, q, options, cells, point_of, settings, nullptr,
+                         with_checkpoint ? &checkpoint : nullptr);
+            const double wall =
+                std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+            const double cpu = cpu_seconds() - cpu0;
+            const double evals = static_cast<double>(result.total_samples);
+            std::printf("%-26s wall %.3f s  cpu %.3f s  %6.2f M evals/s  %6.2f M evals/CPU-s\n",
+                        with_checkpoint ? "general (checkpoint)" : "direct (no checkpoint)", wall,
+                        cpu, evals / wall / 1e6, evals / cpu / 1e6);
+        }
+    }
+    return 0;
+}
