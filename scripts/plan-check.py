@@ -230,8 +230,12 @@ def check_preset(path, args, workdir):
         m = re.match(r"\s+(\S+): .* cells, .*, ([0-9.]+)s$", line)
         if m:
             engine[m.group(1)] = float(m.group(2))
+    recombined = {r.get("name") for r in work.get("recombined", [])}
     for t in result["tables"]:
         t["engine_seconds"] = engine.get(t["table"])
+        if t["table"] in recombined:
+            t["certify_error"] = "recombined: certify measures computed tables only"
+            continue
         target = t["predicted_error"]
         if not (target and target > 0 and math.isfinite(target)):
             t["certify_error"] = "no finite prediction to certify against"
@@ -312,7 +316,15 @@ def main():
     presets = args.presets or sorted(
         os.path.join(root, "tables", f) for f in os.listdir(os.path.join(root, "tables")) if f.endswith(".toml"))
     if not os.access(args.brdftab, os.X_OK):
-        sys.exit(f"plan-check: no brdftab at {args.brdftab} (build it, or give --brdftab)")
+        print(f"plan-check: {args.brdftab} is not an executable (build brdftab, or give --brdftab)", file=sys.stderr)
+        return 2
+    for p in presets:
+        if not os.path.isfile(p):
+            print(f"plan-check: --presets: no file {p}", file=sys.stderr)
+            return 2
+    if args.max_cells < 0:
+        print(f"plan-check: --max-cells {args.max_cells}: must be >= 0 (0: never shrink)", file=sys.stderr)
+        return 2
     results = []
     with tempfile.TemporaryDirectory(prefix="plan-check-") as tmp:
         workdir = args.workdir or tmp
