@@ -297,6 +297,28 @@ def print_report(results, args):
     return outside
 
 
+def markdown_report(results):
+    """The results as a Markdown table (docs/planning.md)."""
+    rows = ["| preset | table | measure | cells | predicted max | measured max | ratio "
+            "| predicted s | generate wall s (user+sys) | ratio (wall) |",
+            "|---|---|---|---|---|---|---|---|---|---|"]
+    for r in results:
+        if not r["tables"]:
+            rows.append(f"| {r['preset']} | – | | | | | | | | {r.get('error', '')} |")
+        for k, t in enumerate(r["tables"]):
+            re_ = ratio(t.get("measured_error"), t["predicted_error"])
+            meas = fmt(t.get("measured_error")) if "measured_error" in t else t.get("certify_error", "-")
+            time_cols = "| | |"
+            if k == 0:
+                rt = ratio(r.get("generate_wall"), r.get("predicted_seconds"))
+                time_cols = (f"| {fmt(r.get('predicted_seconds'), '{:.3g}')} | {fmt(r.get('generate_wall'), '{:.3g}')}"
+                             f" ({fmt(r.get('generate_cpu'), '{:.3g}')}) | {fmt(rt, '{:.2f}')} |")
+            rows.append(f"| {r['preset'] if k == 0 else ''} | {t['table']} | {'abs' if r['absolute'] else 'rel'} "
+                        f"| {int(t['cells'])} | {fmt(t['predicted_error'])} | {meas} | {fmt(re_, '{:.2f}')} "
+                        + time_cols)
+    return "\n".join(rows) + "\n"
+
+
 def main():
     here = os.path.dirname(os.path.abspath(__file__))
     root = os.path.dirname(here)
@@ -311,8 +333,18 @@ def main():
     ap.add_argument("--abs", action="store_true", help="absolute errors for every preset")
     ap.add_argument("--skip-generate", action="store_true", help="predictions only")
     ap.add_argument("--json", help="write the results as JSON to this file")
+    ap.add_argument("--markdown", help="also write the table as Markdown to this file")
+    ap.add_argument("--from-json", help="only print the report of an earlier --json run")
     ap.add_argument("--workdir", help="keep the work specs here (default: a temporary directory)")
     args = ap.parse_args()
+    if args.from_json:
+        with open(args.from_json) as f:
+            results = json.load(f)["results"]
+        print_report(results, args)
+        if args.markdown:
+            with open(args.markdown, "w") as f:
+                f.write(markdown_report(results))
+        return 0
     presets = args.presets or sorted(
         os.path.join(root, "tables", f) for f in os.listdir(os.path.join(root, "tables")) if f.endswith(".toml"))
     if not os.access(args.brdftab, os.X_OK):
@@ -340,6 +372,9 @@ def main():
                 with open(args.json, "w") as f:
                     json.dump({"load": os.getloadavg(), "max_cells": args.max_cells, "results": results}, f, indent=1)
     print_report(results, args)
+    if args.markdown:
+        with open(args.markdown, "w") as f:
+            f.write(markdown_report(results))
     return 0
 
 

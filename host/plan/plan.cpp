@@ -254,7 +254,9 @@ TablePilot run_pilot(const Spec& spec, std::size_t table_index, Backend& backend
         // evenly from the first to the last (the ends, e.g. grazing angles,
         // are often where a quantity changes fastest), in a random order
         // per axis so that lines do not all pair first with first.
-        std::vector<std::map<std::string, double>> lines(integral ? options.integral_lines : options.lines, ctx.fixed);
+        // A one-axis table has a single line: copies would only repeat it.
+        std::vector<std::map<std::string, double>> lines(
+            dims == 1 ? 1 : integral ? options.integral_lines : options.lines, ctx.fixed);
         const std::size_t nl = lines.size();
         for (std::size_t b = 0; b < dims; ++b) {
             if (b == a) continue;
