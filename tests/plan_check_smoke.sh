@@ -16,6 +16,12 @@ expect_exit 2 "missing preset" -- "$PY" "$SCRIPT" --brdftab "$BT" --presets "$WO
 expect_grep "no file" err.txt "missing preset message"
 expect_exit 2 "negative max cells" -- "$PY" "$SCRIPT" --brdftab "$BT" --max-cells -1 --presets "$DATA/plan_rough_dielectric.toml"
 
+# plan --as-written predicts the spec's own plan: no target, no -o.
+expect_exit 2 "--as-written with a target" -- "$BT" plan "$DATA/plan_rough_dielectric.toml" --as-written --accuracy 1e-2
+expect_grep "excludes --accuracy" err.txt "--as-written with a target message"
+expect_exit 0 "--as-written" -- "$BT" plan "$DATA/plan_rough_dielectric.toml" --as-written -q
+expect_grep "^as written: nodes 9x9, closed-form, float32; predicted max total error" out.txt "as-written line"
+
 mkdir -p work
 expect_exit 0 "small run" -- "$PY" "$SCRIPT" --brdftab "$BT" --max-cells 40 --workdir work --json r.json \
   --presets "$DATA/plan_rough_dielectric.toml"
