@@ -570,4 +570,156 @@ quantity = "H"
     REQUIRE(h.integration.size() == 1);
     CHECK(h.integration[0].method == Method::Quadrature);
     CHECK(h.integration[0].reference_nodes == 0);
+// ------------------------------------------------------------ the spec as written (plan --as-written)
+
+namespace {
+
+// A pilot of an integral table with every cell at stderr `sigma` at 4096
+// samples (rate N^-1/2), value `value`, exact interpolation.
+TablePilot integral_pilot(const Spec& spec, double sigma, double value) {
+    TablePilot p;
+    p.table = spec.tables[0].name;
+    p.quantity = spec.tables[0].quantity;
+    p.kind = QuantityKind::Integral;
+    p.axes = spec.tables[0].axes;
+    p.max_value = p.min_value = p.signed_min = p.signed_max = value;
+    p.rel_floor = 1e-3 * value;
+    p.startup_seconds = 0.1, p.overhead_seconds = 0.01, p.process_seconds = 0.2;
+    for (const Axis& a : p.axes) {
+        AxisFit f;
+        f.axis = a.name;
+        LevelErrors l;  // every error 0: exact
+        l.count = a.count, l.h = 1.0 / double(a.count - 1);
+        f.levels = {l};
+        p.linear.push_back(f), p.cubic.push_back(f);
+    }
+    IntegrationFit f;
+    f.method = Method::Rqmc;
+    f.samples = {4096};
+    f.max_abs = f.rms_abs = {sigma};
+    f.max_rel = f.rms_rel = {sigma / value};
+    f.fit_max_abs = f.fit_rms_abs = PowerFit{sigma * 64, -0.5, true, 1};
+    f.fit_max_rel = f.fit_rms_rel = PowerFit{sigma / value * 64, -0.5, true, 1};
+    f.cell_abs.assign(8, sigma);
+    f.cell_rel.assign(8, sigma / value);
+    f.cell_value.assign(8, value);
+    f.seconds_per_sample = 1e-8;
+    p.integration = {f};
+    return p;
+}
+
+// The median of the largest |error| of `cells` independent N(0, s^2) errors:
+// erf(x / (s sqrt 2))^cells = 1/2, solved by bisection on std::erf.
+double median_max_normal(double s, double cells) {
+    double lo = 0, hi = 20 * s;
+    for (int k = 0; k < 200; ++k) {
+        const double mid = 0.5 * (lo + hi);
+        (std::pow(std::erf(mid / (s * std::sqrt(2.0))), cells) < 0.5 ? lo : hi) = mid;
+    }
+    return hi;
+}
+
+const char* kAsWrittenSpec = R"(
+model = "oren-nayar"
+[[tables]]
+name = "albedo_direct"
+quantity = "albedo_direct"
+[[tables.axes]]
+name = "mu_i"
+range = [0.1, 1.0]
+count = 10
+[[tables.axes]]
+name = "sigma"
+range = [0.0, 1.0]
+count = 5
+[integration]
+method = "rqmc"
+samples = 1024
+[output]
+type = "float16"
+)";
+
+}  // namespace
+
+TEST_CASE("as written: the spec's counts, method, samples and type, and the time they cost") {
+    const Spec spec = parse_spec_string(kAsWrittenSpec, "aw.toml");
+    const TablePilot p = integral_pilot(spec, 4e-3, 0.5);
+    PlanTarget t;
+    t.absolute = true;
+    std::string why;
+    const auto c = predict_as_written(spec, {p}, t, {}, why);
+    REQUIRE(c);
+    CHECK(why.empty());
+    CHECK(c->method == Method::Rqmc);
+    CHECK(c->samples == 1024);
+    CHECK(c->stored_type == StoredType::Float16);
+    REQUIRE(c->tables.size() == 1);
+    CHECK(c->tables[0].counts == std::vector<std::size_t>{10, 5});
+    // 50 cells x 1024 samples x 1e-8 s, one launch, the start-up, once the process.
+    CHECK(c->seconds == doctest::Approx(0.2 + 0.1 + 0.01 + 50 * 1024 * 1e-8));
+    // stderr at 1024 samples: 4e-3 x 2 (N^-1/2); the max over 50 cells.
+    CHECK(c->tables[0].integration_max == doctest::Approx(median_max_normal(8e-3, 50)).epsilon(1e-3));
+    // float16 of values up to 0.5: half an ulp, 2^-11 x 0.5.
+    CHECK(c->tables[0].storage_max == doctest::Approx(std::ldexp(1.0, -12)));
+    // A method the pilot did not measure: no prediction, and why.
+    Spec mc = spec;
+    mc.integration.method = Method::MonteCarlo;
+    CHECK_FALSE(predict_as_written(mc, {p}, t, {}, why));
+    CHECK(why.find("mc") != std::string::npos);
+}
+
+TEST_CASE("as written with a tolerance: the adaptive rounds of the engine, worked by hand") {
+    Spec spec = parse_spec_string(kAsWrittenSpec, "aw.toml");
+    spec.integration.tolerance = 1e-2;
+    spec.integration.abs_floor = 1e-6;
+    spec.integration.max_samples = 1u << 20;
+    const TablePilot p = integral_pilot(spec, 4e-3, 0.5);
+    PlanTarget t;
+    std::string why;
+    const auto c = predict_as_written(spec, {p}, t, {}, why);
+    REQUIRE(c);
+    // Goal max(1e-2 x 0.5, 1e-6) = 5e-3.  At 1024 samples stderr 8e-3: ratio
+    // 1.6, so the engine asks for 1024 x 1.6^2 x 1.1 = 2884 samples (within
+    // [2 x, 16 x] 1024), where stderr = 4e-3 sqrt(4096 / 2884) = 4.77e-3 <= goal.
+    const double samples = std::ceil(1024 * 1.6 * 1.6 * 1.1);
+    const double sigma = 4e-3 * std::sqrt(4096 / samples);
+    CHECK(c->seconds == doctest::Approx(0.2 + 0.1 + 2 * 0.01 + 50 * samples * 1e-8));
+    // Relative: divided by the value 0.5.
+    CHECK(c->tables[0].integration_max == doctest::Approx(median_max_normal(sigma / 0.5, 50)).epsilon(1e-3));
+    // A cap below what the tolerance needs: every cell stops at max_samples.
+    spec.integration.max_samples = 2048;
+    const auto capped = predict_as_written(spec, {p}, t, {}, why);
+    REQUIRE(capped);
+    CHECK(capped->seconds == doctest::Approx(0.2 + 0.1 + 2 * 0.01 + 50 * 2048 * 1e-8));
+    CHECK(capped->tables[0].integration_max ==
+          doctest::Approx(median_max_normal(4e-3 * std::sqrt(2.0) / 0.5, 50)).epsilon(1e-3));
+}
+
+TEST_CASE("pilot: an explicit axis of a whole-number parameter is read at its nodes only") {
+    // The H-function moments over n = 0, 1, 2: the model accepts no n between
+    // nodes (before, the pilot's probes at n = 0.25 were refused).
+    const std::string text = R"(
+model = "hfunction"
+[[tables]]
+name = "moments"
+quantity = "moment"
+[[tables.axes]]
+name = "n"
+spacing = "explicit"
+values = [0, 1, 2]
+[[tables.axes]]
+name = "c"
+range = [0.0, 0.9]
+count = 9
+)";
+    const Spec spec = parse_spec_string(text, "moments.toml");
+    auto backend = make_backend("host", Precision::Double);
+    const TablePilot p = run_pilot(spec, 0, *backend, PilotOptions{});
+    REQUIRE(p.linear.size() == 2);
+    CHECK_FALSE(p.linear[0].planned);
+    REQUIRE(p.linear[0].levels.size() == 1);
+    CHECK(p.linear[0].levels[0].max_abs == 0);
+    CHECK(p.linear[0].levels[0].count == 3);
+    CHECK(p.linear[1].levels.size() == 3);  // c: three pilot levels
+    CHECK(p.linear[1].levels.back().max_abs > 0);
 }

@@ -25,6 +25,7 @@ struct PlanArgs {
     std::optional<double> accuracy, budget;
     bool absolute = false, json = false, quiet = false;
     bool place_nodes = false;  // --place-nodes (host/plan/node_placement.h)
+    bool as_written = false;   // --as-written: predict the spec's own plan (predict_as_written)
     double abs_floor = 0;
     std::string interpolation = "linear";
     ComputeOptions compute;
@@ -73,6 +74,9 @@ void run_plan(const PlanArgs& pa) {
     if (!pa.output.empty() && !target.accuracy && !target.budget)
         throw InputError("-o needs a target to choose a plan: give --accuracy E or --budget SECONDS");
 
+    if (pa.as_written && (target.accuracy || target.budget || !pa.output.empty() || pa.place_nodes))
+        throw InputError("--as-written predicts the spec's own plan: it excludes --accuracy, --budget, -o "
+                         "and --place-nodes");
     const Spec spec = parse_spec_file(pa.spec);
     if (!spec.errors.empty() || !spec.inverted.empty())
         throw InputError(pa.spec + ": plan does not handle [[errors]] or [[inverted]] "
@@ -90,9 +94,14 @@ void run_plan(const PlanArgs& pa) {
                          "plan the whole spec, or a copy with that table only");
 
     const std::vector<RecombinedGroup> groups = recombined_groups(spec, indices);  // checked before the pilots
+    const auto init_start = std::chrono::steady_clock::now();
     auto backend = pa.compute.make_backend();
     PilotOptions po;
     po.abs_floor = pa.abs_floor;
+    // What a generate process pays before its first table (device set-up),
+    // and its kernel start-up from PoCL's disk cache (host/plan/plan.h).
+    po.process_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - init_start).count();
+    po.fresh_backend = [&pa] { return pa.compute.make_backend(); };
     // Progress only for stages that last: a line every 2 s after the first 2 s.
     double last_shown = 0;
     const PilotProgressFn progress = [&](const std::string& stage, const Progress& p) {
@@ -112,6 +121,9 @@ void run_plan(const PlanArgs& pa) {
     const std::vector<Candidate> front = pareto_front(all);
     const std::optional<std::size_t> choice = choose_plan(front, target);
     const char* measure = target.absolute ? "absolute" : "relative";
+    std::optional<Candidate> written;
+    std::string written_why;
+    if (pa.as_written) written = predict_as_written(spec, pilots, target, groups, written_why);
 
     // --place-nodes: explicit nodes equidistributing the pilot's error.
     std::optional<Candidate> placed;
@@ -162,6 +174,10 @@ void run_plan(const PlanArgs& pa) {
             }
         } else {
             j["choice"] = nullptr;
+        }
+        if (pa.as_written) {
+            j["as_written"] = written ? candidate_json(*written, pilots) : nlohmann::json(written_why);
+            if (written) j["predicted_error"] = written->error_max, j["predicted_seconds"] = written->seconds;
         }
         std::cout << j.dump(2) << "\n";
     } else {
@@ -237,6 +253,14 @@ void run_plan(const PlanArgs& pa) {
                       << "; predicted max total error " << sci(c.error_max) << " (RMS "
                       << sci(c.error_rms) << "), predicted time " << sci(c.seconds) << " s\n";
         }
+        if (pa.as_written && written) {
+            const Candidate& c = *written;
+            std::cout << "as written: nodes " << counts_text(c, pilots) << ", " << method_text(c) << ", "
+                      << stored_type_name(c.stored_type) << "; predicted max total error " << sci(c.error_max)
+                      << " (RMS " << sci(c.error_rms) << "), predicted time " << sci(c.seconds) << " s\n";
+        } else if (pa.as_written) {
+            std::cout << "as written: no prediction (" << written_why << ")\n";
+        }
         for (const PlacedAxis& r : placements)
             std::cout << "placed nodes '" << r.table << "' axis " << r.axis << ": " << r.count
                       << " explicit nodes, predicted max interpolation error " << sci(r.predicted_max)
@@ -289,6 +313,9 @@ void register_plan(CLI::App& app) {
     cmd->add_flag("--place-nodes", st->place_nodes,
                   "write explicit nodes that equidistribute the pilot's measured interpolation "
                   "error along each axis (linear interpolation; docs/planning.md)");
+    cmd->add_flag("--as-written", st->as_written,
+                  "also predict the spec's own plan (its node counts, method, samples or tolerance, "
+                  "stored type) without choosing another; JSON key `as_written` (docs/planning.md)");
     cmd->add_flag("-q,--quiet", st->quiet, "no progress display");
     st->compute.add_to(*cmd, false);
     cmd->callback([st] { run_plan(*st); });

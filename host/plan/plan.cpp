@@ -256,6 +256,11 @@ TablePilot run_pilot(const Spec& spec, std::size_t table_index, Backend& backend
     const bool integral = ctx.quantity->kind == QuantityKind::Integral;
     for (std::size_t a = 0; a < dims; ++a) {
         const Axis& axis = ts.axes[a];
+        // An explicit axis of a whole-number parameter (an order, a mode) is
+        // read at its nodes only: nothing lies between them to probe.
+        if (axis.spacing == Spacing::Explicit)
+            if (const ParameterInfo* info = ctx.model->find_parameter(axis.name); info && info->integer)
+                continue;
         level_counts[a] = axis.spacing == Spacing::Explicit ? std::vector<std::size_t>{axis.count}
                                                             : pilot_counts(axis.count, integral ? options.integral_max_base : 17);
         // The lines: the other coordinates at random nodes of the spec's axes,
@@ -264,7 +269,9 @@ TablePilot run_pilot(const Spec& spec, std::size_t table_index, Backend& backend
         // evenly from the first to the last (the ends, e.g. grazing angles,
         // are often where a quantity changes fastest), in a random order
         // per axis so that lines do not all pair first with first.
-        std::vector<std::map<std::string, double>> lines(integral ? options.integral_lines : options.lines, ctx.fixed);
+        // A one-axis table has a single line: copies would only repeat it.
+        std::vector<std::map<std::string, double>> lines(
+            dims == 1 ? 1 : integral ? options.integral_lines : options.lines, ctx.fixed);
         const std::size_t nl = lines.size();
         for (std::size_t b = 0; b < dims; ++b) {
             if (b == a) continue;
@@ -321,6 +328,11 @@ TablePilot run_pilot(const Spec& spec, std::size_t table_index, Backend& backend
     const std::size_t stride = ctx.model->point_stride();
     const std::vector<double> one(points.begin(), points.begin() + stride);
     pilot.startup_seconds = estimate_at(backend, *ctx.model, *ctx.quantity, ctx.options, one, ref).elapsed_seconds;
+    if (options.fresh_backend)
+        if (const std::unique_ptr<Backend> fresh = options.fresh_backend())
+            pilot.startup_seconds =
+                estimate_at(*fresh, *ctx.model, *ctx.quantity, ctx.options, one, ref).elapsed_seconds;
+    pilot.process_seconds = options.process_seconds;
     pilot.overhead_seconds = std::numeric_limits<double>::infinity();
     for (int k = 0; k < 3; ++k)
         pilot.overhead_seconds = std::min(
@@ -349,6 +361,13 @@ TablePilot run_pilot(const Spec& spec, std::size_t table_index, Backend& backend
         for (std::size_t a = 0; a < dims; ++a) {
             fits[a].axis = ts.axes[a].name;
             fits[a].planned = ts.axes[a].spacing != Spacing::Explicit;
+            if (level_counts[a].empty()) {  // whole-number axis: exact at its nodes
+                LevelErrors e;
+                e.count = ts.axes[a].count;
+                e.h = 1.0 / double(std::max<std::size_t>(e.count, 2) - 1);
+                fits[a].levels.push_back(e);
+                continue;
+            }
             for (std::size_t l = 0; l < level_counts[a].size(); ++l) {
                 const std::size_t n = level_counts[a][l];
                 LevelErrors e;
@@ -393,18 +412,33 @@ TablePilot run_pilot(const Spec& spec, std::size_t table_index, Backend& backend
         // `generate` runs them (the pilot's points repeated; 16384 <= cells
         // <= 131072), fastest of two.  A smaller batch measured 4x too little
         // per cell on PoCL: the cost per cell grows with the launch size.
+        //
+        // Expensive closed forms (e.g. the Lambert-sphere constants, a solve
+        // per point): when the interpolation pilot's own launch says that
+        // full launch would take more than kCostPilotSeconds, its per-point
+        // cost is used instead: launch-size effects are a per-launch
+        // overhead, negligible against such a per-cell cost, and the full
+        // launch would cost more than the table (201 cells) it plans.
+        constexpr double kCostPilotSeconds = 2.0;
         const std::size_t want = std::clamp<std::size_t>(backend.preferred_slab(), 16384, 131072);
-        std::vector<double> batch;
-        while (batch.size() / stride < want) batch.insert(batch.end(), points.begin(), points.end());
-        const std::size_t m = batch.size() / stride;
-        double t = std::numeric_limits<double>::infinity();
-        for (int k = 0; k < 2; ++k)
-            t = std::min(t, estimate_at(backend, *ctx.model, *ctx.quantity, ctx.options, batch, ref,
-                                        stage(ts.name + ": cost pilot")).elapsed_seconds);
-        pilot.pilot_evaluations += 2 * m;
+        const std::size_t n_points = points.size() / stride;
+        const double per_point = std::max(r.elapsed_seconds - pilot.overhead_seconds, 0.5 * r.elapsed_seconds) /
+                                 double(std::max<std::size_t>(n_points, 1));
         IntegrationFit f;
         f.method = Method::ClosedForm;
-        f.seconds_per_cell = std::max(t - pilot.overhead_seconds, 0.5 * t) / double(m);
+        if (per_point * double(want) > kCostPilotSeconds) {
+            f.seconds_per_cell = per_point;
+        } else {
+            std::vector<double> batch;
+            while (batch.size() / stride < want) batch.insert(batch.end(), points.begin(), points.end());
+            const std::size_t m = batch.size() / stride;
+            double t = std::numeric_limits<double>::infinity();
+            for (int k = 0; k < 2; ++k)
+                t = std::min(t, estimate_at(backend, *ctx.model, *ctx.quantity, ctx.options, batch, ref,
+                                            stage(ts.name + ": cost pilot")).elapsed_seconds);
+            pilot.pilot_evaluations += 2 * m;
+            f.seconds_per_cell = std::max(t - pilot.overhead_seconds, 0.5 * t) / double(m);
+        }
         pilot.integration.push_back(f);
     } else {
         // Random cells of the spec's grid.
@@ -438,6 +472,8 @@ TablePilot run_pilot(const Spec& spec, std::size_t table_index, Backend& backend
                 f.seconds.push_back(e.elapsed_seconds);
                 f.cell_abs = e.stderr_;
                 f.cell_rel = rel;
+                f.cell_value.resize(e.value.size());
+                for (std::size_t k = 0; k < e.value.size(); ++k) f.cell_value[k] = std::fabs(e.value[k]);
                 const double work = std::max(0.0, e.elapsed_seconds - pilot.overhead_seconds);
                 if (method == Method::Quadrature)
                     f.seconds_per_cell = work / cells.size();
@@ -500,6 +536,29 @@ TablePilot run_pilot(const Spec& spec, std::size_t table_index, Backend& backend
                     f.cell_rel = random_rel;
                     f.reference_nodes = finer;
                     pilot.pilot_evaluations += screen.size() + probe.size();
+                }
+            }
+            if (method == Method::Quadrature && !cells.empty()) {
+                // Cost per cell from a launch of a few hundred cells or more:
+                // the 32 pilot cells are too few work items to keep every core
+                // of a CPU device busy, and measured 3x the cost per cell that
+                // `generate` then paid (docs/planning.md, "How good are the
+                // predictions").  The pilot cells repeated, for about 1 s.
+                const double run = f.seconds_per_cell * double(cells.size());
+                const std::size_t reps = static_cast<std::size_t>(
+                    std::clamp(std::floor(1.0 / std::max(run, 1e-9)), 1.0, 64.0));
+                if (reps >= 4) {
+                    std::vector<double> batch;
+                    for (std::size_t k = 0; k < reps; ++k)
+                        batch.insert(batch.end(), cell_points.begin(), cell_points.end());
+                    IntegrationSettings s;
+                    s.method = method;
+                    s.seed = options.seed + 17;
+                    const double t = estimate_at(backend, *ctx.model, *ctx.quantity, ctx.options, batch, s,
+                                                 stage(ts.name + ": quadrature cost pilot")).elapsed_seconds;
+                    f.seconds_per_cell = std::max(t - pilot.overhead_seconds, 0.5 * t) /
+                                         double(reps * cells.size());
+                    pilot.pilot_evaluations += reps * cells.size();
                 }
             }
             if (method != Method::Quadrature) {
@@ -866,6 +925,8 @@ std::vector<Candidate> make_recombined_candidates(const std::vector<TablePilot>&
             cells_max = std::max(cells_max, cells);
         }
         if (cells_max > kMaxCells) continue;
+        double process = 0;  // once per generate process
+        for (const TablePilot& p : pilots) process = std::max(process, p.process_seconds);
         for (Method m : methods) {
             std::vector<std::uint64_t> budgets = {0};
             if (m == Method::MonteCarlo || m == Method::Rqmc)
@@ -877,6 +938,7 @@ std::vector<Candidate> make_recombined_candidates(const std::vector<TablePilot>&
                     c.samples = n;
                     c.stored_type = st;
                     c.interpolation_target = interp_target;
+                    c.seconds = process;
                     const double bytes_per_cell = st == StoredType::Float16 ? 2 : 4;
                     for (std::size_t i = 0; i < pilots.size(); ++i) {
                         c.tables.push_back(predict_table(pilots[i], target, counts[i], m, n, st));
@@ -900,6 +962,101 @@ std::vector<Candidate> make_recombined_candidates(const std::vector<TablePilot>&
         }
     }
     return out;
+}
+
+// --------------------------------------------------------------- the spec as written
+
+namespace {
+
+// Adaptive sampling (engine.cpp): a cell stops once its stderr <= max(tol
+// |value|, abs_floor); otherwise it asks for N (stderr / target)^2 x 1.1
+// samples, at least 2N and at most 16N, capped at max_samples.  Simulated per
+// pilot cell with the fitted stderr(N) = sigma_pilot (N / N_pilot)^q.
+void predict_adaptive(const TablePilot& pilot, const IntegrationFit& f, const PlanTarget& target,
+                      const IntegrationSettings& s, TablePlan& tp) {
+    const PowerFit& fa = f.fit_max_abs;
+    const double q = fa.valid ? fa.p : -0.5;
+    const double n_pilot = double(f.samples.back());
+    const double n0 = double(s.samples ? s.samples : 4096);
+    const double n_cap = double(s.max_samples);
+    std::vector<double> sigma(f.cell_abs.size());
+    double samples_sum = 0, rounds_max = 0, rms2 = 0;
+    for (std::size_t k = 0; k < f.cell_abs.size(); ++k) {
+        const double value = k < f.cell_value.size() ? f.cell_value[k] : 0.0;
+        const double goal = std::max(s.tolerance * value, s.abs_floor);
+        auto sd = [&](double n) { return f.cell_abs[k] * std::pow(n / n_pilot, q); };
+        double n = std::min(n0, n_cap);
+        int rounds = 1;
+        while (sd(n) > goal && n < n_cap) {
+            const double ratio = sd(n) / goal;
+            n = std::min(std::clamp(std::ceil(n * ratio * ratio * 1.1), 2 * n, 16 * n), n_cap);
+            ++rounds;
+        }
+        const double e = sd(n);
+        sigma[k] = target.absolute ? e : e / std::max(value, pilot.rel_floor);
+        rms2 += sigma[k] * sigma[k];
+        samples_sum += n;
+        rounds_max = std::max(rounds_max, double(rounds));
+    }
+    if (sigma.empty()) return;
+    const double mean_samples = samples_sum / double(sigma.size());
+    tp.integration_max = expected_max_error(sigma, tp.cells);
+    tp.integration_rms = std::sqrt(rms2 / double(sigma.size()));
+    tp.seconds = pilot.startup_seconds + rounds_max * pilot.overhead_seconds +
+                 tp.cells * mean_samples * f.seconds_per_sample;
+}
+
+}  // namespace
+
+std::optional<Candidate> predict_as_written(const Spec& spec, const std::vector<TablePilot>& pilots,
+                                            const PlanTarget& target,
+                                            const std::vector<RecombinedGroup>& groups,
+                                            std::string& why) {
+    Candidate c;
+    c.stored_type = spec.output.stored_type;
+    for (const TablePilot& p : pilots) c.seconds = std::max(c.seconds, p.process_seconds);
+    c.samples = spec.integration.samples ? spec.integration.samples : 4096;
+    const double bytes_per_cell = c.stored_type == StoredType::Float16   ? 2
+                                  : c.stored_type == StoredType::Float64 ? 8
+                                                                         : 4;
+    const ModelInfo& model = find_model(spec.model);
+    for (const TablePilot& p : pilots) {
+        const TableSpec* ts = nullptr;
+        for (const TableSpec& t : spec.tables)
+            if (t.name == p.table) ts = &t;
+        if (!ts) throw Error("plan: no spec table '" + p.table + "'");
+        const Method m = resolve_table_method(model.quantity(ts->quantity), spec.integration.method);
+        if (m != Method::ClosedForm && c.method == Method::ClosedForm) c.method = m;
+        std::vector<std::size_t> counts;
+        for (const Axis& a : p.axes) counts.push_back(a.count);
+        TablePlan tp = predict_table(p, target, counts, m, c.samples, c.stored_type);
+        if (!std::isfinite(tp.seconds)) {
+            why = "table '" + p.table + "': its method " + to_string(m) + " was not piloted";
+            return std::nullopt;
+        }
+        if (spec.integration.tolerance > 0 && (m == Method::MonteCarlo || m == Method::Rqmc)) {
+            for (const IntegrationFit& f : p.integration)
+                if (f.method == m) predict_adaptive(p, f, target, spec.integration, tp);
+            tp.error_max = tp.interpolation_max + tp.integration_max + tp.storage_max;
+            const double storage_rms = tp.storage_max / std::sqrt(3.0);
+            tp.error_rms = std::sqrt(tp.interpolation_rms * tp.interpolation_rms +
+                                     tp.integration_rms * tp.integration_rms + storage_rms * storage_rms);
+        }
+        c.tables.push_back(tp);
+        c.error_max = std::max(c.error_max, tp.error_max);
+        c.error_rms = std::max(c.error_rms, tp.error_rms);
+        c.seconds += tp.seconds;
+        c.bytes += tp.cells * bytes_per_cell;
+    }
+    for (const RecombinedGroup& g : groups) {
+        std::vector<TablePlan> terms;
+        for (std::size_t t : g.terms) terms.push_back(c.tables[t]);
+        c.tables.push_back(predict_recombined(g, pilots, terms, target));
+        c.error_max = std::max(c.error_max, c.tables.back().error_max);
+        c.error_rms = std::max(c.error_rms, c.tables.back().error_rms);
+        c.bytes += c.tables.back().cells * bytes_per_cell;
+    }
+    return c;
 }
 
 // --------------------------------------------------------------- output

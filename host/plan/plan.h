@@ -25,6 +25,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -135,6 +136,7 @@ struct IntegrationFit {
     PowerFit fit_max_abs, fit_rms_abs, fit_max_rel, fit_rms_rel;  // stderr(N) = c N^-q
     // Per pilot cell at the largest budget (quadrature: its difference).
     std::vector<double> cell_abs, cell_rel;
+    std::vector<double> cell_value;      // |value| per pilot cell (the adaptive prediction's targets)
     double seconds_per_sample = 0;       // from the largest budget
     double seconds_per_cell = 0;         // closed form / quadrature
     // Quadrature: the node count of the finer rule the errors above were
@@ -156,6 +158,8 @@ struct TablePilot {
     double overhead_seconds = 0;   // fixed cost of one engine run (one launch)
     double startup_seconds = 0;    // the first run: kernel build or cache load, which
                                    // a `generate` process pays again: part of the prediction
+                                   // (with PilotOptions::fresh_backend: the cache load)
+    double process_seconds = 0;    // PilotOptions::process_seconds, paid once per generate
     // Per axis: the finest level's lines (linear pilot), for --place-nodes
     // (node_placement.h); empty for explicit axes.
     std::vector<std::vector<PlacementLine>> placement_lines;
@@ -177,6 +181,15 @@ struct PilotOptions {
     // otherwise 1e-3 x the largest |value| the pilot saw (validate's default).
     double abs_floor = 0;
     double rel_floor_factor = 1e-3;
+    // A `generate` run after `plan` finds the kernels in PoCL's disk cache,
+    // which the pilot's first run filled: its startup is a cache load, not
+    // the build the pilot's first run may have paid.  When set, the startup
+    // is measured again on a fresh backend (a new context, so the process'
+    // own program map misses and the disk cache answers).
+    std::function<std::unique_ptr<Backend>()> fresh_backend;
+    // Fixed cost of a generate process (device initialisation, measured by
+    // the caller), added once per candidate plan.
+    double process_seconds = 0;
 };
 
 // Progress of a pilot stage (the caller decides whether to show it).
@@ -307,6 +320,22 @@ TablePlan predict_recombined(const RecombinedGroup& group, const std::vector<Tab
 std::vector<Candidate> make_recombined_candidates(const std::vector<TablePilot>& pilots,
                                                   const PlanTarget& target,
                                                   const std::vector<RecombinedGroup>& groups);
+
+// --------------------------------------------------------------- the spec as written
+
+// The prediction for the spec's own plan, nothing chosen (`plan --as-written`,
+// scripts/plan-check.py): every piloted table at its spec node counts, the
+// spec's [integration] method (per table resolved as `generate` does it),
+// samples (0: the engine's default 4096) and [output] type.  With a
+// tolerance (adaptive sampling) each pilot cell is given the budget at which
+// its fitted stderr(N) reaches max(tolerance |value|, abs_floor), within
+// [samples, max_samples], and the time and errors follow from those budgets
+// (predict_adaptive).  `why` is set and nullopt returned when a table's
+// method was not piloted (e.g. rqmc asked of a quadrature quantity).
+std::optional<Candidate> predict_as_written(const Spec& spec, const std::vector<TablePilot>& pilots,
+                                            const PlanTarget& target,
+                                            const std::vector<RecombinedGroup>& groups,
+                                            std::string& why);
 
 // --------------------------------------------------------------- output
 
