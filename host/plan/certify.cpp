@@ -106,7 +106,31 @@ Certificate certify_table(const TableData& stored, Backend& backend, const Certi
     std::vector<std::vector<double>> coords;
     std::vector<ProbeKind> kind;
     std::vector<std::size_t> line_axis;  // the axis a line probe runs along
+    // A dependent axis (critical spacing tied to an eta axis) has no node
+    // positions of its own, only t_k: its probes are placed in t and mapped
+    // to x at the probe's value of the axis it depends on (in `add`).
+    std::vector<int> depends_on(dims, -1);
+    for (std::size_t a = 0; a < dims; ++a)
+        if (t.axes[a].dependent())
+            for (std::size_t b = 0; b < dims; ++b)
+                if (t.axes[b].name == t.axes[a].depends_on) depends_on[a] = int(b);
+    for (std::size_t a = 0; a < dims; ++a)
+        if (t.axes[a].dependent() && (depends_on[a] < 0 || t.axes[std::size_t(depends_on[a])].dependent()))
+            throw InputError("table '" + t.name + "': axis '" + t.axes[a].name + "' depends on '" +
+                             t.axes[a].depends_on + "', which is not an independent axis of the table");
+    // x of interval j, fraction s, of axis a; t for a dependent axis.
+    auto axis_point = [&](std::size_t a, std::size_t j, double s) {
+        const Axis& ax = t.axes[a];
+        return ax.dependent() ? (double(j) + s) / double(ax.count - 1) : interval_point(ax, j, s);
+    };
+    std::vector<std::vector<double>> unit;  // probes as given to `add` (t on dependent axes)
     auto add = [&](std::vector<double> c, ProbeKind k, std::size_t axis) {
+        unit.push_back(c);
+        for (std::size_t a = 0; a < dims; ++a)
+            if (depends_on[a] >= 0) {
+                const Axis& ax = t.axes[a];
+                c[a] = std::clamp(ax.warp_at(c[a], c[std::size_t(depends_on[a])]), ax.min, ax.max);
+            }
         std::map<std::string, double> p = fixed;
         for (std::size_t a = 0; a < dims; ++a) p[t.axes[a].name] = c[a];
         named.push_back(std::move(p));
@@ -136,7 +160,7 @@ Certificate certify_table(const TableData& stored, Backend& backend, const Certi
             for (std::size_t j = 0; j + 1 < axis.count; ++j)
                 for (double s : kProbeFractions) {
                     std::vector<double> c = line;
-                    c[a] = interval_point(axis, j, s);
+                    c[a] = axis_point(a, j, s);
                     add(std::move(c), ProbeKind::Line, a);
                 }
     }
@@ -144,7 +168,8 @@ Certificate certify_table(const TableData& stored, Backend& backend, const Certi
     for (std::size_t k = 0; k < nr; ++k) {
         std::vector<double> c(dims);
         for (std::size_t a = 0; a < dims; ++a)
-            c[a] = std::clamp(t.axes[a].warp(rng.uniform()), t.axes[a].min, t.axes[a].max);
+            c[a] = t.axes[a].dependent() ? rng.uniform()
+                                         : std::clamp(t.axes[a].warp(rng.uniform()), t.axes[a].min, t.axes[a].max);
         add(std::move(c), ProbeKind::Random, dims);
     }
     if (integral)
@@ -252,10 +277,14 @@ Certificate certify_table(const TableData& stored, Backend& backend, const Certi
     std::sort(off_node.begin(), off_node.end(), std::greater<>());
     std::vector<std::vector<std::size_t>> cells;
     for (std::size_t w = 0; w < std::min(worst, off_node.size()); ++w) {
-        const std::vector<double>& x = coords[off_node[w].second];
+        const std::vector<double>& x = unit[off_node[w].second];
         std::vector<std::size_t> home(dims);
         for (std::size_t a = 0; a < dims; ++a) {
             const Axis& ax = t.axes[a];
+            if (ax.dependent()) {
+                home[a] = std::min(std::size_t(std::max(0.0, x[a]) * double(ax.count - 1)), ax.count - 2);
+                continue;
+            }
             const auto it = std::upper_bound(ax.values.begin(), ax.values.end(), x[a]);
             const std::size_t j = it == ax.values.begin() ? 0 : std::size_t(it - ax.values.begin()) - 1;
             home[a] = std::min(j, ax.count - 2);
@@ -277,7 +306,7 @@ Certificate certify_table(const TableData& stored, Backend& backend, const Certi
         for (std::size_t n = 0; n < per_cell; ++n) {
             std::vector<double> x(dims);
             for (std::size_t a = 0, m = n; a < dims; ++a, m /= 3)
-                x[a] = interval_point(t.axes[a], cell[a], kProbeFractions[m % 3]);
+                x[a] = axis_point(a, cell[a], kProbeFractions[m % 3]);
             add(std::move(x), ProbeKind::Local, dims);
         }
     }
