@@ -30,6 +30,7 @@
 #include "host/lookup/lookup.h"
 #include "host/models/registry.h"
 #include "host/plan/certify.h"
+#include "host/plan/plan.h"
 #include "host/spec/spec.h"
 
 using namespace brdftab;
@@ -370,4 +371,34 @@ TEST_CASE("critical axes tied to an eta axis: probes follow the kink, the certif
     CHECK(c.max_at[1] >= 1.3);
     CHECK(c.max_at[1] <= 2.0);
     CHECK(c.line_probes == 4 * 6 * 3 + 4 * 2 * 3);  // 4 lines along mu_i (6 intervals) and along eta (2), 3 fractions each
+}
+
+TEST_CASE("plan: a critical axis tied to eta is piloted, and its prediction holds against the certificate") {
+    // The pilot's lines along mu_i are critical axes at each line's eta; its
+    // lines along eta hold mu_i at a node t_k, which moves with eta as the
+    // table's nodes do.  The prediction for the spec's own counts is compared
+    // with the certificate of the table generated at those counts (probes
+    // against direct evaluation, independent of the pilot's lines).
+    auto backend = make_backend("host", Precision::Double);
+    const std::string text =
+        "model = \"rough-dielectric\"\n[parameters]\ndistribution = \"ggx\"\nalpha = 0.3\nnodes = 8\n"
+        "[[axes]]\nname = \"mu_i\"\nrange = [-1.0, -0.02]\ncount = 13\nspacing = \"critical\"\n"
+        "[[axes]]\nname = \"eta\"\nrange = [1.3, 2.0]\ncount = 4\n"
+        "[[tables]]\nquantity = \"albedo_r\"\n[integration]\nmethod = \"quadrature\"\n[output]\ntype = \"float64\"\n";
+    const Spec spec = parse_spec_string(text, "critical-plan.toml");
+    const TablePilot pilot = run_pilot(spec, 0, *backend, PilotOptions{});
+    REQUIRE(pilot.linear.size() == 2);
+    REQUIRE(pilot.linear[0].max_abs.valid);
+    PlanTarget target;
+    target.absolute = true;
+    target.accuracy = 1e-3;
+    const TablePlan predicted = predict_table(pilot, target, {13, 4}, Method::Quadrature, 0, StoredType::Float64);
+    const TableData t = generate_and_read(spec, *backend, temp_path("critical-plan.h5"));
+    CertifyOptions o;
+    o.target = 1e-3;
+    o.absolute = true;
+    const Certificate c = certify_table(t, *backend, o);
+    MESSAGE("critical 13x4: predicted max " << predicted.error_max << ", certified " << c.max_error);
+    CHECK(predicted.error_max >= c.max_error / 2);
+    CHECK(predicted.error_max <= c.max_error * 2);
 }

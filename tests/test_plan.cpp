@@ -570,6 +570,8 @@ quantity = "H"
     REQUIRE(h.integration.size() == 1);
     CHECK(h.integration[0].method == Method::Quadrature);
     CHECK(h.integration[0].reference_nodes == 0);
+}
+
 // ------------------------------------------------------------ the spec as written (plan --as-written)
 
 namespace {

@@ -94,7 +94,8 @@ std::vector<double> interpolate_line(const Axis& axis, const std::vector<double>
     TableData t;
     t.name = "line";
     t.units = "1";
-    t.axes = {axis.spacing == Spacing::Explicit ? axis : remade(axis, node_values.size())};
+    t.axes = {axis.spacing == Spacing::Explicit || axis.count == node_values.size() ? axis
+                                                                                    : remade(axis, node_values.size())};
     t.value = node_values;
     const LookupTable lt(std::move(t));
     const Axis& a = lt.axes().front();
@@ -202,7 +203,7 @@ std::vector<double> kernel_points(const PilotContext& ctx,
 
 // One axis' lines at one level: indices into the batch of reference points.
 struct LineBlock {
-    std::size_t axis = 0, level = 0, first_node = 0, first_probe = 0;
+    std::size_t axis = 0, level = 0, first_node = 0, first_probe = 0, line = 0;
 };
 
 // Quadrature whose rule size the model exposes (a `nodes` parameter: the
@@ -218,6 +219,29 @@ double finer_rule_nodes(const PilotContext& ctx) {
     if (!rule || it == ctx.fixed.end()) return 0;
     const double finer = std::min(rule->max, std::max(24.0, 2 * it->second));
     return finer > it->second ? finer : 0.0;
+}
+
+// The 1-D axis of a pilot line with n nodes.  A critical axis tied to an eta
+// axis is, along a line that holds eta fixed, an ordinary critical axis at
+// that eta (the table's nodes along the line are exactly its nodes).
+Axis line_axis(const Axis& axis, std::size_t n, const std::map<std::string, double>& line) {
+    if (axis.spacing == Spacing::Explicit) return axis;
+    if (!axis.dependent()) return remade(axis, n);
+    return make_critical_axis(axis.name, axis.min, axis.max, n,
+                              critical_node_for(n, double(axis.critical_node) / double(axis.count - 1)),
+                              axis.grading, line.at(axis.depends_on));
+}
+
+// A dependent axis held at its node t_k along a line (or in a pilot cell)
+// sits at warp_at(t_k, eta) of each point's own eta: set those coordinates
+// once the point's other coordinates are in place.
+void place_dependents(std::map<std::string, double>& point, const std::vector<Axis>& axes,
+                      const std::map<std::string, double>& t_of) {
+    for (const Axis& b : axes) {
+        const auto it = t_of.find(b.name);
+        if (!b.dependent() || it == t_of.end()) continue;
+        point[b.name] = std::clamp(b.warp_at(it->second, point.at(b.depends_on)), b.min, b.max);
+    }
 }
 
 }  // namespace
@@ -242,10 +266,13 @@ TablePilot run_pilot(const Spec& spec, std::size_t table_index, Backend& backend
     pilot.axes = ts.axes;
     const std::size_t dims = ts.axes.size();
     for (const Axis& a : ts.axes)
-        if (a.dependent())
-            throw InputError(ctx.where + ": axis '" + a.name + "' has nodes that depend on '" +
-                             a.depends_on + "' (critical spacing), which plan does not handle yet; "
-                             "plan the table with another spacing, or validate it");
+        if (a.dependent()) {
+            const auto dep = std::find_if(ts.axes.begin(), ts.axes.end(),
+                                          [&](const Axis& b) { return b.name == a.depends_on; });
+            if (dep == ts.axes.end() || dep->dependent())
+                throw InputError(ctx.where + ": axis '" + a.name + "' depends on '" + a.depends_on +
+                                 "', which is not an independent axis of the table");
+        }
     pilot.placement_lines.resize(dims);
     SplitMix rng{options.seed * 0x9E3779B97F4A7C15ull + table_index + 1};
 
@@ -253,6 +280,8 @@ TablePilot run_pilot(const Spec& spec, std::size_t table_index, Backend& backend
     std::vector<std::map<std::string, double>> named;
     std::vector<LineBlock> blocks;
     std::vector<std::vector<std::size_t>> level_counts(dims);
+    // Each axis' lines (their fixed coordinates), for the line axes of the fits.
+    std::vector<std::vector<std::map<std::string, double>>> axis_lines(dims);
     const bool integral = ctx.quantity->kind == QuantityKind::Integral;
     for (std::size_t a = 0; a < dims; ++a) {
         const Axis& axis = ts.axes[a];
@@ -283,15 +312,21 @@ TablePilot run_pilot(const Spec& spec, std::size_t table_index, Backend& backend
             for (std::size_t l = nl; l > 1; --l) std::swap(idx[l - 1], idx[rng.below(l)]);  // Fisher-Yates
             for (std::size_t l = 0; l < nl; ++l) lines[l][other.name] = other.values[idx[l]];
         }
+        std::vector<std::map<std::string, double>> line_t(nl);
+        for (std::size_t b = 0; b < dims; ++b)
+            if (b != a && ts.axes[b].dependent())
+                for (std::size_t l = 0; l < nl; ++l) line_t[l][ts.axes[b].name] = lines[l][ts.axes[b].name];
         for (std::size_t l = 0; l < level_counts[a].size(); ++l) {
             const std::size_t n = level_counts[a][l];
-            const Axis ax = axis.spacing == Spacing::Explicit ? axis : remade(axis, n);
             const std::vector<double> probes = probe_positions(n);
-            for (const auto& line : lines) {
-                LineBlock blk{a, l, named.size(), 0};
+            for (std::size_t li = 0; li < nl; ++li) {
+                const auto& line = lines[li];
+                const Axis ax = line_axis(axis, n, line);
+                LineBlock blk{a, l, named.size(), 0, li};
                 for (double x : ax.values) {
                     named.push_back(line);
                     named.back()[axis.name] = x;
+                    place_dependents(named.back(), ts.axes, line_t[li]);
                 }
                 blk.first_probe = named.size();
                 for (double t : probes) {
@@ -306,10 +341,12 @@ TablePilot run_pilot(const Spec& spec, std::size_t table_index, Backend& backend
                                            }()
                                          : std::clamp(ax.warp(t), ax.min, ax.max);
                     named.back()[axis.name] = x;
+                    place_dependents(named.back(), ts.axes, line_t[li]);
                 }
                 blocks.push_back(blk);
             }
         }
+        axis_lines[a] = std::move(lines);
     }
     const std::vector<double> points = kernel_points(ctx, named);
 
@@ -378,10 +415,12 @@ TablePilot run_pilot(const Spec& spec, std::size_t table_index, Backend& backend
                     if (blk.axis != a || blk.level != l) continue;
                     const std::vector<double> nodes(r.value.begin() + blk.first_node,
                                                     r.value.begin() + blk.first_node + n);
-                    const Axis ax = ts.axes[a].spacing == Spacing::Explicit ? ts.axes[a] : remade(ts.axes[a], n);
+                    const Axis ax = line_axis(ts.axes[a], n, axis_lines[a][blk.line]);
                     const std::vector<double> probes = probe_positions(n);
                     const std::vector<double> got = interpolate_line(ax, nodes, probes, interp);
-                    if (m == 0 && l + 1 == level_counts[a].size() && fits[a].planned) {
+                    // (No node placement on a dependent axis: explicit nodes
+                    // cannot follow eta.)
+                    if (m == 0 && l + 1 == level_counts[a].size() && fits[a].planned && !ts.axes[a].dependent()) {
                         PlacementLine pl{ax.values, nodes, {}, {}};
                         for (std::size_t k = 0; k < probes.size(); ++k) {
                             pl.probe_x.push_back(std::clamp(ax.warp(probes[k]), ax.min, ax.max));
@@ -443,8 +482,14 @@ TablePilot run_pilot(const Spec& spec, std::size_t table_index, Backend& backend
     } else {
         // Random cells of the spec's grid.
         std::vector<std::map<std::string, double>> cells(options.cells, ctx.fixed);
-        for (auto& c : cells)
-            for (const Axis& ax : ts.axes) c[ax.name] = ax.values[rng.below(ax.count)];
+        for (auto& c : cells) {
+            std::map<std::string, double> t_of;
+            for (const Axis& ax : ts.axes) {
+                c[ax.name] = ax.values[rng.below(ax.count)];
+                if (ax.dependent()) t_of[ax.name] = c[ax.name];
+            }
+            place_dependents(c, ts.axes, t_of);
+        }
         const std::vector<double> cell_points = kernel_points(ctx, cells);
         const std::vector<Method> methods =
             ctx.quantity->kind == QuantityKind::Quadrature ? std::vector<Method>{Method::Quadrature}
@@ -490,8 +535,14 @@ TablePilot run_pilot(const Spec& spec, std::size_t table_index, Backend& backend
                     // (max only): it is largest where the rule struggles
                     // (grazing light), which 32 random cells rarely hit.
                     std::vector<std::map<std::string, double>> screen(16 * cells.size(), ctx.fixed);
-                    for (auto& c : screen)
-                        for (const Axis& ax : ts.axes) c[ax.name] = ax.values[rng.below(ax.count)];
+                    for (auto& c : screen) {
+                        std::map<std::string, double> t_of;
+                        for (const Axis& ax : ts.axes) {
+                            c[ax.name] = ax.values[rng.below(ax.count)];
+                            if (ax.dependent()) t_of[ax.name] = c[ax.name];
+                        }
+                        place_dependents(c, ts.axes, t_of);
+                    }
                     const EstimateResult sc =
                         estimate_at(backend, *ctx.model, *ctx.quantity, ctx.options, kernel_points(ctx, screen), s,
                                     stage(ts.name + ": quadrature screen"));
