@@ -402,3 +402,26 @@ TEST_CASE("plan: a critical axis tied to eta is piloted, and its prediction hold
     CHECK(predicted.error_max >= c.max_error / 2);
     CHECK(predicted.error_max <= c.max_error * 2);
 }
+
+TEST_CASE("an explicit axis of a whole-number parameter is probed at its nodes only") {
+    // The H-function moments alpha_n(c) exist for whole n only (the model
+    // refuses n = 0.25): the certificate runs no lines along n and puts its
+    // random and local probes on n's nodes; along c it probes as usual.
+    auto backend = make_backend("host", Precision::Double);
+    const std::string text =
+        "model = \"hfunction\"\n[parameters]\npsi = \"lambert0\"\n"
+        "[[axes]]\nname = \"n\"\nspacing = \"explicit\"\nvalues = [0, 1, 2]\n"
+        "[[axes]]\nname = \"c\"\nrange = [0.0, 0.9]\ncount = 5\n"
+        "[[tables]]\nquantity = \"moment\"\n[output]\ntype = \"float64\"\n";
+    const TableData t = generate_and_read(parse_spec_string(text, "whole.toml"), *backend, temp_path("whole.h5"));
+    CertifyOptions o;
+    o.target = 1e-2;
+    const Certificate c = certify_table(t, *backend, o);
+    MESSAGE("alpha_n(c), 3 x 5: certificate max " << c.max_error << " at (n " << c.max_at[0] << ", c "
+                                                  << c.max_at[1] << ")");
+    CHECK(c.axis_max[0] == 0);  // no lines along n
+    CHECK(c.axis_max[1] > 0);
+    CHECK(c.max_at[0] == std::round(c.max_at[0]));
+    CHECK(c.line_probes == 4 * 4 * 3);  // 4 lines along c (4 intervals, 3 fractions), none along n
+    CHECK(c.max_error > 0);
+}

@@ -118,9 +118,17 @@ Certificate certify_table(const TableData& stored, Backend& backend, const Certi
         if (t.axes[a].dependent() && (depends_on[a] < 0 || t.axes[std::size_t(depends_on[a])].dependent()))
             throw InputError("table '" + t.name + "': axis '" + t.axes[a].name + "' depends on '" +
                              t.axes[a].depends_on + "', which is not an independent axis of the table");
+    // An explicit axis of a whole-number parameter (an order, a mode: the
+    // model refuses values between) is exact at its nodes and probed only
+    // there: no lines along it, random and local probes on its nodes.
+    std::vector<bool> whole(dims, false);
+    for (std::size_t a = 0; a < dims; ++a)
+        if (t.axes[a].spacing == Spacing::Explicit)
+            if (const ParameterInfo* info = model.find_parameter(t.axes[a].name)) whole[a] = info->integer;
     // x of interval j, fraction s, of axis a; t for a dependent axis.
     auto axis_point = [&](std::size_t a, std::size_t j, double s) {
         const Axis& ax = t.axes[a];
+        if (whole[a]) return ax.values[s > 0.5 ? j + 1 : j];
         return ax.dependent() ? (double(j) + s) / double(ax.count - 1) : interval_point(ax, j, s);
     };
     std::vector<std::vector<double>> unit;  // probes as given to `add` (t on dependent axes)
@@ -140,6 +148,7 @@ Certificate certify_table(const TableData& stored, Backend& backend, const Certi
     };
     const std::size_t nl = integral ? options.integral_lines : options.lines;
     for (std::size_t a = 0; a < dims && nl > 0; ++a) {
+        if (whole[a]) continue;
         // Lines along a: along every other axis the nl lines take nodes spread
         // evenly from the first to the last (the edges always among them), in
         // a random order per axis (the planner's design, plan.cpp).
@@ -169,7 +178,9 @@ Certificate certify_table(const TableData& stored, Backend& backend, const Certi
         std::vector<double> c(dims);
         for (std::size_t a = 0; a < dims; ++a)
             c[a] = t.axes[a].dependent() ? rng.uniform()
-                                         : std::clamp(t.axes[a].warp(rng.uniform()), t.axes[a].min, t.axes[a].max);
+                   : whole[a] ? t.axes[a].values[static_cast<std::size_t>(
+                                    std::lround(rng.uniform() * double(t.axes[a].count - 1)))]
+                              : std::clamp(t.axes[a].warp(rng.uniform()), t.axes[a].min, t.axes[a].max);
         add(std::move(c), ProbeKind::Random, dims);
     }
     if (integral)
