@@ -85,6 +85,15 @@ CellPoints::CellPoints(const ModelInfo& model, const QuantityInfo& quantity,
 void CellPoints::point(std::size_t cell, double* out) const {
     std::copy(base_.begin(), base_.end(), out);
     double phi_d = fixed_phi_d_;
+    // Axis a's value v into its kernel slot (or phi_d).
+    auto feed = [&](std::size_t a, double v) {
+        switch (feeds_[a].feed) {
+            case Feed::Degrees: out[feeds_[a].slot] = v * kDegToRad; break;
+            case Feed::Cosine: out[feeds_[a].slot] = std::acos(v); break;
+            case Feed::AzimuthOffset: phi_d = v * kDegToRad; break;
+            case Feed::Plain: out[feeds_[a].slot] = v; break;
+        }
+    };
     // Without dependent axes a cell's axis values are the nodes at its
     // multi-index, as Grid::coordinates gives them, found here without the
     // two vectors that call allocates: this runs once or twice per cell and
@@ -96,29 +105,15 @@ void CellPoints::point(std::size_t cell, double* out) const {
     if (independent) {
         std::size_t rest = cell;
         for (std::size_t a = axes.size(); a-- > 0;) {  // row-major, last axis fastest
-            const double v = axes[a].values[rest % axes[a].count];
+            feed(a, axes[a].values[rest % axes[a].count]);
             rest /= axes[a].count;
-            switch (feeds_[a].feed) {
-                case Feed::Degrees: out[feeds_[a].slot] = v * kDegToRad; break;
-                case Feed::Cosine: out[feeds_[a].slot] = std::acos(v); break;
-                case Feed::AzimuthOffset: phi_d = v * kDegToRad; break;
-                case Feed::Plain: out[feeds_[a].slot] = v; break;
-            }
         }
         if (phi_o_from_phi_d_) out[3] = out[1] + phi_d;
         return;
     }
     // The grid places an axis whose nodes depend on another (critical) too.
     const std::vector<double> coords = grid_.coordinates(cell);
-    for (std::size_t a = 0; a < feeds_.size(); ++a) {
-        const double v = coords[a];
-        switch (feeds_[a].feed) {
-            case Feed::Degrees: out[feeds_[a].slot] = v * kDegToRad; break;
-            case Feed::Cosine: out[feeds_[a].slot] = std::acos(v); break;
-            case Feed::AzimuthOffset: phi_d = v * kDegToRad; break;
-            case Feed::Plain: out[feeds_[a].slot] = v; break;
-        }
-    }
+    for (std::size_t a = 0; a < feeds_.size(); ++a) feed(a, coords[a]);
     // Same rule as PointBuilder: phi_o = phi_i + phi_d when phi_d is given.
     if (phi_o_from_phi_d_) out[3] = out[1] + phi_d;
 }

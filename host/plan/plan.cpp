@@ -953,6 +953,35 @@ TablePlan predict_recombined(const RecombinedGroup& group, const std::vector<Tab
     return tp;
 }
 
+namespace {
+
+// A computed table joins a candidate: its errors (the worst table's), time
+// and stored bytes.
+void add_table(Candidate& c, const TablePlan& tp, double bytes_per_cell) {
+    c.tables.push_back(tp);
+    c.error_max = std::max(c.error_max, tp.error_max);
+    c.error_rms = std::max(c.error_rms, tp.error_rms);
+    c.seconds += tp.seconds;
+    c.bytes += tp.cells * bytes_per_cell;
+}
+
+// The recombined tables of a candidate, after its computed ones (their terms):
+// no time of their own, their values stored at the recombination points.
+void add_recombined(Candidate& c, const std::vector<RecombinedGroup>& groups,
+                    const std::vector<TablePilot>& pilots, const PlanTarget& target, double bytes_per_cell) {
+    for (const RecombinedGroup& g : groups) {
+        std::vector<TablePlan> terms;
+        for (std::size_t t : g.terms) terms.push_back(c.tables[t]);
+        c.tables.push_back(predict_recombined(g, pilots, terms, target));
+        const TablePlan& tp = c.tables.back();
+        c.error_max = std::max(c.error_max, tp.error_max);
+        c.error_rms = std::max(c.error_rms, tp.error_rms);
+        c.bytes += tp.cells * bytes_per_cell;
+    }
+}
+
+}  // namespace
+
 std::vector<Candidate> make_recombined_candidates(const std::vector<TablePilot>& pilots,
                                                   const PlanTarget& target,
                                                   const std::vector<RecombinedGroup>& groups) {
@@ -991,23 +1020,9 @@ std::vector<Candidate> make_recombined_candidates(const std::vector<TablePilot>&
                     c.interpolation_target = interp_target;
                     c.seconds = process;
                     const double bytes_per_cell = st == StoredType::Float16 ? 2 : 4;
-                    for (std::size_t i = 0; i < pilots.size(); ++i) {
-                        c.tables.push_back(predict_table(pilots[i], target, counts[i], m, n, st));
-                        const TablePlan& tp = c.tables.back();
-                        c.error_max = std::max(c.error_max, tp.error_max);
-                        c.error_rms = std::max(c.error_rms, tp.error_rms);
-                        c.seconds += tp.seconds;
-                        c.bytes += tp.cells * bytes_per_cell;
-                    }
-                    for (const RecombinedGroup& g : groups) {
-                        std::vector<TablePlan> terms;
-                        for (std::size_t t : g.terms) terms.push_back(c.tables[t]);
-                        c.tables.push_back(predict_recombined(g, pilots, terms, target));
-                        const TablePlan& tp = c.tables.back();
-                        c.error_max = std::max(c.error_max, tp.error_max);
-                        c.error_rms = std::max(c.error_rms, tp.error_rms);
-                        c.bytes += tp.cells * bytes_per_cell;  // its values at stored_at
-                    }
+                    for (std::size_t i = 0; i < pilots.size(); ++i)
+                        add_table(c, predict_table(pilots[i], target, counts[i], m, n, st), bytes_per_cell);
+                    add_recombined(c, groups, pilots, target, bytes_per_cell);
                     if (std::isfinite(c.error_max) && std::isfinite(c.seconds)) out.push_back(std::move(c));
                 }
         }
@@ -1093,20 +1108,9 @@ std::optional<Candidate> predict_as_written(const Spec& spec, const std::vector<
             tp.error_rms = std::sqrt(tp.interpolation_rms * tp.interpolation_rms +
                                      tp.integration_rms * tp.integration_rms + storage_rms * storage_rms);
         }
-        c.tables.push_back(tp);
-        c.error_max = std::max(c.error_max, tp.error_max);
-        c.error_rms = std::max(c.error_rms, tp.error_rms);
-        c.seconds += tp.seconds;
-        c.bytes += tp.cells * bytes_per_cell;
+        add_table(c, tp, bytes_per_cell);
     }
-    for (const RecombinedGroup& g : groups) {
-        std::vector<TablePlan> terms;
-        for (std::size_t t : g.terms) terms.push_back(c.tables[t]);
-        c.tables.push_back(predict_recombined(g, pilots, terms, target));
-        c.error_max = std::max(c.error_max, c.tables.back().error_max);
-        c.error_rms = std::max(c.error_rms, c.tables.back().error_rms);
-        c.bytes += c.tables.back().cells * bytes_per_cell;
-    }
+    add_recombined(c, groups, pilots, target, bytes_per_cell);
     return c;
 }
 
