@@ -120,9 +120,11 @@ expect_exit 2 "a bad spec on 3 ranks" -- mpi 3 "$BT" generate bad.toml -q -o bad
 [ ! -e bad.h5 ] && ok || bad "a bad spec: an output file was written"
 
 # --- dynamic balancing -------------------------------------------------------------
-# One chunk of 4 costly cells (2^20 samples each, seconds) and 100 chunks of
-# 4 cheap closed-form cells (milliseconds each): while one rank computes the
-# costly chunk, the other computes most of the cheap ones.  A static split
+# One chunk of 4 costly cells (RQMC, 2^22 samples each: seconds) and 100
+# chunks of 4 cheap closed-form cells (milliseconds each): while one rank
+# computes the costly chunk, the other computes most of the cheap ones.
+# (method = "rqmc": albedo_r's default is a quadrature of a few milliseconds
+# per cell, which would make no chunk costly.)  A static split
 # would give 202 cells each; the rank with the costly chunk must end with
 # less than half of that.
 cat >uneven.toml <<'EOF'
@@ -157,7 +159,8 @@ count = 2
 name = "cheap"
 quantity = "brdf"
 [integration]
-samples = 1048576
+method = "rqmc"
+samples = 4194304
 seed = 5
 EOF
 expect_exit 0 "uneven costs on 2 ranks" -- mpi 2 "$BT" generate uneven.toml -q -o uneven.h5 \
