@@ -89,16 +89,9 @@ Certificate certify_table(const TableData& stored, Backend& backend, const Certi
     // rule: twice the nodes, at least 24, within the parameter's range.
     // Otherwise the table's stored two-rule difference (its stderr) is added
     // to the measured error at the end.
-    bool finer_rule = false;
-    if (q.kind == QuantityKind::Quadrature) {
-        const ParameterInfo* rule = model.find_parameter("nodes");
-        const auto it = fixed.find("nodes");
-        if (rule && it != fixed.end()) {
-            const double finer = std::min(rule->max, std::max(24.0, 2 * it->second));
-            finer_rule = finer > it->second;
-            it->second = std::max(finer, it->second);
-        }
-    }
+    const double finer = finer_rule_nodes(model, q, fixed);
+    const bool finer_rule = finer > 0;
+    if (finer_rule) fixed["nodes"] = finer;
 
     // ---- the probes
     SplitMix rng{options.seed * 0x9E3779B97F4A7C15ull + t.seed + 0xCE27};
@@ -109,15 +102,9 @@ Certificate certify_table(const TableData& stored, Backend& backend, const Certi
     // A dependent axis (critical spacing tied to an eta axis) has no node
     // positions of its own, only t_k: its probes are placed in t and mapped
     // to x at the probe's value of the axis it depends on (in `add`).
+    const Grid grid(t.axes);  // finds (and checks) each dependent axis' independent one
     std::vector<int> depends_on(dims, -1);
-    for (std::size_t a = 0; a < dims; ++a)
-        if (t.axes[a].dependent())
-            for (std::size_t b = 0; b < dims; ++b)
-                if (t.axes[b].name == t.axes[a].depends_on) depends_on[a] = int(b);
-    for (std::size_t a = 0; a < dims; ++a)
-        if (t.axes[a].dependent() && (depends_on[a] < 0 || t.axes[std::size_t(depends_on[a])].dependent()))
-            throw InputError("table '" + t.name + "': axis '" + t.axes[a].name + "' depends on '" +
-                             t.axes[a].depends_on + "', which is not an independent axis of the table");
+    for (std::size_t a = 0; a < dims; ++a) depends_on[a] = grid.dependency(a);
     // An explicit axis of a whole-number parameter (an order, a mode: the
     // model refuses values between) is exact at its nodes and probed only
     // there: no lines along it, random and local probes on its nodes.

@@ -206,21 +206,6 @@ struct LineBlock {
     std::size_t axis = 0, level = 0, first_node = 0, first_probe = 0, line = 0;
 };
 
-// Quadrature whose rule size the model exposes (a `nodes` parameter: the
-// rough-dielectric albedos): the finer rule the certificate takes as its
-// reference (certify.cpp: twice the nodes, at least 24, within range; a
-// `nodes` left out of the spec is there at its default), or 0 where there is
-// none (no such parameter, or no finer rule in its range): then the stored
-// two-rule difference stays the error term, as the certificate adds it too.
-double finer_rule_nodes(const PilotContext& ctx) {
-    if (ctx.quantity->kind != QuantityKind::Quadrature) return 0;
-    const ParameterInfo* rule = ctx.model->find_parameter("nodes");
-    const auto it = ctx.fixed.find("nodes");
-    if (!rule || it == ctx.fixed.end()) return 0;
-    const double finer = std::min(rule->max, std::max(24.0, 2 * it->second));
-    return finer > it->second ? finer : 0.0;
-}
-
 // The 1-D axis of a pilot line with n nodes.  A critical axis tied to an eta
 // axis is, along a line that holds eta fixed, an ordinary critical axis at
 // that eta (the table's nodes along the line are exactly its nodes).
@@ -244,6 +229,30 @@ void place_dependents(std::map<std::string, double>& point, const std::vector<Ax
     }
 }
 
+// A random cell of the spec's grid (a node of every axis; a dependent axis at
+// its node t_k, placed at the cell's own eta), added to `base`.
+std::map<std::string, double> random_cell(std::map<std::string, double> base, const std::vector<Axis>& axes,
+                                          SplitMix& rng) {
+    std::map<std::string, double> t_of;
+    for (const Axis& ax : axes) {
+        base[ax.name] = ax.values[rng.below(ax.count)];
+        if (ax.dependent()) t_of[ax.name] = base[ax.name];
+    }
+    place_dependents(base, axes, t_of);
+    return base;
+}
+
+// Total errors of a table plan from its terms.  Sum of the maxima: a bound at
+// the worst point.  RMS: the terms are independent over the domain
+// (interpolation: the function's shape; integration: random; rounding:
+// uniform within +-half ulp, RMS ulp/(2 sqrt 3)).
+void combine_errors(TablePlan& tp) {
+    tp.error_max = tp.interpolation_max + tp.integration_max + tp.storage_max;
+    const double storage_rms = tp.storage_max / std::sqrt(3.0);
+    tp.error_rms = std::sqrt(tp.interpolation_rms * tp.interpolation_rms +
+                             tp.integration_rms * tp.integration_rms + storage_rms * storage_rms);
+}
+
 }  // namespace
 
 TablePilot run_pilot(const Spec& spec, std::size_t table_index, Backend& backend,
@@ -265,14 +274,7 @@ TablePilot run_pilot(const Spec& spec, std::size_t table_index, Backend& backend
     pilot.kind = ctx.quantity->kind;
     pilot.axes = ts.axes;
     const std::size_t dims = ts.axes.size();
-    for (const Axis& a : ts.axes)
-        if (a.dependent()) {
-            const auto dep = std::find_if(ts.axes.begin(), ts.axes.end(),
-                                          [&](const Axis& b) { return b.name == a.depends_on; });
-            if (dep == ts.axes.end() || dep->dependent())
-                throw InputError(ctx.where + ": axis '" + a.name + "' depends on '" + a.depends_on +
-                                 "', which is not an independent axis of the table");
-        }
+    (void)Grid(ts.axes);  // InputError unless every dependent axis follows an independent one
     pilot.placement_lines.resize(dims);
     SplitMix rng{options.seed * 0x9E3779B97F4A7C15ull + table_index + 1};
 
@@ -481,15 +483,8 @@ TablePilot run_pilot(const Spec& spec, std::size_t table_index, Backend& backend
         pilot.integration.push_back(f);
     } else {
         // Random cells of the spec's grid.
-        std::vector<std::map<std::string, double>> cells(options.cells, ctx.fixed);
-        for (auto& c : cells) {
-            std::map<std::string, double> t_of;
-            for (const Axis& ax : ts.axes) {
-                c[ax.name] = ax.values[rng.below(ax.count)];
-                if (ax.dependent()) t_of[ax.name] = c[ax.name];
-            }
-            place_dependents(c, ts.axes, t_of);
-        }
+        std::vector<std::map<std::string, double>> cells(options.cells);
+        for (auto& c : cells) c = random_cell(ctx.fixed, ts.axes, rng);
         const std::vector<double> cell_points = kernel_points(ctx, cells);
         const std::vector<Method> methods =
             ctx.quantity->kind == QuantityKind::Quadrature ? std::vector<Method>{Method::Quadrature}
@@ -524,7 +519,8 @@ TablePilot run_pilot(const Spec& spec, std::size_t table_index, Backend& backend
                     f.seconds_per_cell = work / cells.size();
                 else
                     f.seconds_per_sample = work / (double(cells.size()) * double(n));
-                const double finer = method == Method::Quadrature ? finer_rule_nodes(ctx) : 0.0;
+                // (A `nodes` left out of the spec is in ctx.fixed at its default.)
+                const double finer = finer_rule_nodes(*ctx.model, *ctx.quantity, ctx.fixed);
                 if (finer > 0) {
                     // The stored difference |Q_n - Q_(n/2)| is the coarse
                     // rule's error, ~1e3 x the n-node rule's own in the median
@@ -534,15 +530,8 @@ TablePilot run_pilot(const Spec& spec, std::size_t table_index, Backend& backend
                     // 16x larger random screen where the difference is largest
                     // (max only): it is largest where the rule struggles
                     // (grazing light), which 32 random cells rarely hit.
-                    std::vector<std::map<std::string, double>> screen(16 * cells.size(), ctx.fixed);
-                    for (auto& c : screen) {
-                        std::map<std::string, double> t_of;
-                        for (const Axis& ax : ts.axes) {
-                            c[ax.name] = ax.values[rng.below(ax.count)];
-                            if (ax.dependent()) t_of[ax.name] = c[ax.name];
-                        }
-                        place_dependents(c, ts.axes, t_of);
-                    }
+                    std::vector<std::map<std::string, double>> screen(16 * cells.size());
+                    for (auto& c : screen) c = random_cell(ctx.fixed, ts.axes, rng);
                     const EstimateResult sc =
                         estimate_at(backend, *ctx.model, *ctx.quantity, ctx.options, kernel_points(ctx, screen), s,
                                     stage(ts.name + ": quadrature screen"));
@@ -756,13 +745,7 @@ TablePlan predict_table(const TablePilot& pilot, const PlanTarget& target,
         tp.storage_max = target.absolute
                              ? std::max(s.rel * pilot.max_value, s.abs)
                              : std::max(s.rel, s.abs / std::max(pilot.rel_floor, pilot.min_value));
-    // Sum of the maxima: a bound at the worst point.  RMS: the terms are
-    // independent over the domain (interpolation: the function's shape;
-    // integration: random; rounding: uniform within +-half ulp, RMS ulp/(2 sqrt 3)).
-    tp.error_max = tp.interpolation_max + tp.integration_max + tp.storage_max;
-    const double storage_rms = tp.storage_max / std::sqrt(3.0);
-    tp.error_rms = std::sqrt(tp.interpolation_rms * tp.interpolation_rms +
-                             tp.integration_rms * tp.integration_rms + storage_rms * storage_rms);
+    combine_errors(tp);
     return tp;
 }
 
@@ -1030,6 +1013,18 @@ std::vector<Candidate> make_recombined_candidates(const std::vector<TablePilot>&
     return out;
 }
 
+// --------------------------------------------------------------- quadrature reference
+
+double finer_rule_nodes(const ModelInfo& model, const QuantityInfo& quantity,
+                        const std::map<std::string, double>& fixed) {
+    if (quantity.kind != QuantityKind::Quadrature) return 0;
+    const ParameterInfo* rule = model.find_parameter("nodes");
+    const auto it = fixed.find("nodes");
+    if (!rule || it == fixed.end()) return 0;
+    const double finer = std::min(rule->max, std::max(24.0, 2 * it->second));
+    return finer > it->second ? finer : 0.0;
+}
+
 // --------------------------------------------------------------- the spec as written
 
 namespace {
@@ -1103,10 +1098,7 @@ std::optional<Candidate> predict_as_written(const Spec& spec, const std::vector<
         if (spec.integration.tolerance > 0 && (m == Method::MonteCarlo || m == Method::Rqmc)) {
             for (const IntegrationFit& f : p.integration)
                 if (f.method == m) predict_adaptive(p, f, target, spec.integration, tp);
-            tp.error_max = tp.interpolation_max + tp.integration_max + tp.storage_max;
-            const double storage_rms = tp.storage_max / std::sqrt(3.0);
-            tp.error_rms = std::sqrt(tp.interpolation_rms * tp.interpolation_rms +
-                                     tp.integration_rms * tp.integration_rms + storage_rms * storage_rms);
+            combine_errors(tp);
         }
         add_table(c, tp, bytes_per_cell);
     }

@@ -25,6 +25,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <functional>
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -320,6 +321,20 @@ TablePlan predict_recombined(const RecombinedGroup& group, const std::vector<Tab
 std::vector<Candidate> make_recombined_candidates(const std::vector<TablePilot>& pilots,
                                                   const PlanTarget& target,
                                                   const std::vector<RecombinedGroup>& groups);
+
+// --------------------------------------------------------------- quadrature reference
+
+struct ModelInfo;
+struct QuantityInfo;
+
+// A quadrature whose rule size the model exposes (a `nodes` parameter: the
+// rough-dielectric albedos) is measured against a finer rule: twice the
+// nodes, at least 24, within the parameter's range.  Returns that rule's
+// node count, or 0 where there is none (not a quadrature, no such parameter
+// or no `nodes` in `fixed`, or no finer rule in range).  The certificate's
+// reference (certify.cpp) and the planner's pilot (plan.cpp) both use it.
+double finer_rule_nodes(const ModelInfo& model, const QuantityInfo& quantity,
+                        const std::map<std::string, double>& fixed);
 
 // --------------------------------------------------------------- the spec as written
 
