@@ -587,6 +587,21 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
         }
     };
 
+    // A launch's work items `items`, `items + 1`, ... for batches first_batch,
+    // first_batch + 1, ... (take of them) of one cell: its point is built
+    // straight into the first item's slot and copied to the others.  Both
+    // paths below fill their launches with it.
+    auto add_items = [&](std::size_t cell, std::uint32_t first_batch, std::uint32_t take, std::size_t& items) {
+        const std::size_t stride = launch.stride;
+        double* const first_point = launch.points.data() + items * stride;
+        point_of(cell, first_point);
+        for (std::uint32_t k = 0; k < take; ++k, ++items) {
+            if (k) std::copy_n(first_point, stride, launch.points.data() + items * stride);
+            launch.cells[items] = cell_base + static_cast<std::uint32_t>(cell);
+            launch.batches[items] = first_batch + k;
+        }
+    };
+
     // Closed forms and quadratures without a checkpoint: every cell runs its
     // fixed one (closed form) or two (quadrature: accurate and coarse rule)
     // one-sample batches and nothing else, so the per-cell estimator state,
@@ -613,13 +628,7 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
             while (cell_cursor < cell_count && items < slab) {
                 const std::uint32_t take = static_cast<std::uint32_t>(
                     std::min<std::size_t>(first_batches - batch_cursor, slab - items));
-                double* const first_point = launch.points.data() + items * stride;
-                point_of(cell_cursor, first_point);
-                for (std::uint32_t k = 0; k < take; ++k, ++items) {
-                    if (k) std::copy_n(first_point, stride, launch.points.data() + items * stride);
-                    launch.cells[items] = cell_base + static_cast<std::uint32_t>(cell_cursor);
-                    launch.batches[items] = batch_cursor + k;
-                }
+                add_items(cell_cursor, batch_cursor, take, items);
                 batch_cursor += take;
                 if (batch_cursor == first_batches) {
                     ++cell_cursor;
@@ -705,9 +714,7 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
         // state, it may only lack the stopping rule below.
         while (cell_cursor < cell_count) {
             // The launch's arrays are written in place (they keep their
-            // capacity from launch to launch); a cell's point is built
-            // straight into its first work item's slot and copied to the
-            // cell's further work items of this launch.
+            // capacity from launch to launch).
             const std::size_t stride = launch.stride;
             launch.cells.resize(slab);
             launch.batches.resize(slab);
@@ -715,16 +722,10 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
             std::size_t items = 0;
             while (cell_cursor < cell_count && items < slab) {
                 // This cell's remaining batches of the round, as many as fit.
-                const std::size_t first = items;
                 const std::uint32_t take = static_cast<std::uint32_t>(std::min<std::size_t>(
                     wanted[cell_cursor] - batch_cursor, slab - items));
-                double* const first_point = launch.points.data() + first * stride;
-                point_of(cell_cursor, first_point);
-                for (std::uint32_t k = 0; k < take; ++k, ++items) {
-                    if (k) std::copy_n(first_point, stride, launch.points.data() + items * stride);
-                    launch.cells[items] = cell_base + static_cast<std::uint32_t>(cell_cursor);
-                    launch.batches[items] = issued[cell_cursor]++;
-                }
+                add_items(cell_cursor, issued[cell_cursor], take, items);
+                issued[cell_cursor] += take;
                 batch_cursor += take;
                 advance_to_work();
             }
