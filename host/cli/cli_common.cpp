@@ -14,6 +14,7 @@
 
 #include "host/core/error.h"
 #include "host/core/text.h"
+#include "host/plan/certify.h"
 
 namespace brdftab::cli {
 
@@ -290,6 +291,14 @@ std::string sci_text(double v) {
     char buf[32];
     std::snprintf(buf, sizeof buf, "%.3g", v);
     return buf;
+}
+
+std::string certificate_error_text(const Certificate& c) {
+    std::string s = std::string("max ") + (c.absolute ? "absolute" : "relative") + " total error " +
+                    sci_text(c.max_error) + " at (";
+    for (std::size_t a = 0; a < c.axis_names.size(); ++a)
+        s += (a ? ", " : "") + c.axis_names[a] + " " + sci_text(c.max_at[a]);
+    return s + "), RMS " + sci_text(c.rms_error) + "; target " + sci_text(c.target);
 }
 
 }  // namespace brdftab::cli

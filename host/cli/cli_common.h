@@ -15,6 +15,10 @@
 #include "host/io/point_file.h"
 #include "host/models/registry.h"
 
+namespace brdftab {
+struct Certificate;
+}
+
 namespace brdftab::cli {
 
 // Options every computing subcommand accepts.
@@ -109,6 +113,10 @@ double available_memory();
 // A number in three significant digits (%.3g; "inf"/"nan"), for error targets
 // and certificate figures.
 std::string sci_text(double v);
+
+// A certificate's figures as `generate --accuracy`, `certify` and `info` print
+// them: "max absolute total error E at (axis x, ...), RMS R; target T".
+std::string certificate_error_text(const Certificate& c);
 
 // Free bytes (for an unprivileged user) on the file system of `path`'s
 // directory; negative when unknown.

@@ -47,12 +47,7 @@ void run_certify(const CertifyArgs& st) {
     const Certificate c = certify_file_table(st.file, st.table, *backend, o, progress);
     if (printer) printer->finish();
     std::cout << st.file << " table " << c.table << ": certificate " << (c.passed ? "passed" : "FAILED")
-              << ": max " << (c.absolute ? "absolute" : "relative") << " total error "
-              << sci_text(c.max_error) << " at (";
-    for (std::size_t a = 0; a < c.axis_names.size(); ++a)
-        std::cout << (a ? ", " : "") << c.axis_names[a] << " " << sci_text(c.max_at[a]);
-    std::cout << "), RMS " << sci_text(c.rms_error) << "; target " << sci_text(c.target) << "; "
-              << c.probes << " probes, " << st.interpolation << " interpolation";
+              << ": " << certificate_error_text(c) << "; " << c.probes << " probes, " << st.interpolation << " interpolation";
     if (!c.absolute) std::cout << ", floor " << sci_text(c.abs_floor);
     std::cout << ", reference " << c.reference_method;
     if (c.reference_noise > 0) std::cout << " (noise " << sci_text(c.reference_noise) << ")";

@@ -450,13 +450,8 @@ void run_certified_generate(const GenerateArgs& st) {
     print_summary(tables);
     const CertifiedRound& last = result.rounds.back();
     for (const Certificate& c : last.certificates) {
-        std::cout << "  " << c.table << ": certificate " << (c.passed ? "passed" : "FAILED") << ": max "
-                  << (c.absolute ? "absolute" : "relative") << " total error " << sci_text(c.max_error)
-                  << " at (";
-        for (std::size_t a = 0; a < c.axis_names.size(); ++a)
-            std::cout << (a ? ", " : "") << c.axis_names[a] << " " << sci_text(c.max_at[a]);
-        std::cout << "), RMS " << sci_text(c.rms_error) << "; target " << sci_text(c.target)
-                  << (c.mode == "budget" ? " (the plan's prediction)" : "") << ", predicted "
+        std::cout << "  " << c.table << ": certificate " << (c.passed ? "passed" : "FAILED") << ": "
+                  << certificate_error_text(c) << (c.mode == "budget" ? " (the plan's prediction)" : "") << ", predicted "
                   << sci_text(c.predicted_max) << "; " << c.probes << " probes, " << (c.interpolation == Interpolation::Cubic ? "cubic" : "linear")
                   << " interpolation";
         if (!c.absolute) std::cout << ", floor " << sci_text(c.abs_floor);

@@ -190,12 +190,8 @@ void print_table_summary(const TableData& t, bool verbose) {
 // A table's stored certificate (`certificate_*` attributes, docs/format.md),
 // written by `generate --accuracy/--budget` or `certify --store`.
 void print_certificate(const Certificate& c) {
-    std::cout << "    certificate: " << (c.passed ? "passed" : "FAILED") << " (" << c.mode << "), max "
-              << (c.absolute ? "absolute" : "relative") << " total error " << sci_text(c.max_error)
-              << " at (";
-    for (std::size_t a = 0; a < c.axis_names.size(); ++a)
-        std::cout << (a ? ", " : "") << c.axis_names[a] << " " << sci_text(c.max_at[a]);
-    std::cout << "), RMS " << sci_text(c.rms_error) << "; target " << sci_text(c.target);
+    std::cout << "    certificate: " << (c.passed ? "passed" : "FAILED") << " (" << c.mode << "), "
+              << certificate_error_text(c);
     if (!c.absolute) std::cout << ", floor " << sci_text(c.abs_floor);
     std::cout << "\n      " << (c.interpolation == Interpolation::Cubic ? "cubic" : "linear")
               << " interpolation; " << c.probes << " probes (" << c.line_probes << " on lines, "
