@@ -243,6 +243,9 @@ def check_preset(path, args, workdir):
     recombined = {r.get("name") for r in work.get("recombined", [])}
     for t in result["tables"]:
         t["engine_seconds"] = engine.get(t["table"])
+        if args.time_only:
+            t["certify_error"] = "not certified (--time-only)"
+            continue
         if t["table"] in recombined:
             t["certify_error"] = "recombined: certify measures computed tables only"
             continue
@@ -343,6 +346,11 @@ def main():
     ap.add_argument("--all", action="store_true", help="with no --presets: also the slow presets (SLOW_PRESETS)")
     ap.add_argument("--abs", action="store_true", help="absolute errors for every preset")
     ap.add_argument("--skip-generate", action="store_true", help="predictions only")
+    ap.add_argument("--time-only", action="store_true",
+                    help="plan and generate only: check the time prediction, skip certify")
+    ap.add_argument("--fresh-kernel-cache", action="store_true",
+                    help="give each preset an empty PoCL kernel cache (POCL_CACHE_DIR), as on a first "
+                         "run: plan then pays the kernel builds, and generate finds only what plan built")
     ap.add_argument("--json", help="write the results as JSON to this file")
     ap.add_argument("--markdown", help="also write the table as Markdown to this file")
     ap.add_argument("--from-json", help="only print the report of an earlier --json run")
@@ -375,8 +383,11 @@ def main():
         os.makedirs(workdir, exist_ok=True)
         for p in presets:
             t0 = time.monotonic()
+            if args.fresh_kernel_cache:
+                os.environ["POCL_CACHE_DIR"] = tempfile.mkdtemp(prefix="pocl-cache-", dir=workdir)
             r = check_preset(p, args, workdir)
             r["check_seconds"] = time.monotonic() - t0
+            r["load"] = os.getloadavg()
             print(f"plan-check: {r['preset']}: {r['check_seconds']:.0f} s"
                   + (f" ({r['error']})" if "error" in r else ""), file=sys.stderr, flush=True)
             results.append(r)
