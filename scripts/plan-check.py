@@ -388,7 +388,7 @@ def main():
             r = check_preset(p, args, workdir)
             r["check_seconds"] = time.monotonic() - t0
             r["load"] = os.getloadavg()
-            print(f"plan-check: {r['preset']}: {r['check_seconds']:.0f} s"
+            print(f"plan-check: {r['preset']}: {r['check_seconds']:.0f} s, load average {r['load'][0]:.2f}"
                   + (f" ({r['error']})" if "error" in r else ""), file=sys.stderr, flush=True)
             results.append(r)
             if args.json:

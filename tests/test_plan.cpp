@@ -666,6 +666,17 @@ TEST_CASE("as written: the spec's counts, method, samples and type, and the time
     CHECK(c->tables[0].integration_max == doctest::Approx(median_max_normal(8e-3, 50)).epsilon(1e-3));
     // float16 of values up to 0.5: half an ulp, 2^-11 x 0.5.
     CHECK(c->tables[0].storage_max == doctest::Approx(std::ldexp(1.0, -12)));
+    // Two tables of the same kernel program: the second does not load it again.
+    Spec two = spec;
+    two.tables.push_back(two.tables[0]);
+    two.tables[1].name = "albedo_direct_2";
+    TablePilot p1 = p, p2 = p;
+    p1.kernel = p2.kernel = "oren-nayar\nalbedo_direct";
+    p2.table = "albedo_direct_2";
+    const auto c2 = predict_as_written(two, {p1, p2}, t, {}, why);
+    REQUIRE(c2);
+    CHECK(c2->seconds == doctest::Approx(fixed + 0.2 + 0.1 + 2 * 0.01 + 2 * 50 * 1024 * 1e-8 +
+                                         write_seconds(50, StoredType::Float16, 6, true, true)));
     // A method the pilot did not measure: no prediction, and why.
     Spec mc = spec;
     mc.integration.method = Method::MonteCarlo;

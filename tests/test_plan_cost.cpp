@@ -226,3 +226,21 @@ TEST_CASE("predicted table time: engine run plus the write generate makes") {
     const TablePlan ti = predict_table(p, t, {1000}, Method::MonteCarlo, 1024, StoredType::Float32);
     CHECK(ti.seconds == doctest::Approx(1000 * 1024 * 1e-8 + write_seconds(1000, StoredType::Float32, 0, false, true)));
 }
+
+TEST_CASE("shared kernels: one process loads each kernel program once") {
+    auto plan = [](const std::string& kernel, double load, double large) {
+        TablePlan t;
+        t.kernel = kernel;
+        t.kernel_load_seconds = load;
+        t.large_grid_load_seconds = large;
+        return t;
+    };
+    // Three tables of one program (micrograin's three beta tables: beta is a
+    // parameter, not an option) and one of another: the first three load once,
+    // at the costliest of their measured loads.
+    const std::vector<TablePlan> tables = {plan("a", 0.10, 0.3), plan("a", 0.20, 0.0), plan("a", 0.15, 0.4),
+                                           plan("b", 0.50, 0.2), plan("", 0.7, 0.7)};
+    CHECK(shared_kernel_saving(tables) == doctest::Approx((0.45 - 0.20) + (0.7 - 0.4)));
+    CHECK(shared_kernel_saving({plan("a", 0.1, 0.3), plan("b", 0.1, 0.3)}) == 0);
+    CHECK(shared_kernel_saving({}) == 0);
+}

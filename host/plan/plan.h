@@ -174,6 +174,7 @@ struct TablePilot {
     // The spec's [output] choices the write cost depends on (write_seconds).
     int compression = 6;
     bool keep_stderr = true;
+    std::string kernel;  // model, quantity and options: with the method, the kernel program
     std::size_t preferred_slab = 1u << 17;  // the backend's largest launch (engine_launch_sizes)
     // Per axis: the finest level's lines (linear pilot), for --place-nodes
     // (node_placement.h); empty for explicit axes.
@@ -259,8 +260,9 @@ bool reaches_large_grid(const EngineLaunches& launches);
 // Predicted seconds of one table's engine run (a non-adaptive `estimate`):
 // the kernel load (startup), one run's overhead, the launches' work, and the
 // large-grid variant's load when a launch reaches kLargeGridWorkItems.
+// `large_grid`, when given, is set to whether the load was counted.
 double engine_seconds(const TablePilot& pilot, const IntegrationFit& fit, double cells,
-                      std::uint64_t samples);
+                      std::uint64_t samples, bool* large_grid = nullptr);
 
 // Seconds to write one table of `cells` to HDF5 (host/io/table_io.cpp): the
 // value dataset in the stored type, and for sampled and quadrature tables the
@@ -272,6 +274,13 @@ double write_seconds(double cells, StoredType type, int compression, bool with_s
 // Fixed cost of a `generate` process beyond its device set-up: exec, loading
 // the libraries and exit, and creating, closing and renaming the output file.
 double process_fixed_seconds();
+
+struct TablePlan;
+// One `generate` process builds (or loads) each kernel program once, however
+// many tables run it: of the tables with the same TablePlan::kernel all but
+// the costliest load are counted twice in the sum of their seconds.  Returns
+// that excess (seconds), to subtract from the sum.
+double shared_kernel_saving(const std::vector<TablePlan>& tables);
 
 // --------------------------------------------------------------- candidates
 
@@ -297,6 +306,11 @@ struct TablePlan {
     double storage_max = 0;
     double error_max = 0, error_rms = 0;
     double seconds = 0;
+    // The kernel program the table runs (model, quantity, options, method)
+    // and what loading it cost in `seconds`: tables of one process with the
+    // same program load it once (shared_kernel_saving).
+    std::string kernel;
+    double kernel_load_seconds = 0, large_grid_load_seconds = 0;
 };
 
 struct Candidate {
