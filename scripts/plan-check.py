@@ -209,6 +209,8 @@ def check_preset(path, args, workdir):
         result["error"] = "plan failed: " + plan.err.strip().splitlines()[-1] if plan.err.strip() else "plan failed"
         return result
     j = json.loads(plan.out)
+    with open(os.path.join(workdir, name + ".plan.json"), "w") as f:
+        f.write(plan.out)  # the pilots' costs, for a look at a time ratio (--workdir keeps it)
     aw = j.get("as_written")
     if not isinstance(aw, dict):
         result["error"] = f"no as-written prediction: {aw}"

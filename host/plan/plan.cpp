@@ -397,6 +397,9 @@ void large_grid_pilot(const PilotContext& ctx, const Spec& spec, IntegrationFit&
                       Backend* fresh, TablePilot& pilot, const ProgressFn& progress) {
     const std::size_t stride = ctx.model->point_stride();
     if (base.size() < stride) return;
+    // The host backends run C++, no PoCL variants; a backend whose launches
+    // stay below the size never meets the variant.
+    if (backend.device_name().rfind("host", 0) == 0 || backend.preferred_slab() < kLargeGridWorkItems) return;
     const bool sampled = f.method == Method::MonteCarlo || f.method == Method::Rqmc;
     IntegrationSettings s = ref;
     if (f.method != Method::ClosedForm) {
