@@ -932,8 +932,7 @@ TablePlan predict_table(const TablePilot& pilot, const PlanTarget& target,
     if (f->method == Method::Quadrature) {
         tp.integration_max = target.absolute ? f->max_abs.front() : f->max_rel.front();
         tp.integration_rms = target.absolute ? f->rms_abs.front() : f->rms_rel.front();
-    } else if (f->method == Method::ClosedForm) {
-    } else {
+    } else if (f->method != Method::ClosedForm) {
         // Every pilot cell's stderr scaled from the largest pilot budget with
         // the fitted rate, then the median of the largest error over the
         // table's cells (expected_max_error).
@@ -1208,8 +1207,9 @@ std::vector<Candidate> make_recombined_candidates(const std::vector<TablePilot>&
             cells_max = std::max(cells_max, cells);
         }
         if (cells_max > kMaxCells) continue;
-        double process = process_fixed_seconds();  // once per generate process
-        for (const TablePilot& p : pilots) process = std::max(process, process_fixed_seconds() + p.process_seconds);
+        double process = 0;  // once per generate process: device set-up (measured), start, exit
+        for (const TablePilot& p : pilots) process = std::max(process, p.process_seconds);
+        process += process_fixed_seconds();
         for (Method m : methods) {
             std::vector<std::uint64_t> budgets = {0};
             if (m == Method::MonteCarlo || m == Method::Rqmc)
@@ -1296,8 +1296,8 @@ std::optional<Candidate> predict_as_written(const Spec& spec, const std::vector<
                                             std::string& why) {
     Candidate c;
     c.stored_type = spec.output.stored_type;
-    c.seconds = process_fixed_seconds();
-    for (const TablePilot& p : pilots) c.seconds = std::max(c.seconds, process_fixed_seconds() + p.process_seconds);
+    for (const TablePilot& p : pilots) c.seconds = std::max(c.seconds, p.process_seconds);
+    c.seconds += process_fixed_seconds();
     c.samples = spec.integration.samples ? spec.integration.samples : 4096;
     const double bytes_per_cell = c.stored_type == StoredType::Float16   ? 2
                                   : c.stored_type == StoredType::Float64 ? 8
