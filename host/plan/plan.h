@@ -144,8 +144,8 @@ struct IntegrationFit {
     // more (plan.cpp, large_grid_pilot): loading it in a fresh process (from
     // the cache the pilot's own large launch filled), and, for MC / RQMC,
     // the fixed cost of one work item beyond its samples (seconds_per_sample
-    // comes from work items of 1024-4096 samples; a table of 2 samples per
-    // cell is 4 one-sample work items per cell).  0 where not measured (the
+    // comes from the pilot's work items of 128-4096 samples; 2 samples per
+    // cell are 4 one-sample work items per cell).  0 where not measured (the
     // launch would have cost more than kLargeLaunchPilotSeconds).
     double large_grid_load_seconds = 0;
     double item_overhead_seconds = 0;
@@ -277,9 +277,9 @@ double process_fixed_seconds();
 
 struct TablePlan;
 // One `generate` process builds (or loads) each kernel program once, however
-// many tables run it: of the tables with the same TablePlan::kernel all but
-// the costliest load are counted twice in the sum of their seconds.  Returns
-// that excess (seconds), to subtract from the sum.
+// many tables run it, while each table's seconds count a load: of the tables
+// with the same TablePlan::kernel, every load but the costliest is one too
+// many.  Returns their sum (seconds), to subtract from the tables' sum.
 double shared_kernel_saving(const std::vector<TablePlan>& tables);
 
 // --------------------------------------------------------------- candidates
