@@ -24,6 +24,11 @@ default) except for presets in ABSOLUTE_PRESETS or with --abs.
 
 Usage:  /usr/bin/python3 scripts/plan-check.py [--presets tables/a.toml ... | --all]
         [--brdftab build/brdftab] [--max-cells 30000] [--json report.json] [--markdown r.md]
+        [--time-only] [--fresh-kernel-cache] [--workdir DIR]
+--time-only skips certify (the time check alone, minutes less); --fresh-kernel-cache
+gives each preset an empty PoCL cache, so `plan` pays the kernel builds and `generate`
+finds what `plan` built, as on a first run; --workdir keeps the work specs, each
+preset's plan JSON (NAME.plan.json: the pilots' costs) and those caches.
 Default: every preset but SLOW_PRESETS; about 40 minutes wall at load average ~7
 on the 2-core machine (most of it the pilots of integral tables).
 See docs/planning.md, "How good are the predictions".
