@@ -24,6 +24,11 @@ default) except for presets in ABSOLUTE_PRESETS or with --abs.
 
 Usage:  /usr/bin/python3 scripts/plan-check.py [--presets tables/a.toml ... | --all]
         [--brdftab build/brdftab] [--max-cells 30000] [--json report.json] [--markdown r.md]
+        [--time-only] [--fresh-kernel-cache] [--workdir DIR]
+--time-only skips certify (the time check alone, minutes less); --fresh-kernel-cache
+gives each preset an empty PoCL cache, so `plan` pays the kernel builds and `generate`
+finds what `plan` built, as on a first run; --workdir keeps the work specs, each
+preset's plan JSON (NAME.plan.json: the pilots' costs) and those caches.
 Default: every preset but SLOW_PRESETS; about 40 minutes wall at load average ~7
 on the 2-core machine (most of it the pilots of integral tables).
 See docs/planning.md, "How good are the predictions".
@@ -209,6 +214,8 @@ def check_preset(path, args, workdir):
         result["error"] = "plan failed: " + plan.err.strip().splitlines()[-1] if plan.err.strip() else "plan failed"
         return result
     j = json.loads(plan.out)
+    with open(os.path.join(workdir, name + ".plan.json"), "w") as f:
+        f.write(plan.out)  # the pilots' costs, for a look at a time ratio (--workdir keeps it)
     aw = j.get("as_written")
     if not isinstance(aw, dict):
         result["error"] = f"no as-written prediction: {aw}"
@@ -243,6 +250,9 @@ def check_preset(path, args, workdir):
     recombined = {r.get("name") for r in work.get("recombined", [])}
     for t in result["tables"]:
         t["engine_seconds"] = engine.get(t["table"])
+        if args.time_only:
+            t["certify_error"] = "not certified (--time-only)"
+            continue
         if t["table"] in recombined:
             t["certify_error"] = "recombined: certify measures computed tables only"
             continue
@@ -343,6 +353,11 @@ def main():
     ap.add_argument("--all", action="store_true", help="with no --presets: also the slow presets (SLOW_PRESETS)")
     ap.add_argument("--abs", action="store_true", help="absolute errors for every preset")
     ap.add_argument("--skip-generate", action="store_true", help="predictions only")
+    ap.add_argument("--time-only", action="store_true",
+                    help="plan and generate only: check the time prediction, skip certify")
+    ap.add_argument("--fresh-kernel-cache", action="store_true",
+                    help="give each preset an empty PoCL kernel cache (POCL_CACHE_DIR), as on a first "
+                         "run: plan then pays the kernel builds, and generate finds only what plan built")
     ap.add_argument("--json", help="write the results as JSON to this file")
     ap.add_argument("--markdown", help="also write the table as Markdown to this file")
     ap.add_argument("--from-json", help="only print the report of an earlier --json run")
@@ -375,9 +390,12 @@ def main():
         os.makedirs(workdir, exist_ok=True)
         for p in presets:
             t0 = time.monotonic()
+            if args.fresh_kernel_cache:
+                os.environ["POCL_CACHE_DIR"] = tempfile.mkdtemp(prefix="pocl-cache-", dir=workdir)
             r = check_preset(p, args, workdir)
             r["check_seconds"] = time.monotonic() - t0
-            print(f"plan-check: {r['preset']}: {r['check_seconds']:.0f} s"
+            r["load"] = os.getloadavg()
+            print(f"plan-check: {r['preset']}: {r['check_seconds']:.0f} s, load average {r['load'][0]:.2f}"
                   + (f" ({r['error']})" if "error" in r else ""), file=sys.stderr, flush=True)
             results.append(r)
             if args.json:

@@ -270,7 +270,8 @@ TEST_CASE("balanced counts and predictions follow the fits") {
     CHECK(tp.interpolation_max > 0.9e-3);
     CHECK(tp.storage_max == doctest::Approx(std::ldexp(1.0, -24)));
     CHECK(tp.error_max == doctest::Approx(tp.interpolation_max + tp.storage_max));
-    CHECK(tp.seconds == doctest::Approx(double(n[0] * n[1]) * 1e-6));
+    CHECK(tp.seconds == doctest::Approx(double(n[0] * n[1]) * 1e-6 +
+                                        write_seconds(double(n[0] * n[1]), StoredType::Float32, 6, false, false)));
     // float16 of values up to 2 with a floor of 2e-3: no value is subnormal
     // relative to the floor (2^-25 / 2e-3 < 2^-11): 2^-11.
     const TablePlan th = predict_table(p, t, n, Method::ClosedForm, 0, StoredType::Float16);
@@ -658,11 +659,24 @@ TEST_CASE("as written: the spec's counts, method, samples and type, and the time
     REQUIRE(c->tables.size() == 1);
     CHECK(c->tables[0].counts == std::vector<std::size_t>{10, 5});
     // 50 cells x 1024 samples x 1e-8 s, one launch, the start-up, once the process.
-    CHECK(c->seconds == doctest::Approx(0.2 + 0.1 + 0.01 + 50 * 1024 * 1e-8));
+    // Plus the process' fixed cost and the write of value, stderr and samples.
+    const double fixed = process_fixed_seconds() + write_seconds(50, StoredType::Float16, 6, true, true);
+    CHECK(c->seconds == doctest::Approx(fixed + 0.2 + 0.1 + 0.01 + 50 * 1024 * 1e-8));
     // stderr at 1024 samples: 4e-3 x 2 (N^-1/2); the max over 50 cells.
     CHECK(c->tables[0].integration_max == doctest::Approx(median_max_normal(8e-3, 50)).epsilon(1e-3));
     // float16 of values up to 0.5: half an ulp, 2^-11 x 0.5.
     CHECK(c->tables[0].storage_max == doctest::Approx(std::ldexp(1.0, -12)));
+    // Two tables of the same kernel program: the second does not load it again.
+    Spec two = spec;
+    two.tables.push_back(two.tables[0]);
+    two.tables[1].name = "albedo_direct_2";
+    TablePilot p1 = p, p2 = p;
+    p1.kernel = p2.kernel = "oren-nayar\nalbedo_direct";
+    p2.table = "albedo_direct_2";
+    const auto c2 = predict_as_written(two, {p1, p2}, t, {}, why);
+    REQUIRE(c2);
+    CHECK(c2->seconds == doctest::Approx(fixed + 0.2 + 0.1 + 2 * 0.01 + 2 * 50 * 1024 * 1e-8 +
+                                         write_seconds(50, StoredType::Float16, 6, true, true)));
     // A method the pilot did not measure: no prediction, and why.
     Spec mc = spec;
     mc.integration.method = Method::MonteCarlo;
@@ -685,14 +699,15 @@ TEST_CASE("as written with a tolerance: the adaptive rounds of the engine, worke
     // [2 x, 16 x] 1024), where stderr = 4e-3 sqrt(4096 / 2884) = 4.77e-3 <= goal.
     const double samples = std::ceil(1024 * 1.6 * 1.6 * 1.1);
     const double sigma = 4e-3 * std::sqrt(4096 / samples);
-    CHECK(c->seconds == doctest::Approx(0.2 + 0.1 + 2 * 0.01 + 50 * samples * 1e-8));
+    const double fixed = process_fixed_seconds() + write_seconds(50, StoredType::Float16, 6, true, true);
+    CHECK(c->seconds == doctest::Approx(fixed + 0.2 + 0.1 + 2 * 0.01 + 50 * samples * 1e-8));
     // Relative: divided by the value 0.5.
     CHECK(c->tables[0].integration_max == doctest::Approx(median_max_normal(sigma / 0.5, 50)).epsilon(1e-3));
     // A cap below what the tolerance needs: every cell stops at max_samples.
     spec.integration.max_samples = 2048;
     const auto capped = predict_as_written(spec, {p}, t, {}, why);
     REQUIRE(capped);
-    CHECK(capped->seconds == doctest::Approx(0.2 + 0.1 + 2 * 0.01 + 50 * 2048 * 1e-8));
+    CHECK(capped->seconds == doctest::Approx(fixed + 0.2 + 0.1 + 2 * 0.01 + 50 * 2048 * 1e-8));
     CHECK(capped->tables[0].integration_max ==
           doctest::Approx(median_max_normal(4e-3 * std::sqrt(2.0) / 0.5, 50)).epsilon(1e-3));
 }

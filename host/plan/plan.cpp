@@ -255,6 +255,194 @@ void combine_errors(TablePlan& tp) {
 
 }  // namespace
 
+// --------------------------------------------------------------- cost model terms
+
+WorkShape work_shape(Method method, std::uint64_t samples) {
+    // As estimate() in host/engine/engine.cpp lays out its first round.
+    WorkShape w;
+    const std::uint64_t n = samples ? samples : 4096;
+    if (method == Method::Quadrature) {
+        w.items_per_cell = 2;
+    } else if (method == Method::MonteCarlo) {
+        const std::uint64_t batch = std::min<std::uint64_t>(n, 4096);
+        w.samples_per_item = double(batch);
+        w.items_per_cell = double((n + batch - 1) / batch);
+    } else if (method == Method::Rqmc) {
+        std::uint64_t pow2 = 0;  // floor_pow2(n / 8), 0 for n < 8
+        for (std::uint64_t b = 1; b <= n / 8; b *= 2) pow2 = b;
+        const std::uint64_t batch = std::max<std::uint64_t>(1, std::min<std::uint64_t>(pow2, 8192));
+        w.samples_per_item = double(batch);
+        w.items_per_cell = double(std::max<std::uint64_t>((n + batch - 1) / batch, 4));
+    }
+    return w;
+}
+
+EngineLaunches engine_launch_sizes(double work_items, double seconds_per_item, double seconds_per_launch,
+                                   std::size_t max_slab) {
+    // engine.cpp: kLaunchSeconds, kMinLaunch, kFirstLaunch and resize_slab.
+    constexpr double kLaunchSeconds = 0.5;
+    constexpr std::size_t kMinLaunch = 256, kFirstLaunch = 256, kKept = 32;
+    EngineLaunches out;
+    max_slab = std::max<std::size_t>(1, max_slab);
+    std::size_t slab = std::min(max_slab, kFirstLaunch);
+    double left = std::floor(std::max(work_items, 0.0));
+    auto add = [&](std::size_t n, double times) {
+        out.count += times;
+        out.largest = std::max(out.largest, n);
+        for (double k = 0; k < times && out.first.size() < kKept; ++k) out.first.push_back(n);
+    };
+    while (left > 0) {
+        if (left < double(slab)) {  // the tail: too short to resize by
+            add(static_cast<std::size_t>(left), 1);
+            break;
+        }
+        add(slab, 1);
+        left -= double(slab);
+        const double seconds = seconds_per_launch + double(slab) * seconds_per_item;
+        double ideal = seconds > 0 ? kLaunchSeconds * double(slab) / seconds : double(max_slab);
+        ideal = std::clamp(ideal, double(slab) / 4, double(slab) * 4);
+        const std::size_t rounded = static_cast<std::size_t>(ideal) / kMinLaunch * kMinLaunch;
+        const std::size_t next = std::clamp(rounded, std::min(kMinLaunch, max_slab), max_slab);
+        if (next == slab) {  // steady: every further full launch is the same
+            const double full = std::floor(left / double(slab));
+            add(slab, full);
+            left -= full * double(slab);
+            if (left > 0) add(static_cast<std::size_t>(left), 1);
+            break;
+        }
+        slab = next;
+    }
+    return out;
+}
+
+bool reaches_large_grid(const EngineLaunches& launches) {
+    constexpr std::size_t kGroup = 64;  // engine.cpp's work-group size (BRDFTAB_LOCAL_SIZE default)
+    return (launches.largest + kGroup - 1) / kGroup * kGroup >= kLargeGridWorkItems;
+}
+
+double engine_seconds(const TablePilot& pilot, const IntegrationFit& f, double cells, std::uint64_t samples,
+                      bool* large_grid) {
+    const bool sampled = f.method == Method::MonteCarlo || f.method == Method::Rqmc;
+    const WorkShape w = work_shape(f.method, sampled ? samples : 0);
+    const double items = cells * w.items_per_cell;
+    const double per_item = sampled ? f.item_overhead_seconds + w.samples_per_item * f.seconds_per_sample
+                                    : f.seconds_per_cell / w.items_per_cell;
+    double t = pilot.startup_seconds + pilot.overhead_seconds + items * per_item;
+    const bool large =
+        f.large_grid_load_seconds > 0 &&
+        reaches_large_grid(engine_launch_sizes(items, per_item, pilot.overhead_seconds, pilot.preferred_slab));
+    if (large) t += f.large_grid_load_seconds;
+    if (large_grid) *large_grid = large;
+    return t;
+}
+
+double shared_kernel_saving(const std::vector<TablePlan>& tables) {
+    struct Loads {
+        double startup_sum = 0, startup_max = 0, large_sum = 0, large_max = 0;
+    };
+    std::map<std::string, Loads> by_kernel;
+    for (const TablePlan& t : tables) {
+        if (t.kernel.empty()) continue;
+        Loads& l = by_kernel[t.kernel];
+        l.startup_sum += t.kernel_load_seconds, l.startup_max = std::max(l.startup_max, t.kernel_load_seconds);
+        l.large_sum += t.large_grid_load_seconds, l.large_max = std::max(l.large_max, t.large_grid_load_seconds);
+    }
+    double saving = 0;
+    for (const auto& [kernel, l] : by_kernel) saving += (l.startup_sum - l.startup_max) + (l.large_sum - l.large_max);
+    return saving;
+}
+
+double write_seconds(double cells, StoredType type, int compression, bool with_stderr, bool with_samples) {
+    // Seconds per stored value, write_tables() of a smooth 2-D table of
+    // 3e5 and 3e6 cells (fastest of 3), the 2-core machine, 30 November 2026:
+    //             float16   float32   float64
+    //   deflate    2.5e-7    4.5e-7    6.5e-7   (level 6, with shuffle)
+    //   none       1.5e-7    2.0e-7    1.7e-7
+    // uint32 samples as float32 (they compress better: an upper bound).
+    const bool deflate = compression > 0;
+    auto per_value = [&](StoredType t) {
+        switch (t) {
+        case StoredType::Float16: return deflate ? 2.5e-7 : 1.5e-7;
+        case StoredType::Float32: return deflate ? 4.5e-7 : 2.0e-7;
+        case StoredType::Float64: return deflate ? 6.5e-7 : 1.7e-7;
+        }
+        return 4.5e-7;
+    };
+    double per_cell = per_value(type);
+    if (with_stderr) per_cell += per_value(type);
+    if (with_samples) per_cell += per_value(StoredType::Float32);
+    return std::max(cells, 0.0) * per_cell;
+}
+
+double process_fixed_seconds() {
+    // Measured on the 2-core machine (30 November 2026, load average 5-6):
+    // `brdftab --version` 0.03-0.04 s wall (exec, shared libraries, static
+    // registration, exit), and a 64-cell file 7-8 ms (create, attributes,
+    // close, rename).
+    return 0.035 + 0.008;
+}
+
+namespace {
+
+// A launch costing more than this (by the pilot's per-item cost) is not made:
+// generate's launches of such items stay below kLargeGridWorkItems anyway
+// (0.5 s per launch / 65536 items = 7.6 us per item, this is twice that).
+constexpr double kLargeLaunchPilotSeconds = 1.0;
+
+// The large-grid pilot of one method (see run_pilot): `base` are kernel points
+// (repeated to one launch of at least kLargeGridWorkItems work items); sets
+// f.large_grid_load_seconds, and for MC / RQMC f.item_overhead_seconds.
+void large_grid_pilot(const PilotContext& ctx, const Spec& spec, IntegrationFit& f,
+                      const std::vector<double>& base, const IntegrationSettings& ref, Backend& backend,
+                      Backend* fresh, TablePilot& pilot, const ProgressFn& progress) {
+    const std::size_t stride = ctx.model->point_stride();
+    if (base.size() < stride) return;
+    // The host backends run C++, no PoCL variants; a backend whose launches
+    // stay below the size never meets the variant.
+    if (backend.device_name().rfind("host", 0) == 0 || backend.preferred_slab() < kLargeGridWorkItems) return;
+    const bool sampled = f.method == Method::MonteCarlo || f.method == Method::Rqmc;
+    IntegrationSettings s = ref;
+    if (f.method != Method::ClosedForm) {
+        s = IntegrationSettings{};
+        s.method = f.method;
+        s.seed = ref.seed;
+        if (sampled) s.samples = spec.integration.samples ? spec.integration.samples : 4096;
+    }
+    const WorkShape w = work_shape(f.method, s.samples);
+    const double guess = sampled ? w.samples_per_item * f.seconds_per_sample : f.seconds_per_cell / w.items_per_cell;
+    if (!(guess > 0) || guess * double(kLargeGridWorkItems) > kLargeLaunchPilotSeconds) return;
+    const std::size_t cells =
+        static_cast<std::size_t>(std::ceil(double(kLargeGridWorkItems) / w.items_per_cell));
+    std::vector<double> batch;
+    batch.reserve(cells * stride);
+    while (batch.size() < cells * stride) {
+        const std::size_t take = std::min(base.size(), cells * stride - batch.size());
+        batch.insert(batch.end(), base.begin(), base.begin() + static_cast<std::ptrdiff_t>(take));
+    }
+    s.slab_work_items = static_cast<std::size_t>(double(cells) * w.items_per_cell);  // one launch
+    auto run = [&](Backend& b) {
+        return estimate_at(b, *ctx.model, *ctx.quantity, ctx.options, batch, s, progress).elapsed_seconds;
+    };
+    (void)run(backend);  // builds the variant (into PoCL's cache)
+    // The launch alone: the faster of two (the machine may be shared).
+    const double work = std::min(run(backend), run(backend));
+    if (fresh) {
+        // A one-point run first loads this method's program (its small-grid
+        // variant), which the table's startup_seconds already counts (for
+        // the default method; MC and RQMC are two programs): what remains
+        // of the large launch above `work` is the large-grid variant's load.
+        (void)estimate_at(*fresh, *ctx.model, *ctx.quantity, ctx.options,
+                          std::vector<double>(base.begin(), base.begin() + static_cast<std::ptrdiff_t>(stride)), s);
+        f.large_grid_load_seconds = std::max(0.0, run(*fresh) - work);
+    }
+    pilot.pilot_evaluations += (fresh ? 4 : 3) * cells;
+    const double per_item = std::max(work - pilot.overhead_seconds, 0.5 * work) / double(s.slab_work_items);
+    if (sampled) f.item_overhead_seconds = std::max(0.0, per_item - w.samples_per_item * f.seconds_per_sample);
+    f.large_grid_measured = true;
+}
+
+}  // namespace
+
 TablePilot run_pilot(const Spec& spec, std::size_t table_index, Backend& backend,
                      const PilotOptions& options, const PilotProgressFn& progress) {
     const double start = now_seconds();
@@ -367,10 +555,16 @@ TablePilot run_pilot(const Spec& spec, std::size_t table_index, Backend& backend
     const std::size_t stride = ctx.model->point_stride();
     const std::vector<double> one(points.begin(), points.begin() + stride);
     pilot.startup_seconds = estimate_at(backend, *ctx.model, *ctx.quantity, ctx.options, one, ref).elapsed_seconds;
-    if (options.fresh_backend)
-        if (const std::unique_ptr<Backend> fresh = options.fresh_backend())
-            pilot.startup_seconds =
-                estimate_at(*fresh, *ctx.model, *ctx.quantity, ctx.options, one, ref).elapsed_seconds;
+    // Kept for the large-grid pilot below (its variant's load, as a fresh
+    // process pays it).
+    const std::unique_ptr<Backend> fresh = options.fresh_backend ? options.fresh_backend() : nullptr;
+    if (fresh)
+        pilot.startup_seconds = estimate_at(*fresh, *ctx.model, *ctx.quantity, ctx.options, one, ref).elapsed_seconds;
+    pilot.kernel = spec.model + "\n" + ts.quantity;
+    for (int o : ctx.options) pilot.kernel += " " + std::to_string(o);
+    pilot.compression = spec.output.compression;
+    pilot.keep_stderr = spec.output.keep_stderr;
+    pilot.preferred_slab = backend.preferred_slab();
     pilot.process_seconds = options.process_seconds;
     pilot.overhead_seconds = std::numeric_limits<double>::infinity();
     for (int k = 0; k < 3; ++k)
@@ -448,6 +642,7 @@ TablePilot run_pilot(const Spec& spec, std::size_t table_index, Backend& backend
     }
 
     // ---- cost per cell (closed form, quadrature) and integration error.
+    std::vector<double> integral_cells;  // the integration pilot's cell points (large-grid pilot)
     if (ctx.quantity->kind == QuantityKind::ClosedForm) {
         // Cost per cell: one full launch of the backend's preferred size, as
         // `generate` runs them (the pilot's points repeated; 16384 <= cells
@@ -486,6 +681,7 @@ TablePilot run_pilot(const Spec& spec, std::size_t table_index, Backend& backend
         std::vector<std::map<std::string, double>> cells(options.cells);
         for (auto& c : cells) c = random_cell(ctx.fixed, ts.axes, rng);
         const std::vector<double> cell_points = kernel_points(ctx, cells);
+        integral_cells = cell_points;
         const std::vector<Method> methods =
             ctx.quantity->kind == QuantityKind::Quadrature ? std::vector<Method>{Method::Quadrature}
                                                            : std::vector<Method>{Method::MonteCarlo, Method::Rqmc};
@@ -628,6 +824,18 @@ TablePilot run_pilot(const Spec& spec, std::size_t table_index, Backend& backend
             pilot.integration.push_back(f);
         }
     }
+    // ---- PoCL's large-grid kernel variant (kLargeGridWorkItems).
+    // generate's launches grow towards 0.5 s each, up to 131072 work items;
+    // cheap work items (micrograin's one-sample RQMC items, closed forms)
+    // reach 65536, where PoCL compiles a second variant of the kernel: 2-8 s
+    // that a pilot of small launches never paid nor measured (docs/planning.md,
+    // "How good are the predictions").  One launch of that size here builds it
+    // into PoCL's cache (so the generate after `plan` only loads it); the same
+    // launch on the fresh backend measures that load, and again the cost per
+    // work item in that variant.
+    for (IntegrationFit& f : pilot.integration)
+        large_grid_pilot(ctx, spec, f, ctx.quantity->kind == QuantityKind::ClosedForm ? points : integral_cells,
+                         ref, backend, fresh.get(), pilot, stage(ts.name + ": large-grid pilot"));
     pilot.pilot_seconds = now_seconds() - start;
     return pilot;
 }
@@ -685,6 +893,13 @@ std::vector<std::size_t> balanced_counts(const TablePilot& pilot, const PlanTarg
     return counts;
 }
 
+namespace {
+double table_write_seconds(const TablePilot& pilot, Method method, double cells, StoredType type) {
+    const bool computed = method != Method::ClosedForm;
+    return write_seconds(cells, type, pilot.compression, computed && pilot.keep_stderr, computed);
+}
+}  // namespace
+
 TablePlan predict_table(const TablePilot& pilot, const PlanTarget& target,
                         const std::vector<std::size_t>& counts, Method method,
                         std::uint64_t samples, StoredType stored_type) {
@@ -717,10 +932,7 @@ TablePlan predict_table(const TablePilot& pilot, const PlanTarget& target,
     if (f->method == Method::Quadrature) {
         tp.integration_max = target.absolute ? f->max_abs.front() : f->max_rel.front();
         tp.integration_rms = target.absolute ? f->rms_abs.front() : f->rms_rel.front();
-        tp.seconds = pilot.startup_seconds + pilot.overhead_seconds + tp.cells * f->seconds_per_cell;
-    } else if (f->method == Method::ClosedForm) {
-        tp.seconds = pilot.startup_seconds + pilot.overhead_seconds + tp.cells * f->seconds_per_cell;
-    } else {
+    } else if (f->method != Method::ClosedForm) {
         // Every pilot cell's stderr scaled from the largest pilot budget with
         // the fitted rate, then the median of the largest error over the
         // table's cells (expected_max_error).
@@ -732,8 +944,15 @@ TablePlan predict_table(const TablePilot& pilot, const PlanTarget& target,
         for (std::size_t k = 0; k < cell.size(); ++k) sigma[k] = cell[k] * scale;
         tp.integration_max = expected_max_error(sigma, tp.cells);
         tp.integration_rms = (target.absolute ? f->fit_rms_abs : f->fit_rms_rel).eval(n);
-        tp.seconds = pilot.startup_seconds + pilot.overhead_seconds + tp.cells * n * f->seconds_per_sample;
     }
+    // The engine run, then the table's HDF5 write (generate.cpp keeps no
+    // stderr and no samples for closed forms).
+    bool large_grid = false;
+    tp.seconds = engine_seconds(pilot, *f, tp.cells, samples, &large_grid) +
+                 table_write_seconds(pilot, f->method, tp.cells, stored_type);
+    if (!pilot.kernel.empty()) tp.kernel = pilot.kernel + "\n" + to_string(f->method);
+    tp.kernel_load_seconds = pilot.startup_seconds;
+    tp.large_grid_load_seconds = large_grid ? f->large_grid_load_seconds : 0.0;
 
     // Storage: half an ulp of the stored value (relative), or of the floor.
     const StorageRounding s = storage_rounding(stored_type);
@@ -988,8 +1207,9 @@ std::vector<Candidate> make_recombined_candidates(const std::vector<TablePilot>&
             cells_max = std::max(cells_max, cells);
         }
         if (cells_max > kMaxCells) continue;
-        double process = 0;  // once per generate process
+        double process = 0;  // once per generate process: device set-up (measured), start, exit
         for (const TablePilot& p : pilots) process = std::max(process, p.process_seconds);
+        process += process_fixed_seconds();
         for (Method m : methods) {
             std::vector<std::uint64_t> budgets = {0};
             if (m == Method::MonteCarlo || m == Method::Rqmc)
@@ -1005,6 +1225,7 @@ std::vector<Candidate> make_recombined_candidates(const std::vector<TablePilot>&
                     const double bytes_per_cell = st == StoredType::Float16 ? 2 : 4;
                     for (std::size_t i = 0; i < pilots.size(); ++i)
                         add_table(c, predict_table(pilots[i], target, counts[i], m, n, st), bytes_per_cell);
+                    c.seconds -= shared_kernel_saving(c.tables);
                     add_recombined(c, groups, pilots, target, bytes_per_cell);
                     if (std::isfinite(c.error_max) && std::isfinite(c.seconds)) out.push_back(std::move(c));
                 }
@@ -1076,6 +1297,7 @@ std::optional<Candidate> predict_as_written(const Spec& spec, const std::vector<
     Candidate c;
     c.stored_type = spec.output.stored_type;
     for (const TablePilot& p : pilots) c.seconds = std::max(c.seconds, p.process_seconds);
+    c.seconds += process_fixed_seconds();
     c.samples = spec.integration.samples ? spec.integration.samples : 4096;
     const double bytes_per_cell = c.stored_type == StoredType::Float16   ? 2
                                   : c.stored_type == StoredType::Float64 ? 8
@@ -1097,11 +1319,16 @@ std::optional<Candidate> predict_as_written(const Spec& spec, const std::vector<
         }
         if (spec.integration.tolerance > 0 && (m == Method::MonteCarlo || m == Method::Rqmc)) {
             for (const IntegrationFit& f : p.integration)
-                if (f.method == m) predict_adaptive(p, f, target, spec.integration, tp);
+                if (f.method == m) {
+                    predict_adaptive(p, f, target, spec.integration, tp);
+                    tp.seconds += table_write_seconds(p, m, tp.cells, c.stored_type);
+                    tp.large_grid_load_seconds = 0;  // not counted by predict_adaptive
+                }
             combine_errors(tp);
         }
         add_table(c, tp, bytes_per_cell);
     }
+    c.seconds -= shared_kernel_saving(c.tables);
     add_recombined(c, groups, pilots, target, bytes_per_cell);
     return c;
 }
@@ -1216,7 +1443,9 @@ nlohmann::json pilot_json(const TablePilot& p) {
             j["fit_max_abs"] = fit_json(f.fit_max_abs);
             j["fit_max_rel"] = fit_json(f.fit_max_rel);
             j["q"] = f.fit_max_rel.valid ? -f.fit_max_rel.p : 0.0;
+            if (f.large_grid_measured) j["item_overhead_seconds"] = f.item_overhead_seconds;
         }
+        if (f.large_grid_measured) j["large_grid_load_seconds"] = f.large_grid_load_seconds;
         integ.push_back(j);
     }
     return {{"table", p.table}, {"quantity", p.quantity}, {"max_value", p.max_value}, {"min_value", p.min_value},

@@ -140,6 +140,16 @@ struct IntegrationFit {
     std::vector<double> cell_value;      // |value| per pilot cell (the adaptive prediction's targets)
     double seconds_per_sample = 0;       // from the largest budget
     double seconds_per_cell = 0;         // closed form / quadrature
+    // PoCL's second kernel variant, for launches of kLargeGridWorkItems or
+    // more (plan.cpp, large_grid_pilot): loading it in a fresh process (from
+    // the cache the pilot's own large launch filled), and, for MC / RQMC,
+    // the fixed cost of one work item beyond its samples (seconds_per_sample
+    // comes from the pilot's work items of 128-4096 samples; 2 samples per
+    // cell are 4 one-sample work items per cell).  0 where not measured (the
+    // launch would have cost more than kLargeLaunchPilotSeconds).
+    double large_grid_load_seconds = 0;
+    double item_overhead_seconds = 0;
+    bool large_grid_measured = false;
     // Quadrature: the node count of the finer rule the errors above were
     // measured against (the rule's own error); 0: they are the stored
     // two-rule difference (plan.cpp, finer_rule_nodes).
@@ -161,6 +171,11 @@ struct TablePilot {
                                    // a `generate` process pays again: part of the prediction
                                    // (with PilotOptions::fresh_backend: the cache load)
     double process_seconds = 0;    // PilotOptions::process_seconds, paid once per generate
+    // The spec's [output] choices the write cost depends on (write_seconds).
+    int compression = 6;
+    bool keep_stderr = true;
+    std::string kernel;  // model, quantity and options: with the method, the kernel program
+    std::size_t preferred_slab = 1u << 17;  // the backend's largest launch (engine_launch_sizes)
     // Per axis: the finest level's lines (linear pilot), for --place-nodes
     // (node_placement.h); empty for explicit axes.
     std::vector<std::vector<PlacementLine>> placement_lines;
@@ -205,6 +220,68 @@ std::vector<std::size_t> pilot_counts(std::size_t count, std::size_t max_base = 
 TablePilot run_pilot(const Spec& spec, std::size_t table_index, Backend& backend,
                      const PilotOptions& options, const PilotProgressFn& progress = nullptr);
 
+// --------------------------------------------------------------- cost model terms
+
+// How `estimate` (host/engine/engine.cpp) lays out a run of `samples` per cell
+// (non-adaptive, or the first round of an adaptive one): work items per cell
+// and samples per work item.  Closed form: 1 x 1; quadrature: 2 x 1 (the
+// accurate and the coarse rule); MC: batches of min(N, 4096); RQMC: batches
+// of floor_pow2(N / 8) within [1, 8192], at least 4 of them.
+struct WorkShape {
+    double items_per_cell = 1;
+    double samples_per_item = 1;
+};
+WorkShape work_shape(Method method, std::uint64_t samples);
+
+// The launch sizes (work items) `estimate` makes for `work_items` items of
+// `seconds_per_item` each plus `seconds_per_launch`, with automatic slabs:
+// the first 256, then each full launch resized towards 0.5 s (at most 4x up
+// or down, whole multiples of 256, within [256, max_slab]).  Mirrors
+// engine.cpp's resize_slab; the sizes sum to work_items.  Once a full launch
+// leaves the slab unchanged every later one does too: the count is then
+// worked out, not simulated, so tables of 2^32 cells cost nothing to predict.
+struct EngineLaunches {
+    double count = 0;                 // launches
+    std::size_t largest = 0;          // work items of the largest
+    std::vector<std::size_t> first;   // the sizes of the first (up to 32) launches
+};
+EngineLaunches engine_launch_sizes(double work_items, double seconds_per_item, double seconds_per_launch,
+                                   std::size_t max_slab);
+
+// PoCL (CPU device) builds a kernel's work-group function for "small grids"
+// and, at the first launch whose global size reaches this many work items
+// (measured: 65472 small, 65536 not, in groups of 64), a second, general one:
+// 2-8 s of compiling on the 2-core machine when its cache lacks it.
+constexpr std::size_t kLargeGridWorkItems = 65536;
+// Whether the largest launch's global size (rounded up to groups of 64, as
+// engine.cpp does) reaches kLargeGridWorkItems.
+bool reaches_large_grid(const EngineLaunches& launches);
+
+// Predicted seconds of one table's engine run (a non-adaptive `estimate`):
+// the kernel load (startup), one run's overhead, the launches' work, and the
+// large-grid variant's load when a launch reaches kLargeGridWorkItems.
+// `large_grid`, when given, is set to whether the load was counted.
+double engine_seconds(const TablePilot& pilot, const IntegrationFit& fit, double cells,
+                      std::uint64_t samples, bool* large_grid = nullptr);
+
+// Seconds to write one table of `cells` to HDF5 (host/io/table_io.cpp): the
+// value dataset in the stored type, and for sampled and quadrature tables the
+// stderr (same type, when kept) and samples (uint32) datasets, deflate +
+// shuffle when compression > 0.  Per stored value, measured on the 2-core
+// machine (docs/planning.md, "How good are the predictions").
+double write_seconds(double cells, StoredType type, int compression, bool with_stderr, bool with_samples);
+
+// Fixed cost of a `generate` process beyond its device set-up: exec, loading
+// the libraries and exit, and creating, closing and renaming the output file.
+double process_fixed_seconds();
+
+struct TablePlan;
+// One `generate` process builds (or loads) each kernel program once, however
+// many tables run it, while each table's seconds count a load: of the tables
+// with the same TablePlan::kernel, every load but the costliest is one too
+// many.  Returns their sum (seconds), to subtract from the tables' sum.
+double shared_kernel_saving(const std::vector<TablePlan>& tables);
+
 // --------------------------------------------------------------- candidates
 
 struct PlanTarget {
@@ -229,6 +306,11 @@ struct TablePlan {
     double storage_max = 0;
     double error_max = 0, error_rms = 0;
     double seconds = 0;
+    // The kernel program the table runs (model, quantity, options, method)
+    // and what loading it cost in `seconds`: tables of one process with the
+    // same program load it once (shared_kernel_saving).
+    std::string kernel;
+    double kernel_load_seconds = 0, large_grid_load_seconds = 0;
 };
 
 struct Candidate {
