@@ -12,6 +12,10 @@
 // and whether both paths gave the same bits (they must).
 // BENCH_KERNEL_DIR=DIR: kernel sources from DIR (a copy of kernels/ with
 // edits) instead of the embedded ones.
+// BENCH_OPTIONS='{"distribution": "beckmann"}': the models' options (JSON,
+// default: every option at its default).
+// BENCH_PARAMETERS='{"alpha": 0.5}': parameter values for every cell (JSON;
+// default: the model's defaults, parameters without one mid-range).
 // BENCH_SAMPLE_PARALLEL_ONLY=1: run each case once, sample-parallel only, no
 // timings (to read PoCL's vectoriser remarks of that program alone).
 #include <algorithm>
@@ -102,7 +106,10 @@ int main(int argc, char** argv) {
     for (const Case& c : cases) {
         const ModelInfo& m = find_model(c.model);
         const QuantityInfo& q = m.quantity(c.quantity);
-        const std::vector<int> options = resolve_options(m, nlohmann::json::object(), "bench");
+        const char* options_text = std::getenv("BENCH_OPTIONS");
+        const std::vector<int> options = resolve_options(
+            m, options_text ? nlohmann::json::parse(options_text) : nlohmann::json::object(),
+            "BENCH_OPTIONS");
         PointBuilder builder(m, q);
         std::vector<std::vector<double>> points(c.cells, std::vector<double>(m.point_stride()));
         for (std::size_t k = 0; k < c.cells; ++k) {
@@ -118,6 +125,10 @@ int main(int argc, char** argv) {
             }
             for (const auto& p : m.parameters)
                 if (!p.default_value) v[p.name] = 0.5 * (p.min + std::min(p.max, p.min + 2.0));
+            if (const char* params = std::getenv("BENCH_PARAMETERS")) {
+                const nlohmann::json given = nlohmann::json::parse(params);
+                for (auto it = given.begin(); it != given.end(); ++it) v[it.key()] = it->get<double>();
+            }
             builder.build(v, points[k].data());
         }
         IntegrationSettings s;

@@ -166,9 +166,10 @@ TEST_CASE("sample-parallel: splits, odd batch sizes, caps below a batch and adap
     check_same_bits(adaptive_usual, run(*device, m, q, cells, a));
 }
 
-TEST_CASE("sample-parallel defaults name existing Monte Carlo quantities") {
+TEST_CASE("sample-parallel defaults name existing Monte Carlo quantities and options") {
     // A typo in the engine's table would silently turn a default off; a
     // closed form or quadrature method would never run sample-parallel.
+    REQUIRE_FALSE(sample_parallel_default_cases().empty());
     for (const SampleParallelCase& c : sample_parallel_default_cases()) {
         CAPTURE(c.model);
         CAPTURE(c.quantity);
@@ -176,7 +177,23 @@ TEST_CASE("sample-parallel defaults name existing Monte Carlo quantities") {
         const QuantityInfo& q = m.quantity(c.quantity);  // ... or quantity
         CHECK(q.kind != QuantityKind::ClosedForm);
         CHECK((c.method == Method::MonteCarlo || c.method == Method::Rqmc));
-        CHECK(sample_parallel_by_default(c.model, c.quantity, c.method));
+        nlohmann::json given = nlohmann::json::object();
+        if (!c.option.empty()) {
+            const OptionInfo* o = m.find_option(c.option);
+            REQUIRE(o != nullptr);
+            CHECK(o->index_of(c.choice) >= 0);
+            given[c.option] = c.choice;
+        }
+        const std::vector<int> options = resolve_options(m, given, "test");
+        CHECK(sample_parallel_by_default(m, q, c.method, options));
+        const Method other = c.method == Method::MonteCarlo ? Method::Rqmc : Method::MonteCarlo;
+        CHECK_FALSE(sample_parallel_by_default(m, q, other, options));
     }
-    CHECK_FALSE(sample_parallel_by_default("no-such-model", "brdf", Method::MonteCarlo));
+    // Measured slower, so not by default (docs/benchmarks.md).
+    const ModelInfo& rd = find_model("rough-dielectric");
+    CHECK_FALSE(sample_parallel_by_default(rd, rd.quantity("albedo_r"), Method::MonteCarlo,
+                                           resolve_options(rd, {{"distribution", "beckmann"}}, "")));
+    const ModelInfo& mg = find_model("micrograin");
+    CHECK_FALSE(sample_parallel_by_default(mg, mg.quantity("brdf"), Method::Rqmc,
+                                           resolve_options(mg, nlohmann::json::object(), "")));
 }

@@ -109,11 +109,15 @@ std::unique_ptr<Backend> make_backend(const std::string& device_selector,
 // 2^22; a batch larger than the cap runs the usual kernel).
 struct SampleParallelCase {
     std::string model, quantity;
-    Method method;  // MonteCarlo or Rqmc
+    Method method;       // MonteCarlo or Rqmc
+    std::string option;  // "" = any options; else only with option == choice
+    std::string choice;
 };
 const std::vector<SampleParallelCase>& sample_parallel_default_cases();
-bool sample_parallel_by_default(const std::string& model, const std::string& quantity,
-                                Method method);
+// Whether a launch of `quantity` of `model` by `method` with these option
+// indices (resolve_options) runs sample-parallel by default.
+bool sample_parallel_by_default(const ModelInfo& model, const QuantityInfo& quantity,
+                                Method method, const std::vector<int>& options);
 
 struct Progress {
     std::size_t cells_total = 0;
