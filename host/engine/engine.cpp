@@ -232,30 +232,30 @@ public:
             if (sample_parallel) {
                 enqueue_sample_parallel(l, *pair, accum_size);
             } else {
-            cl::Kernel& kernel = *kernel_ptr;
-            int a = 0;
-            kernel.setArg(a++, points_);
-            kernel.setArg(a++, static_cast<cl_uint>(l.stride));
-            kernel.setArg(a++, options_);
-            kernel.setArg(a++, static_cast<cl_uint>(l.options.size()));
-            kernel.setArg(a++, static_cast<cl_int>(l.quantity));
-            kernel.setArg(a++, static_cast<cl_uint>(l.method));
-            kernel.setArg(a++, static_cast<cl_uint>(l.key0));
-            kernel.setArg(a++, static_cast<cl_uint>(l.key1));
-            kernel.setArg(a++, cells_);
-            kernel.setArg(a++, batches_);
-            kernel.setArg(a++, static_cast<cl_uint>(n));
-            kernel.setArg(a++, static_cast<cl_uint>(l.batch_size));
-            kernel.setArg(a++, out_mean_);
-            kernel.setArg(a++, out_m2_);
-            // Round the global size up to a multiple of 256 so PoCL can choose
-            // a reasonable work-group size (the kernel ignores the padding);
-            // a prime global size would force work-groups of one item.
-            // With a fixed work-group size (local_size()), whole groups of it.
-            const std::size_t group = local_group();
-            const std::size_t global = (n + group - 1) / group * group;
-            queue.enqueueNDRangeKernel(kernel, cl::NullRange, cl::NDRange(global),
-                                       group == 256 ? cl::NullRange : cl::NDRange(group));
+                cl::Kernel& kernel = *kernel_ptr;
+                int a = 0;
+                kernel.setArg(a++, points_);
+                kernel.setArg(a++, static_cast<cl_uint>(l.stride));
+                kernel.setArg(a++, options_);
+                kernel.setArg(a++, static_cast<cl_uint>(l.options.size()));
+                kernel.setArg(a++, static_cast<cl_int>(l.quantity));
+                kernel.setArg(a++, static_cast<cl_uint>(l.method));
+                kernel.setArg(a++, static_cast<cl_uint>(l.key0));
+                kernel.setArg(a++, static_cast<cl_uint>(l.key1));
+                kernel.setArg(a++, cells_);
+                kernel.setArg(a++, batches_);
+                kernel.setArg(a++, static_cast<cl_uint>(n));
+                kernel.setArg(a++, static_cast<cl_uint>(l.batch_size));
+                kernel.setArg(a++, out_mean_);
+                kernel.setArg(a++, out_m2_);
+                // Round the global size up to a multiple of 256 so PoCL can choose
+                // a reasonable work-group size (the kernel ignores the padding);
+                // a prime global size would force work-groups of one item.
+                // With a fixed work-group size (local_size()), whole groups of it.
+                const std::size_t group = local_group();
+                const std::size_t global = (n + group - 1) / group * group;
+                queue.enqueueNDRangeKernel(kernel, cl::NullRange, cl::NDRange(global),
+                                           group == 256 ? cl::NullRange : cl::NDRange(group));
             }
             if (accum_double) {
                 queue.enqueueReadBuffer(out_mean_, CL_FALSE, 0, n * sizeof(double), mean.data());
@@ -312,7 +312,8 @@ private:
     static std::size_t sample_parallel_scratch_samples() {
         const char* env = std::getenv("BRDFTAB_SAMPLE_PARALLEL_SCRATCH");
         if (env && *env) {
-            const long long v = std::atoll(env);
+            // At most 2^31 samples: a sub-launch's sample count is a uint.
+            const long long v = std::min(std::atoll(env), 1LL << 31);
             if (v >= 2) return static_cast<std::size_t>(v);
         }
         return std::size_t{1} << 22;
