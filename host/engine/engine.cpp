@@ -121,6 +121,42 @@ private:
 
 // ---------------------------------------------------------- OpenCL backend
 
+}  // namespace
+
+// The cases whose batches run sample-parallel on OpenCL devices by default
+// (engine.h).  Filled from measurements only (docs/benchmarks.md,
+// "Sample-parallel launches (2026-11-30)"): a case is listed where PoCL
+// vectorised the sample kernel across work items and it ran faster per
+// CPU-second than the usual kernel (rough-dielectric GGX albedos by Monte
+// Carlo: 2.1-2.4x; bench/bench_sample_parallel), bit-identical to it
+// (tests/test_sample_parallel.cpp).  Not listed, because measured slower
+// (0.6-1.0x): every RQMC case (the scrambled Sobol sampler keeps the loop
+// scalar), Beckmann and Phong albedos, interfaced-lambertian body and vcavity,
+// lambert-sphere brdf_mc, micrograin brdf (calls, loops of data-dependent
+// length or inner sums in the sample function).
+const std::vector<SampleParallelCase>& sample_parallel_default_cases() {
+    static const std::vector<SampleParallelCase> cases = {
+        {"rough-dielectric", "albedo_r", Method::MonteCarlo, "distribution", "ggx"},
+        {"rough-dielectric", "albedo_t", Method::MonteCarlo, "distribution", "ggx"},
+        {"rough-dielectric", "albedo_avg", Method::MonteCarlo, "distribution", "ggx"},
+    };
+    return cases;
+}
+
+bool sample_parallel_by_default(const ModelInfo& model, const QuantityInfo& quantity,
+                                Method method, const std::vector<int>& options) {
+    for (const SampleParallelCase& c : sample_parallel_default_cases()) {
+        if (c.model != model.name || c.quantity != quantity.name || c.method != method) continue;
+        if (c.option.empty()) return true;
+        for (std::size_t k = 0; k < model.options.size() && k < options.size(); ++k)
+            if (model.options[k].name == c.option)
+                return options[k] == model.options[k].index_of(c.choice);
+    }
+    return false;
+}
+
+namespace {
+
 // Built programs of this process, keyed by context, build options and source.
 // A program holds a reference to its context, so a context's handle cannot be
 // reused for another one while an entry names it.  PoCL's disk cache still
@@ -160,7 +196,9 @@ public:
         mean.resize(n);
         m2.resize(n);
         if (n == 0) return;
-        cl::Kernel& kernel = kernel_for(l);
+        const bool sample_parallel = use_sample_parallel(l);
+        cl::Kernel* kernel_ptr = sample_parallel ? nullptr : &kernel_for(l);
+        SampleParallelKernels* pair = sample_parallel ? &sample_parallel_kernels_for(l) : nullptr;
         const bool real_float = precision_ == Precision::Float;
         const bool accum_double = runtime_.device_info().has_fp64;
         try {
@@ -191,29 +229,34 @@ public:
                                      l.cells.data());
             queue.enqueueWriteBuffer(batches_, CL_FALSE, 0, n * sizeof(std::uint32_t),
                                      l.batches.data());
-            int a = 0;
-            kernel.setArg(a++, points_);
-            kernel.setArg(a++, static_cast<cl_uint>(l.stride));
-            kernel.setArg(a++, options_);
-            kernel.setArg(a++, static_cast<cl_uint>(l.options.size()));
-            kernel.setArg(a++, static_cast<cl_int>(l.quantity));
-            kernel.setArg(a++, static_cast<cl_uint>(l.method));
-            kernel.setArg(a++, static_cast<cl_uint>(l.key0));
-            kernel.setArg(a++, static_cast<cl_uint>(l.key1));
-            kernel.setArg(a++, cells_);
-            kernel.setArg(a++, batches_);
-            kernel.setArg(a++, static_cast<cl_uint>(n));
-            kernel.setArg(a++, static_cast<cl_uint>(l.batch_size));
-            kernel.setArg(a++, out_mean_);
-            kernel.setArg(a++, out_m2_);
-            // Round the global size up to a multiple of 256 so PoCL can choose
-            // a reasonable work-group size (the kernel ignores the padding);
-            // a prime global size would force work-groups of one item.
-            // With a fixed work-group size (local_size()), whole groups of it.
-            const std::size_t group = local_group();
-            const std::size_t global = (n + group - 1) / group * group;
-            queue.enqueueNDRangeKernel(kernel, cl::NullRange, cl::NDRange(global),
-                                       group == 256 ? cl::NullRange : cl::NDRange(group));
+            if (sample_parallel) {
+                enqueue_sample_parallel(l, *pair, accum_size);
+            } else {
+                cl::Kernel& kernel = *kernel_ptr;
+                int a = 0;
+                kernel.setArg(a++, points_);
+                kernel.setArg(a++, static_cast<cl_uint>(l.stride));
+                kernel.setArg(a++, options_);
+                kernel.setArg(a++, static_cast<cl_uint>(l.options.size()));
+                kernel.setArg(a++, static_cast<cl_int>(l.quantity));
+                kernel.setArg(a++, static_cast<cl_uint>(l.method));
+                kernel.setArg(a++, static_cast<cl_uint>(l.key0));
+                kernel.setArg(a++, static_cast<cl_uint>(l.key1));
+                kernel.setArg(a++, cells_);
+                kernel.setArg(a++, batches_);
+                kernel.setArg(a++, static_cast<cl_uint>(n));
+                kernel.setArg(a++, static_cast<cl_uint>(l.batch_size));
+                kernel.setArg(a++, out_mean_);
+                kernel.setArg(a++, out_m2_);
+                // Round the global size up to a multiple of 256 so PoCL can choose
+                // a reasonable work-group size (the kernel ignores the padding);
+                // a prime global size would force work-groups of one item.
+                // With a fixed work-group size (local_size()), whole groups of it.
+                const std::size_t group = local_group();
+                const std::size_t global = (n + group - 1) / group * group;
+                queue.enqueueNDRangeKernel(kernel, cl::NullRange, cl::NDRange(global),
+                                           group == 256 ? cl::NullRange : cl::NDRange(group));
+            }
             if (accum_double) {
                 queue.enqueueReadBuffer(out_mean_, CL_FALSE, 0, n * sizeof(double), mean.data());
                 queue.enqueueReadBuffer(out_m2_, CL_TRUE, 0, n * sizeof(double), m2.data());
@@ -238,6 +281,113 @@ public:
     }
 
 private:
+    // The sample-parallel pair of kernels (kernels/common/estimator.h,
+    // BT_DEFINE_SAMPLE_PARALLEL_KERNELS) of one (model, quantity, options,
+    // method).
+    struct SampleParallelKernels {
+        cl::Kernel sample, reduce;
+    };
+
+    // Whether this launch runs sample-parallel: only Monte Carlo / RQMC
+    // batches of several samples that fit the scratch cap, and then as
+    // BRDFTAB_SAMPLE_PARALLEL says ("0": never, "1": always), or by default
+    // where sample_parallel_by_default() says so.
+    bool use_sample_parallel(const BatchLaunch& l) const {
+        if (l.method != BT_METHOD_MC && l.method != BT_METHOD_RQMC) return false;
+        if (l.batch_size < 2 || l.batch_size > sample_parallel_scratch_samples()) return false;
+        const char* env = std::getenv("BRDFTAB_SAMPLE_PARALLEL");
+        if (env && std::string(env) == "0") return false;
+        if (env && std::string(env) == "1") return true;
+        const Method method = l.method == BT_METHOD_MC ? Method::MonteCarlo : Method::Rqmc;
+        for (const QuantityInfo& q : l.model->quantities)
+            if (q.id == l.quantity) return sample_parallel_by_default(*l.model, q, method, l.options);
+        return false;
+    }
+
+    // Samples per sub-launch of the sample-parallel path (the scratch
+    // buffer's size: 2^22 doubles = 32 MiB); a launch of more work items is
+    // split into sub-launches of whole batches, which changes no result.
+    // BRDFTAB_SAMPLE_PARALLEL_SCRATCH (samples, >= 2) sets another cap, for
+    // tests of the split; a batch larger than the cap runs the usual kernel.
+    static std::size_t sample_parallel_scratch_samples() {
+        const char* env = std::getenv("BRDFTAB_SAMPLE_PARALLEL_SCRATCH");
+        if (env && *env) {
+            // At most 2^31 samples: a sub-launch's sample count is a uint.
+            const long long v = std::min(std::atoll(env), 1LL << 31);
+            if (v >= 2) return static_cast<std::size_t>(v);
+        }
+        return std::size_t{1} << 22;
+    }
+
+    // Enqueues the sample and reduce kernels over every work item of `l`,
+    // in sub-launches of at most sample_parallel_scratch_samples() samples.
+    // The inputs are already written; the outputs are read by run().
+    void enqueue_sample_parallel(const BatchLaunch& l, SampleParallelKernels& k,
+                                 std::size_t accum_size) {
+        cl::CommandQueue& queue = runtime_.queue();
+        const std::size_t n = l.cells.size();
+        const std::size_t batch = l.batch_size;
+        const std::size_t per_sub = std::max<std::size_t>(1, sample_parallel_scratch_samples() / batch);
+        const std::size_t scratch_bytes = std::min(n, per_sub) * batch * accum_size;
+        if (scratch_bytes > scratch_bytes_) {
+            // In-order queue: a sub-launch's sample kernel runs after the
+            // previous reduce kernel has read the buffer, so one suffices.
+            scratch_ = cl::Buffer(runtime_.context(), CL_MEM_READ_WRITE, scratch_bytes);
+            scratch_bytes_ = scratch_bytes;
+        }
+        int a = 0;
+        k.sample.setArg(a++, points_);
+        k.sample.setArg(a++, static_cast<cl_uint>(l.stride));
+        k.sample.setArg(a++, options_);
+        k.sample.setArg(a++, static_cast<cl_uint>(l.options.size()));
+        k.sample.setArg(a++, static_cast<cl_int>(l.quantity));
+        k.sample.setArg(a++, static_cast<cl_uint>(l.method));
+        k.sample.setArg(a++, static_cast<cl_uint>(l.key0));
+        k.sample.setArg(a++, static_cast<cl_uint>(l.key1));
+        k.sample.setArg(a++, cells_);
+        k.sample.setArg(a++, batches_);
+        const int sample_first_arg = a;  // first_work, n_samples
+        k.sample.setArg(sample_first_arg + 2, static_cast<cl_uint>(batch));
+        k.sample.setArg(sample_first_arg + 3, scratch_);
+        k.reduce.setArg(0, scratch_);
+        k.reduce.setArg(3, static_cast<cl_uint>(batch));
+        k.reduce.setArg(4, out_mean_);
+        k.reduce.setArg(5, out_m2_);
+        const std::size_t group = local_group();
+        auto padded = [group](std::size_t items) { return (items + group - 1) / group * group; };
+        const cl::NDRange local = group == 256 ? cl::NullRange : cl::NDRange(group);
+        for (std::size_t first = 0; first < n; first += per_sub) {
+            const std::size_t count = std::min(per_sub, n - first);
+            const std::size_t samples = count * batch;
+            k.sample.setArg(sample_first_arg, static_cast<cl_uint>(first));
+            k.sample.setArg(sample_first_arg + 1, static_cast<cl_uint>(samples));
+            queue.enqueueNDRangeKernel(k.sample, cl::NullRange, cl::NDRange(padded(samples)), local);
+            k.reduce.setArg(1, static_cast<cl_uint>(first));
+            k.reduce.setArg(2, static_cast<cl_uint>(count));
+            queue.enqueueNDRangeKernel(k.reduce, cl::NullRange, cl::NDRange(padded(count)), local);
+        }
+    }
+
+    SampleParallelKernels& sample_parallel_kernels_for(const BatchLaunch& l) {
+        const ModelInfo& model = *l.model;
+        const std::string options = build_options(l);
+        const std::string key = model.name + "\n" + options;
+        auto it = sample_parallel_kernels_.find(key);
+        if (it != sample_parallel_kernels_.end()) return it->second;
+        const std::string source =
+            sample_parallel_kernel_source(model.kernel_header, model.sample_function, kernel_dir_);
+        cl::Program program = cached_program(runtime_, source, options);
+        try {
+            SampleParallelKernels k{cl::Kernel(program, kSampleKernelName),
+                                    cl::Kernel(program, kReduceKernelName)};
+            return sample_parallel_kernels_.emplace(key, std::move(k)).first->second;
+        } catch (const cl::Error& e) {
+            throw OpenCLError(e.what(), e.err(), "sample-parallel entry points of model '" +
+                                                     model.name + "' (kernels/" +
+                                                     model.kernel_header + ")");
+        }
+    }
+
     // Work-group size: a fixed 64 (or BRDFTAB_LOCAL_SIZE, a divisor of 256
     // below 256, for experiments; 0 or 256 = the driver's choice, on a global
     // size padded to a multiple of 256 as before).  Fixed, because PoCL compiles
@@ -275,7 +425,9 @@ private:
         return kernel;
     }
 
-    cl::Kernel& lookup_kernel(const BatchLaunch& l) {
+    // The build options of the program of one (model, quantity, options,
+    // method); the usual and the sample-parallel program share them.
+    std::string build_options(const BatchLaunch& l) const {
         const ModelInfo& model = *l.model;
         std::string options = "-cl-std=CL1.2";
         options += runtime_.device_info().has_fp64 ? " -D BT_HAS_FP64=1" : " -D BT_HAS_FP64=0";
@@ -303,6 +455,12 @@ private:
             (model.name == "rough-dielectric" || model.name == "micrograin"))
             options += " -D BT_FORCE_INLINE=1";
         options += extra;
+        return options;
+    }
+
+    cl::Kernel& lookup_kernel(const BatchLaunch& l) {
+        const ModelInfo& model = *l.model;
+        const std::string options = build_options(l);
         const std::string key = model.name + "\n" + options;
         auto it = kernels_.find(key);
         if (it != kernels_.end()) return it->second;
@@ -351,6 +509,9 @@ private:
     Precision precision_;
     std::string kernel_dir_;
     std::map<std::string, cl::Kernel> kernels_;
+    std::map<std::string, SampleParallelKernels> sample_parallel_kernels_;
+    cl::Buffer scratch_;  // sample-parallel path: one sub-launch's samples
+    std::size_t scratch_bytes_ = 0;
     cl::Buffer points_, options_, cells_, batches_, out_mean_, out_m2_;
     std::size_t buffer_items_ = 0, buffer_point_bytes_ = 0, buffer_accum_size_ = 0;
     cl::Kernel* last_kernel_ = nullptr;  // the kernel of the last launch, and its key

@@ -96,6 +96,29 @@ std::unique_ptr<Backend> make_backend(const std::string& device_selector,
                                       Precision precision,
                                       const std::string& kernel_dir = "");
 
+// Sample-parallel launches (OpenCL backend only): a Monte Carlo / RQMC batch
+// of batch_size samples runs as batch_size work items of a sample kernel, one
+// sample each, and one work item of a reduce kernel that merges them in
+// sample order (kernels/common/estimator.h, BT_DEFINE_SAMPLE_PARALLEL_KERNELS),
+// instead of one work item looping over the samples; results are bit-identical
+// either way.  By default only for the cases sample_parallel_default_cases()
+// lists (measured faster, docs/benchmarks.md); the environment variable
+// BRDFTAB_SAMPLE_PARALLEL=1 forces it for every Monte Carlo / RQMC launch of
+// more than one sample per batch, =0 turns it off.
+// BRDFTAB_SAMPLE_PARALLEL_SCRATCH=N caps a sub-launch at N samples (default
+// 2^22; a batch larger than the cap runs the usual kernel).
+struct SampleParallelCase {
+    std::string model, quantity;
+    Method method;       // MonteCarlo or Rqmc
+    std::string option;  // "" = any options; else only with option == choice
+    std::string choice;
+};
+const std::vector<SampleParallelCase>& sample_parallel_default_cases();
+// Whether a launch of `quantity` of `model` by `method` with these option
+// indices (resolve_options) runs sample-parallel by default.
+bool sample_parallel_by_default(const ModelInfo& model, const QuantityInfo& quantity,
+                                Method method, const std::vector<int>& options);
+
 struct Progress {
     std::size_t cells_total = 0;
     std::size_t cells_done = 0;      // converged or budget exhausted

@@ -219,6 +219,17 @@ std::string estimate_kernel_source(const std::string& kernel_header,
     return source;
 }
 
+std::string sample_parallel_kernel_source(const std::string& kernel_header,
+                                          const std::string& sample_function,
+                                          const std::string& kernel_dir) {
+    std::string source = load_kernel_source("common/estimator.h", kernel_dir);
+    source += load_kernel_source(kernel_header, kernel_dir);
+    source += "#line 1 \"generated sample-parallel entry points for " + kernel_header + "\"\n";
+    source += "BT_DEFINE_SAMPLE_PARALLEL_KERNELS(" + std::string(kSampleKernelName) + ", " +
+              kReduceKernelName + ", " + sample_function + ")\n";
+    return source;
+}
+
 std::string specialisation_options(int quantity, const std::vector<int>& options,
                                    unsigned method, std::size_t stride) {
     std::string list;

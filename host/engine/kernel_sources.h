@@ -16,6 +16,9 @@ namespace brdftab {
 
 // The name of the entry point estimate_kernel_source() generates.
 constexpr const char* kEstimateKernelName = "bt_estimate";
+// The two entry points sample_parallel_kernel_source() generates.
+constexpr const char* kSampleKernelName = "bt_sample";
+constexpr const char* kReduceKernelName = "bt_reduce";
 
 std::vector<std::string> embedded_kernel_files();  // paths relative to kernels/
 std::string load_kernel_source(const std::string& relative_path,
@@ -26,6 +29,13 @@ std::string load_kernel_source(const std::string& relative_path,
 std::string estimate_kernel_source(const std::string& kernel_header,
                                    const std::string& sample_function,
                                    const std::string& kernel_dir = "");
+// The same program with the sample-parallel pair of entry points instead
+// (BT_DEFINE_SAMPLE_PARALLEL_KERNELS(bt_sample, bt_reduce, sample_function)):
+// a separate program, so that the usual one keeps its source (and PoCL's
+// cache entries) and its build time.
+std::string sample_parallel_kernel_source(const std::string& kernel_header,
+                                          const std::string& sample_function,
+                                          const std::string& kernel_dir = "");
 // The -D definitions that specialise the program of estimate_kernel_source()
 // to one quantity, option set, method (BT_METHOD_*) and point stride
 // (kernels/common/estimator.h, "Specialisation"), with a leading space:

@@ -186,6 +186,68 @@
             out_m2[gid] = m2;                                                  \
         }                                                                      \
     }
+
+/* Sample-parallel launch (the engine's default for the Monte Carlo cases
+ * measured faster that way, host/engine/engine.cpp; BRDFTAB_SAMPLE_PARALLEL
+ * forces it on or off).  The kernel above runs a batch's samples as a loop
+ * inside one work item, so PoCL's loop over the work items of a group wraps
+ * the sample loop and stays scalar.  Here the same work is two kernels with
+ * no barrier:
+ *   sample_kernel  one work item per (work item w, sample k) of a sub-launch,
+ *                  global id g = (w - first_work) * batch_size + k: draws
+ *                  sample k of w's batch with the same sampler state
+ *                  {key, cell, batch, sample = k} and stores it in scratch[g];
+ *   reduce_kernel  one work item per w of the sub-launch: the Welford loop
+ *                  above over scratch[...k], k = 0..batch_size-1, in order.
+ * Every sample is the same function of the same inputs, stored exactly, and
+ * the Welford updates run in the same order on the same values, so mean and
+ * M2 are bit for bit those of bt_estimate (tests/test_sample_parallel.cpp
+ * checks it on every Monte Carlo quantity).  The sample kernel's body has no
+ * loop around the sample function, so the work-item loop is innermost. */
+#define BT_DEFINE_SAMPLE_PARALLEL_KERNELS(sample_kernel, reduce_kernel,        \
+                                          sample_fn)                           \
+    __kernel void sample_kernel(                                               \
+        __global const REAL* points, uint stride, __global const int* options, \
+        uint n_options, int quantity, uint method, uint key0, uint key1,       \
+        __global const uint* work_cell, __global const uint* work_batch,       \
+        uint first_work, uint n_samples, uint batch_size,                      \
+        __global ACCUM* scratch)                                               \
+    {                                                                          \
+        const uint gid = (uint)get_global_id(0);                               \
+        if (gid >= n_samples) return;                                          \
+        const uint batch_size_ = BT_KERNEL_BATCH_SIZE_(batch_size);            \
+        const uint item = gid / batch_size_;                                   \
+        const uint w = first_work + item;                                      \
+        const uint stride_ = BT_KERNEL_STRIDE_(stride);                        \
+        REAL p[BT_MAX_POINT];                                                  \
+        _Pragma("unroll")                                                      \
+        for (uint k = 0; k < BT_MAX_POINT; ++k)                                \
+            p[k] = k < stride_ ? points[(size_t)w * stride_ + k] : R(0.0);     \
+        BT_KERNEL_LOAD_OPTIONS_(o, options, n_options)                         \
+        bt_sampler s;                                                          \
+        s.key0 = key0;                                                         \
+        s.key1 = key1;                                                         \
+        s.cell = work_cell[w];                                                 \
+        s.batch = work_batch[w];                                               \
+        s.method = BT_KERNEL_METHOD_(method);                                  \
+        s.sample = gid - item * batch_size_;                                   \
+        scratch[gid] =                                                         \
+            (ACCUM)sample_fn(p, o, BT_KERNEL_QUANTITY_(quantity), &s);         \
+    }                                                                          \
+    __kernel void reduce_kernel(__global const ACCUM* scratch,                 \
+                                uint first_work, uint n_work,                  \
+                                uint batch_size, __global ACCUM* out_mean,     \
+                                __global ACCUM* out_m2)                        \
+    {                                                                          \
+        const uint item = (uint)get_global_id(0);                              \
+        if (item >= n_work) return;                                            \
+        __global const ACCUM* x = scratch + (size_t)item * batch_size;         \
+        ACCUM mean = 0, m2 = 0;                                                \
+        for (uint k = 0; k < batch_size; ++k)                                  \
+            BT_WELFORD_ADD(mean, m2, x[k], k + 1);                             \
+        out_mean[first_work + item] = mean;                                    \
+        out_m2[first_work + item] = m2;                                        \
+    }
 #else
 typedef REAL (*bt_sample_fn)(const REAL* point, const int* options,
                              int quantity, const bt_sampler* sampler);

@@ -36,6 +36,14 @@ BT_INLINE uint bt_mulhi32(uint a, uint b)
 BT_INLINE void bt_philox4x32_10(uint c0, uint c1, uint c2, uint c3, uint k0, uint k1,
                                 uint* out)
 {
+    /* Unrolled on the device: left as a loop, the ten rounds are an inner
+     * loop of PoCL's work-item loop, which then is not innermost and stays
+     * scalar (the sample-parallel kernel, kernels/common/estimator.h,
+     * vectorises once they are unrolled: docs/benchmarks.md).  Same
+     * operations in the same order. */
+#if BT_DEVICE
+#pragma unroll
+#endif
     for (int r = 0; r < 10; ++r) {
         if (r > 0) {
             k0 += BT_PHILOX_W0;

@@ -1,0 +1,199 @@
+// Sample-parallel launches (kernels/common/estimator.h,
+// BT_DEFINE_SAMPLE_PARALLEL_KERNELS; host/engine/engine.cpp): a batch's
+// samples as work items of one kernel, merged by a second, must give the very
+// bits of the usual kernel, whose work item loops over the samples itself.
+// The oracle is that usual kernel (an independent code path: one loop,
+// no scratch buffer, no sub-launches), on every Monte Carlo / RQMC quantity
+// of the models whose integrals the engine runs sample-parallel.
+#include <doctest/doctest.h>
+
+#include <cstdlib>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "host/engine/engine.h"
+#include "host/models/registry.h"
+
+using namespace brdftab;
+
+namespace {
+
+// Sets an environment variable for the lifetime of the object (the engine
+// reads BRDFTAB_SAMPLE_PARALLEL* at every launch).
+class ScopedEnv {
+public:
+    ScopedEnv(const char* name, const char* value) : name_(name) {
+        const char* old = std::getenv(name);
+        had_ = old != nullptr;
+        if (had_) old_ = old;
+        if (value)
+            ::setenv(name, value, 1);
+        else
+            ::unsetenv(name);
+    }
+    ~ScopedEnv() {
+        if (had_)
+            ::setenv(name_, old_.c_str(), 1);
+        else
+            ::unsetenv(name_);
+    }
+
+private:
+    const char* name_;
+    bool had_ = false;
+    std::string old_;
+};
+
+// A few cells of a quantity: directions spread over the hemisphere, every
+// parameter at its default or in the middle of its range.
+std::vector<std::map<std::string, double>> test_cells(const ModelInfo& m, const QuantityInfo& q,
+                                                      std::size_t count) {
+    std::vector<std::map<std::string, double>> cells;
+    for (std::size_t c = 0; c < count; ++c) {
+        std::map<std::string, double> v;
+        for (const auto& d : q.directions) {
+            if (d == "theta_i") v["theta_i"] = 10.0 + 27.0 * static_cast<double>(c);
+            if (d == "theta_o") v["theta_o"] = 70.0 - 19.0 * static_cast<double>(c);
+            if (d == "phi_o") v["phi_d"] = -150.0 + 110.0 * static_cast<double>(c);
+        }
+        for (const auto& p : m.parameters)
+            v[p.name] = p.default_value ? *p.default_value
+                                        : 0.5 * (p.min + std::min(p.max, p.min + 2.0));
+        cells.push_back(v);
+    }
+    return cells;
+}
+
+EstimateResult run(Backend& backend, const ModelInfo& m, const QuantityInfo& q,
+                   const std::vector<std::map<std::string, double>>& cells,
+                   const IntegrationSettings& s) {
+    PointBuilder builder(m, q);
+    const std::vector<int> options = resolve_options(m, nlohmann::json::object(), "test");
+    return estimate(
+        backend, m, q, options, cells.size(),
+        [&](std::size_t c, double* out) { builder.build(cells[c], out); }, s);
+}
+
+void check_same_bits(const EstimateResult& a, const EstimateResult& b) {
+    REQUIRE(a.value.size() == b.value.size());
+    for (std::size_t c = 0; c < a.value.size(); ++c) {
+        CAPTURE(c);
+        // Bitwise: == on doubles, and no NaN in these tables.
+        CHECK(a.value[c] == b.value[c]);
+        CHECK(a.stderr_[c] == b.stderr_[c]);
+        CHECK(a.samples[c] == b.samples[c]);
+    }
+    CHECK(a.total_samples == b.total_samples);
+}
+
+}  // namespace
+
+TEST_CASE("sample-parallel launches give the usual kernel's bits on every MC/RQMC quantity") {
+    auto device = make_backend("", Precision::Double);
+    for (const char* model_name :
+         {"rough-dielectric", "interfaced-lambertian", "micrograin", "lambert-sphere"}) {
+        const ModelInfo& m = find_model(model_name);
+        for (const QuantityInfo& q : m.quantities) {
+            if (q.kind == QuantityKind::ClosedForm) continue;
+            for (Method method : {Method::MonteCarlo, Method::Rqmc}) {
+                const std::string method_name = to_string(method);
+                CAPTURE(model_name);
+                CAPTURE(q.name);
+                CAPTURE(method_name);
+                const auto cells = test_cells(m, q, 3);
+                IntegrationSettings s;
+                s.method = method;
+                s.samples = 64;
+                s.batch_size = 16;  // 4 batches per cell, 12 work items
+                s.seed = 11;
+                EstimateResult usual, parallel, split, over_cap;
+                {
+                    ScopedEnv off("BRDFTAB_SAMPLE_PARALLEL", "0");
+                    usual = run(*device, m, q, cells, s);
+                }
+                {
+                    ScopedEnv on("BRDFTAB_SAMPLE_PARALLEL", "1");
+                    parallel = run(*device, m, q, cells, s);
+                    // Sub-launches of 2 work items (40 samples / 16): 6 of them.
+                    ScopedEnv cap("BRDFTAB_SAMPLE_PARALLEL_SCRATCH", "40");
+                    split = run(*device, m, q, cells, s);
+                }
+                check_same_bits(usual, parallel);
+                check_same_bits(usual, split);
+                for (std::size_t c = 0; c < usual.value.size(); ++c)
+                    CHECK(usual.samples[c] == 64u);
+            }
+        }
+    }
+}
+
+TEST_CASE("sample-parallel: splits, odd batch sizes, caps below a batch and adaptive runs") {
+    // rough-dielectric albedo_r: MC batches of 37 samples (a group of 64
+    // work items spans two cells), many sub-launch sizes, and a cap below one
+    // batch (the usual kernel runs then).
+    auto device = make_backend("", Precision::Double);
+    const ModelInfo& m = find_model("rough-dielectric");
+    const QuantityInfo& q = m.quantity("albedo_r");
+    const auto cells = test_cells(m, q, 3);
+    IntegrationSettings s;
+    s.method = Method::MonteCarlo;
+    s.samples = 37 * 5;
+    s.batch_size = 37;
+    s.slab_work_items = 7;  // launches of 7 work items, the last one shorter
+    EstimateResult usual;
+    {
+        ScopedEnv off("BRDFTAB_SAMPLE_PARALLEL", "0");
+        usual = run(*device, m, q, cells, s);
+    }
+    ScopedEnv on("BRDFTAB_SAMPLE_PARALLEL", "1");
+    for (const char* cap : {"36", "37", "74", "100", "259", "4194304"}) {
+        CAPTURE(cap);
+        ScopedEnv scratch("BRDFTAB_SAMPLE_PARALLEL_SCRATCH", cap);
+        check_same_bits(usual, run(*device, m, q, cells, s));
+    }
+    // Adaptive RQMC: rounds of different batch counts per cell.
+    IntegrationSettings a;
+    a.method = Method::Rqmc;
+    a.samples = 256;
+    a.tolerance = 1e-3;
+    a.max_samples = 1 << 14;
+    EstimateResult adaptive_usual;
+    {
+        ScopedEnv off("BRDFTAB_SAMPLE_PARALLEL", "0");
+        adaptive_usual = run(*device, m, q, cells, a);
+    }
+    check_same_bits(adaptive_usual, run(*device, m, q, cells, a));
+}
+
+TEST_CASE("sample-parallel defaults name existing Monte Carlo quantities and options") {
+    // A typo in the engine's table would silently turn a default off; a
+    // closed form or quadrature method would never run sample-parallel.
+    REQUIRE_FALSE(sample_parallel_default_cases().empty());
+    for (const SampleParallelCase& c : sample_parallel_default_cases()) {
+        CAPTURE(c.model);
+        CAPTURE(c.quantity);
+        const ModelInfo& m = find_model(c.model);       // throws on an unknown model
+        const QuantityInfo& q = m.quantity(c.quantity);  // ... or quantity
+        CHECK(q.kind != QuantityKind::ClosedForm);
+        CHECK((c.method == Method::MonteCarlo || c.method == Method::Rqmc));
+        nlohmann::json given = nlohmann::json::object();
+        if (!c.option.empty()) {
+            const OptionInfo* o = m.find_option(c.option);
+            REQUIRE(o != nullptr);
+            CHECK(o->index_of(c.choice) >= 0);
+            given[c.option] = c.choice;
+        }
+        const std::vector<int> options = resolve_options(m, given, "test");
+        CHECK(sample_parallel_by_default(m, q, c.method, options));
+        const Method other = c.method == Method::MonteCarlo ? Method::Rqmc : Method::MonteCarlo;
+        CHECK_FALSE(sample_parallel_by_default(m, q, other, options));
+    }
+    // Measured slower, so not by default (docs/benchmarks.md).
+    const ModelInfo& rd = find_model("rough-dielectric");
+    CHECK_FALSE(sample_parallel_by_default(rd, rd.quantity("albedo_r"), Method::MonteCarlo,
+                                           resolve_options(rd, {{"distribution", "beckmann"}}, "")));
+    const ModelInfo& mg = find_model("micrograin");
+    CHECK_FALSE(sample_parallel_by_default(mg, mg.quantity("brdf"), Method::Rqmc,
+                                           resolve_options(mg, nlohmann::json::object(), "")));
+}
