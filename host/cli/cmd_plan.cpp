@@ -246,8 +246,8 @@ void run_plan(const PlanArgs& pa) {
         last_shown = 0;
         SparseCertifyOptions so;
         so.max_touched_fraction = pa.verify_limit;
-        return verify_plan(planned, indices, c, pilots, *backend, pa.compute.apply(planned.integration), target, so,
-                           verify_progress);
+        return verify_plan(planned, indices, c, pilots, *backend, pa.compute.apply(planned.integration), target,
+                           pa.abs_floor, so, verify_progress);
     };
     if (!pa.no_verify && pa.as_written && written) verification = verify(*written, spec);
     while (!pa.no_verify && choice) {

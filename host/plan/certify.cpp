@@ -244,16 +244,23 @@ Certificate certify_impl(const TableData& stored, Backend& backend, const Certif
     double max_table = 0;
     for (double v : (lazy ? std::vector<double>() : t.value))
         if (std::isfinite(v)) max_table = std::max(max_table, std::fabs(v));
-    const double floor = options.absolute ? 0.0
-                         : options.abs_floor > 0 ? options.abs_floor
-                                                 : std::max(options.rel_floor_factor * max_table, 1e-300);
+    double floor = options.absolute ? 0.0
+                   : options.abs_floor > 0 ? options.abs_floor
+                                           : std::max(options.rel_floor_factor * max_table, 1e-300);
+    // Computed lazily, the automatic floor is taken over the cells the first
+    // stage reads (set in `evaluate`, before any error is measured): the
+    // table's largest value whenever its cell is among them (the lines reach
+    // every edge), otherwise below it (the certificate errs towards larger
+    // relative errors).
+    const bool floor_from_cells = lazy && !options.absolute && !(options.abs_floor > 0);
 
     // ---- the reference: closed form, or the quantity's default method under
     // a tolerance that keeps its noise at a fraction of the target.
     IntegrationSettings ref;
     ref.method = resolve_method(q, Method::Auto);
     ref.seed = t.seed * 0x9E3779B97F4A7C15ull + options.seed + 0xCE27;
-    if (integral) {
+    auto set_reference_noise = [&] {
+        if (!integral) return;
         const double noise = options.reference_noise_fraction * options.target;
         if (options.absolute) {
             ref.tolerance = 1e-12;  // never the binding one: abs_floor is
@@ -263,7 +270,8 @@ Certificate certify_impl(const TableData& stored, Backend& backend, const Certif
             ref.abs_floor = noise * floor;
         }
         ref.max_samples = options.reference_max_samples;
-    }
+    };
+    set_reference_noise();
     Certificate c;
     c.table = t.name;
     c.target = options.target;
@@ -287,6 +295,14 @@ Certificate certify_impl(const TableData& stored, Backend& backend, const Certif
             cells.erase(std::unique(cells.begin(), cells.end()), cells.end());
             lazy->fill(cells, work);
             filled.emplace(work);
+            if (floor_from_cells && first == 0) {
+                double m = 0;  // cells not computed hold 0
+                for (double v : work.value)
+                    if (std::isfinite(v)) m = std::max(m, std::fabs(v));
+                floor = std::max(options.rel_floor_factor * m, 1e-300);
+                c.abs_floor = floor;
+                set_reference_noise();
+            }
         }
         const LookupTable& values = filled ? *filled : table;
         const std::vector<std::map<std::string, double>> batch(named.begin() + first, named.end());
@@ -401,9 +417,6 @@ SparseCertificate certify_spec_table(const Spec& spec, std::size_t table_index, 
                                      const SparseCertifyOptions& sparse, const ProgressFn& progress) {
     const double start = wall_seconds();
     check_certify_options(options);
-    if (!options.absolute && !(options.abs_floor > 0))
-        throw InputError("a sparse certificate needs the relative floor (abs_floor > 0) or absolute errors: "
-                         "the automatic floor reads every value of the table");
     if (table_index >= spec.tables.size()) throw Error("certify_spec_table: no table " + std::to_string(table_index));
     SparseCertificate out;
     ChunkComputer computer(spec, backend, settings);
@@ -640,7 +653,7 @@ Candidate repredict(const Candidate& c, const std::vector<TablePilot>& pilots, c
 PlanVerification verify_plan(const Spec& planned, const std::vector<std::size_t>& table_indices,
                              const Candidate& plan, const std::vector<TablePilot>& pilots,
                              Backend& backend, const IntegrationSettings& settings, const PlanTarget& target,
-                             const SparseCertifyOptions& sparse, const ProgressFn& progress) {
+                             double abs_floor, const SparseCertifyOptions& sparse, const ProgressFn& progress) {
     const double start = wall_seconds();
     PlanVerification v;
     v.fitted_max = plan.error_max;
@@ -651,7 +664,7 @@ PlanVerification verify_plan(const Spec& planned, const std::vector<std::size_t>
         if (i < pilots.size() && i < table_indices.size()) {
             CertifyOptions co;
             co.absolute = target.absolute;
-            co.abs_floor = target.absolute ? 0.0 : pilots[i].rel_floor;
+            co.abs_floor = target.absolute ? 0.0 : abs_floor;
             co.interpolation = target.interpolation;
             const double fitted = std::isfinite(tp.error_max) && tp.error_max > 0 ? tp.error_max : 1e-300;
             co.target = target.accuracy ? *target.accuracy : fitted;

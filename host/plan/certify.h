@@ -127,10 +127,12 @@ Certificate certify_file_table(const std::string& path, const std::string& table
 // and rule) and rounded to the stored type as the file writer rounds them.
 // The result is the certificate certify_table() gives on the generated file,
 // bit for bit (same options and seed), at the cost of the touched cells.
-// Exceptions: the relative floor must be given (CertifyOptions::abs_floor >
-// 0, or absolute errors): the automatic one needs every value; and for a
-// quadrature without a finer reference rule the added rule error is the
-// largest stored two-rule difference over the computed cells only.
+// Exceptions: the automatic relative floor (CertifyOptions::abs_floor = 0)
+// is rel_floor_factor x the largest value among the cells the first stage
+// reads (the lines reach every edge; it is the table's largest value
+// whenever that cell is among them, else smaller: larger relative errors);
+// and for a quadrature without a finer reference rule the added rule error
+// is the largest stored two-rule difference over the computed cells only.
 struct SparseCertifyOptions {
     // Refuse (verified = false) when the cells the probes would touch (stage
     // 1 counted, the local search bounded from above) exceed this fraction
@@ -188,13 +190,15 @@ struct PlanVerification {
 // `table_indices`) on `planned`, the spec with the plan applied
 // (planned_spec_text, or the spec itself for its own plan), generating with
 // `settings` as `generate` would.  Each table's certificate measures in the
-// target's measure with the pilot's floor; its target (which sets an
+// target's measure, relative errors with the floor `abs_floor` (0: the
+// automatic one, as `certify` takes it, from the computed cells); its target (which sets an
 // integral's reference noise, 0.2 x target) is E with an accuracy target,
 // else the table's fitted max.
 PlanVerification verify_plan(const Spec& planned, const std::vector<std::size_t>& table_indices,
                              const Candidate& plan, const std::vector<TablePilot>& pilots,
                              Backend& backend, const IntegrationSettings& settings, const PlanTarget& target,
-                             const SparseCertifyOptions& sparse = {}, const ProgressFn& progress = nullptr);
+                             double abs_floor, const SparseCertifyOptions& sparse = {},
+                             const ProgressFn& progress = nullptr);
 
 // The refinement's correction of the fitted error model from certificates
 // that missed their target (certified_generate, and `plan --accuracy` after
