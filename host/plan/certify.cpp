@@ -248,9 +248,9 @@ Certificate certify_impl(const TableData& stored, Backend& backend, const Certif
                    : options.abs_floor > 0 ? options.abs_floor
                                            : std::max(options.rel_floor_factor * max_table, 1e-300);
     // Computed lazily, the automatic floor is taken over the cells the first
-    // stage reads (set in `evaluate`, before any error is measured): the
-    // table's largest value whenever its cell is among them (the lines reach
-    // every edge), otherwise below it (the certificate errs towards larger
+    // stage reads and the table's 2^D corners (set in `evaluate`, before any
+    // error is measured): the table's largest value whenever its cell is
+    // among them, otherwise below it (the certificate errs towards larger
     // relative errors).
     const bool floor_from_cells = lazy && !options.absolute && !(options.abs_floor > 0);
 
@@ -291,6 +291,17 @@ Certificate certify_impl(const TableData& stored, Backend& backend, const Certif
             std::vector<std::size_t> cells;
             for (std::size_t k = first; k < coords.size(); ++k)
                 table.stencil_cells(coords[k], options.interpolation, OutOfRange::Clamp, cells);
+            if (floor_from_cells && first == 0) {
+                // The table's corners too: a table's largest value often
+                // lies at one (grazing angles, the ends of parameter
+                // ranges), and the lines rarely pass through them.
+                for (std::size_t corner = 0; corner < (std::size_t(1) << dims); ++corner) {
+                    std::size_t flat = 0;
+                    for (std::size_t a = 0; a < dims; ++a)
+                        flat = flat * t.axes[a].count + (((corner >> a) & 1) ? t.axes[a].count - 1 : 0);
+                    cells.push_back(flat);
+                }
+            }
             std::sort(cells.begin(), cells.end());
             cells.erase(std::unique(cells.begin(), cells.end()), cells.end());
             lazy->fill(cells, work);

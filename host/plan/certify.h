@@ -129,8 +129,8 @@ Certificate certify_file_table(const std::string& path, const std::string& table
 // bit for bit (same options and seed), at the cost of the touched cells.
 // Exceptions: the automatic relative floor (CertifyOptions::abs_floor = 0)
 // is rel_floor_factor x the largest value among the cells the first stage
-// reads (the lines reach every edge; it is the table's largest value
-// whenever that cell is among them, else smaller: larger relative errors);
+// reads and the table's 2^D corners (the table's largest value whenever
+// that cell is among them, else smaller: larger relative errors);
 // and for a quadrature without a finer reference rule the added rule error
 // is the largest stored two-rule difference over the computed cells only.
 struct SparseCertifyOptions {
