@@ -18,11 +18,13 @@
 #include <doctest/doctest.h>
 
 #include <cstdio>
+#include <fstream>
 #include <cstdlib>
 #include <filesystem>
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -274,4 +276,41 @@ TEST_CASE("plan --no-verify: bad combinations exit 2") {
     CHECK(run(spec + " --no-verify --json") == 2);
     // --as-written still excludes a target, with or without verification.
     CHECK(run(spec + " --as-written --no-verify --accuracy 1e-2") == 2);
+    // --verify-limit is a fraction in (0, 1].
+    CHECK(run(spec + " --accuracy 1e-2 --verify-limit 0") == 2);
+    CHECK(run(spec + " --accuracy 1e-2 --verify-limit 1.5") == 2);
+}
+
+TEST_CASE("plan --accuracy: a verification that misses E corrects the model and chooses again") {
+    // The narrow peak again: the fitted model's first choice (84 x 84 for
+    // 1e-2) is verified at 3.1e-2; after the correction the plan is chosen
+    // again and its verification reaches E.
+    const std::string exe = std::string(BT_BINARY_DIR) + "/brdftab";
+    REQUIRE(std::filesystem::exists(exe));
+    const std::string out = (temp_dir() / "plan.json").string();
+    const int status = std::system((exe + " plan " + data_path("certify_peak.toml") +
+                                    " --accuracy 1e-2 --abs --verify-limit 1 --json -q > " + out + " 2>/dev/null")
+                                       .c_str());
+    REQUIRE(WIFEXITED(status));
+    CHECK(WEXITSTATUS(status) == 0);
+    std::ifstream f(out);
+    const nlohmann::json j = nlohmann::json::parse(f);
+    CHECK(j["verified"] == true);
+    CHECK(j["verification_corrections"] == 1);
+    CHECK(j["predicted_error"].get<double>() <= 1e-2);
+    CHECK(j["predicted_error"] == j["choice"]["verification"]["max"]);
+    CHECK(j["fitted_error"] == j["choice"]["verification"]["fitted_max"]);
+    CHECK(j["choice"]["tables"][0]["predicted_error"]["max"] == j["predicted_error"]);
+    CHECK(j["choice"]["tables"][0]["counts"]["theta_i"].get<std::size_t>() > 84);
+    // --no-verify: the fitted model's own choice, not verified.
+    const int status2 = std::system((exe + " plan " + data_path("certify_peak.toml") +
+                                     " --accuracy 1e-2 --abs --no-verify --json -q > " + out + " 2>/dev/null")
+                                        .c_str());
+    REQUIRE(WIFEXITED(status2));
+    std::ifstream f2(out);
+    const nlohmann::json j2 = nlohmann::json::parse(f2);
+    CHECK(j2["verified"] == false);
+    CHECK(j2["predicted_error"] == j2["fitted_error"]);
+    CHECK(j2["choice"]["tables"][0]["counts"]["theta_i"] == 84);
+    std::filesystem::remove_all(temp_dir());
 }
