@@ -863,6 +863,45 @@ CertifiedResult certified_generate(const Spec& spec, Backend& backend, const Cer
             }
             plan = repredict(plan, result.pilots, target, counts);
         }
+        if (round == 0 && options.verify && target.accuracy) {
+            // Verify the first plan before generating it (docs/planning.md
+            // "Verified plans"): a missed E corrects the model as a failed
+            // certificate would, without a generation round.
+            for (int k = 0;; ++k) {
+                const Spec planned = parse_spec_string(planned_spec_text(spec, indices, plan, {}),
+                                                       options.spec_label.empty() ? spec.file : options.spec_label);
+                const IntegrationSettings settings =
+                    options.verify_settings ? options.verify_settings(planned) : planned.integration;
+                const PlanVerification v = verify_plan(planned, indices, plan, result.pilots, backend, settings, target,
+                                                       options.pilot.abs_floor, options.verify_sparse,
+                                                       stage_progress("verify", 0));
+                std::size_t touched = 0, cells = 0;
+                for (const SparseCertificate& t : v.tables)
+                    if (t.verified) touched += t.touched_cells, cells += t.table_cells;
+                say("verify", 0, v.verified ? "verification: max " + sci(v.error_max) + " (fitted " + sci(v.fitted_max) +
+                                                  "), " + std::to_string(v.verified) + " of " +
+                                                  std::to_string(v.tables.size()) + " table(s), reading " +
+                                                  std::to_string(touched) + " of " + std::to_string(cells) + " cells, " +
+                                                  number_text(v.seconds, 3) + " s"
+                                            : "verification: no table verified (" +
+                                                  (v.tables.empty() ? std::string("none") : v.tables.front().why) +
+                                                  "); the fitted prediction stands");
+                result.verifications.push_back(v);
+                if (v.verified == 0 || v.error_max <= *target.accuracy || k >= 2) break;
+                std::vector<const Certificate*> certs;
+                for (const SparseCertificate& t : v.tables) certs.push_back(t.verified ? &t.certificate : nullptr);
+                correct_error_model(result.pilots, target, plan, certs,
+                                    [&](const std::string& m) { say("verify", 0, m); });
+                const std::vector<Candidate> again = pareto_front(make_candidates(result.pilots, target));
+                const std::optional<std::size_t> pick = choose_plan(again, target);
+                if (!pick) {
+                    say("verify", 0, "no plan is predicted to reach the target with the corrected model; "
+                                     "generating the last one");
+                    break;
+                }
+                plan = again[*pick];
+            }
+        }
         CertifiedRound rnd;
         rnd.round = round;
         rnd.plan = plan;

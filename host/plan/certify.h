@@ -228,6 +228,14 @@ struct CertifiedGenerateOptions {
     CertifyOptions certify;         // target, absolute, abs_floor, interpolation are set from the above
     int max_refinements = 2;        // >= 0; budget mode never refines
     std::string spec_label;         // file name the planned specs are parsed under
+    // Accuracy mode: verify the first plan with sparse certificates before
+    // generating it (verify_plan), and when the verification misses E
+    // correct the model and choose again, at most 2 times ("Verified plans").
+    bool verify = true;
+    SparseCertifyOptions verify_sparse;
+    // The settings `generate` computes the planned spec with (null: its
+    // [integration] as written).
+    std::function<IntegrationSettings(const Spec&)> verify_settings;
 };
 
 struct CertifyEvent {
@@ -253,6 +261,7 @@ struct CertifiedRound {
 
 struct CertifiedResult {
     std::vector<TablePilot> pilots;
+    std::vector<PlanVerification> verifications;  // of the first plan, before generating (verify)
     std::vector<CertifiedRound> rounds;  // the last one is what `path` holds
     bool passed = false;
     // Why the loop ended: "passed", "max-refinements", "no-plan" (the corrected
