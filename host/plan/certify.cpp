@@ -242,8 +242,9 @@ Certificate certify_impl(const TableData& stored, Backend& backend, const Certif
 
     // ---- the measure: |table - reference| / max(|reference|, F), or absolute.
     double max_table = 0;
-    for (double v : (lazy ? std::vector<double>() : t.value))
-        if (std::isfinite(v)) max_table = std::max(max_table, std::fabs(v));
+    if (!lazy)
+        for (double v : t.value)
+            if (std::isfinite(v)) max_table = std::max(max_table, std::fabs(v));
     double floor = options.absolute ? 0.0
                    : options.abs_floor > 0 ? options.abs_floor
                                            : std::max(options.rel_floor_factor * max_table, 1e-300);

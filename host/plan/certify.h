@@ -140,8 +140,8 @@ struct SparseCertifyOptions {
     // much and give the exact certificate.
     double max_touched_fraction = 0.25;
     // Refuse above this many cells: the values are held in memory as the
-    // lookup library reads them (8 bytes per cell, twice).
-    std::size_t max_table_cells = std::size_t(1) << 25;
+    // lookup library reads them (8 bytes per cell, three copies).
+    std::size_t max_table_cells = std::size_t(1) << 24;
     // Runs of touched cells closer than this are computed as one engine run
     // (the cells between are computed too: fewer, larger runs).
     std::size_t merge_gap_closed_form = 8, merge_gap_sampled = 2;
