@@ -408,6 +408,7 @@ void run_certified_generate(const GenerateArgs& st) {
     options.pilot.abs_floor = st.compute.abs_floor > 0 ? st.compute.abs_floor : 0;
     options.max_refinements = max_refinements;
     options.spec_label = st.spec_path;
+    options.verify_settings = [&st](const Spec& planned) { return st.compute.apply(planned.integration); };
 
     AtomicOutput out(out_path);
     std::vector<GeneratedTable> tables;

@@ -13,6 +13,7 @@
 #include "host/core/atomic_file.h"
 #include "host/core/error.h"
 #include "host/core/text.h"
+#include "host/plan/certify.h"
 #include "host/plan/plan.h"
 #include "host/spec/spec.h"
 
@@ -26,6 +27,8 @@ struct PlanArgs {
     bool absolute = false, json = false, quiet = false;
     bool place_nodes = false;  // --place-nodes (host/plan/node_placement.h)
     bool as_written = false;   // --as-written: predict the spec's own plan (predict_as_written)
+    bool no_verify = false;    // --no-verify: keep the fitted prediction (certify.h verify_plan)
+    double verify_limit = 0.25;  // --verify-limit: largest fraction of a table's cells a verification computes
     double abs_floor = 0;
     std::string interpolation = "linear";
     ComputeOptions compute;
@@ -62,6 +65,88 @@ std::string method_text(const Candidate& c) {
     return to_string(c.method);
 }
 
+// The verification of a plan (docs/planning.md "Verified plans"), as JSON.
+// A plan's JSON (candidate_json) with each verified table's predicted
+// error replaced by its verification's (the fitted one kept as fitted_max).
+void apply_verification(nlohmann::json& plan, const PlanVerification& v) {
+    if (plan.contains("predicted_error") && plan["predicted_error"].is_object() && v.verified > 0) {
+        nlohmann::json& e = plan["predicted_error"];
+        e["fitted_max"] = e["max"];
+        e["fitted_rms"] = e["rms"];
+        e["max"] = v.error_max;
+        e["rms"] = v.error_rms;
+    }
+    if (!plan.contains("tables") || !plan["tables"].is_array()) return;
+    for (std::size_t i = 0; i < v.tables.size() && i < plan["tables"].size(); ++i) {
+        nlohmann::json& e = plan["tables"][i]["predicted_error"];
+        if (!e.is_object()) continue;
+        e["verified"] = v.tables[i].verified;
+        if (!v.tables[i].verified) continue;
+        e["fitted_max"] = e["max"];
+        e["fitted_rms"] = e["rms"];
+        e["max"] = v.tables[i].certificate.max_error;
+        e["rms"] = v.tables[i].certificate.rms_error;
+    }
+}
+
+nlohmann::json verification_json(const PlanVerification& v) {
+    nlohmann::json j;
+    j["fitted_max"] = v.fitted_max;
+    j["fitted_rms"] = v.fitted_rms;
+    j["max"] = v.error_max;
+    j["rms"] = v.error_rms;
+    j["tables_verified"] = v.verified;
+    j["touched_cells"] = v.touched_cells;
+    j["computed_cells"] = v.computed_cells;
+    j["table_cells"] = v.table_cells;
+    j["seconds"] = v.seconds;
+    j["tables"] = nlohmann::json::array();
+    for (const SparseCertificate& t : v.tables) {
+        nlohmann::json e;
+        e["verified"] = t.verified;
+        e["table_cells"] = t.table_cells;
+        e["touched_cells"] = t.touched_cells;
+        e["computed_cells"] = t.computed_cells;
+        e["seconds"] = t.seconds;
+        if (t.verified) {
+            const Certificate& c = t.certificate;
+            e["table"] = c.table;
+            e["max"] = c.max_error;
+            e["rms"] = c.rms_error;
+            e["fitted_max"] = c.predicted_max;
+            e["probes"] = c.probes;
+            e["reference_noise"] = c.reference_noise;
+            nlohmann::json at = nlohmann::json::object();
+            for (std::size_t a = 0; a < c.axis_names.size() && a < c.max_at.size(); ++a) at[c.axis_names[a]] = c.max_at[a];
+            e["max_at"] = at;
+            e["engine_seconds"] = t.compute_seconds;
+        } else {
+            e["why"] = t.why;
+        }
+        j["tables"].push_back(e);
+    }
+    return j;
+}
+
+// Text lines of a verification, one per table.
+void print_verification(const PlanVerification& v, const std::vector<TablePilot>& pilots, const char* what) {
+    for (std::size_t i = 0; i < v.tables.size(); ++i) {
+        const SparseCertificate& t = v.tables[i];
+        const std::string name = i < pilots.size() ? pilots[i].table : std::string("?");
+        if (t.verified) {
+            const Certificate& c = t.certificate;
+            std::cout << "verified " << what << " '" << name << "': max total error " << sci(c.max_error) << " (RMS "
+                      << sci(c.rms_error) << "), fitted prediction " << sci(c.predicted_max) << "; sparse certificate, "
+                      << c.probes << " probes reading " << t.touched_cells << " of " << t.table_cells << " cells ("
+                      << number_text(100.0 * double(t.touched_cells) / double(std::max<std::size_t>(t.table_cells, 1)), 3)
+                      << " %; " << t.computed_cells << " computed in " << t.engine_runs << " engine runs), "
+                      << format_seconds(t.seconds) << "\n";
+        } else {
+            std::cout << "not verified " << what << " '" << name << "': " << t.why << "; the fitted prediction stands\n";
+        }
+    }
+}
+
 void run_plan(const PlanArgs& pa) {
     PlanTarget target;
     target.absolute = pa.absolute;
@@ -77,6 +162,11 @@ void run_plan(const PlanArgs& pa) {
     if (pa.as_written && (target.accuracy || target.budget || !pa.output.empty() || pa.place_nodes))
         throw InputError("--as-written predicts the spec's own plan: it excludes --accuracy, --budget, -o "
                          "and --place-nodes");
+    if (pa.no_verify && !pa.as_written && !target.accuracy && !target.budget)
+        throw InputError("--no-verify skips the verification of a chosen plan: it needs --accuracy, --budget "
+                         "or --as-written");
+    if (!(pa.verify_limit > 0 && pa.verify_limit <= 1))
+        throw InputError("--verify-limit must be a fraction in (0, 1], got " + number_text(pa.verify_limit, 6));
     const Spec spec = parse_spec_file(pa.spec);
     if (!spec.errors.empty() || !spec.inverted.empty())
         throw InputError(pa.spec + ": plan does not handle [[errors]] or [[inverted]] "
@@ -116,10 +206,9 @@ void run_plan(const PlanArgs& pa) {
         pilots.push_back(run_pilot(spec, i, *backend, po, progress));
     }
     // [[recombined]] terms share one node layout (docs/planning.md, "Recombined tables").
-    const std::vector<Candidate> all =
-        make_recombined_candidates(pilots, target, groups);
-    const std::vector<Candidate> front = pareto_front(all);
-    const std::optional<std::size_t> choice = choose_plan(front, target);
+    std::vector<Candidate> all = make_recombined_candidates(pilots, target, groups);
+    std::vector<Candidate> front = pareto_front(all);
+    std::optional<std::size_t> choice = choose_plan(front, target);
     const char* measure = target.absolute ? "absolute" : "relative";
     std::optional<Candidate> written;
     std::string written_why;
@@ -128,10 +217,68 @@ void run_plan(const PlanArgs& pa) {
     // --place-nodes: explicit nodes equidistributing the pilot's error.
     std::optional<Candidate> placed;
     std::vector<PlacedAxis> placements;
-    if (choice && pa.place_nodes) {
-        placed = front[*choice];
-        placements = place_plan_nodes(pilots, *placed, target);
+    auto place = [&] {
+        placed.reset();
+        placements.clear();
+        if (choice && pa.place_nodes) {
+            placed = front[*choice];
+            placements = place_plan_nodes(pilots, *placed, target);
+        }
+    };
+    place();
+
+    // Verification (docs/planning.md "Verified plans"): the plan's tables
+    // measured by sparse certificates, on the cells their probes touch,
+    // computed as `generate` would.  With --accuracy a missed target corrects
+    // the fitted model (correct_error_model, as generate --accuracy refines)
+    // and the plan is chosen again, at most kVerifyRounds times.
+    constexpr int kVerifyRounds = 2;
+    std::optional<PlanVerification> verification;
+    std::vector<std::string> verify_notes;
+    int verify_corrections = 0;
+    const ProgressFn verify_progress = [&](const Progress& p) {
+        if (pa.quiet || p.elapsed_seconds < 2 || p.elapsed_seconds - last_shown < 2) return;
+        last_shown = p.elapsed_seconds;
+        std::cerr << "plan: verify: " << p.cells_done << " cells computed, " << format_seconds(p.elapsed_seconds)
+                  << "\n";
+    };
+    auto verify = [&](const Candidate& c, const Spec& planned) {
+        last_shown = 0;
+        SparseCertifyOptions so;
+        so.max_touched_fraction = pa.verify_limit;
+        return verify_plan(planned, indices, c, pilots, *backend, pa.compute.apply(planned.integration), target,
+                           pa.abs_floor, so, verify_progress);
+    };
+    if (!pa.no_verify && pa.as_written && written) verification = verify(*written, spec);
+    while (!pa.no_verify && choice) {
+        const Candidate& c = placed ? *placed : front[*choice];
+        const Spec planned = parse_spec_string(planned_spec_text(spec, indices, c, {}), pa.spec);
+        verification = verify(c, planned);
+        if (!target.accuracy || verification->verified == 0 || verification->error_max <= *target.accuracy) break;
+        if (verify_corrections >= kVerifyRounds) {
+            verify_notes.push_back("the verification missed --accuracy " + sci(*target.accuracy) + " after " +
+                                   std::to_string(kVerifyRounds) + " corrections of the fitted model; the plan is the last one chosen");
+            break;
+        }
+        std::vector<const Certificate*> certs;
+        for (const SparseCertificate& t : verification->tables) certs.push_back(t.verified ? &t.certificate : nullptr);
+        correct_error_model(pilots, target, c, certs, [&](const std::string& m) { verify_notes.push_back(m); });
+        ++verify_corrections;
+        all = make_recombined_candidates(pilots, target, groups);
+        front = pareto_front(all);
+        choice = choose_plan(front, target);
+        place();
+        if (!choice) {
+            verification.reset();
+            verify_notes.push_back("with the fitted model corrected by the verification no candidate is predicted to reach "
+                                   "--accuracy " + sci(*target.accuracy));
+        }
     }
+    if (verification && target.accuracy && choice && verify_corrections > 0 &&
+        verification->error_max <= *target.accuracy)
+        verify_notes.push_back("the plan was chosen again after " + std::to_string(verify_corrections) +
+                               " correction(s) of the fitted model; its verification reaches --accuracy " +
+                               sci(*target.accuracy));
     std::string text;
     if (choice && !pa.output.empty()) {
         const Candidate& c = placed ? *placed : front[*choice];
@@ -142,6 +289,10 @@ void run_plan(const PlanArgs& pa) {
                 " (" + pa.interpolation + " interpolation, device " + backend->device_name() + ").",
             "Predicted: max total error " + sci(c.error_max) + ", RMS " + sci(c.error_rms) + " (" +
                 measure + "), engine time " + sci(c.seconds) + " s.  docs/planning.md"};
+        if (verification)
+            header.push_back("Verified: max total error " + sci(verification->error_max) + ", RMS " +
+                             sci(verification->error_rms) + " (sparse certificate of " +
+                             std::to_string(verification->verified) + " table(s)).");
         text = planned_spec_text(spec, indices, c, header);
         parse_spec_string(text, pa.output);  // the written spec must parse (throws: nothing written)
     }
@@ -162,7 +313,13 @@ void run_plan(const PlanArgs& pa) {
             j["choice"] = candidate_json(front[*choice], pilots);
             j["choice"]["index"] = *choice;
             j["predicted_error"] = front[*choice].error_max;
+            j["fitted_error"] = front[*choice].error_max;
             j["predicted_seconds"] = front[*choice].seconds;
+            if (verification && !pa.as_written) {
+                j["choice"]["verification"] = verification_json(*verification);
+                apply_verification(j["choice"], *verification);
+                j["predicted_error"] = verification->error_max;
+            }
             if (pa.place_nodes) {
                 j["placed_nodes"] = nlohmann::json::array();
                 for (const PlacedAxis& r : placements)
@@ -177,8 +334,21 @@ void run_plan(const PlanArgs& pa) {
         }
         if (pa.as_written) {
             j["as_written"] = written ? candidate_json(*written, pilots) : nlohmann::json(written_why);
-            if (written) j["predicted_error"] = written->error_max, j["predicted_seconds"] = written->seconds;
+            if (written) {
+                j["predicted_error"] = written->error_max;
+                j["fitted_error"] = written->error_max;
+                j["predicted_seconds"] = written->seconds;
+                if (verification) {
+                    j["as_written"]["verification"] = verification_json(*verification);
+                    apply_verification(j["as_written"], *verification);
+                    j["predicted_error"] = verification->error_max;
+                }
+            }
         }
+        j["verified"] = verification.has_value() && verification->verified > 0;
+        j["verification_seconds"] = verification ? verification->seconds : 0.0;
+        j["verification_corrections"] = verify_corrections;
+        j["verification_notes"] = verify_notes;
         std::cout << j.dump(2) << "\n";
     } else {
         std::cout << "plan " << pa.spec << " on " << backend->device_name() << ": " << measure
@@ -261,6 +431,21 @@ void run_plan(const PlanArgs& pa) {
         } else if (pa.as_written) {
             std::cout << "as written: no prediction (" << written_why << ")\n";
         }
+        for (const std::string& n : verify_notes) std::cout << "verification: " << n << "\n";
+        if (verification) {
+            print_verification(*verification, pilots, pa.as_written ? "as written" : "choice");
+            if (verification->verified > 0)
+                std::cout << "verified " << (pa.as_written ? "as written" : "choice") << ": max total error "
+                          << sci(verification->error_max) << " (RMS " << sci(verification->error_rms)
+                          << "), fitted prediction " << sci(verification->fitted_max) << "\n";
+        } else if (pa.no_verify && (choice || written)) {
+            std::cout << "not verified (--no-verify): the fitted prediction stands\n";
+        }
+        double pilot_seconds = 0;
+        for (const TablePilot& p : pilots) pilot_seconds += p.pilot_seconds;
+        std::cout << "plan time: pilots " << format_seconds(pilot_seconds) << ", verification "
+                  << format_seconds(verification ? verification->seconds : 0.0)
+                  << " (not part of the predicted generate time)\n";
         for (const PlacedAxis& r : placements)
             std::cout << "placed nodes '" << r.table << "' axis " << r.axis << ": " << r.count
                       << " explicit nodes, predicted max interpolation error " << sci(r.predicted_max)
@@ -316,6 +501,12 @@ void register_plan(CLI::App& app) {
     cmd->add_flag("--as-written", st->as_written,
                   "also predict the spec's own plan (its node counts, method, samples or tolerance, "
                   "stored type) without choosing another; JSON key `as_written` (docs/planning.md)");
+    cmd->add_flag("--no-verify", st->no_verify,
+                  "do not verify the chosen (or --as-written) plan with a sparse certificate; keep the "
+                  "fitted prediction (docs/planning.md \"Verified plans\")");
+    cmd->add_option("--verify-limit", st->verify_limit,
+                    "verify a table only when its certificate's probes touch at most this fraction of its "
+                    "cells (default 0.25; 1: always)");
     cmd->add_flag("-q,--quiet", st->quiet, "no progress display");
     st->compute.add_to(*cmd, false);
     cmd->callback([st] { run_plan(*st); });

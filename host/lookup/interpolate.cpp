@@ -121,6 +121,57 @@ double contract(const AxisWeights* ws, const std::size_t* strides, std::size_t d
 
 using namespace lookup_internal;
 
+namespace {
+
+// The per-axis weights of a lookup at `coords` (the table axes first; a
+// recombination parameter after them is not read here), shared by eval()
+// and stencil_cells() so both see the same cells.
+void point_weights(const std::vector<Axis>& ax, const std::vector<int>& dependency,
+                   const std::vector<double>& coords, Interpolation interp, OutOfRange mode,
+                   const std::string& table, std::vector<AxisWeights>& ws) {
+    const std::size_t dims = ax.size();
+    ws.assign(dims, AxisWeights{});
+    std::vector<double> x(dims);
+    for (std::size_t d = 0; d < dims; ++d) x[d] = resolve(ax[d], coords[d], mode, table);
+    for (std::size_t d = 0; d < dims; ++d) {
+        // An axis whose nodes depend on another (critical: mu_i on eta) is
+        // unwarped at this point's value of that axis: the table is a tensor
+        // product in (t, eta), not in (mu_i, eta).
+        if (dependency[d] >= 0)
+            axis_weights_t(ax[d], ax[d].unwarp_at(x[d], x[std::size_t(dependency[d])]), interp,
+                           ws[d]);
+        else
+            axis_weights(ax[d], x[d], interp, ws[d]);
+    }
+}
+
+// The flat indices contract() reads (weights != 0), in its order.
+void stencil_indices(const AxisWeights* ws, const std::size_t* strides, std::size_t dims,
+                     std::vector<std::size_t>& out, std::size_t d = 0, std::size_t offset = 0) {
+    if (d == dims) {
+        out.push_back(offset);
+        return;
+    }
+    for (int k = 0; k < ws[d].n; ++k) {
+        if (ws[d].w[k] == 0) continue;
+        stencil_indices(ws, strides, dims, out, d + 1, offset + ws[d].idx[k] * strides[d]);
+    }
+}
+
+}  // namespace
+
+void LookupTable::stencil_cells(const std::vector<double>& coords, Interpolation interp,
+                                OutOfRange mode, std::vector<std::size_t>& cells) const {
+    const auto& ax = axes();
+    if (coords.size() < ax.size())
+        throw InputError("table '" + table().name + "': stencil_cells needs " +
+                         std::to_string(ax.size()) + " coordinates, got " +
+                         std::to_string(coords.size()));
+    std::vector<AxisWeights> ws;
+    point_weights(ax, dependency_, coords, interp, mode, table().name, ws);
+    stencil_indices(ws.data(), strides_.data(), ax.size(), cells);
+}
+
 double LookupTable::eval(const std::vector<double>& coords, Interpolation interp,
                          OutOfRange mode) const {
     const auto& ax = axes();
@@ -129,19 +180,8 @@ double LookupTable::eval(const std::vector<double>& coords, Interpolation interp
     if (coords.size() != want)
         throw InputError("table '" + table().name + "': eval needs " + std::to_string(want) +
                          " coordinates, got " + std::to_string(coords.size()));
-    std::vector<AxisWeights> ws(dims);
-    std::vector<double> x(dims);
-    for (std::size_t d = 0; d < dims; ++d) x[d] = resolve(ax[d], coords[d], mode, table().name);
-    for (std::size_t d = 0; d < dims; ++d) {
-        // An axis whose nodes depend on another (critical: mu_i on eta) is
-        // unwarped at this point's value of that axis: the table is a tensor
-        // product in (t, eta), not in (mu_i, eta).
-        if (dependency_[d] >= 0)
-            axis_weights_t(ax[d], ax[d].unwarp_at(x[d], x[std::size_t(dependency_[d])]), interp,
-                           ws[d]);
-        else
-            axis_weights(ax[d], x[d], interp, ws[d]);
-    }
+    std::vector<AxisWeights> ws;
+    point_weights(ax, dependency_, coords, interp, mode, table().name, ws);
     double p = 0;
     if (!terms_.empty()) {
         p = coords[dims];

@@ -114,6 +114,15 @@ public:
                    Interpolation interp = Interpolation::Linear,
                    OutOfRange mode = OutOfRange::Clamp) const;
 
+    // The cells eval(coords, interp, mode) reads with a non-zero weight, as
+    // flat row-major indices into the stored value array, appended to
+    // `cells` (the interpolation stencil: up to 2 nodes per axis for Linear,
+    // 4 for Cubic, fewer at the ends, in t on a dependent axis).  Only the
+    // table axes of `coords` are read.  For computing a table's values
+    // lazily where a lookup needs them (host/plan/certify.h).
+    void stencil_cells(const std::vector<double>& coords, Interpolation interp,
+                       OutOfRange mode, std::vector<std::size_t>& cells) const;
+
     // Direction-level evaluation for isotropic BRDF-like tables whose axes are
     // theta_i|mu_i, theta_o|mu_o, optionally phi_d, plus parameter axes.
     // wi, wo: unit vectors pointing away from the surface, z = macro normal.

@@ -5,12 +5,16 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <map>
+#include <optional>
 
 #include "host/core/error.h"
 #include "host/core/splitmix.h"
 #include "host/core/text.h"
 #include "host/engine/evaluate.h"
+#include "host/generate/chunked.h"
+#include "host/io/half_float.h"
 #include "host/io/hdf5_attributes.h"
 #include "host/io/hdf5_handles.h"
 #include "host/io/table_io.h"
@@ -52,10 +56,31 @@ double interval_point(const Axis& axis, std::size_t j, double s) {
 
 enum class ProbeKind { Line, Random, Node, Local };
 
+// Stored values computed where the probes need them (the sparse
+// certificate, certify_spec_table): before each batch of probes is
+// interpolated, `fill` computes the cells of their stencils that are still
+// missing and writes them into `values` as the file would hold them.
+struct LazyCells {
+    std::function<void(const std::vector<std::size_t>& cells, TableData& values)> fill;
+    std::size_t limit = 0;     // refuse (skipped) when stage 1 + the bound of stage 2 touch more
+    bool skipped = false;
+    std::size_t planned = 0;   // stage 1's cells + the bound of stage 2's (the refusal test)
+};
+
+Certificate certify_impl(const TableData& stored, Backend& backend, const CertifyOptions& options,
+                         const ProgressFn& progress, LazyCells* lazy);
+
 }  // namespace
 
 Certificate certify_table(const TableData& stored, Backend& backend, const CertifyOptions& options,
                           const ProgressFn& progress) {
+    return certify_impl(stored, backend, options, progress, nullptr);
+}
+
+namespace {
+
+Certificate certify_impl(const TableData& stored, Backend& backend, const CertifyOptions& options,
+                         const ProgressFn& progress, LazyCells* lazy) {
     const double start = wall_seconds();
     check_certify_options(options);
     if (stored.kind != TableKind::Computed)
@@ -178,20 +203,65 @@ Certificate certify_table(const TableData& stored, Backend& backend, const Certi
         }
     if (named.empty()) throw InputError("certificate: no probes (lines and random points are 0)");
 
+    // The second stage's shape (below), fixed by the options and the axes.
+    const std::size_t worst = integral ? options.integral_local_worst : options.local_worst;
+    const std::size_t cap = integral ? options.integral_local_probe_cap : options.local_probe_cap;
+    std::size_t per_cell = 1;
+    for (std::size_t a = 0; a < dims; ++a) per_cell *= 3;
+    std::size_t neighbourhood = per_cell;  // 3^D cells around a probe
+    const bool with_neighbours = worst * neighbourhood * per_cell <= cap;
+    if (!with_neighbours) neighbourhood = 1;
+
+    // Lazily computed values: the stored cells that stage 1 reads, plus a
+    // bound of stage 2's (up to `worst` blocks of 3^D cells, or single cells,
+    // each reading its nodes and the stencil's neighbours; at most cap /
+    // 3^D cells).  Refused above the caller's limit before anything is
+    // computed.
+    std::optional<LookupTable> filled;
+    TableData work;
+    if (lazy) {
+        std::vector<std::size_t> touched;
+        for (const auto& x : coords) table.stencil_cells(x, options.interpolation, OutOfRange::Clamp, touched);
+        std::sort(touched.begin(), touched.end());
+        touched.erase(std::unique(touched.begin(), touched.end()), touched.end());
+        const std::size_t reach = options.interpolation == Interpolation::Cubic ? 4 : 2;
+        double block = 1, single = 1;
+        for (const Axis& ax : t.axes) {
+            block *= double(std::min(ax.count, reach + (with_neighbours ? 2 : 0)));
+            single *= double(std::min(ax.count, reach));
+        }
+        const double stage2 = std::min(double(std::min(worst, named.size())) * block,
+                                       double(cap / per_cell) * single);
+        lazy->planned = std::min(t.value.size(), touched.size() + std::size_t(stage2));
+        if (double(lazy->planned) > double(lazy->limit)) {
+            lazy->skipped = true;
+            return Certificate{};
+        }
+        work = t;
+    }
+
     // ---- the measure: |table - reference| / max(|reference|, F), or absolute.
     double max_table = 0;
-    for (double v : t.value)
-        if (std::isfinite(v)) max_table = std::max(max_table, std::fabs(v));
-    const double floor = options.absolute ? 0.0
-                         : options.abs_floor > 0 ? options.abs_floor
-                                                 : std::max(options.rel_floor_factor * max_table, 1e-300);
+    if (!lazy)
+        for (double v : t.value)
+            if (std::isfinite(v)) max_table = std::max(max_table, std::fabs(v));
+    double floor = options.absolute ? 0.0
+                   : options.abs_floor > 0 ? options.abs_floor
+                                           : std::max(options.rel_floor_factor * max_table, 1e-300);
+    // Computed lazily, the automatic floor is taken over the cells the first
+    // stage reads and the table's 2^D corners (set in `evaluate`, before any
+    // error is measured): the table's largest value whenever its cell is
+    // among them, otherwise below it (the certificate errs towards larger
+    // relative errors).
+    const bool floor_from_cells = lazy && !options.absolute && !(options.abs_floor > 0);
 
     // ---- the reference: closed form, or the quantity's default method under
     // a tolerance that keeps its noise at a fraction of the target.
     IntegrationSettings ref;
     ref.method = resolve_method(q, Method::Auto);
     ref.seed = t.seed * 0x9E3779B97F4A7C15ull + options.seed + 0xCE27;
-    if (integral) {
+    auto set_reference_noise = [&] {
+        if (!integral) return;
         const double noise = options.reference_noise_fraction * options.target;
         if (options.absolute) {
             ref.tolerance = 1e-12;  // never the binding one: abs_floor is
@@ -201,7 +271,8 @@ Certificate certify_table(const TableData& stored, Backend& backend, const Certi
             ref.abs_floor = noise * floor;
         }
         ref.max_samples = options.reference_max_samples;
-    }
+    };
+    set_reference_noise();
     Certificate c;
     c.table = t.name;
     c.target = options.target;
@@ -217,6 +288,35 @@ Certificate certify_table(const TableData& stored, Backend& backend, const Certi
 
     // Evaluates probes [first, named.size()) and folds them into c.
     auto evaluate = [&](std::size_t first) {
+        if (lazy) {
+            std::vector<std::size_t> cells;
+            for (std::size_t k = first; k < coords.size(); ++k)
+                table.stencil_cells(coords[k], options.interpolation, OutOfRange::Clamp, cells);
+            if (floor_from_cells && first == 0) {
+                // The table's corners too: a table's largest value often
+                // lies at one (grazing angles, the ends of parameter
+                // ranges), and the lines rarely pass through them.
+                for (std::size_t corner = 0; corner < (std::size_t(1) << dims); ++corner) {
+                    std::size_t flat = 0;
+                    for (std::size_t a = 0; a < dims; ++a)
+                        flat = flat * t.axes[a].count + (((corner >> a) & 1) ? t.axes[a].count - 1 : 0);
+                    cells.push_back(flat);
+                }
+            }
+            std::sort(cells.begin(), cells.end());
+            cells.erase(std::unique(cells.begin(), cells.end()), cells.end());
+            lazy->fill(cells, work);
+            filled.emplace(work);
+            if (floor_from_cells && first == 0) {
+                double m = 0;  // cells not computed hold 0
+                for (double v : work.value)
+                    if (std::isfinite(v)) m = std::max(m, std::fabs(v));
+                floor = std::max(options.rel_floor_factor * m, 1e-300);
+                c.abs_floor = floor;
+                set_reference_noise();
+            }
+        }
+        const LookupTable& values = filled ? *filled : table;
         const std::vector<std::map<std::string, double>> batch(named.begin() + first, named.end());
         const std::vector<double> points =
             build_kernel_points(model, q, batch, [&](std::size_t) { return where; });
@@ -224,7 +324,7 @@ Certificate certify_table(const TableData& stored, Backend& backend, const Certi
         c.reference_method = to_string(r.method);
         for (std::size_t i = 0; i < batch.size(); ++i) {
             const std::size_t k = first + i;
-            const double v = table.eval(coords[k], options.interpolation, OutOfRange::Clamp);
+            const double v = values.eval(coords[k], options.interpolation, OutOfRange::Clamp);
             const double den = options.absolute ? 1.0 : std::max(std::fabs(r.value[i]), floor);
             double e = std::fabs(v - r.value[i]) / den;
             if (!std::isfinite(e)) e = std::numeric_limits<double>::infinity();  // NaN fails the certificate
@@ -265,13 +365,6 @@ Certificate certify_table(const TableData& stored, Backend& backend, const Certi
     // inside a cell (a cross term, e.g. at the centre of the first cell of a
     // peak at a corner) is found here, next to where the first stage saw
     // the largest errors.
-    const std::size_t worst = integral ? options.integral_local_worst : options.local_worst;
-    const std::size_t cap = integral ? options.integral_local_probe_cap : options.local_probe_cap;
-    std::size_t per_cell = 1;
-    for (std::size_t a = 0; a < dims; ++a) per_cell *= 3;
-    std::size_t neighbourhood = per_cell;  // 3^D cells around a probe
-    const bool with_neighbours = worst * neighbourhood * per_cell <= cap;
-    if (!with_neighbours) neighbourhood = 1;
     std::sort(off_node.begin(), off_node.end(), std::greater<>());
     std::vector<std::vector<std::size_t>> cells;
     for (std::size_t w = 0; w < std::min(worst, off_node.size()); ++w) {
@@ -314,10 +407,12 @@ Certificate certify_table(const TableData& stored, Backend& backend, const Certi
         // The reference is the table's own rule (see above): add the rule's
         // own error estimate, the largest stored two-rule difference, in the
         // measure (a bound-like term: it is an estimate, not a measurement).
+        // (Computed lazily: over the cells computed, NaN elsewhere.)
+        const TableData& held = lazy ? work : t;
         double rule_error = 0;
-        for (std::size_t i = 0; i < t.stderr_.size() && i < t.value.size(); ++i) {
-            const double den = options.absolute ? 1.0 : std::max(std::fabs(t.value[i]), floor);
-            if (std::isfinite(t.stderr_[i])) rule_error = std::max(rule_error, t.stderr_[i] / den);
+        for (std::size_t i = 0; i < held.stderr_.size() && i < held.value.size(); ++i) {
+            const double den = options.absolute ? 1.0 : std::max(std::fabs(held.value[i]), floor);
+            if (std::isfinite(held.stderr_[i])) rule_error = std::max(rule_error, held.stderr_[i] / den);
         }
         c.reference_noise = std::max(c.reference_noise, rule_error);
         c.max_error += rule_error;
@@ -325,6 +420,93 @@ Certificate certify_table(const TableData& stored, Backend& backend, const Certi
     c.passed = c.max_error <= c.target;
     c.seconds = wall_seconds() - start;
     return c;
+}
+
+}  // namespace
+
+SparseCertificate certify_spec_table(const Spec& spec, std::size_t table_index, Backend& backend,
+                                     const IntegrationSettings& settings, const CertifyOptions& options,
+                                     const SparseCertifyOptions& sparse, const ProgressFn& progress) {
+    const double start = wall_seconds();
+    check_certify_options(options);
+    if (table_index >= spec.tables.size()) throw Error("certify_spec_table: no table " + std::to_string(table_index));
+    SparseCertificate out;
+    ChunkComputer computer(spec, backend, settings);
+    TableData described = computer.describe(table_index);
+    const std::size_t cells = computer.cell_count(table_index);
+    out.table_cells = cells;
+    if (cells > sparse.max_table_cells) {
+        out.why = std::to_string(cells) + " cells, above the " + std::to_string(sparse.max_table_cells) +
+                  " a sparse certificate holds in memory";
+        out.seconds = wall_seconds() - start;
+        return out;
+    }
+    const bool closed = described.method == Method::ClosedForm;
+    const bool keep_stderr = described.keep_stderr;
+    const StoredType type = described.stored_type;
+    described.value.assign(cells, 0.0);
+    described.stderr_.clear();
+    described.samples.clear();
+    std::vector<bool> have(cells, false);
+    const std::size_t gap = closed || described.method == Method::Quadrature ? sparse.merge_gap_closed_form
+                                                                               : sparse.merge_gap_sampled;
+    // The stored value as the writer rounds it (table_io.cpp write_real_cells).
+    auto stored = [type](double v) {
+        switch (type) {
+            case StoredType::Float32: return double(static_cast<float>(v));
+            case StoredType::Float16: return half_to_double(half_bits(v));
+            case StoredType::Float64: break;
+        }
+        return v;
+    };
+    LazyCells lazy;
+    lazy.limit = static_cast<std::size_t>(sparse.max_touched_fraction * double(cells));
+    lazy.fill = [&](const std::vector<std::size_t>& wanted, TableData& values) {
+        if (keep_stderr && values.stderr_.empty()) values.stderr_.assign(cells, std::nan(""));
+        std::vector<std::pair<std::size_t, std::size_t>> runs;  // [first, last]
+        for (std::size_t c : wanted) {
+            if (have[c]) continue;
+            ++out.touched_cells;
+            if (!runs.empty() && c <= runs.back().second + gap + 1)
+                runs.back().second = c;
+            else
+                runs.emplace_back(c, c);
+        }
+        const double t0 = wall_seconds();
+        for (const auto& [first, last] : runs) {
+            const ChunkResult r = computer.compute(CellChunk{table_index, first, last - first + 1}, nullptr);
+            for (std::size_t i = 0; i < r.value.size(); ++i) {
+                if (have[first + i]) continue;
+                have[first + i] = true;
+                values.value[first + i] = stored(r.value[i]);
+                if (keep_stderr && i < r.stderr_.size()) values.stderr_[first + i] = stored(r.stderr_[i]);
+                ++out.computed_cells;
+            }
+            ++out.engine_runs;
+            if (progress) {
+                Progress p;
+                p.cells_total = out.planned_cells;
+                p.cells_done = out.computed_cells;
+                p.elapsed_seconds = wall_seconds() - start;
+                p.fraction = out.planned_cells ? std::min(1.0, double(out.computed_cells) / double(out.planned_cells)) : 0;
+                progress(p);
+            }
+        }
+        out.compute_seconds += wall_seconds() - t0;
+        out.planned_cells = lazy.planned;
+    };
+    Certificate c = certify_impl(described, backend, options, nullptr, &lazy);
+    out.planned_cells = lazy.planned;
+    if (lazy.skipped) {
+        out.why = "the probes would touch up to " + std::to_string(lazy.planned) + " of its " +
+                  std::to_string(cells) + " cells (limit " +
+                  number_text(100 * sparse.max_touched_fraction, 3) + " %)";
+    } else {
+        out.verified = true;
+        out.certificate = std::move(c);
+    }
+    out.seconds = wall_seconds() - start;
+    return out;
 }
 
 Certificate certify_file_table(const std::string& path, const std::string& table, Backend& backend,
@@ -480,6 +662,120 @@ Candidate repredict(const Candidate& c, const std::vector<TablePilot>& pilots, c
 
 }  // namespace
 
+PlanVerification verify_plan(const Spec& planned, const std::vector<std::size_t>& table_indices,
+                             const Candidate& plan, const std::vector<TablePilot>& pilots,
+                             Backend& backend, const IntegrationSettings& settings, const PlanTarget& target,
+                             double abs_floor, const SparseCertifyOptions& sparse, const ProgressFn& progress) {
+    const double start = wall_seconds();
+    PlanVerification v;
+    v.fitted_max = plan.error_max;
+    v.fitted_rms = plan.error_rms;
+    for (std::size_t i = 0; i < plan.tables.size(); ++i) {
+        const TablePlan& tp = plan.tables[i];
+        double table_max = tp.error_max, table_rms = tp.error_rms;
+        if (i < pilots.size() && i < table_indices.size()) {
+            CertifyOptions co;
+            co.absolute = target.absolute;
+            co.abs_floor = target.absolute ? 0.0 : abs_floor;
+            co.interpolation = target.interpolation;
+            const double fitted = std::isfinite(tp.error_max) && tp.error_max > 0 ? tp.error_max : 1e-300;
+            co.target = target.accuracy ? *target.accuracy : fitted;
+            SparseCertificate sc;
+            try {
+                sc = certify_spec_table(planned, table_indices[i], backend, settings, co, sparse, progress);
+            } catch (const InputError& e) {
+                // A table the certificate cannot measure (e.g. a model input
+                // it cannot probe): the fitted prediction stands.
+                sc.why = e.what();
+            }
+            if (sc.verified) {
+                sc.certificate.predicted_max = tp.error_max;
+                sc.certificate.predicted_rms = tp.error_rms;
+                table_max = sc.certificate.max_error;
+                table_rms = sc.certificate.rms_error;
+                ++v.verified;
+            }
+            v.touched_cells += sc.touched_cells;
+            v.computed_cells += sc.computed_cells;
+            v.table_cells += sc.table_cells;
+            v.tables.push_back(std::move(sc));
+        }
+        v.error_max = std::max(v.error_max, table_max);
+        v.error_rms = std::max(v.error_rms, table_rms);
+    }
+    v.seconds = wall_seconds() - start;
+    return v;
+}
+
+void correct_error_model(std::vector<TablePilot>& pilots, const PlanTarget& target, const Candidate& plan,
+                         const std::vector<const Certificate*>& certificates,
+                         const std::function<void(const std::string&)>& say_to) {
+    auto say = [&](const std::string& m) {
+        if (say_to) say_to(m);
+    };
+    // Correct the error model with what the probes measured: an axis whose
+    // lines exceeded E has its interpolation law scaled by measured /
+    // predicted (at least 1.5 so that the next plan differs); a node
+    // probe above half of E (integration noise plus rounding) scales the
+    // integration law the same way.
+    for (std::size_t i = 0; i < pilots.size() && i < certificates.size(); ++i) {
+        if (!certificates[i] || certificates[i]->passed) continue;
+        const Certificate& c = *certificates[i];
+        TablePilot& pilot = pilots[i];
+        const TablePlan& tp = plan.tables[i];
+        std::vector<AxisFit>& fits = fits_of(pilot, target);
+        bool any_axis = false;
+        // A larger error off the lines (random or local probes: the
+        // cross terms of the tensor-product interpolation) raises every
+        // failing axis' correction by the same factor.
+        double line_max = 0;
+        for (double m : c.axis_max) line_max = std::max(line_max, m);
+        const double cross = line_max > 0 ? std::max(c.max_error / line_max, 1.0) : 1.0;
+        for (std::size_t a = 0; a < fits.size() && a < c.axis_max.size(); ++a) {
+            if (!(c.axis_max[a] > c.target)) continue;
+            any_axis = true;
+            PowerFit& fm = target.absolute ? fits[a].max_abs : fits[a].max_rel;
+            PowerFit& fr = target.absolute ? fits[a].rms_abs : fits[a].rms_rel;
+            const double h = 1.0 / double(tp.counts[a] - 1);
+            const double predicted = (fm.valid ? fm.eval(h) : 0) + tp.integration_max + tp.storage_max;
+            const double ratio = predicted > 0 ? std::max(cross * c.axis_max[a] / predicted, 1.5) : 1.5;
+            scale_fit(fm, ratio);
+            scale_fit(fr, ratio);
+            say("table '" + c.table + "' axis " + pilot.axes[a].name + ": measured " +
+                sci(c.axis_max[a]) + " along its lines" +
+                (cross > 1 ? " (x " + number_text(cross, 3) + " off the lines)" : "") +
+                ", predicted " + sci(predicted) + ": error law x " + number_text(ratio, 3));
+        }
+        if (c.node_probes && c.node_max > 0.5 * c.target) {
+            const double ratio = tp.integration_max > 0 ? std::max(c.node_max / tp.integration_max, 1.5) : 1.5;
+            for (IntegrationFit& f : pilot.integration) {
+                for (double& v : f.cell_abs) v *= ratio;
+                for (double& v : f.cell_rel) v *= ratio;
+                for (double& v : f.max_abs) v *= ratio;
+                for (double& v : f.max_rel) v *= ratio;
+                scale_fit(f.fit_max_abs, ratio);
+                scale_fit(f.fit_max_rel, ratio);
+                scale_fit(f.fit_rms_abs, ratio);
+                scale_fit(f.fit_rms_rel, ratio);
+            }
+            say("table '" + c.table + "': measured " + sci(c.node_max) +
+                " at nodes (integration + rounding), predicted integration " +
+                sci(tp.integration_max) + ": error law x " + number_text(ratio, 3));
+        } else if (!any_axis) {
+            // Only random (off-line) points failed: cross terms.  Every
+            // planned axis' law by measured / predicted.
+            const double ratio = std::max(c.max_error / std::max(tp.error_max, 1e-300), 1.5);
+            for (AxisFit& f : fits) {
+                scale_fit(target.absolute ? f.max_abs : f.max_rel, ratio);
+                scale_fit(target.absolute ? f.rms_abs : f.rms_rel, ratio);
+            }
+            say("table '" + c.table + "': max " + sci(c.max_error) +
+                " at random points, predicted " + sci(tp.error_max) +
+                ": every axis' error law x " + number_text(ratio, 3));
+        }
+    }
+}
+
 CertifiedResult certified_generate(const Spec& spec, Backend& backend, const CertifiedGenerateOptions& options,
                                    const std::string& path, const GenerateToFn& generate,
                                    const CertifyProgressFn& progress) {
@@ -568,6 +864,45 @@ CertifiedResult certified_generate(const Spec& spec, Backend& backend, const Cer
             }
             plan = repredict(plan, result.pilots, target, counts);
         }
+        if (round == 0 && options.verify && target.accuracy) {
+            // Verify the first plan before generating it (docs/planning.md
+            // "Verified plans"): a missed E corrects the model as a failed
+            // certificate would, without a generation round.
+            for (int k = 0;; ++k) {
+                const Spec planned = parse_spec_string(planned_spec_text(spec, indices, plan, {}),
+                                                       options.spec_label.empty() ? spec.file : options.spec_label);
+                const IntegrationSettings settings =
+                    options.verify_settings ? options.verify_settings(planned) : planned.integration;
+                const PlanVerification v = verify_plan(planned, indices, plan, result.pilots, backend, settings, target,
+                                                       options.pilot.abs_floor, options.verify_sparse,
+                                                       stage_progress("verify", 0));
+                std::size_t touched = 0, cells = 0;
+                for (const SparseCertificate& t : v.tables)
+                    if (t.verified) touched += t.touched_cells, cells += t.table_cells;
+                say("verify", 0, v.verified ? "verification: max " + sci(v.error_max) + " (fitted " + sci(v.fitted_max) +
+                                                  "), " + std::to_string(v.verified) + " of " +
+                                                  std::to_string(v.tables.size()) + " table(s), reading " +
+                                                  std::to_string(touched) + " of " + std::to_string(cells) + " cells, " +
+                                                  number_text(v.seconds, 3) + " s"
+                                            : "verification: no table verified (" +
+                                                  (v.tables.empty() ? std::string("none") : v.tables.front().why) +
+                                                  "); the fitted prediction stands");
+                result.verifications.push_back(v);
+                if (v.verified == 0 || v.error_max <= *target.accuracy || k >= 2) break;
+                std::vector<const Certificate*> certs;
+                for (const SparseCertificate& t : v.tables) certs.push_back(t.verified ? &t.certificate : nullptr);
+                correct_error_model(result.pilots, target, plan, certs,
+                                    [&](const std::string& m) { say("verify", 0, m); });
+                const std::vector<Candidate> again = pareto_front(make_candidates(result.pilots, target));
+                const std::optional<std::size_t> pick = choose_plan(again, target);
+                if (!pick) {
+                    say("verify", 0, "no plan is predicted to reach the target with the corrected model; "
+                                     "generating the last one");
+                    break;
+                }
+                plan = again[*pick];
+            }
+        }
         CertifiedRound rnd;
         rnd.round = round;
         rnd.plan = plan;
@@ -634,67 +969,10 @@ CertifiedResult certified_generate(const Spec& spec, Backend& backend, const Cer
             result.stop = "max-refinements";
             break;
         }
-        // Correct the error model with what the probes measured: an axis whose
-        // lines exceeded E has its interpolation law scaled by measured /
-        // predicted (at least 1.5 so that the next plan differs); a node
-        // probe above half of E (integration noise plus rounding) scales the
-        // integration law the same way.
-        for (std::size_t i = 0; i < result.pilots.size(); ++i) {
-            const Certificate& c = rnd.certificates[i];
-            if (c.passed) continue;
-            TablePilot& pilot = result.pilots[i];
-            const TablePlan& tp = plan.tables[i];
-            std::vector<AxisFit>& fits = fits_of(pilot, target);
-            bool any_axis = false;
-            // A larger error off the lines (random or local probes: the
-            // cross terms of the tensor-product interpolation) raises every
-            // failing axis' correction by the same factor.
-            double line_max = 0;
-            for (double m : c.axis_max) line_max = std::max(line_max, m);
-            const double cross = line_max > 0 ? std::max(c.max_error / line_max, 1.0) : 1.0;
-            for (std::size_t a = 0; a < fits.size() && a < c.axis_max.size(); ++a) {
-                if (!(c.axis_max[a] > c.target)) continue;
-                any_axis = true;
-                PowerFit& fm = target.absolute ? fits[a].max_abs : fits[a].max_rel;
-                PowerFit& fr = target.absolute ? fits[a].rms_abs : fits[a].rms_rel;
-                const double h = 1.0 / double(tp.counts[a] - 1);
-                const double predicted = (fm.valid ? fm.eval(h) : 0) + tp.integration_max + tp.storage_max;
-                const double ratio = predicted > 0 ? std::max(cross * c.axis_max[a] / predicted, 1.5) : 1.5;
-                scale_fit(fm, ratio);
-                scale_fit(fr, ratio);
-                say("refine", round, "table '" + c.table + "' axis " + pilot.axes[a].name + ": measured " +
-                                         sci(c.axis_max[a]) + " along its lines" +
-                                         (cross > 1 ? " (x " + number_text(cross, 3) + " off the lines)" : "") +
-                                         ", predicted " + sci(predicted) + ": error law x " + number_text(ratio, 3));
-            }
-            if (c.node_probes && c.node_max > 0.5 * c.target) {
-                const double ratio = tp.integration_max > 0 ? std::max(c.node_max / tp.integration_max, 1.5) : 1.5;
-                for (IntegrationFit& f : pilot.integration) {
-                    for (double& v : f.cell_abs) v *= ratio;
-                    for (double& v : f.cell_rel) v *= ratio;
-                    for (double& v : f.max_abs) v *= ratio;
-                    for (double& v : f.max_rel) v *= ratio;
-                    scale_fit(f.fit_max_abs, ratio);
-                    scale_fit(f.fit_max_rel, ratio);
-                    scale_fit(f.fit_rms_abs, ratio);
-                    scale_fit(f.fit_rms_rel, ratio);
-                }
-                say("refine", round, "table '" + c.table + "': measured " + sci(c.node_max) +
-                                         " at nodes (integration + rounding), predicted integration " +
-                                         sci(tp.integration_max) + ": error law x " + number_text(ratio, 3));
-            } else if (!any_axis) {
-                // Only random (off-line) points failed: cross terms.  Every
-                // planned axis' law by measured / predicted.
-                const double ratio = std::max(c.max_error / std::max(tp.error_max, 1e-300), 1.5);
-                for (AxisFit& f : fits) {
-                    scale_fit(target.absolute ? f.max_abs : f.max_rel, ratio);
-                    scale_fit(target.absolute ? f.rms_abs : f.rms_rel, ratio);
-                }
-                say("refine", round, "table '" + c.table + "': max " + sci(c.max_error) +
-                                         " at random points, predicted " + sci(tp.error_max) +
-                                         ": every axis' error law x " + number_text(ratio, 3));
-            }
-        }
+        std::vector<const Certificate*> certs;
+        for (const Certificate& c : rnd.certificates) certs.push_back(&c);
+        correct_error_model(result.pilots, target, plan, certs,
+                            [&](const std::string& m) { say("refine", round, m); });
     }
     result.passed = !result.rounds.empty() && result.rounds.back().passed;
     result.total_seconds = wall_seconds() - start;

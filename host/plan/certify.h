@@ -114,6 +114,104 @@ Certificate certify_table(const TableData& table, Backend& backend, const Certif
 Certificate certify_file_table(const std::string& path, const std::string& table, Backend& backend,
                                const CertifyOptions& options, const ProgressFn& progress = nullptr);
 
+// ------------------------------------------------------------ sparse certificate
+
+// The certificate of a table that is not generated (docs/planning.md
+// "Verified plans").  certify_table() reads a table's stored values only at
+// the cells in the interpolation stencils of its probes (up to 2 nodes per
+// axis for linear, 4 for Catmull-Rom; in t on a dependent axis), so those
+// cells are all it needs: before each batch of probes is interpolated the
+// missing ones are computed with the engine exactly as `generate` computes
+// them (a ChunkComputer over runs of consecutive cells: the same cell
+// numbers in the random streams, the same seed, method, samples, tolerance
+// and rule) and rounded to the stored type as the file writer rounds them.
+// The result is the certificate certify_table() gives on the generated file,
+// bit for bit (same options and seed), at the cost of the touched cells.
+// Exceptions: the automatic relative floor (CertifyOptions::abs_floor = 0)
+// is rel_floor_factor x the largest value among the cells the first stage
+// reads and the table's 2^D corners (the table's largest value whenever
+// that cell is among them, else smaller: larger relative errors);
+// and for a quadrature without a finer reference rule the added rule error
+// is the largest stored two-rule difference over the computed cells only.
+struct SparseCertifyOptions {
+    // Refuse (verified = false) when the cells the probes would touch (stage
+    // 1 counted, the local search bounded from above) exceed this fraction
+    // of the table's cells: generating the table would then cost about as
+    // much and give the exact certificate.
+    double max_touched_fraction = 0.25;
+    // Refuse above this many cells: the values are held in memory as the
+    // lookup library reads them (8 bytes per cell, three copies).
+    std::size_t max_table_cells = std::size_t(1) << 24;
+    // Runs of touched cells closer than this are computed as one engine run
+    // (the cells between are computed too: fewer, larger runs).
+    std::size_t merge_gap_closed_form = 8, merge_gap_sampled = 2;
+};
+
+struct SparseCertificate {
+    bool verified = false;     // false: not run (`why`); the certificate is empty
+    std::string why;
+    Certificate certificate;
+    std::size_t table_cells = 0;
+    std::size_t planned_cells = 0;   // the refusal test's count (stage 1 + stage 2's bound)
+    std::size_t touched_cells = 0;   // cells the probes' stencils read
+    std::size_t computed_cells = 0;  // cells computed (touched, and the gaps merged into runs)
+    std::size_t engine_runs = 0;
+    double compute_seconds = 0;      // engine time on those cells
+    double seconds = 0;              // wall time of everything
+};
+
+// The sparse certificate of table `table_index` of `spec`, computed with
+// `settings` (what `generate` would use: the spec's [integration] with the
+// command line's overrides).  Throws InputError for bad options (as
+// certify_table) and when the relative floor is not given.
+SparseCertificate certify_spec_table(const Spec& spec, std::size_t table_index, Backend& backend,
+                                     const IntegrationSettings& settings, const CertifyOptions& options,
+                                     const SparseCertifyOptions& sparse = {},
+                                     const ProgressFn& progress = nullptr);
+
+// ------------------------------------------------------------ verified plans
+
+// A plan checked by sparse certificates of its tables before anything is
+// generated (`brdftab plan`, docs/planning.md "Verified plans").
+struct PlanVerification {
+    // One per piloted table (plan.tables[i] for i < pilots.size(); recombined
+    // entries after them keep their fitted prediction).
+    std::vector<SparseCertificate> tables;
+    double fitted_max = 0, fitted_rms = 0;   // the fitted model's prediction (the candidate's)
+    // The plan's error: per table the certificate's max (RMS) where it was
+    // verified, the fitted prediction elsewhere; the worst table's.
+    double error_max = 0, error_rms = 0;
+    std::size_t verified = 0;                // tables verified
+    std::size_t touched_cells = 0, computed_cells = 0, table_cells = 0;
+    double seconds = 0;                      // wall time of the verification
+};
+
+// Verifies `plan` (chosen among candidates for `pilots`, the spec's tables
+// `table_indices`) on `planned`, the spec with the plan applied
+// (planned_spec_text, or the spec itself for its own plan), generating with
+// `settings` as `generate` would.  Each table's certificate measures in the
+// target's measure, relative errors with the floor `abs_floor` (0: the
+// automatic one, as `certify` takes it, from the computed cells); its target (which sets an
+// integral's reference noise, 0.2 x target) is E with an accuracy target,
+// else the table's fitted max.
+PlanVerification verify_plan(const Spec& planned, const std::vector<std::size_t>& table_indices,
+                             const Candidate& plan, const std::vector<TablePilot>& pilots,
+                             Backend& backend, const IntegrationSettings& settings, const PlanTarget& target,
+                             double abs_floor, const SparseCertifyOptions& sparse = {},
+                             const ProgressFn& progress = nullptr);
+
+// The refinement's correction of the fitted error model from certificates
+// that missed their target (certified_generate, and `plan --accuracy` after
+// a failed verification): per axis whose lines exceeded the target, the
+// interpolation law x measured / predicted (times the excess off the lines,
+// at least 1.5); node probes above half the target scale the integration
+// law the same way; only off-line probes failed: every axis' law x measured /
+// predicted.  `certificates[i]` is pilots[i]'s (null: none).  Each
+// correction is reported through `say` (one line each).
+void correct_error_model(std::vector<TablePilot>& pilots, const PlanTarget& target, const Candidate& plan,
+                         const std::vector<const Certificate*>& certificates,
+                         const std::function<void(const std::string&)>& say = nullptr);
+
 // Stores `c` as attributes of its table's group in `path` (replacing any
 // earlier certificate); reads it back (nullopt: the table has none).
 void write_certificate(const std::string& path, const Certificate& c);
@@ -130,6 +228,14 @@ struct CertifiedGenerateOptions {
     CertifyOptions certify;         // target, absolute, abs_floor, interpolation are set from the above
     int max_refinements = 2;        // >= 0; budget mode never refines
     std::string spec_label;         // file name the planned specs are parsed under
+    // Accuracy mode: verify the first plan with sparse certificates before
+    // generating it (verify_plan), and when the verification misses E
+    // correct the model and choose again, at most 2 times ("Verified plans").
+    bool verify = true;
+    SparseCertifyOptions verify_sparse;
+    // The settings `generate` computes the planned spec with (null: its
+    // [integration] as written).
+    std::function<IntegrationSettings(const Spec&)> verify_settings;
 };
 
 struct CertifyEvent {
@@ -155,6 +261,7 @@ struct CertifiedRound {
 
 struct CertifiedResult {
     std::vector<TablePilot> pilots;
+    std::vector<PlanVerification> verifications;  // of the first plan, before generating (verify)
     std::vector<CertifiedRound> rounds;  // the last one is what `path` holds
     bool passed = false;
     // Why the loop ended: "passed", "max-refinements", "no-plan" (the corrected
