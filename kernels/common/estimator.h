@@ -146,6 +146,23 @@
     if ((gid) >= (n_work)) return
 #endif
 
+/* Work item w's inputs, shared by the kernels below (same names in their
+ * signatures): the point p (its load unrolled, see below), the options o and the sampler
+ * state s of its (cell, batch). */
+#define BT_KERNEL_LOAD_WORK_(w)                                                \
+        const uint stride_ = BT_KERNEL_STRIDE_(stride);                        \
+        REAL p[BT_MAX_POINT];                                                  \
+        _Pragma("unroll")                                                      \
+        for (uint k = 0; k < BT_MAX_POINT; ++k)                                \
+            p[k] = k < stride_ ? points[(size_t)w * stride_ + k] : R(0.0);     \
+        BT_KERNEL_LOAD_OPTIONS_(o, options, n_options)                         \
+        bt_sampler s;                                                          \
+        s.key0 = key0;                                                         \
+        s.key1 = key1;                                                         \
+        s.cell = work_cell[w];                                                 \
+        s.batch = work_batch[w];                                               \
+        s.method = BT_KERNEL_METHOD_(method);
+
 /* The point load is unrolled: left as a loop, clang vectorised it as a 4-wide
  * inner loop before PoCL wrapped the body in its work-item loop, which was then
  * not innermost and stayed scalar (measured on the rough-dielectric bsdf
@@ -161,18 +178,7 @@
         const uint gid = (uint)get_global_id(0);                               \
         BT_KERNEL_PADDING_EXIT_(gid, n_work);                                  \
         const uint w = gid < n_work ? gid : 0u;                                \
-        const uint stride_ = BT_KERNEL_STRIDE_(stride);                        \
-        REAL p[BT_MAX_POINT];                                                  \
-        _Pragma("unroll")                                                      \
-        for (uint k = 0; k < BT_MAX_POINT; ++k)                                \
-            p[k] = k < stride_ ? points[(size_t)w * stride_ + k] : R(0.0);     \
-        BT_KERNEL_LOAD_OPTIONS_(o, options, n_options)                         \
-        bt_sampler s;                                                          \
-        s.key0 = key0;                                                         \
-        s.key1 = key1;                                                         \
-        s.cell = work_cell[w];                                                 \
-        s.batch = work_batch[w];                                               \
-        s.method = BT_KERNEL_METHOD_(method);                                  \
+        BT_KERNEL_LOAD_WORK_(w)                                                \
         const uint batch_size_ = BT_KERNEL_BATCH_SIZE_(batch_size);            \
         ACCUM mean = 0, m2 = 0;                                                \
         for (uint k = 0; k < batch_size_; ++k) {                               \
@@ -218,18 +224,7 @@
         const uint batch_size_ = BT_KERNEL_BATCH_SIZE_(batch_size);            \
         const uint item = gid / batch_size_;                                   \
         const uint w = first_work + item;                                      \
-        const uint stride_ = BT_KERNEL_STRIDE_(stride);                        \
-        REAL p[BT_MAX_POINT];                                                  \
-        _Pragma("unroll")                                                      \
-        for (uint k = 0; k < BT_MAX_POINT; ++k)                                \
-            p[k] = k < stride_ ? points[(size_t)w * stride_ + k] : R(0.0);     \
-        BT_KERNEL_LOAD_OPTIONS_(o, options, n_options)                         \
-        bt_sampler s;                                                          \
-        s.key0 = key0;                                                         \
-        s.key1 = key1;                                                         \
-        s.cell = work_cell[w];                                                 \
-        s.batch = work_batch[w];                                               \
-        s.method = BT_KERNEL_METHOD_(method);                                  \
+        BT_KERNEL_LOAD_WORK_(w)                                                \
         s.sample = gid - item * batch_size_;                                   \
         scratch[gid] =                                                         \
             (ACCUM)sample_fn(p, o, BT_KERNEL_QUANTITY_(quantity), &s);         \
