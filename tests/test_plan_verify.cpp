@@ -16,6 +16,7 @@
 //     fitted prediction;
 //   - the command line's exit codes for bad flag combinations.
 #include <doctest/doctest.h>
+#include <cmath>
 
 #include <cstdio>
 #include <fstream>
@@ -248,6 +249,25 @@ TEST_CASE("verify_plan: a table the fitted model under-predicts is verified to w
     CHECK(v.fitted_max == written->error_max);
     // The premise: the fitted model misses the measured error by more than 2x.
     CHECK(full.max_error > 2 * v.fitted_max);
+
+    // At the default limit (25 %) this small table is not verified (its
+    // probes read most of it), unless it is cheap: `plan` verifies tables
+    // predicted to generate within cheap_table_seconds whatever they read.
+    SparseCertifyOptions limited;
+    const PlanVerification refused =
+        verify_plan(spec, {0}, *written, {pilot}, *backend, spec.integration, target, 0.0, limited);
+    CHECK(refused.verified == 0);
+    CHECK(refused.error_max == written->error_max);
+    REQUIRE(std::isfinite(written->tables[0].seconds));
+    limited.cheap_table_seconds = written->tables[0].seconds + 1.0;
+    const PlanVerification cheap =
+        verify_plan(spec, {0}, *written, {pilot}, *backend, spec.integration, target, 0.0, limited);
+    CHECK(cheap.verified == 1);
+    CHECK(cheap.error_max == full.max_error);
+    limited.cheap_table_seconds = 0.5 * written->tables[0].seconds;
+    if (written->tables[0].seconds > 0)
+        CHECK(verify_plan(spec, {0}, *written, {pilot}, *backend, spec.integration, target, 0.0, limited)
+                  .verified == 0);
 
     // The correction generate --accuracy applies raises the fitted model to
     // (at least) what the verification measured along the failing axes.

@@ -246,6 +246,7 @@ void run_plan(const PlanArgs& pa) {
         last_shown = 0;
         SparseCertifyOptions so;
         so.max_touched_fraction = pa.verify_limit;
+        so.cheap_table_seconds = 5.0;  // docs/planning.md "Verified plans"
         return verify_plan(planned, indices, c, pilots, *backend, pa.compute.apply(planned.integration), target,
                            pa.abs_floor, so, verify_progress);
     };
@@ -506,7 +507,8 @@ void register_plan(CLI::App& app) {
                   "fitted prediction (docs/planning.md \"Verified plans\")");
     cmd->add_option("--verify-limit", st->verify_limit,
                     "verify a table only when its certificate's probes touch at most this fraction of its "
-                    "cells (default 0.25; 1: always)");
+                    "cells (default 0.25; 1: always); a table predicted to generate in <= 5 s is verified "
+                    "whatever the fraction");
     cmd->add_flag("-q,--quiet", st->quiet, "no progress display");
     st->compute.add_to(*cmd, false);
     cmd->callback([st] { run_plan(*st); });

@@ -682,7 +682,10 @@ PlanVerification verify_plan(const Spec& planned, const std::vector<std::size_t>
             co.target = target.accuracy ? *target.accuracy : fitted;
             SparseCertificate sc;
             try {
-                sc = certify_spec_table(planned, table_indices[i], backend, settings, co, sparse, progress);
+                SparseCertifyOptions table_sparse = sparse;
+                if (std::isfinite(tp.seconds) && tp.seconds <= sparse.cheap_table_seconds)
+                    table_sparse.max_touched_fraction = 1.0;
+                sc = certify_spec_table(planned, table_indices[i], backend, settings, co, table_sparse, progress);
             } catch (const InputError& e) {
                 // A table the certificate cannot measure (e.g. a model input
                 // it cannot probe): the fitted prediction stands.

@@ -139,6 +139,13 @@ struct SparseCertifyOptions {
     // of the table's cells: generating the table would then cost about as
     // much and give the exact certificate.
     double max_touched_fraction = 0.25;
+    // verify_plan() only: a table whose planned generation is predicted to
+    // take at most this many seconds is verified whatever fraction of its
+    // cells the probes touch (up to all of them): the exact certificate then
+    // costs about one generation of a cheap table.  0 (the default): off;
+    // `brdftab plan` sets 5 s.  (Not `generate --accuracy`: it generates and
+    // certifies the plan anyway.)
+    double cheap_table_seconds = 0;
     // Refuse above this many cells: the values are held in memory as the
     // lookup library reads them (8 bytes per cell, three copies).
     std::size_t max_table_cells = std::size_t(1) << 24;
