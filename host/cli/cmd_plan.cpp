@@ -68,24 +68,25 @@ std::string method_text(const Candidate& c) {
 // The verification of a plan (docs/planning.md "Verified plans"), as JSON.
 // A plan's JSON (candidate_json) with each verified table's predicted
 // error replaced by its verification's (the fitted one kept as fitted_max).
+// One predicted_error object: max/rms become the verified ones, the fitted
+// ones are kept as fitted_max/fitted_rms.
+void replace_predicted(nlohmann::json& e, double max, double rms) {
+    e["fitted_max"] = e["max"];
+    e["fitted_rms"] = e["rms"];
+    e["max"] = max;
+    e["rms"] = rms;
+}
+
 void apply_verification(nlohmann::json& plan, const PlanVerification& v) {
-    if (plan.contains("predicted_error") && plan["predicted_error"].is_object() && v.verified > 0) {
-        nlohmann::json& e = plan["predicted_error"];
-        e["fitted_max"] = e["max"];
-        e["fitted_rms"] = e["rms"];
-        e["max"] = v.error_max;
-        e["rms"] = v.error_rms;
-    }
+    if (plan.contains("predicted_error") && plan["predicted_error"].is_object() && v.verified > 0)
+        replace_predicted(plan["predicted_error"], v.error_max, v.error_rms);
     if (!plan.contains("tables") || !plan["tables"].is_array()) return;
     for (std::size_t i = 0; i < v.tables.size() && i < plan["tables"].size(); ++i) {
         nlohmann::json& e = plan["tables"][i]["predicted_error"];
         if (!e.is_object()) continue;
         e["verified"] = v.tables[i].verified;
         if (!v.tables[i].verified) continue;
-        e["fitted_max"] = e["max"];
-        e["fitted_rms"] = e["rms"];
-        e["max"] = v.tables[i].certificate.max_error;
-        e["rms"] = v.tables[i].certificate.rms_error;
+        replace_predicted(e, v.tables[i].certificate.max_error, v.tables[i].certificate.rms_error);
     }
 }
 

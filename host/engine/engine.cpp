@@ -233,29 +233,13 @@ public:
                 enqueue_sample_parallel(l, *pair, accum_size);
             } else {
                 cl::Kernel& kernel = *kernel_ptr;
-                int a = 0;
-                kernel.setArg(a++, points_);
-                kernel.setArg(a++, static_cast<cl_uint>(l.stride));
-                kernel.setArg(a++, options_);
-                kernel.setArg(a++, static_cast<cl_uint>(l.options.size()));
-                kernel.setArg(a++, static_cast<cl_int>(l.quantity));
-                kernel.setArg(a++, static_cast<cl_uint>(l.method));
-                kernel.setArg(a++, static_cast<cl_uint>(l.key0));
-                kernel.setArg(a++, static_cast<cl_uint>(l.key1));
-                kernel.setArg(a++, cells_);
-                kernel.setArg(a++, batches_);
+                int a = set_work_args(kernel, l);
                 kernel.setArg(a++, static_cast<cl_uint>(n));
                 kernel.setArg(a++, static_cast<cl_uint>(l.batch_size));
                 kernel.setArg(a++, out_mean_);
                 kernel.setArg(a++, out_m2_);
-                // Round the global size up to a multiple of 256 so PoCL can choose
-                // a reasonable work-group size (the kernel ignores the padding);
-                // a prime global size would force work-groups of one item.
-                // With a fixed work-group size (local_size()), whole groups of it.
-                const std::size_t group = local_group();
-                const std::size_t global = (n + group - 1) / group * group;
-                queue.enqueueNDRangeKernel(kernel, cl::NullRange, cl::NDRange(global),
-                                           group == 256 ? cl::NullRange : cl::NDRange(group));
+                queue.enqueueNDRangeKernel(kernel, cl::NullRange, cl::NDRange(padded_global(n)),
+                                           local_range());
             }
             if (accum_double) {
                 queue.enqueueReadBuffer(out_mean_, CL_FALSE, 0, n * sizeof(double), mean.data());
@@ -304,6 +288,39 @@ private:
         return false;
     }
 
+    // The arguments both entry points take first, in the same order
+    // (kernels/common/estimator.h): points, stride, options, n_options,
+    // quantity, method, key0, key1, work_cell, work_batch.  Returns the index
+    // of the next argument.
+    int set_work_args(cl::Kernel& kernel, const BatchLaunch& l) {
+        int a = 0;
+        kernel.setArg(a++, points_);
+        kernel.setArg(a++, static_cast<cl_uint>(l.stride));
+        kernel.setArg(a++, options_);
+        kernel.setArg(a++, static_cast<cl_uint>(l.options.size()));
+        kernel.setArg(a++, static_cast<cl_int>(l.quantity));
+        kernel.setArg(a++, static_cast<cl_uint>(l.method));
+        kernel.setArg(a++, static_cast<cl_uint>(l.key0));
+        kernel.setArg(a++, static_cast<cl_uint>(l.key1));
+        kernel.setArg(a++, cells_);
+        kernel.setArg(a++, batches_);
+        return a;
+    }
+
+    // A launch of `items` work items is padded to whole work groups (the
+    // kernels ignore the padding): round the global size up to a multiple of
+    // 256 so PoCL can choose a reasonable work-group size (a prime global size
+    // would force work-groups of one item), or with a fixed work-group size
+    // (local_group()) to whole groups of it.
+    std::size_t padded_global(std::size_t items) const {
+        const std::size_t group = local_group();
+        return (items + group - 1) / group * group;
+    }
+    cl::NDRange local_range() const {
+        const std::size_t group = local_group();
+        return group == 256 ? cl::NullRange : cl::NDRange(group);
+    }
+
     // Samples per sub-launch of the sample-parallel path (the scratch
     // buffer's size: 2^22 doubles = 32 MiB); a launch of more work items is
     // split into sub-launches of whole batches, which changes no result.
@@ -335,36 +352,23 @@ private:
             scratch_ = cl::Buffer(runtime_.context(), CL_MEM_READ_WRITE, scratch_bytes);
             scratch_bytes_ = scratch_bytes;
         }
-        int a = 0;
-        k.sample.setArg(a++, points_);
-        k.sample.setArg(a++, static_cast<cl_uint>(l.stride));
-        k.sample.setArg(a++, options_);
-        k.sample.setArg(a++, static_cast<cl_uint>(l.options.size()));
-        k.sample.setArg(a++, static_cast<cl_int>(l.quantity));
-        k.sample.setArg(a++, static_cast<cl_uint>(l.method));
-        k.sample.setArg(a++, static_cast<cl_uint>(l.key0));
-        k.sample.setArg(a++, static_cast<cl_uint>(l.key1));
-        k.sample.setArg(a++, cells_);
-        k.sample.setArg(a++, batches_);
-        const int sample_first_arg = a;  // first_work, n_samples
+        const int sample_first_arg = set_work_args(k.sample, l);  // first_work, n_samples
         k.sample.setArg(sample_first_arg + 2, static_cast<cl_uint>(batch));
         k.sample.setArg(sample_first_arg + 3, scratch_);
         k.reduce.setArg(0, scratch_);
         k.reduce.setArg(3, static_cast<cl_uint>(batch));
         k.reduce.setArg(4, out_mean_);
         k.reduce.setArg(5, out_m2_);
-        const std::size_t group = local_group();
-        auto padded = [group](std::size_t items) { return (items + group - 1) / group * group; };
-        const cl::NDRange local = group == 256 ? cl::NullRange : cl::NDRange(group);
+        const cl::NDRange local = local_range();
         for (std::size_t first = 0; first < n; first += per_sub) {
             const std::size_t count = std::min(per_sub, n - first);
             const std::size_t samples = count * batch;
             k.sample.setArg(sample_first_arg, static_cast<cl_uint>(first));
             k.sample.setArg(sample_first_arg + 1, static_cast<cl_uint>(samples));
-            queue.enqueueNDRangeKernel(k.sample, cl::NullRange, cl::NDRange(padded(samples)), local);
+            queue.enqueueNDRangeKernel(k.sample, cl::NullRange, cl::NDRange(padded_global(samples)), local);
             k.reduce.setArg(1, static_cast<cl_uint>(first));
             k.reduce.setArg(2, static_cast<cl_uint>(count));
-            queue.enqueueNDRangeKernel(k.reduce, cl::NullRange, cl::NDRange(padded(count)), local);
+            queue.enqueueNDRangeKernel(k.reduce, cl::NullRange, cl::NDRange(padded_global(count)), local);
         }
     }
 
