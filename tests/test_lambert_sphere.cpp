@@ -36,6 +36,7 @@
 #include "host/engine/engine.h"
 #include "host/core/error.h"
 #include "host/models/registry.h"
+#include "kernels/common/estimator.h"  // BT_MAX_POINT
 #include "kernels/models/lambert_sphere.h"
 
 using namespace brdftab;
@@ -80,7 +81,7 @@ double legendre(int n, double x) {
 // p[] for lambert_sphere_sample (radians).
 std::vector<REAL> point(double ti, double to, double phi, double c, int order = 0,
                         int max_order = 1000, int mode = -1, int tail_order = 100000) {
-    std::vector<REAL> p(16, 0.0);
+    std::vector<REAL> p(LS_DERIVED_K + LS_DERIVED_COUNT, 0.0);
     p[0] = ti;
     p[2] = to;
     p[3] = phi;
@@ -102,8 +103,11 @@ Stat run_mc(const std::vector<REAL>& p, int q, long n, uint cell, const int* o =
     return st;
 }
 
-double closed(const std::vector<REAL>& p, int q, const int* o = nullptr) {
+// The exact constants go into the point as the engine puts them there
+// (ModelInfo::derive): solved at the point's c.
+double closed(std::vector<REAL> p, int q, const int* o = nullptr) {
     int none[8] = {0, 0, 0, 0};
+    if (ls_reads_derived_constants(q, o ? o : none)) ls_fill_constants(p.data());
     bt_sampler s{0, 0, 0, 0, 0, BT_METHOD_QUADRATURE};
     return lambert_sphere_sample(p.data(), o ? o : none, q, &s);
 }
@@ -554,5 +558,64 @@ TEST_CASE("device vs host (double), float sanity, finite values at extremes") {
     for (std::size_t k = 0; k < wp.size(); ++k) {
         CHECK(std::fabs(a.value[k] - b.value[k]) <= 1e-9 * b.value[k] + 0.5 * b.stderr_[k]);
         CHECK(std::fabs(f.value[k] - b.value[k]) <= 4 * std::hypot(f.stderr_[k], b.stderr_[k]));
+    }
+}
+
+TEST_CASE("exact constants: solved once per c on the host, carried in the point (derived slots)") {
+    const ModelInfo& model = find_model("lambert-sphere");
+    REQUIRE(static_cast<bool>(model.derive));
+    const std::vector<int> exact = {0, 0, 0, 0, 0, 0}, fitted = {0, 0, 0, 0, 1, 0};
+    // Which quantities carry them: the exact constants of the analytic model
+    // and the three-term BRDF; nothing else.
+    for (const QuantityInfo& q : model.quantities) {
+        CAPTURE(q.name);
+        const bool wants = q.name == "brdf_analytic" || q.name == "brdf_three_term";
+        const CellDerivation d = model.derive(q, exact);
+        CHECK(d.slots == (wants ? LS_DERIVED_COUNT : 0));
+        CHECK(model.point_stride() + static_cast<std::size_t>(d.slots) <=
+              static_cast<std::size_t>(BT_MAX_POINT));
+        if (q.name == "brdf_analytic") CHECK(model.derive(q, fitted).slots == 0);
+    }
+    CHECK(static_cast<std::size_t>(LS_DERIVED_K) == model.point_stride());
+
+    // The filled values are the solver's own (hc_constants, called here
+    // directly), also when a c comes back after another one (memoised).
+    const CellDerivation d = model.derive(model.quantity("brdf_analytic"), exact);
+    for (double c : {0.3, 0.999, 0.3, 1.0, 0.999, 0.0}) {
+        CAPTURE(c);
+        std::vector<double> p(model.point_stride() + LS_DERIVED_COUNT, -1.0);
+        p[LS_PARAM_C] = c;
+        d.fill(p.data());
+        double k[8];
+        REQUIRE(hc_constants(c, k) == 0);
+        for (int j = 0; j < 8; ++j) CHECK(p[LS_DERIVED_K + j] == k[j]);
+        CHECK(p[LS_PARAM_C] == c);  // the parameters are left as they were
+    }
+
+    // Through estimate() on the host: cells whose c values repeat out of
+    // order give, bit for bit, the sample function on a point whose
+    // constants were solved for that cell alone.
+    auto host = make_backend("host", Precision::Double);
+    for (const char* qname : {"brdf_analytic", "brdf_three_term"}) {
+        const QuantityInfo& q = model.quantity(qname);
+        PointBuilder builder(model, q);
+        std::vector<std::map<std::string, double>> pts;
+        for (double c : {0.5, 0.95, 0.5, 0.9999, 0.95})
+            pts.push_back({{"theta_i", 20.0 + 10 * pts.size()}, {"theta_o", 40}, {"phi_d", 60},
+                           {"c", c}});
+        IntegrationSettings s;
+        auto r = estimate(*host, model, q, exact, pts.size(),
+                          [&](std::size_t k, double* out) { builder.build(pts[k], out); }, s);
+        for (std::size_t k = 0; k < pts.size(); ++k) {
+            CAPTURE(qname);
+            CAPTURE(k);
+            std::vector<double> p(BT_MAX_POINT, 0.0);
+            builder.build(pts[k], p.data());
+            double kk[8];
+            REQUIRE(hc_constants(pts[k].at("c"), kk) == 0);
+            std::copy_n(kk, 8, p.begin() + LS_DERIVED_K);
+            bt_sampler s0{0, 0, 0, 0, 0, BT_METHOD_QUADRATURE};
+            CHECK(r.value[k] == lambert_sphere_sample(p.data(), exact.data(), q.id, &s0));
+        }
     }
 }

@@ -662,6 +662,18 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
     launch.key0 = static_cast<std::uint32_t>(settings.seed);
     launch.key1 = static_cast<std::uint32_t>(settings.seed >> 32);
     launch.stride = model.point_stride();
+    // The quantity's per-cell invariants (ModelInfo::derive), computed here
+    // once per cell and appended to its point.
+    const CellDerivation derivation =
+        model.derive ? model.derive(quantity, options) : CellDerivation{};
+    if (derivation.slots > 0) {
+        launch.stride += static_cast<std::size_t>(derivation.slots);
+        if (launch.stride > BT_MAX_POINT || !derivation.fill)
+            throw Error("model '" + model.name + "', quantity '" + quantity.name + "': " +
+                        std::to_string(derivation.slots) +
+                        " derived slots need a fill function and at most BT_MAX_POINT (" +
+                        std::to_string(BT_MAX_POINT) + ") point slots in all");
+    }
     // The kernels see cell numbers from cell_base on (random streams); the
     // per-cell state here is indexed from 0.
     const std::uint32_t cell_base = static_cast<std::uint32_t>(settings.cell_base);
@@ -760,6 +772,7 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
         const std::size_t stride = launch.stride;
         double* const first_point = launch.points.data() + items * stride;
         point_of(cell, first_point);
+        if (derivation.slots > 0) derivation.fill(first_point);
         for (std::uint32_t k = 0; k < take; ++k, ++items) {
             if (k) std::copy_n(first_point, stride, launch.points.data() + items * stride);
             launch.cells[items] = cell_base + static_cast<std::uint32_t>(cell);

@@ -3,12 +3,19 @@
 // kernels/models/lambert_sphere.h; docs/models/lambert-sphere.md).
 #include "kernels/models/lambert_sphere.h"
 
+#include <algorithm>
+#include <array>
+#include <cstdint>
+#include <cstring>
+#include <memory>
 #include <sstream>
+#include <unordered_map>
 #include <string>
 #include <vector>
 
 #include "host/models/registry.h"
 #include "kernels/common/compat.h"
+#include "kernels/common/estimator.h"  // BT_MAX_OPTIONS
 #include "kernels/common/sampler.h"
 
 namespace brdftab::detail {
@@ -86,6 +93,32 @@ std::string check_lambert_sphere_point(const QuantityInfo& q,
     s << "parameter 'tail_order' (" << tail_order << ") must exceed 'max_order' (" << max_order
       << ") for brdf_mc with order = -2 (the remainder covers orders max_order+1..tail_order)";
     return s.str();
+}
+
+// The exact constants l, m, A..F of brdf_analytic / brdf_three_term, solved
+// once per distinct c (the kernel used to solve them in every cell and both
+// quadrature batches): kernels/models/lambert_sphere.h, LS_DERIVED_K.  The
+// values are ls_fill_constants' own, so the host path's tables are
+// unchanged bit for bit.
+CellDerivation derive_lambert_sphere(const QuantityInfo& q, const std::vector<int>& options) {
+    int o[BT_MAX_OPTIONS] = {0};
+    for (std::size_t k = 0; k < options.size() && k < BT_MAX_OPTIONS; ++k) o[k] = options[k];
+    if (!ls_reads_derived_constants(q.id, o)) return {};
+    using Constants = std::array<double, LS_DERIVED_COUNT>;
+    auto solved = std::make_shared<std::unordered_map<std::uint64_t, Constants>>();
+    return {LS_DERIVED_COUNT, [solved](double* point) {
+                std::uint64_t key;
+                std::memcpy(&key, &point[LS_PARAM_C], sizeof key);
+                auto it = solved->find(key);
+                if (it == solved->end()) {
+                    ls_fill_constants(point);
+                    Constants k;
+                    std::copy_n(point + LS_DERIVED_K, LS_DERIVED_COUNT, k.begin());
+                    solved->emplace(key, k);
+                    return;
+                }
+                std::copy(it->second.begin(), it->second.end(), point + LS_DERIVED_K);
+            }};
 }
 
 ModelInfo lambert_sphere_model() {
@@ -280,6 +313,7 @@ ModelInfo lambert_sphere_model() {
                             Method::ClosedForm,
                             0});
     b.check_point(&check_lambert_sphere_point);
+    b.derive(&derive_lambert_sphere);
     return b.build();
 }
 

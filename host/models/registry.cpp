@@ -246,6 +246,11 @@ ModelBuilder& ModelBuilder::check_cell(
     model_.check_cell = fn;
     return *this;
 }
+ModelBuilder& ModelBuilder::derive(
+    CellDerivation (*fn)(const QuantityInfo&, const std::vector<int>&)) {
+    model_.derive = fn;
+    return *this;
+}
 
 QuantityInfo& ModelBuilder::quantity_by_id(int id) {
     for (auto& q : model_.quantities)

@@ -25,6 +25,7 @@
 //   mu_i, mu_o                       cos(theta), in [-1, 1]
 #pragma once
 
+#include <functional>
 #include <map>
 #include <optional>
 #include <string>
@@ -47,6 +48,14 @@ typedef double (*HostSampleFn)(const double* point, const int* options, int quan
                                const bt_sampler* sampler);
 
 constexpr int kDirectionSlots = 4;
+
+// A quantity's per-cell invariants (ModelInfo::derive): `slots` values that
+// follow the parameters in every kernel point, written by `fill` into a point
+// whose first point_stride() values are set.
+struct CellDerivation {
+    int slots = 0;
+    std::function<void(double* point)> fill;
+};
 
 struct ParameterInfo {
     std::string name;
@@ -148,6 +157,17 @@ struct ModelInfo {
     // eval, generate and validate refuse the same cells.
     std::string (*check_cell)(const QuantityInfo& q, const double* point,
                               const std::vector<int>& options) = nullptr;
+    // Optional per-cell invariants hoisted out of the kernel: values that
+    // depend on a cell's parameters alone and cost far more than the rest of
+    // the cell (lambert-sphere: the exact Horak-Chandrasekhar constants, a
+    // 0.5-6 ms solve per value of c).  For (q, options) it returns how many
+    // values to append to the kernel point (0: none) and the function that
+    // computes them from the point; estimate() calls that function on the
+    // host once per cell, before the cell's first launch, and the kernel
+    // reads the values instead of solving them in every batch.  The function
+    // may memoise (one solve per distinct c); point_stride() + slots must not
+    // exceed BT_MAX_POINT.
+    CellDerivation (*derive)(const QuantityInfo& q, const std::vector<int>& options) = nullptr;
 
     const QuantityInfo* find_quantity(const std::string& name) const;
     const ParameterInfo* find_parameter(const std::string& name) const;
@@ -194,6 +214,7 @@ public:
                                                 const std::map<std::string, double>&));
     ModelBuilder& check_cell(std::string (*fn)(const QuantityInfo&, const double*,
                                                const std::vector<int>&));
+    ModelBuilder& derive(CellDerivation (*fn)(const QuantityInfo&, const std::vector<int>&));
     // The quantity registered under `id` (to adjust it after a shared factory).
     QuantityInfo& quantity_by_id(int id);
     ModelInfo build() const;

@@ -66,7 +66,10 @@
 
 #include "sampler.h"
 
-#define BT_MAX_POINT 16
+/* Slots of a kernel point: 4 directions, the model's parameters and its
+ * derived per-cell invariants (host/models/registry.h; lambert-sphere uses
+ * 4 + 5 + 8). */
+#define BT_MAX_POINT 20
 #define BT_MAX_OPTIONS 8
 
 /* One Welford update; `n` is the 1-based count after adding x. */

@@ -13,7 +13,10 @@
  * phi = phi_o - phi_i, phi = 0 is back-scattering (viewer on the light's side).
  *
  * Point p[]:  p[0..3] theta_i, phi_i, theta_o, phi_o (radians),
- *             p[4] c, p[5] order, p[6] max_order, p[7] mode, p[8] tail_order.
+ *             p[4] c, p[5] order, p[6] max_order, p[7] mode, p[8] tail_order;
+ *             brdf_analytic (constants "exact") and brdf_three_term also
+ *             p[9..16] the exact l, m, A..F at c (LS_DERIVED_K, filled by
+ *             the host: ls_fill_constants).
  * Options o[]: o[0] phase_mc   0 exact (eq. 1, sampled with eq. 5),
  *                              1 three-term (eqs. 2, 8: A0..A2 only; sampled
  *                                uniformly with a signed weight 4 pi p3,
@@ -127,6 +130,18 @@
 #define LS_OPT_CONSTANT 5
 #define LS_OPT_COUNT 6
 #define LS_Q_COUNT 12
+
+/* Per-cell invariants carried in the point (the model contract's derived
+ * slots, host/models/registry.h): the exact constants l, m, A..F of
+ * brdf_analytic (constants "exact") and brdf_three_term depend on c alone
+ * and cost 0.5 ms (c < 0.9975) to 6 ms (above) per solve, several times the
+ * rest of the cell; solved in the kernel they were recomputed for every cell
+ * and both quadrature batches (80 % of such a table's time).  The host
+ * solves them once per distinct c (ls_fill_constants) and appends them
+ * after the parameters: p[LS_DERIVED_K + j], j = 0..7 in hc_constants'
+ * order. */
+#define LS_DERIVED_K (4 + LS_PARAM_COUNT)
+#define LS_DERIVED_COUNT 8
 
 /* Smallest mu_o used by the next-event estimator: exp(-tau/mu_o)/mu_o has
  * unbounded variance as mu_o -> 0 (the mean stays finite). */
@@ -301,6 +316,23 @@ BT_INLINE void ls_constants(REAL c, int exact, REAL* k)
     for (int j = 0; j < 8; ++j) k[j] = ok < 0 ? NAN : (REAL)exact_k[j];
 }
 
+/* Whether (quantity, options) reads the exact constants from the point
+ * (LS_DERIVED_K) instead of solving them: the rule the host (derived slots)
+ * and the sample function share. */
+BT_INLINE int ls_reads_derived_constants(int quantity, const int* o)
+{
+    return quantity == LS_Q_BRDF_THREE_TERM ||
+           (quantity == LS_Q_BRDF_ANALYTIC && o[LS_OPT_CONSTANTS] == 0);
+}
+
+/* Writes the exact constants at c into p[LS_DERIVED_K .. + 7] (the point
+ * must have LS_DERIVED_K + LS_DERIVED_COUNT slots): the values ls_constants
+ * gives, NaN on a failed solve. */
+BT_INLINE void ls_fill_constants(REAL* p)
+{
+    ls_constants(p[LS_PARAM_C], 1, p + LS_DERIVED_K);
+}
+
 /* eq. 31 (a, d as printed; 1/H0(inf) = sqrt(K0(0)) from eq. 32). */
 BT_INLINE REAL ls_h0_fit(REAL mu, REAL c)
 {
@@ -398,8 +430,9 @@ BT_INLINE REAL ls_fast(bt_vec3 i, bt_vec3 o, REAL c, REAL phi)
 /* Multiple-scattering modes fm0 (eq. 30 - eq. 38) and fm1 (eq. 22 - eq. 28,
  * the printed normalisation: callers double it for the exact mode), with
  * H-functions exact (fitted = 0) or fitted (fitted = 1) and the constants l,
- * m, A..F exact (exact_constants = 1) or fitted. */
-BT_INLINE void ls_ms_modes(REAL mi, REAL mo, REAL c, int fitted, int exact_constants,
+ * m, A..F exact (exact_k: the solved constants, p + LS_DERIVED_K) or the
+ * paper's fits (exact_k = 0). */
+BT_INLINE void ls_ms_modes(REAL mi, REAL mo, REAL c, int fitted, const REAL* exact_k,
                            int fm1_choice, int h1_norm, int coarse, REAL* fm0, REAL* fm1)
 {
     REAL h0i, h0o, h1i, h1o;
@@ -417,8 +450,9 @@ BT_INLINE void ls_ms_modes(REAL mi, REAL mo, REAL c, int fitted, int exact_const
         h1i = hf_h(&P1, mi, coarse);
         h1o = hf_h(&P1, mo, coarse);
     }
-    REAL k[8];
-    ls_constants(c, exact_constants, k);
+    REAL fitted_k[8];
+    if (!exact_k) ls_constants_fit(c, fitted_k);
+    const REAL* k = exact_k ? exact_k : fitted_k;
     *fm0 = hc_f0(mi, mo, h0i, h0o, k) - ls_ss0(mi, mo, c); /* eqs. 30, 38 */
     if (fitted && fm1_choice == 1)
         *fm1 = ls_fm1_fast(mi, mo, c);
@@ -529,7 +563,8 @@ BT_INLINE REAL lambert_sphere_sample(const REAL* p, const int* o, int quantity,
         int coarse = (s->method == BT_METHOD_QUADRATURE && s->batch == 1u) ? 1 : 0;
         int fitted = quantity == LS_Q_BRDF_FIT;
         int three = quantity == LS_Q_BRDF_THREE_TERM;
-        int exact_k = three || (quantity == LS_Q_BRDF_ANALYTIC && o[LS_OPT_CONSTANTS] == 0);
+        /* exact constants: solved once per c on the host (LS_DERIVED_K) */
+        const REAL* exact_k = ls_reads_derived_constants(quantity, o) ? p + LS_DERIVED_K : 0;
         REAL fm0, fm1;
         ls_ms_modes(mi, mo, c, fitted, exact_k, o[LS_OPT_FM1], o[LS_OPT_H1_FIT], coarse, &fm0, &fm1);
         /* cos_phi: 0 corrected (x2, = the exact mode), 1 paper (x1);
