@@ -103,11 +103,11 @@ Stat run_mc(const std::vector<REAL>& p, int q, long n, uint cell, const int* o =
     return st;
 }
 
-// The exact constants go into the point as the engine puts them there
-// (ModelInfo::derive): solved at the point's c.
+// The exact constants and H-functions go into the point as the engine puts
+// them there (ModelInfo::derive): computed at the point's c and cosines.
 double closed(std::vector<REAL> p, int q, const int* o = nullptr) {
     int none[8] = {0, 0, 0, 0};
-    if (ls_reads_derived_constants(q, o ? o : none)) ls_fill_constants(p.data());
+    ls_fill_derived(p.data(), q, o ? o : none);
     bt_sampler s{0, 0, 0, 0, 0, BT_METHOD_QUADRATURE};
     return lambert_sphere_sample(p.data(), o ? o : none, q, &s);
 }
@@ -561,48 +561,84 @@ TEST_CASE("device vs host (double), float sanity, finite values at extremes") {
     }
 }
 
-TEST_CASE("exact constants: solved once per c on the host, carried in the point (derived slots)") {
+TEST_CASE("derived slots: exact constants and H-functions computed once on the host, carried in the point") {
     const ModelInfo& model = find_model("lambert-sphere");
     REQUIRE(static_cast<bool>(model.derive));
     const std::vector<int> exact = {0, 0, 0, 0, 0, 0}, fitted = {0, 0, 0, 0, 1, 0};
-    // Which quantities carry them: the exact constants of the analytic model
-    // and the three-term BRDF; nothing else.
+    // Which quantities carry them: the analytic model (exact H, exact or
+    // fitted constants) and the three-term BRDF; nothing else.
     for (const QuantityInfo& q : model.quantities) {
         CAPTURE(q.name);
         const bool wants = q.name == "brdf_analytic" || q.name == "brdf_three_term";
-        const CellDerivation d = model.derive(q, exact);
-        CHECK(d.slots == (wants ? LS_DERIVED_COUNT : 0));
-        CHECK(model.point_stride() + static_cast<std::size_t>(d.slots) <=
+        CHECK(model.derive(q, exact).slots == (wants ? LS_DERIVED_COUNT : 0));
+        CHECK(model.derive(q, fitted).slots == (wants ? LS_DERIVED_COUNT : 0));
+        CHECK(model.point_stride() + static_cast<std::size_t>(model.derive(q, exact).slots) <=
               static_cast<std::size_t>(BT_MAX_POINT));
-        if (q.name == "brdf_analytic") CHECK(model.derive(q, fitted).slots == 0);
     }
     CHECK(static_cast<std::size_t>(LS_DERIVED_K) == model.point_stride());
 
-    // The filled values are the solver's own (hc_constants, called here
-    // directly), also when a c comes back after another one (memoised).
-    const CellDerivation d = model.derive(model.quantity("brdf_analytic"), exact);
-    for (double c : {0.3, 0.999, 0.3, 1.0, 0.999, 0.0}) {
-        CAPTURE(c);
-        std::vector<double> p(model.point_stride() + LS_DERIVED_COUNT, -1.0);
-        p[LS_PARAM_C] = c;
-        d.fill(p.data());
-        double k[8];
-        REQUIRE(hc_constants(c, k) == 0);
-        for (int j = 0; j < 8; ++j) CHECK(p[LS_DERIVED_K + j] == k[j]);
-        CHECK(p[LS_PARAM_C] == c);  // the parameters are left as they were
+    // The filled values are the solvers' own, called here directly
+    // (hc_constants; hf_h at the floored cosines), also when a c or a cosine
+    // comes back after others (memoised), and unread slots are 0.
+    struct Case {
+        const char* quantity;
+        const std::vector<int>* options;
+        bool constants;
+        int h_count;
+    };
+    for (const Case& k : {Case{"brdf_analytic", &exact, true, 4},
+                          Case{"brdf_analytic", &fitted, false, 4},
+                          Case{"brdf_three_term", &exact, true, 6}}) {
+        const QuantityInfo& q = model.quantity(k.quantity);
+        const CellDerivation d = model.derive(q, *k.options);
+        for (auto [ti, to, c] : {std::array<double, 3>{0.2, 1.1, 0.3},
+                                 {1.1, 0.2, 0.999},
+                                 {0.2, 0.2, 0.3},
+                                 {1.5707963267948966, 0.0, 1.0},
+                                 {1.1, 1.1, 0.999},
+                                 {0.0, 0.7, 0.0}}) {
+            CAPTURE(k.quantity);
+            CAPTURE(ti);
+            CAPTURE(to);
+            CAPTURE(c);
+            std::vector<double> p(model.point_stride() + LS_DERIVED_COUNT, -1.0);
+            p[0] = ti;
+            p[2] = to;
+            p[LS_PARAM_C] = c;
+            d.fill(p.data());
+            CHECK(p[LS_PARAM_C] == c);  // the parameters are left as they were
+            double kk[8];
+            REQUIRE(hc_constants(c, kk) == 0);
+            for (int j = 0; j < 8; ++j) CHECK(p[LS_DERIVED_K + j] == (k.constants ? kk[j] : 0.0));
+            const double none[HF_NCOEF] = {0, 0, 0, 0};
+            for (int rule = 0; rule < 2; ++rule)
+                for (int j = 0; j < 6; ++j) {
+                    const double mu = std::max(std::cos(j % 2 == 0 ? ti : to), 1e-6);
+                    hf_psi P = hf_make_psi(HF_PSI_LAMBERT0 + j / 2, c, none);
+                    const double want = j < k.h_count ? hf_h(&P, mu, rule) : 0.0;
+                    CHECK(p[LS_DERIVED_H + 6 * rule + j] == doctest::Approx(want).epsilon(1e-15));
+                }
+            // and equal, bit for bit, what the kernel header's own fill writes
+            std::vector<double> ref(p.size(), -1.0);
+            ref[0] = ti;
+            ref[2] = to;
+            ref[LS_PARAM_C] = c;
+            ls_fill_derived(ref.data(), q.id, k.options->data());
+            CHECK(ref == p);
+        }
     }
 
-    // Through estimate() on the host: cells whose c values repeat out of
-    // order give, bit for bit, the sample function on a point whose
-    // constants were solved for that cell alone.
+    // Through estimate() on the host: cells whose c values and angles repeat
+    // out of order give, bit for bit, the sample function on a point whose
+    // derived slots were computed for that cell alone.
     auto host = make_backend("host", Precision::Double);
     for (const char* qname : {"brdf_analytic", "brdf_three_term"}) {
         const QuantityInfo& q = model.quantity(qname);
         PointBuilder builder(model, q);
         std::vector<std::map<std::string, double>> pts;
         for (double c : {0.5, 0.95, 0.5, 0.9999, 0.95})
-            pts.push_back({{"theta_i", 20.0 + 10 * pts.size()}, {"theta_o", 40}, {"phi_d", 60},
-                           {"c", c}});
+            pts.push_back({{"theta_i", 20.0 + 10 * (pts.size() % 2)}, {"theta_o", 40},
+                           {"phi_d", 60}, {"c", c}});
         IntegrationSettings s;
         auto r = estimate(*host, model, q, exact, pts.size(),
                           [&](std::size_t k, double* out) { builder.build(pts[k], out); }, s);
@@ -611,11 +647,13 @@ TEST_CASE("exact constants: solved once per c on the host, carried in the point 
             CAPTURE(k);
             std::vector<double> p(BT_MAX_POINT, 0.0);
             builder.build(pts[k], p.data());
-            double kk[8];
-            REQUIRE(hc_constants(pts[k].at("c"), kk) == 0);
-            std::copy_n(kk, 8, p.begin() + LS_DERIVED_K);
-            bt_sampler s0{0, 0, 0, 0, 0, BT_METHOD_QUADRATURE};
-            CHECK(r.value[k] == lambert_sphere_sample(p.data(), exact.data(), q.id, &s0));
+            ls_fill_derived(p.data(), q.id, exact.data());
+            for (std::uint32_t batch : {0u, 1u}) {
+                bt_sampler s0{0, 0, 0, batch, 0, BT_METHOD_QUADRATURE};
+                const double v = lambert_sphere_sample(p.data(), exact.data(), q.id, &s0);
+                if (batch == 0) CHECK(r.value[k] == v);
+                else CHECK(r.stderr_[k] == std::fabs(r.value[k] - v));
+            }
         }
     }
 }

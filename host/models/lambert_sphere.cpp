@@ -7,8 +7,10 @@
 #include <array>
 #include <cstdint>
 #include <cstring>
+#include <map>
 #include <memory>
 #include <sstream>
+#include <tuple>
 #include <unordered_map>
 #include <string>
 #include <vector>
@@ -95,29 +97,54 @@ std::string check_lambert_sphere_point(const QuantityInfo& q,
     return s.str();
 }
 
-// The exact constants l, m, A..F of brdf_analytic / brdf_three_term, solved
-// once per distinct c (the kernel used to solve them in every cell and both
-// quadrature batches): kernels/models/lambert_sphere.h, LS_DERIVED_K.  The
-// values are ls_fill_constants' own, so the host path's tables are
-// unchanged bit for bit.
+// The derived slots of brdf_analytic / brdf_three_term
+// (kernels/models/lambert_sphere.h, LS_DERIVED_K and LS_DERIVED_H): the exact
+// constants l, m, A..F solved once per distinct c, and the exact H-functions
+// once per distinct (H-function, rule, mu, c), where the kernel used to solve
+// them in every cell and both quadrature batches.  The values are those
+// ls_fill_derived writes (the same kernel functions, memoised), so the host
+// path's tables are unchanged bit for bit.
 CellDerivation derive_lambert_sphere(const QuantityInfo& q, const std::vector<int>& options) {
     int o[BT_MAX_OPTIONS] = {0};
     for (std::size_t k = 0; k < options.size() && k < BT_MAX_OPTIONS; ++k) o[k] = options[k];
-    if (!ls_reads_derived_constants(q.id, o)) return {};
-    using Constants = std::array<double, LS_DERIVED_COUNT>;
-    auto solved = std::make_shared<std::unordered_map<std::uint64_t, Constants>>();
-    return {LS_DERIVED_COUNT, [solved](double* point) {
-                std::uint64_t key;
-                std::memcpy(&key, &point[LS_PARAM_C], sizeof key);
-                auto it = solved->find(key);
-                if (it == solved->end()) {
-                    ls_fill_constants(point);
-                    Constants k;
-                    std::copy_n(point + LS_DERIVED_K, LS_DERIVED_COUNT, k.begin());
-                    solved->emplace(key, k);
-                    return;
+    if (!ls_reads_derived(q.id)) return {};
+    const bool constants = ls_reads_derived_constants(q.id, o) != 0;
+    const int h_count = q.id == LS_Q_BRDF_THREE_TERM ? 6 : 4;
+    using Constants = std::array<double, 8>;
+    auto bits = [](double x) {
+        std::uint64_t b;
+        std::memcpy(&b, &x, sizeof b);
+        return b;
+    };
+    struct Memo {
+        std::unordered_map<std::uint64_t, Constants> constants;              // by c
+        std::map<std::tuple<int, std::uint64_t, std::uint64_t>, double> h;  // (kind, rule), mu, c
+    };
+    auto memo = std::make_shared<Memo>();
+    return {LS_DERIVED_COUNT, [memo, constants, h_count, bits](double* p) {
+                std::fill_n(p + LS_DERIVED_K, LS_DERIVED_COUNT, 0.0);
+                const double c = p[LS_PARAM_C];
+                if (constants) {
+                    auto it = memo->constants.find(bits(c));
+                    if (it == memo->constants.end()) {
+                        ls_fill_constants(p);
+                        Constants k;
+                        std::copy_n(p + LS_DERIVED_K, 8, k.begin());
+                        memo->constants.emplace(bits(c), k);
+                    } else {
+                        std::copy(it->second.begin(), it->second.end(), p + LS_DERIVED_K);
+                    }
                 }
-                std::copy(it->second.begin(), it->second.end(), point + LS_DERIVED_K);
+                for (int rule = 0; rule < 2; ++rule)
+                    for (int j = 0; j < h_count; ++j) {
+                        const int kind = HF_PSI_LAMBERT0 + j / 2;
+                        const double mu = ls_mu_of(j % 2 == 0 ? p[0] : p[2]);
+                        const auto key = std::make_tuple(2 * kind + rule, bits(mu), bits(c));
+                        auto it = memo->h.find(key);
+                        if (it == memo->h.end())
+                            it = memo->h.emplace(key, ls_h_exact(kind, mu, c, rule)).first;
+                        p[LS_DERIVED_H + 6 * rule + j] = it->second;
+                    }
             }};
 }
 

@@ -68,8 +68,8 @@
 
 /* Slots of a kernel point: 4 directions, the model's parameters and its
  * derived per-cell invariants (host/models/registry.h; lambert-sphere uses
- * 4 + 5 + 8). */
-#define BT_MAX_POINT 20
+ * 4 + 5 + 20). */
+#define BT_MAX_POINT 32
 #define BT_MAX_OPTIONS 8
 
 /* One Welford update; `n` is the 1-based count after adding x. */

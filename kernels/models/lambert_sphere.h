@@ -14,9 +14,10 @@
  *
  * Point p[]:  p[0..3] theta_i, phi_i, theta_o, phi_o (radians),
  *             p[4] c, p[5] order, p[6] max_order, p[7] mode, p[8] tail_order;
- *             brdf_analytic (constants "exact") and brdf_three_term also
- *             p[9..16] the exact l, m, A..F at c (LS_DERIVED_K, filled by
- *             the host: ls_fill_constants).
+ *             brdf_analytic and brdf_three_term also p[9..28]: the exact
+ *             l, m, A..F at c and exact H-functions at mu_i, mu_o (derived
+ *             slots LS_DERIVED_K, LS_DERIVED_H, filled by the host:
+ *             ls_fill_derived).
  * Options o[]: o[0] phase_mc   0 exact (eq. 1, sampled with eq. 5),
  *                              1 three-term (eqs. 2, 8: A0..A2 only; sampled
  *                                uniformly with a signed weight 4 pi p3,
@@ -132,16 +133,23 @@
 #define LS_Q_COUNT 12
 
 /* Per-cell invariants carried in the point (the model contract's derived
- * slots, host/models/registry.h): the exact constants l, m, A..F of
- * brdf_analytic (constants "exact") and brdf_three_term depend on c alone
- * and cost 0.5 ms (c < 0.9975) to 6 ms (above) per solve, several times the
- * rest of the cell; solved in the kernel they were recomputed for every cell
- * and both quadrature batches (80 % of such a table's time).  The host
- * solves them once per distinct c (ls_fill_constants) and appends them
- * after the parameters: p[LS_DERIVED_K + j], j = 0..7 in hc_constants'
- * order. */
+ * slots, host/models/registry.h) for brdf_analytic and brdf_three_term:
+ *  - the exact constants l, m, A..F (constants "exact"; three_term always)
+ *    depend on c alone and cost 0.5 ms (c < 0.9975) to 6 ms (above) per
+ *    solve; solved in the kernel they were recomputed in every cell and both
+ *    quadrature batches (80 % of such a table's time):
+ *    p[LS_DERIVED_K + j], j = 0..7 in hc_constants' order;
+ *  - the exact H-functions at mu_i and mu_o depend on (mu, c) alone, a
+ *    quadrature of ~600 nodes each (96 % of the time once the constants were
+ *    hoisted): p[LS_DERIVED_H + 6 b + j], b = 0 for the accurate rule (batch
+ *    0), 1 for the coarse one (batch 1), j = 0..5: H0(mi), H0(mo), H1(mi),
+ *    H1(mo), H2(mi), H2(mo) (H2: three_term only).
+ * The host computes them once per distinct c and (mu, c) (ls_fill_derived)
+ * and appends them after the parameters; slots a quantity does not read are
+ * 0. */
 #define LS_DERIVED_K (4 + LS_PARAM_COUNT)
-#define LS_DERIVED_COUNT 8
+#define LS_DERIVED_H (LS_DERIVED_K + 8)
+#define LS_DERIVED_COUNT 20
 
 /* Smallest mu_o used by the next-event estimator: exp(-tau/mu_o)/mu_o has
  * unbounded variance as mu_o -> 0 (the mean stays finite). */
@@ -316,13 +324,29 @@ BT_INLINE void ls_constants(REAL c, int exact, REAL* k)
     for (int j = 0; j < 8; ++j) k[j] = ok < 0 ? NAN : (REAL)exact_k[j];
 }
 
-/* Whether (quantity, options) reads the exact constants from the point
- * (LS_DERIVED_K) instead of solving them: the rule the host (derived slots)
- * and the sample function share. */
+/* Whether (quantity, options) reads the derived slots (exact H-functions),
+ * and among them the exact constants (LS_DERIVED_K): the rules the host
+ * (derived slots) and the sample function share. */
+BT_INLINE int ls_reads_derived(int quantity)
+{
+    return quantity == LS_Q_BRDF_THREE_TERM || quantity == LS_Q_BRDF_ANALYTIC;
+}
 BT_INLINE int ls_reads_derived_constants(int quantity, const int* o)
 {
     return quantity == LS_Q_BRDF_THREE_TERM ||
            (quantity == LS_Q_BRDF_ANALYTIC && o[LS_OPT_CONSTANTS] == 0);
+}
+
+/* The cosines the analytic model evaluates at: floored as in ls_single. */
+BT_INLINE REAL ls_mu_of(REAL theta) { return fmax(bt_cos(theta), LS_MIN_MU); }
+
+/* Exact H-function `kind` (HF_PSI_LAMBERT0/1/2) at (mu, c), accurate rule
+ * (coarse = 0) or the coarse one. */
+BT_INLINE REAL ls_h_exact(int kind, REAL mu, REAL c, int coarse)
+{
+    REAL none[HF_NCOEF] = {R(0.0), R(0.0), R(0.0), R(0.0)};
+    hf_psi P = hf_make_psi(kind, c, none);
+    return hf_h(&P, mu, coarse);
 }
 
 /* Writes the exact constants at c into p[LS_DERIVED_K .. + 7] (the point
@@ -331,6 +355,27 @@ BT_INLINE int ls_reads_derived_constants(int quantity, const int* o)
 BT_INLINE void ls_fill_constants(REAL* p)
 {
     ls_constants(p[LS_PARAM_C], 1, p + LS_DERIVED_K);
+}
+
+/* Writes H-function j (0..5 as LS_DERIVED_H) of rule b (0 accurate, 1
+ * coarse) for the point's directions and c. */
+BT_INLINE void ls_fill_h(REAL* p, int b, int j)
+{
+    REAL mu = ls_mu_of(j % 2 == 0 ? p[0] : p[2]);
+    p[LS_DERIVED_H + 6 * b + j] = ls_h_exact(HF_PSI_LAMBERT0 + j / 2, mu, p[LS_PARAM_C], b);
+}
+
+/* Every derived slot quantity (and options o) reads, the others 0: what
+ * the engine appends to the point (host/models/lambert_sphere.cpp memoises
+ * the same values per c and (mu, c)). */
+BT_INLINE void ls_fill_derived(REAL* p, int quantity, const int* o)
+{
+    for (int j = 0; j < LS_DERIVED_COUNT; ++j) p[LS_DERIVED_K + j] = R(0.0);
+    if (!ls_reads_derived(quantity)) return;
+    if (ls_reads_derived_constants(quantity, o)) ls_fill_constants(p);
+    int count = quantity == LS_Q_BRDF_THREE_TERM ? 6 : 4;
+    for (int b = 0; b < 2; ++b)
+        for (int j = 0; j < count; ++j) ls_fill_h(p, b, j);
 }
 
 /* eq. 31 (a, d as printed; 1/H0(inf) = sqrt(K0(0)) from eq. 32). */
@@ -429,11 +474,13 @@ BT_INLINE REAL ls_fast(bt_vec3 i, bt_vec3 o, REAL c, REAL phi)
 
 /* Multiple-scattering modes fm0 (eq. 30 - eq. 38) and fm1 (eq. 22 - eq. 28,
  * the printed normalisation: callers double it for the exact mode), with
- * H-functions exact (fitted = 0) or fitted (fitted = 1) and the constants l,
- * m, A..F exact (exact_k: the solved constants, p + LS_DERIVED_K) or the
- * paper's fits (exact_k = 0). */
-BT_INLINE void ls_ms_modes(REAL mi, REAL mo, REAL c, int fitted, const REAL* exact_k,
-                           int fm1_choice, int h1_norm, int coarse, REAL* fm0, REAL* fm1)
+ * H-functions exact (fitted = 0: exact_h = H0(mi), H0(mo), H1(mi), H1(mo)
+ * from the derived slots) or fitted (fitted = 1) and the constants l, m, A..F
+ * exact (exact_k: the solved constants, p + LS_DERIVED_K) or the paper's fits
+ * (exact_k = 0). */
+BT_INLINE void ls_ms_modes(REAL mi, REAL mo, REAL c, int fitted, const REAL* exact_h,
+                           const REAL* exact_k, int fm1_choice, int h1_norm, REAL* fm0,
+                           REAL* fm1)
 {
     REAL h0i, h0o, h1i, h1o;
     if (fitted) {
@@ -442,13 +489,10 @@ BT_INLINE void ls_ms_modes(REAL mi, REAL mo, REAL c, int fitted, const REAL* exa
         h1i = ls_h1_fit(mi, c, h1_norm);
         h1o = ls_h1_fit(mo, c, h1_norm);
     } else {
-        REAL none[HF_NCOEF] = {R(0.0), R(0.0), R(0.0), R(0.0)};
-        hf_psi P0 = hf_make_psi(HF_PSI_LAMBERT0, c, none);
-        hf_psi P1 = hf_make_psi(HF_PSI_LAMBERT1, c, none);
-        h0i = hf_h(&P0, mi, coarse);
-        h0o = hf_h(&P0, mo, coarse);
-        h1i = hf_h(&P1, mi, coarse);
-        h1o = hf_h(&P1, mo, coarse);
+        h0i = exact_h[0];
+        h0o = exact_h[1];
+        h1i = exact_h[2];
+        h1o = exact_h[3];
     }
     REAL fitted_k[8];
     if (!exact_k) ls_constants_fit(c, fitted_k);
@@ -470,12 +514,11 @@ BT_INLINE REAL ls_ss2(REAL mi, REAL mo, REAL c)
 }
 
 /* Exact multiple scattering of the three-term phase function, mode 2
- * (dropped by eq. 21): hc_f2 minus its single-scattering part. */
-BT_INLINE REAL ls_ms_mode2(REAL mi, REAL mo, REAL c, int coarse)
+ * (dropped by eq. 21): hc_f2 minus its single-scattering part, with
+ * H2(mi), H2(mo) from the derived slots. */
+BT_INLINE REAL ls_ms_mode2(REAL mi, REAL mo, REAL c, REAL h2i, REAL h2o)
 {
-    REAL none[HF_NCOEF] = {R(0.0), R(0.0), R(0.0), R(0.0)};
-    hf_psi P2 = hf_make_psi(HF_PSI_LAMBERT2, c, none);
-    return hc_f2(mi, mo, hf_h(&P2, mi, coarse), hf_h(&P2, mo, coarse), c) - ls_ss2(mi, mo, c);
+    return hc_f2(mi, mo, h2i, h2o, c) - ls_ss2(mi, mo, c);
 }
 
 /* Fourier mode m of f1 (eq. 10) by the midpoint rule over phi in [0, pi]. */
@@ -540,7 +583,7 @@ BT_INLINE REAL lambert_sphere_sample(const REAL* p, const int* o, int quantity,
         return weight * ls_walk(i0, oo, c, order, max_order, tail_order, o[LS_OPT_PHASE_MC], 1, s);
     }
     /* side from theta (above), cosines floored as in ls_single */
-    REAL mi = fmax(bt_cos(p[0]), LS_MIN_MU), mo = fmax(bt_cos(p[2]), LS_MIN_MU);
+    REAL mi = ls_mu_of(p[0]), mo = ls_mu_of(p[2]);
     if (quantity == LS_Q_BRDF_SINGLE) {
         if (mode >= 0) return ls_single_mode(p[0], p[2], c, mode);
         return ls_single(i, bt_from_spherical(p[2], p[3]), c);
@@ -563,14 +606,17 @@ BT_INLINE REAL lambert_sphere_sample(const REAL* p, const int* o, int quantity,
         int coarse = (s->method == BT_METHOD_QUADRATURE && s->batch == 1u) ? 1 : 0;
         int fitted = quantity == LS_Q_BRDF_FIT;
         int three = quantity == LS_Q_BRDF_THREE_TERM;
-        /* exact constants: solved once per c on the host (LS_DERIVED_K) */
+        /* exact constants and H-functions of this rule: computed once per
+         * c and (mu, c) on the host (LS_DERIVED_K, LS_DERIVED_H) */
         const REAL* exact_k = ls_reads_derived_constants(quantity, o) ? p + LS_DERIVED_K : 0;
+        const REAL* exact_h = p + LS_DERIVED_H + 6 * coarse;
         REAL fm0, fm1;
-        ls_ms_modes(mi, mo, c, fitted, exact_k, o[LS_OPT_FM1], o[LS_OPT_H1_FIT], coarse, &fm0, &fm1);
+        ls_ms_modes(mi, mo, c, fitted, exact_h, exact_k, o[LS_OPT_FM1], o[LS_OPT_H1_FIT], &fm0,
+                    &fm1);
         /* cos_phi: 0 corrected (x2, = the exact mode), 1 paper (x1);
          * brdf_three_term is exact: always x2, plus mode 2. */
         REAL w1 = (o[LS_OPT_COS_PHI] == 1 && !three) ? R(1.0) : R(2.0);
-        REAL fm2 = three ? ls_ms_mode2(mi, mo, c, coarse) : R(0.0); /* eq. 21 drops it */
+        REAL fm2 = three ? ls_ms_mode2(mi, mo, c, exact_h[4], exact_h[5]) : R(0.0); /* eq. 21 drops it */
         if (mode >= 0) {
             REAL ms = mode == 0 ? fm0 : mode == 1 ? w1 * fm1 : mode == 2 ? fm2 : R(0.0);
             return ls_single_mode(p[0], p[2], c, mode) + ms;
