@@ -174,7 +174,7 @@ TEST_CASE("sample-parallel: splits, odd batch sizes, caps below a batch and adap
     check_same_bits(adaptive_usual, run(*device, m, q, cells, a));
 }
 
-TEST_CASE("sample-parallel defaults name existing Monte Carlo quantities and options") {
+TEST_CASE("sample-parallel defaults name existing Monte Carlo / RQMC quantities and options") {
     // A typo in the engine's table would silently turn a default off; a
     // closed form or quadrature method would never run sample-parallel.
     REQUIRE_FALSE(sample_parallel_default_cases().empty());
@@ -194,13 +194,26 @@ TEST_CASE("sample-parallel defaults name existing Monte Carlo quantities and opt
         }
         const std::vector<int> options = resolve_options(m, given, "test");
         CHECK(sample_parallel_by_default(m, q, c.method, options));
+        // The other method is on only where the table lists it too.
         const Method other = c.method == Method::MonteCarlo ? Method::Rqmc : Method::MonteCarlo;
-        CHECK_FALSE(sample_parallel_by_default(m, q, other, options));
+        bool other_listed = false;
+        for (const SampleParallelCase& d : sample_parallel_default_cases())
+            other_listed |= d.model == c.model && d.quantity == c.quantity && d.method == other &&
+                            d.option == c.option && d.choice == c.choice;
+        CHECK(sample_parallel_by_default(m, q, other, options) == other_listed);
     }
     // Measured slower, so not by default (docs/benchmarks.md).
     const ModelInfo& rd = find_model("rough-dielectric");
     CHECK_FALSE(sample_parallel_by_default(rd, rd.quantity("albedo_r"), Method::MonteCarlo,
                                            resolve_options(rd, {{"distribution", "beckmann"}}, "")));
+    CHECK_FALSE(sample_parallel_by_default(rd, rd.quantity("albedo_r"), Method::Rqmc,
+                                           resolve_options(rd, {{"distribution", "beckmann"}}, "")));
+    // RQMC by default where its sampler vectorises across work items (GGX).
+    CHECK(sample_parallel_by_default(rd, rd.quantity("albedo_t"), Method::Rqmc,
+                                     resolve_options(rd, {{"distribution", "ggx"}}, "")));
+    const ModelInfo& il = find_model("interfaced-lambertian");
+    CHECK_FALSE(sample_parallel_by_default(il, il.quantity("body"), Method::Rqmc,
+                                           resolve_options(il, nlohmann::json::object(), "")));
     const ModelInfo& mg = find_model("micrograin");
     CHECK_FALSE(sample_parallel_by_default(mg, mg.quantity("brdf"), Method::Rqmc,
                                            resolve_options(mg, nlohmann::json::object(), "")));

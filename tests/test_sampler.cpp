@@ -2,11 +2,14 @@
 // compiled as C++.  Oracles: Random123's published known-answer vectors,
 // Joe–Kuo's direction-number rows expanded by an independent recurrence, the
 // (0,m,2)-net property of Sobol' dims 0/1 (a theorem, checked by counting),
-// and moments of U(0,1).
+// moments of U(0,1), and plain loops written here (the obvious Sobol' and
+// Owen-scramble loops) that the unrolled, table-driven kernels must match bit
+// for bit.
 #include <doctest/doctest.h>
 
 #include <cmath>
 #include <cstdint>
+#include <random>
 #include <set>
 #include <vector>
 
@@ -232,4 +235,116 @@ TEST_CASE("streams differ across cells, batches, keys and dims; results are dete
         (void)bt_uniform(&other, 2);
         CHECK(bt_uniform(&a, 2) == first);
     }
+}
+
+namespace {
+
+// The obvious forms, written here from the definitions in sobol.h's header
+// comment, as references for the branch-free kernels.
+uint reference_sobol(uint index, uint dim)
+{
+    const uint d = dim < BT_SOBOL_DIMS ? dim : 0u;
+    uint x = 0;
+    for (unsigned k = 0; index != 0; ++k, index >>= 1)
+        if (index & 1u) x ^= bt_sobol_v[d][k];
+    return x;
+}
+
+// "lowbias32" (C. Wellons' hash prospector), from its published constants.
+uint reference_hash(uint x)
+{
+    x = (x ^ (x >> 16)) * 0x7FEB352Du;
+    x = (x ^ (x >> 15)) * 0x846CA68Bu;
+    return x ^ (x >> 16);
+}
+
+// Flip digit k (k = 0 most significant) of x, for k < digits, by the top bit
+// of the hash of its node (1 << k) | (digits 0..k-1 of x).
+uint reference_scramble(uint x, uint seed, unsigned digits)
+{
+    uint y = x;
+    for (unsigned k = 0; k < digits; ++k) {
+        const uint prefix = k == 0 ? 0u : x >> (32 - k);
+        const uint node = (1u << k) | prefix;
+        if (reference_hash((node * 0x9E3779B9u) ^ seed) >> 31) y ^= 1u << (31 - k);
+    }
+    return y;
+}
+
+}  // namespace
+
+TEST_CASE("table-driven Sobol' equals the plain loop over the set bits of the index")
+{
+    long mismatches = 0, cases = 0;
+    auto check = [&](uint index, uint dim) {
+        ++cases;
+        if (bt_sobol_u32(index, dim) != reference_sobol(index, dim)) ++mismatches;
+    };
+    // Every entry of every nibble table: the index n << 4j selects entry n of
+    // table j; dims 8 and up fall back to dim 0.
+    for (uint dim = 0; dim < BT_SOBOL_DIMS + 2; ++dim)
+        for (unsigned j = 0; j < 8; ++j)
+            for (uint n = 0; n < 16; ++n) check(n << (4 * j), dim);
+    for (uint dim = 0; dim < BT_SOBOL_DIMS; ++dim) {
+        check(0xFFFFFFFFu, dim);
+        for (uint index = 0; index < 4096; ++index) check(index, dim);
+    }
+    std::mt19937 rng(12345);
+    for (int t = 0; t < 200000; ++t) check(rng(), rng() % (BT_SOBOL_DIMS + 1));
+    CHECK(cases > 200000);
+    CHECK(mismatches == 0);
+    // The reference itself, on known points: dim 0 is the bit reversal.
+    CHECK(reference_sobol(1, 0) == 0x80000000u);
+    CHECK(reference_sobol(6, 0) == 0x60000000u);
+    CHECK(reference_sobol(3, 1) == (0x80000000u ^ 0xC0000000u));
+}
+
+TEST_CASE("both Owen-scramble forms equal the plain reference, bit for bit")
+{
+    CHECK(bt_hash32(0x12345678u) == reference_hash(0x12345678u));
+    std::mt19937 rng(777);
+    long mismatches_loop = 0, mismatches_chain = 0, mismatches_default = 0, cases = 0;
+    auto check = [&](uint x, uint seed, unsigned digits) {
+        ++cases;
+        const uint r = reference_scramble(x, seed, digits);
+        if (bt_owen_scramble_loop(x, seed, digits) != r) ++mismatches_loop;
+        if (bt_owen_scramble_chain(x, seed, digits) != r) ++mismatches_chain;
+        if (digits == BT_SOBOL_SCRAMBLE_BITS && bt_owen_scramble(x, seed) != r)
+            ++mismatches_default;
+    };
+    // 32 digits (double), 24 (float on a device), and a few others.
+    for (unsigned digits : {32u, 24u, 1u, 7u, 31u}) {
+        check(0u, 0u, digits);
+        check(0xFFFFFFFFu, 0xFFFFFFFFu, digits);
+        for (int t = 0; t < 40000; ++t) check(rng(), rng(), digits);
+    }
+    // Sobol' points under realistic seeds.
+    for (uint dim = 0; dim < BT_SOBOL_DIMS; ++dim)
+        for (uint index = 0; index < 2048; ++index)
+            check(bt_sobol_u32(index, dim), bt_scramble_seed(3u, 4u, 99u, index >> 8, dim), 32u);
+    CHECK(cases > 200000);
+    CHECK(mismatches_loop == 0);
+    CHECK(mismatches_chain == 0);
+    CHECK(mismatches_default == 0);
+    // The scramble moves points: a reference that returned x would fail above
+    // only if the kernels did too, so check that it flips something.
+    int moved = 0;
+    for (uint x = 0; x < 64; ++x) moved += reference_scramble(x << 26, 0xABCDu, 32) != (x << 26);
+    CHECK(moved > 48);
+}
+
+TEST_CASE("RQMC uniforms equal the reference Sobol' point, scrambled by the reference")
+{
+    std::mt19937 rng(4242);
+    long mismatches = 0;
+    for (int t = 0; t < 20000; ++t) {
+        bt_sampler s = make_sampler(BT_METHOD_RQMC, rng(), rng(), rng() % 100000, rng() % 64,
+                                    rng() % 65536);
+        const uint dim = rng() % BT_SOBOL_DIMS;
+        const uint seed = bt_scramble_seed(s.key0, s.key1, s.cell, s.batch, dim);
+        const double expected =
+            std::ldexp((double)reference_scramble(reference_sobol(s.sample, dim), seed, 32), -32);
+        if (bt_uniform(&s, dim) != expected) ++mismatches;
+    }
+    CHECK(mismatches == 0);
 }

@@ -139,6 +139,10 @@ const std::vector<SampleParallelCase>& sample_parallel_default_cases() {
         {"rough-dielectric", "albedo_r", Method::MonteCarlo, "distribution", "ggx"},
         {"rough-dielectric", "albedo_t", Method::MonteCarlo, "distribution", "ggx"},
         {"rough-dielectric", "albedo_avg", Method::MonteCarlo, "distribution", "ggx"},
+        // RQMC since the sampler vectorises across work items (kernels/common/sobol.h).
+        {"rough-dielectric", "albedo_r", Method::Rqmc, "distribution", "ggx"},
+        {"rough-dielectric", "albedo_t", Method::Rqmc, "distribution", "ggx"},
+        {"rough-dielectric", "albedo_avg", Method::Rqmc, "distribution", "ggx"},
     };
     return cases;
 }

@@ -222,7 +222,9 @@ std::string estimate_kernel_source(const std::string& kernel_header,
 std::string sample_parallel_kernel_source(const std::string& kernel_header,
                                           const std::string& sample_function,
                                           const std::string& kernel_dir) {
-    std::string source = load_kernel_source("common/estimator.h", kernel_dir);
+    // One sample per work item: kernels/common/sobol.h picks its form for that.
+    std::string source = "#define BT_SAMPLE_PARALLEL_PROGRAM 1\n";
+    source += load_kernel_source("common/estimator.h", kernel_dir);
     source += load_kernel_source(kernel_header, kernel_dir);
     source += "#line 1 \"generated sample-parallel entry points for " + kernel_header + "\"\n";
     source += "BT_DEFINE_SAMPLE_PARALLEL_KERNELS(" + std::string(kSampleKernelName) + ", " +
