@@ -70,8 +70,8 @@ expect_grep '"measure": "absolute"' out.txt "absolute measure"
 # validate measures on it (at rho = 1, its stored values).  --no-verify: this
 # checks the fitted recombined model; with verification (the default) the
 # terms' sparse certificates find the fitted 61 x 61 plan's brdf_direct at
-# 1.9e-2 > E, the plan is corrected to 138 x 138, and the recombined table's
-# prediction (fitted, not verified) is then 2x pessimistic (docs/planning.md).
+# 1.9e-2 > E and the plan is corrected to 138 x 138 (docs/planning.md); the
+# verified case follows.
 RSPEC="$DATA/plan_oren_nayar_recombined.toml"
 expect_exit 0 "plan recombined" -- "$BT" plan "$RSPEC" --accuracy 1e-2 --no-verify -o planned_on.toml --json
 cp out.txt plan_on.json
@@ -92,6 +92,30 @@ assert plan["predicted_error"] <= 1e-2
 assert 0.5 <= ratio <= 2.0, f"prediction off by more than a factor 2: {ratio:.2f}"
 PYEOF
 then ok; else bad "recombined prediction vs measurement"; fi
+# With verification (the default), the spec as written (9 x 9): both terms
+# verified, and the recombined table's bound recomputed from their verified
+# errors (relative errors, coefficients and terms >= 0: the larger of the two,
+# docs/planning.md "Recombined tables"); certify then measures the generated
+# recombined table against the model's brdf within a factor 2 of it.
+expect_exit 0 "plan recombined as written, verified" -- "$BT" plan "$RSPEC" --as-written --json
+cp out.txt plan_onv.json
+expect_exit 0 "generate recombined as written" -- "$BT" generate "$RSPEC" -o onv.h5 -q
+"$BT" certify onv.h5 --table brdf --accuracy 1 -q >cert_onv.txt 2>err.txt
+if "$PY" - plan_onv.json cert_onv.txt <<'PYEOF'
+import json, re, sys
+plan = json.load(open(sys.argv[1]))
+tables = {t["table"]: t for t in plan["as_written"]["tables"]}
+d, i, r = (tables[k]["predicted_error"] for k in ("brdf_direct", "brdf_interreflection", "brdf"))
+assert d["verified"] and i["verified"], "both terms verified"
+assert r["from_verified_terms"] and not r["verified"]
+assert r["max"] == max(d["max"], i["max"]), (r["max"], d["max"], i["max"])
+meas = float(re.search(r"max relative total error ([0-9.e+-]+)", open(sys.argv[2]).read()).group(1))
+ratio = meas / r["max"]
+print(f"recombined, verified terms: bound {r['max']:.3g} (fitted {r['fitted_max']:.3g}), "
+      f"certified {meas:.3g}, measured/predicted {ratio:.2f}")
+assert 0.5 <= ratio <= 2.0, f"prediction off by more than a factor 2: {ratio:.2f}"
+PYEOF
+then ok; else bad "recombined bound from verified terms vs its certificate"; fi
 # ---- --place-nodes: explicit nodes in the written spec, which generates
 expect_exit 0 "plan --place-nodes" -- "$BT" plan "$SPEC" --accuracy 1e-2 --place-nodes -o placed.toml
 expect_grep "^placed nodes 'brdf' axis theta_i: [0-9]+ explicit nodes, predicted" out.txt "placement printed"

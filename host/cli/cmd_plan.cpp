@@ -88,6 +88,17 @@ void apply_verification(nlohmann::json& plan, const PlanVerification& v) {
         if (!v.tables[i].verified) continue;
         replace_predicted(e, v.tables[i].certificate.max_error, v.tables[i].certificate.rms_error);
     }
+    // Recombined entries: their bound from the terms' verified errors.
+    for (std::size_t k = 0; k < v.recombined.size(); ++k) {
+        const std::size_t i = v.tables.size() + k;
+        if (i >= plan["tables"].size()) break;
+        nlohmann::json& e = plan["tables"][i]["predicted_error"];
+        if (!e.is_object()) continue;
+        const PlanVerification::Recombined& r = v.recombined[k];
+        e["verified"] = false;
+        e["from_verified_terms"] = r.from_verified_terms;
+        replace_predicted(e, r.max, r.rms);
+    }
 }
 
 nlohmann::json verification_json(const PlanVerification& v) {
@@ -126,6 +137,14 @@ nlohmann::json verification_json(const PlanVerification& v) {
         }
         j["tables"].push_back(e);
     }
+    j["recombined"] = nlohmann::json::array();
+    for (const PlanVerification::Recombined& r : v.recombined)
+        j["recombined"].push_back({{"table", r.table},
+                                   {"max", r.max},
+                                   {"rms", r.rms},
+                                   {"fitted_max", r.fitted_max},
+                                   {"fitted_rms", r.fitted_rms},
+                                   {"from_verified_terms", r.from_verified_terms}});
     return j;
 }
 
@@ -146,6 +165,11 @@ void print_verification(const PlanVerification& v, const std::vector<TablePilot>
             std::cout << "not verified " << what << " '" << name << "': " << t.why << "; the fitted prediction stands\n";
         }
     }
+    for (const PlanVerification::Recombined& r : v.recombined)
+        std::cout << "recombined " << what << " '" << r.table << "': max total error bound " << sci(r.max)
+                  << " (RMS " << sci(r.rms) << ") from its terms' "
+                  << (r.from_verified_terms ? "verified errors" : "errors (not every term verified)")
+                  << ", fitted prediction " << sci(r.fitted_max) << "\n";
 }
 
 void run_plan(const PlanArgs& pa) {

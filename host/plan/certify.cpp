@@ -83,10 +83,18 @@ Certificate certify_impl(const TableData& stored, Backend& backend, const Certif
                          const ProgressFn& progress, LazyCells* lazy) {
     const double start = wall_seconds();
     check_certify_options(options);
-    if (stored.kind != TableKind::Computed)
+    // A recombined table (its values the recipe's sum at stored_at) is
+    // certified against the model quantity of its name at the stored
+    // parameter, as `validate` checks it (e.g. Oren-Nayar's brdf at rho).
+    const bool recombined = stored.kind == TableKind::Recombined;
+    if (stored.kind != TableKind::Computed && !recombined)
         throw InputError("table '" + stored.name + "' is " + method_attribute(stored) +
-                         ": only computed tables (a model quantity of their own) can be certified");
+                         ": only computed and recombined tables (a model quantity of their name) can "
+                         "be certified");
     const ModelInfo& model = find_model(stored.model);
+    if (recombined && !model.find_quantity(stored.quantity))
+        throw InputError("recombined table '" + stored.name + "': model '" + model.name +
+                         "' has no quantity of that name to certify it against");
     const QuantityInfo& q = model.quantity(stored.quantity);
     const std::string where = "table '" + stored.name + "' parameters";
     const LookupTable table(without_recombination(stored));
@@ -670,10 +678,44 @@ PlanVerification verify_plan(const Spec& planned, const std::vector<std::size_t>
     PlanVerification v;
     v.fitted_max = plan.error_max;
     v.fitted_rms = plan.error_rms;
+    const std::vector<RecombinedGroup> groups = recombined_groups(planned, table_indices);
     for (std::size_t i = 0; i < plan.tables.size(); ++i) {
         const TablePlan& tp = plan.tables[i];
         double table_max = tp.error_max, table_rms = tp.error_rms;
-        if (i < pilots.size() && i < table_indices.size()) {
+        if (i >= pilots.size()) {
+            // A recombined entry (after every piloted table, so its terms are
+            // done): the same bound as the fitted prediction, from the terms'
+            // verified errors where they have them.
+            PlanVerification::Recombined r;
+            r.table = tp.table;
+            r.max = r.fitted_max = tp.error_max;
+            r.rms = r.fitted_rms = tp.error_rms;
+            for (const RecombinedGroup& g : groups) {
+                if (g.name != tp.table) continue;
+                std::vector<TablePlan> terms;
+                bool all_verified = true;
+                for (std::size_t t : g.terms) {
+                    if (t >= plan.tables.size()) break;
+                    TablePlan term = plan.tables[t];
+                    if (t < v.tables.size() && v.tables[t].verified) {
+                        term.error_max = v.tables[t].certificate.max_error;
+                        term.error_rms = v.tables[t].certificate.rms_error;
+                    } else {
+                        all_verified = false;
+                    }
+                    terms.push_back(term);
+                }
+                if (terms.size() != g.terms.size()) break;
+                const TablePlan bound = predict_recombined(g, pilots, terms, target);
+                r.max = bound.error_max;
+                r.rms = bound.error_rms;
+                r.from_verified_terms = all_verified;
+                table_max = r.max;
+                table_rms = r.rms;
+                break;
+            }
+            v.recombined.push_back(r);
+        } else if (i < table_indices.size()) {
             CertifyOptions co;
             co.absolute = target.absolute;
             co.abs_floor = target.absolute ? 0.0 : abs_floor;

@@ -181,9 +181,20 @@ SparseCertificate certify_spec_table(const Spec& spec, std::size_t table_index, 
 // A plan checked by sparse certificates of its tables before anything is
 // generated (`brdftab plan`, docs/planning.md "Verified plans").
 struct PlanVerification {
-    // One per piloted table (plan.tables[i] for i < pilots.size(); recombined
-    // entries after them keep their fitted prediction).
+    // One per piloted table (plan.tables[i] for i < pilots.size()).
     std::vector<SparseCertificate> tables;
+    // One per recombined entry after them (plan.tables[pilots.size() + k]):
+    // its bound (predict_recombined: docs/planning.md "Recombined tables")
+    // recomputed from its terms' errors, each term's verified max and RMS
+    // where that term was verified and its fitted ones elsewhere.
+    // from_verified_terms: every term was verified.
+    struct Recombined {
+        std::string table;
+        double max = 0, rms = 0;
+        double fitted_max = 0, fitted_rms = 0;
+        bool from_verified_terms = false;
+    };
+    std::vector<Recombined> recombined;
     double fitted_max = 0, fitted_rms = 0;   // the fitted model's prediction (the candidate's)
     // The plan's error: per table the certificate's max (RMS) where it was
     // verified, the fitted prediction elsewhere; the worst table's.
