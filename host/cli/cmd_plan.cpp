@@ -95,7 +95,7 @@ void apply_verification(nlohmann::json& plan, const PlanVerification& v) {
         nlohmann::json& e = plan["tables"][i]["predicted_error"];
         if (!e.is_object()) continue;
         const PlanVerification::Recombined& r = v.recombined[k];
-        e["verified"] = false;
+        e["verified"] = r.verified;
         e["from_verified_terms"] = r.from_verified_terms;
         replace_predicted(e, r.max, r.rms);
     }
@@ -144,7 +144,11 @@ nlohmann::json verification_json(const PlanVerification& v) {
                                    {"rms", r.rms},
                                    {"fitted_max", r.fitted_max},
                                    {"fitted_rms", r.fitted_rms},
-                                   {"from_verified_terms", r.from_verified_terms}});
+                                   {"verified", r.verified},
+                                   {"from_verified_terms", r.from_verified_terms},
+                                   {"touched_cells", r.sparse.touched_cells},
+                                   {"computed_cells", r.sparse.computed_cells},
+                                   {"why", r.sparse.why}});
     return j;
 }
 
@@ -165,11 +169,24 @@ void print_verification(const PlanVerification& v, const std::vector<TablePilot>
             std::cout << "not verified " << what << " '" << name << "': " << t.why << "; the fitted prediction stands\n";
         }
     }
-    for (const PlanVerification::Recombined& r : v.recombined)
+    for (const PlanVerification::Recombined& r : v.recombined) {
+        if (r.verified) {
+            const SparseCertificate& t = r.sparse;
+            std::cout << "verified " << what << " '" << r.table << "' (recombined): max total error "
+                      << sci(r.max) << " (RMS " << sci(r.rms) << "), bound from its terms "
+                      << sci(t.certificate.predicted_max) << ", fitted prediction " << sci(r.fitted_max)
+                      << "; sparse certificate, " << t.certificate.probes << " probes reading "
+                      << t.touched_cells << " of " << t.table_cells << " cells, " << format_seconds(t.seconds)
+                      << "\n";
+            continue;
+        }
         std::cout << "recombined " << what << " '" << r.table << "': max total error bound " << sci(r.max)
                   << " (RMS " << sci(r.rms) << ") from its terms' "
                   << (r.from_verified_terms ? "verified errors" : "errors (not every term verified)")
-                  << ", fitted prediction " << sci(r.fitted_max) << "\n";
+                  << ", fitted prediction " << sci(r.fitted_max);
+        if (!r.sparse.why.empty()) std::cout << "; not verified itself: " << r.sparse.why;
+        std::cout << "\n";
+    }
 }
 
 void run_plan(const PlanArgs& pa) {

@@ -432,16 +432,29 @@ Certificate certify_impl(const TableData& stored, Backend& backend, const Certif
 
 }  // namespace
 
-SparseCertificate certify_spec_table(const Spec& spec, std::size_t table_index, Backend& backend,
-                                     const IntegrationSettings& settings, const CertifyOptions& options,
-                                     const SparseCertifyOptions& sparse, const ProgressFn& progress) {
-    const double start = wall_seconds();
-    check_certify_options(options);
-    if (table_index >= spec.tables.size()) throw Error("certify_spec_table: no table " + std::to_string(table_index));
+namespace {
+
+// One computed table of the spec that a sparse certificate reads, and its
+// coefficient: a computed table is its own single source (coefficient 1,
+// values taken as they are); a recombined table sums its terms.
+struct SparseSource {
+    std::size_t table_index;
+    double coefficient;
+};
+
+// The sparse certificate of `described` (a table's metadata as generate
+// writes it, no values), whose cells are computed on demand from `sources`:
+// the value of a computed table, or, with `combine`, the recombination
+// sum_t c_t T_t (with the stderr sqrt(sum_t c_t^2 s_t^2)) in the term order
+// and arithmetic of generate_detail::recombine.  Values are rounded to the
+// stored type as the writer rounds them.
+SparseCertificate sparse_certificate(ChunkComputer& computer, TableData described,
+                                     const std::vector<SparseSource>& sources, bool combine,
+                                     Backend& backend, const CertifyOptions& options,
+                                     const SparseCertifyOptions& sparse, const ProgressFn& progress,
+                                     double start) {
     SparseCertificate out;
-    ChunkComputer computer(spec, backend, settings);
-    TableData described = computer.describe(table_index);
-    const std::size_t cells = computer.cell_count(table_index);
+    const std::size_t cells = computer.cell_count(sources.front().table_index);
     out.table_cells = cells;
     if (cells > sparse.max_table_cells) {
         out.why = std::to_string(cells) + " cells, above the " + std::to_string(sparse.max_table_cells) +
@@ -449,15 +462,16 @@ SparseCertificate certify_spec_table(const Spec& spec, std::size_t table_index, 
         out.seconds = wall_seconds() - start;
         return out;
     }
-    const bool closed = described.method == Method::ClosedForm;
+    const TableData first = computer.describe(sources.front().table_index);
+    const bool closed = first.method == Method::ClosedForm;
     const bool keep_stderr = described.keep_stderr;
     const StoredType type = described.stored_type;
     described.value.assign(cells, 0.0);
     described.stderr_.clear();
     described.samples.clear();
     std::vector<bool> have(cells, false);
-    const std::size_t gap = closed || described.method == Method::Quadrature ? sparse.merge_gap_closed_form
-                                                                               : sparse.merge_gap_sampled;
+    const std::size_t gap = closed || first.method == Method::Quadrature ? sparse.merge_gap_closed_form
+                                                                          : sparse.merge_gap_sampled;
     // The stored value as the writer rounds it (table_io.cpp write_real_cells).
     auto stored = [type](double v) {
         switch (type) {
@@ -481,16 +495,33 @@ SparseCertificate certify_spec_table(const Spec& spec, std::size_t table_index, 
                 runs.emplace_back(c, c);
         }
         const double t0 = wall_seconds();
-        for (const auto& [first, last] : runs) {
-            const ChunkResult r = computer.compute(CellChunk{table_index, first, last - first + 1}, nullptr);
-            for (std::size_t i = 0; i < r.value.size(); ++i) {
-                if (have[first + i]) continue;
-                have[first + i] = true;
-                values.value[first + i] = stored(r.value[i]);
-                if (keep_stderr && i < r.stderr_.size()) values.stderr_[first + i] = stored(r.stderr_[i]);
+        for (const auto& [lo, hi] : runs) {
+            const std::size_t n = hi - lo + 1;
+            std::vector<double> value(n, 0.0), variance(n, 0.0);
+            bool have_stderr = true;
+            for (const SparseSource& src : sources) {
+                const ChunkResult r = computer.compute(CellChunk{src.table_index, lo, n}, nullptr);
+                have_stderr = have_stderr && r.stderr_.size() == r.value.size();
+                for (std::size_t i = 0; i < n && i < r.value.size(); ++i) {
+                    if (!combine) {
+                        value[i] = r.value[i];
+                        if (i < r.stderr_.size()) variance[i] = r.stderr_[i];
+                        continue;
+                    }
+                    value[i] += src.coefficient * r.value[i];
+                    if (have_stderr)
+                        variance[i] += src.coefficient * src.coefficient * r.stderr_[i] * r.stderr_[i];
+                }
+                ++out.engine_runs;
+            }
+            for (std::size_t i = 0; i < n; ++i) {
+                if (have[lo + i]) continue;
+                have[lo + i] = true;
+                values.value[lo + i] = stored(value[i]);
+                if (keep_stderr && have_stderr)
+                    values.stderr_[lo + i] = stored(combine ? std::sqrt(variance[i]) : variance[i]);
                 ++out.computed_cells;
             }
-            ++out.engine_runs;
             if (progress) {
                 Progress p;
                 p.cells_total = out.planned_cells;
@@ -515,6 +546,55 @@ SparseCertificate certify_spec_table(const Spec& spec, std::size_t table_index, 
     }
     out.seconds = wall_seconds() - start;
     return out;
+}
+
+}  // namespace
+
+SparseCertificate certify_spec_table(const Spec& spec, std::size_t table_index, Backend& backend,
+                                     const IntegrationSettings& settings, const CertifyOptions& options,
+                                     const SparseCertifyOptions& sparse, const ProgressFn& progress) {
+    const double start = wall_seconds();
+    check_certify_options(options);
+    if (table_index >= spec.tables.size()) throw Error("certify_spec_table: no table " + std::to_string(table_index));
+    ChunkComputer computer(spec, backend, settings);
+    return sparse_certificate(computer, computer.describe(table_index), {{table_index, 1.0}}, false, backend,
+                              options, sparse, progress, start);
+}
+
+SparseCertificate certify_spec_recombined(const Spec& spec, std::size_t recombined_index, Backend& backend,
+                                          const IntegrationSettings& settings, const CertifyOptions& options,
+                                          const SparseCertifyOptions& sparse, const ProgressFn& progress) {
+    const double start = wall_seconds();
+    check_certify_options(options);
+    if (recombined_index >= spec.recombined.size())
+        throw Error("certify_spec_recombined: no recombined table " + std::to_string(recombined_index));
+    const RecombinedSpec& rs = spec.recombined[recombined_index];
+    std::vector<SparseSource> sources;
+    for (const auto& [name, coeffs] : rs.terms) {
+        std::optional<std::size_t> index;
+        for (std::size_t k = 0; k < spec.tables.size(); ++k)
+            if (spec.tables[k].name == name) index = k;
+        if (!index) throw InputError(spec.file + ": recombined table '" + rs.name + "': term '" + name + "' missing");
+        double c = 0;  // the coefficient at stored_at (Horner, as generate_detail::recombine)
+        for (std::size_t k = coeffs.size(); k-- > 0;) c = c * rs.stored_at + coeffs[k];
+        sources.push_back({*index, c});
+    }
+    if (sources.empty()) throw InputError(spec.file + ": recombined table '" + rs.name + "' has no terms");
+    ChunkComputer computer(spec, backend, settings);
+    // The recombined table's metadata as generate_detail::recombine writes
+    // it: the first term's axes, provenance and parameters, plus the stored
+    // parameter; its stderr kept when every term has one.
+    TableData described = computer.describe(sources.front().table_index);
+    bool all_stderr = true;
+    for (const SparseSource& src : sources) all_stderr = all_stderr && computer.describe(src.table_index).keep_stderr;
+    described.name = rs.name;
+    described.quantity = rs.name;
+    described.kind = TableKind::Recombined;
+    described.parameters[rs.parameter] = rs.stored_at;
+    described.keep_stderr = spec.output.keep_stderr && all_stderr;
+    described.stored_type = spec.output.stored_type;
+    return sparse_certificate(computer, std::move(described), sources, true, backend, options, sparse, progress,
+                              start);
 }
 
 Certificate certify_file_table(const std::string& path, const std::string& table, Backend& backend,
@@ -710,10 +790,46 @@ PlanVerification verify_plan(const Spec& planned, const std::vector<std::size_t>
                 r.max = bound.error_max;
                 r.rms = bound.error_rms;
                 r.from_verified_terms = all_verified;
-                table_max = r.max;
-                table_rms = r.rms;
                 break;
             }
+            // Its own certificate where the probes allow (as for a computed
+            // table; the time limit: its terms').
+            for (std::size_t k = 0; k < planned.recombined.size(); ++k) {
+                if (planned.recombined[k].name != tp.table) continue;
+                CertifyOptions co;
+                co.absolute = target.absolute;
+                co.abs_floor = target.absolute ? 0.0 : abs_floor;
+                co.interpolation = target.interpolation;
+                const double fitted = std::isfinite(r.max) && r.max > 0 ? r.max : 1e-300;
+                co.target = target.accuracy ? *target.accuracy : fitted;
+                SparseCertifyOptions table_sparse = sparse;
+                double seconds = 0;
+                for (const RecombinedGroup& g : groups)
+                    if (g.name == tp.table)
+                        for (std::size_t t : g.terms)
+                            if (t < plan.tables.size()) seconds += plan.tables[t].seconds;
+                if (std::isfinite(seconds) && seconds <= sparse.cheap_table_seconds)
+                    table_sparse.max_touched_fraction = 1.0;
+                try {
+                    r.sparse = certify_spec_recombined(planned, k, backend, settings, co, table_sparse, progress);
+                } catch (const InputError& e) {
+                    r.sparse.why = e.what();  // e.g. no model quantity of its name: the bound stands
+                }
+                if (r.sparse.verified) {
+                    r.sparse.certificate.predicted_max = r.max;
+                    r.sparse.certificate.predicted_rms = r.rms;
+                    r.verified = true;
+                    r.max = r.sparse.certificate.max_error;
+                    r.rms = r.sparse.certificate.rms_error;
+                    ++v.verified;
+                }
+                v.touched_cells += r.sparse.touched_cells;
+                v.computed_cells += r.sparse.computed_cells;
+                v.table_cells += r.sparse.table_cells;
+                break;
+            }
+            table_max = r.max;
+            table_rms = r.rms;
             v.recombined.push_back(r);
         } else if (i < table_indices.size()) {
             CertifyOptions co;

@@ -176,6 +176,17 @@ SparseCertificate certify_spec_table(const Spec& spec, std::size_t table_index, 
                                      const SparseCertifyOptions& sparse = {},
                                      const ProgressFn& progress = nullptr);
 
+// The sparse certificate of recombined table `recombined_index` of
+// spec.recombined: the cells its probes read are computed from its terms (each
+// term's cells as generate computes them, recombined at stored_at as generate
+// recombines them, rounded to the stored type), and it is certified against
+// the model quantity of its name, as `certify` takes a generated recombined
+// table: the same certificate, bit for bit.
+SparseCertificate certify_spec_recombined(const Spec& spec, std::size_t recombined_index, Backend& backend,
+                                          const IntegrationSettings& settings, const CertifyOptions& options,
+                                          const SparseCertifyOptions& sparse = {},
+                                          const ProgressFn& progress = nullptr);
+
 // ------------------------------------------------------------ verified plans
 
 // A plan checked by sparse certificates of its tables before anything is
@@ -184,15 +195,18 @@ struct PlanVerification {
     // One per piloted table (plan.tables[i] for i < pilots.size()).
     std::vector<SparseCertificate> tables;
     // One per recombined entry after them (plan.tables[pilots.size() + k]):
-    // its bound (predict_recombined: docs/planning.md "Recombined tables")
-    // recomputed from its terms' errors, each term's verified max and RMS
-    // where that term was verified and its fitted ones elsewhere.
-    // from_verified_terms: every term was verified.
+    // its own sparse certificate (certify_spec_recombined) where it verifies;
+    // else its bound (predict_recombined: docs/planning.md "Recombined
+    // tables") recomputed from its terms' errors, each term's verified max
+    // and RMS where that term was verified and its fitted ones elsewhere
+    // (from_verified_terms: every term was verified).
     struct Recombined {
         std::string table;
         double max = 0, rms = 0;
         double fitted_max = 0, fitted_rms = 0;
+        bool verified = false;  // max, rms: its own certificate's
         bool from_verified_terms = false;
+        SparseCertificate sparse;
     };
     std::vector<Recombined> recombined;
     double fitted_max = 0, fitted_rms = 0;   // the fitted model's prediction (the candidate's)
