@@ -22,6 +22,7 @@
 #include <fstream>
 #include <cstdlib>
 #include <filesystem>
+#include <iterator>
 #include <string>
 #include <vector>
 
@@ -41,6 +42,12 @@ using namespace brdftab;
 namespace {
 
 std::string data_path(const std::string& name) { return std::string(BT_SOURCE_DIR) + "/tests/data/" + name; }
+// A file of tests/data as text.
+std::string data_text(const std::string& name) {
+    std::ifstream in(data_path(name), std::ios::binary);
+    REQUIRE(in);
+    return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
 
 std::filesystem::path temp_dir() {
     const auto dir = std::filesystem::temp_directory_path() / ("bt_test_plan_verify_" + std::to_string(::getpid()));
@@ -144,14 +151,7 @@ TEST_CASE("sparse certificate of a recombined table equals the generated file's 
     // are computed from both terms and recombined, and certified against the
     // model's own brdf, as `certify` takes the generated table.
     auto backend = make_backend("", Precision::Double);
-    std::string text;
-    {
-        std::FILE* f = std::fopen(data_path("plan_oren_nayar_recombined.toml").c_str(), "rb");
-        REQUIRE(f);
-        char buf[4096];
-        for (std::size_t n; (n = std::fread(buf, 1, sizeof buf, f)) > 0;) text.append(buf, n);
-        std::fclose(f);
-    }
+    const std::string text = data_text("plan_oren_nayar_recombined.toml");
     for (const char* type : {"float16", "float32", "float64"}) {
         std::string typed = text;  // the data file stores float32
         const std::size_t at = typed.find("type = \"float32\"");
@@ -248,14 +248,7 @@ TEST_CASE("verify_plan: a table the fitted model under-predicts is verified to w
     // input's nodes and under-read the peak (docs/planning.md, "Certified
     // generation": predicted ~1e-2 where the certificate finds ~3e-2 on 84 x 84).
     auto backend = make_backend("", Precision::Double);
-    std::string text;
-    {
-        std::FILE* f = std::fopen(data_path("certify_peak.toml").c_str(), "rb");
-        REQUIRE(f);
-        char buf[4096];
-        for (std::size_t n; (n = std::fread(buf, 1, sizeof buf, f)) > 0;) text.append(buf, n);
-        std::fclose(f);
-    }
+    const std::string text = data_text("certify_peak.toml");
     const Spec input = parse_spec_string(text, data_path("certify_peak.toml"));
     PlanTarget target;
     target.absolute = true;

@@ -750,6 +750,31 @@ Candidate repredict(const Candidate& c, const std::vector<TablePilot>& pilots, c
 
 }  // namespace
 
+namespace {
+
+// The certificate options of one table of a verified plan: the target's
+// measure and interpolation, its reference noise set by E (with an accuracy
+// target) or by the table's prediction.
+CertifyOptions plan_certify_options(const PlanTarget& target, double abs_floor, double predicted) {
+    CertifyOptions co;
+    co.absolute = target.absolute;
+    co.abs_floor = target.absolute ? 0.0 : abs_floor;
+    co.interpolation = target.interpolation;
+    const double fitted = std::isfinite(predicted) && predicted > 0 ? predicted : 1e-300;
+    co.target = target.accuracy ? *target.accuracy : fitted;
+    return co;
+}
+
+// The sparse limits of a table predicted to generate in `seconds`: a cheap
+// one is verified whatever its probes read.
+SparseCertifyOptions plan_sparse_options(const SparseCertifyOptions& sparse, double seconds) {
+    SparseCertifyOptions table_sparse = sparse;
+    if (std::isfinite(seconds) && seconds <= sparse.cheap_table_seconds) table_sparse.max_touched_fraction = 1.0;
+    return table_sparse;
+}
+
+}  // namespace
+
 PlanVerification verify_plan(const Spec& planned, const std::vector<std::size_t>& table_indices,
                              const Candidate& plan, const std::vector<TablePilot>& pilots,
                              Backend& backend, const IntegrationSettings& settings, const PlanTarget& target,
@@ -796,22 +821,15 @@ PlanVerification verify_plan(const Spec& planned, const std::vector<std::size_t>
             // table; the time limit: its terms').
             for (std::size_t k = 0; k < planned.recombined.size(); ++k) {
                 if (planned.recombined[k].name != tp.table) continue;
-                CertifyOptions co;
-                co.absolute = target.absolute;
-                co.abs_floor = target.absolute ? 0.0 : abs_floor;
-                co.interpolation = target.interpolation;
-                const double fitted = std::isfinite(r.max) && r.max > 0 ? r.max : 1e-300;
-                co.target = target.accuracy ? *target.accuracy : fitted;
-                SparseCertifyOptions table_sparse = sparse;
+                const CertifyOptions co = plan_certify_options(target, abs_floor, r.max);
                 double seconds = 0;
                 for (const RecombinedGroup& g : groups)
                     if (g.name == tp.table)
                         for (std::size_t t : g.terms)
                             if (t < plan.tables.size()) seconds += plan.tables[t].seconds;
-                if (std::isfinite(seconds) && seconds <= sparse.cheap_table_seconds)
-                    table_sparse.max_touched_fraction = 1.0;
                 try {
-                    r.sparse = certify_spec_recombined(planned, k, backend, settings, co, table_sparse, progress);
+                    r.sparse = certify_spec_recombined(planned, k, backend, settings, co,
+                                                       plan_sparse_options(sparse, seconds), progress);
                 } catch (const InputError& e) {
                     r.sparse.why = e.what();  // e.g. no model quantity of its name: the bound stands
                 }
@@ -832,18 +850,11 @@ PlanVerification verify_plan(const Spec& planned, const std::vector<std::size_t>
             table_rms = r.rms;
             v.recombined.push_back(r);
         } else if (i < table_indices.size()) {
-            CertifyOptions co;
-            co.absolute = target.absolute;
-            co.abs_floor = target.absolute ? 0.0 : abs_floor;
-            co.interpolation = target.interpolation;
-            const double fitted = std::isfinite(tp.error_max) && tp.error_max > 0 ? tp.error_max : 1e-300;
-            co.target = target.accuracy ? *target.accuracy : fitted;
+            const CertifyOptions co = plan_certify_options(target, abs_floor, tp.error_max);
             SparseCertificate sc;
             try {
-                SparseCertifyOptions table_sparse = sparse;
-                if (std::isfinite(tp.seconds) && tp.seconds <= sparse.cheap_table_seconds)
-                    table_sparse.max_touched_fraction = 1.0;
-                sc = certify_spec_table(planned, table_indices[i], backend, settings, co, table_sparse, progress);
+                sc = certify_spec_table(planned, table_indices[i], backend, settings, co,
+                                        plan_sparse_options(sparse, tp.seconds), progress);
             } catch (const InputError& e) {
                 // A table the certificate cannot measure (e.g. a model input
                 // it cannot probe): the fitted prediction stands.
