@@ -413,6 +413,8 @@ def run_case(bt, case, args, env, clock, log):
         budgets = args.budgets
     npoints = args.probes or (150 if quick else case.get("probes", 300))
     run_cap = 5.0 if quick else 15.0     # predicted engine seconds of one run
+    if args.run_cap:
+        run_cap = args.run_cap
     case_cap = 15.0 if quick else case.get("cap", 30.0)  # wall seconds of generate per case
     if args.case_cap:
         case_cap = args.case_cap
@@ -879,6 +881,9 @@ def main():
     ap.add_argument("--budgets", type=lambda s: [int(x) for x in s.split(",")],  # argparse: exit 2 if not ints
                     help="samples per cell for mc/rqmc, comma-separated (default: per case)")
     ap.add_argument("--probes", type=int, help="random probe points per case (default 300; --quick: 150)")
+    ap.add_argument("--run-cap", type=float,
+                    help="skip a run predicted to take more engine seconds than this (default 15; --quick: 5); "
+                    "the prediction extrapolates earlier runs, whose times include the first kernel builds")
     ap.add_argument("--case-cap", type=float,
                     help="wall seconds of generate per case before further runs are skipped (default: the "
                     "case's cap, 30 s unless it sets one; --quick: 15 s); a busy machine needs more")
@@ -895,6 +900,8 @@ def main():
         fail(f"--levels {args.levels}: must be in [1, 8]")
     if args.probes is not None and not 2 <= args.probes <= 100000:
         fail(f"--probes {args.probes}: must be in [2, 100000]")
+    if args.run_cap is not None and not 1 <= args.run_cap <= 86400:
+        fail(f"--run-cap {args.run_cap:g}: must be in [1, 86400] seconds")
     if args.case_cap is not None and not 1 <= args.case_cap <= 86400:
         fail(f"--case-cap {args.case_cap:g}: must be in [1, 86400] seconds")
     if args.budgets is not None and not all(1 <= b <= 4294967295 for b in args.budgets):
