@@ -8,17 +8,12 @@
 #include <cmath>
 
 #include "host/core/error.h"
+#include "host/core/polynomial.h"
 #include "host/core/text.h"
 
 namespace brdftab::generate_detail {
 
 namespace {
-
-double polynomial(const std::vector<double>& coeffs, double x) {
-    double v = 0;
-    for (std::size_t k = coeffs.size(); k-- > 0;) v = v * x + coeffs[k];
-    return v;
-}
 
 // A derived table's provenance is that of the table it is formed from; its
 // storage follows the spec's [output].
@@ -159,7 +154,7 @@ GeneratedTable recombine(const RecombinedSpec& rs, const std::vector<GeneratedTa
             d.parameters = term->parameters;
         }
         have_stderr = have_stderr && term->stderr_.size() == term->value.size();
-        const double c = polynomial(coeffs, rs.stored_at);
+        const double c = polynomial_at(coeffs, rs.stored_at);
         for (std::size_t i = 0; i < d.value.size(); ++i) {
             d.value[i] += c * term->value[i];
             if (have_stderr) d.stderr_[i] += c * c * term->stderr_[i] * term->stderr_[i];

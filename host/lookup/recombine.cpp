@@ -6,18 +6,13 @@
 #include <cmath>
 
 #include "host/core/error.h"
+#include "host/core/polynomial.h"
 #include "host/lookup/lookup.h"
 #include "host/lookup/lookup_internal.h"
 
 namespace brdftab {
 
 namespace {
-
-double horner(const std::vector<double>& c, double p) {
-    double r = 0;
-    for (std::size_t k = c.size(); k-- > 0;) r = r * p + c[k];
-    return r;
-}
 
 std::vector<double> number_list(const nlohmann::json& j, const std::string& where) {
     if (!j.is_array() || j.empty())
@@ -114,12 +109,12 @@ void LookupTable::resolve_param(double& p, OutOfRange mode) const {
 double LookupTable::combine(const std::vector<double>& pv, double p) const {
     if (terms_.empty()) return pv[0];
     double sum = 0;
-    for (const auto& t : terms_) sum += horner(t.coeffs, p) * pv[t.piece];
-    const double den = horner(den_, p);
+    for (const auto& t : terms_) sum += polynomial_at(t.coeffs, p) * pv[t.piece];
+    const double den = polynomial_at(den_, p);
     if (den == 0)
         throw InputError("table '" + table().name + "': recombination prefactor has a zero "
                          "denominator at " + rparam_ + " = " + fmt_num(p));
-    return horner(num_, p) / den * sum;
+    return polynomial_at(num_, p) / den * sum;
 }
 
 }  // namespace brdftab

@@ -109,7 +109,7 @@ CellDerivation derive_lambert_sphere(const QuantityInfo& q, const std::vector<in
     for (std::size_t k = 0; k < options.size() && k < BT_MAX_OPTIONS; ++k) o[k] = options[k];
     if (!ls_reads_derived(q.id)) return {};
     const bool constants = ls_reads_derived_constants(q.id, o) != 0;
-    const int h_count = q.id == LS_Q_BRDF_THREE_TERM ? 6 : 4;
+    const int h_count = ls_h_slot_count(q.id);
     using Constants = std::array<double, 8>;
     auto bits = [](double x) {
         std::uint64_t b;
@@ -137,8 +137,8 @@ CellDerivation derive_lambert_sphere(const QuantityInfo& q, const std::vector<in
                 }
                 for (int rule = 0; rule < 2; ++rule)
                     for (int j = 0; j < h_count; ++j) {
-                        const int kind = HF_PSI_LAMBERT0 + j / 2;
-                        const double mu = ls_mu_of(j % 2 == 0 ? p[0] : p[2]);
+                        const int kind = ls_h_slot_kind(j);
+                        const double mu = ls_h_slot_mu(p, j);
                         const auto key = std::make_tuple(2 * kind + rule, bits(mu), bits(c));
                         auto it = memo->h.find(key);
                         if (it == memo->h.end())

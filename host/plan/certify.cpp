@@ -10,6 +10,7 @@
 #include <optional>
 
 #include "host/core/error.h"
+#include "host/core/polynomial.h"
 #include "host/core/splitmix.h"
 #include "host/core/text.h"
 #include "host/engine/evaluate.h"
@@ -497,7 +498,9 @@ SparseCertificate sparse_certificate(ChunkComputer& computer, TableData describe
         const double t0 = wall_seconds();
         for (const auto& [lo, hi] : runs) {
             const std::size_t n = hi - lo + 1;
-            std::vector<double> value(n, 0.0), variance(n, 0.0);
+            // err: a single source's stderr, or the combination's variance
+            // sum_t c_t^2 s_t^2 (its square root is stored).
+            std::vector<double> value(n, 0.0), err(n, 0.0);
             bool have_stderr = true;
             for (const SparseSource& src : sources) {
                 const ChunkResult r = computer.compute(CellChunk{src.table_index, lo, n}, nullptr);
@@ -505,12 +508,12 @@ SparseCertificate sparse_certificate(ChunkComputer& computer, TableData describe
                 for (std::size_t i = 0; i < n && i < r.value.size(); ++i) {
                     if (!combine) {
                         value[i] = r.value[i];
-                        if (i < r.stderr_.size()) variance[i] = r.stderr_[i];
+                        if (i < r.stderr_.size()) err[i] = r.stderr_[i];
                         continue;
                     }
                     value[i] += src.coefficient * r.value[i];
                     if (have_stderr)
-                        variance[i] += src.coefficient * src.coefficient * r.stderr_[i] * r.stderr_[i];
+                        err[i] += src.coefficient * src.coefficient * r.stderr_[i] * r.stderr_[i];
                 }
                 ++out.engine_runs;
             }
@@ -519,7 +522,7 @@ SparseCertificate sparse_certificate(ChunkComputer& computer, TableData describe
                 have[lo + i] = true;
                 values.value[lo + i] = stored(value[i]);
                 if (keep_stderr && have_stderr)
-                    values.stderr_[lo + i] = stored(combine ? std::sqrt(variance[i]) : variance[i]);
+                    values.stderr_[lo + i] = stored(combine ? std::sqrt(err[i]) : err[i]);
                 ++out.computed_cells;
             }
             if (progress) {
@@ -575,9 +578,7 @@ SparseCertificate certify_spec_recombined(const Spec& spec, std::size_t recombin
         for (std::size_t k = 0; k < spec.tables.size(); ++k)
             if (spec.tables[k].name == name) index = k;
         if (!index) throw InputError(spec.file + ": recombined table '" + rs.name + "': term '" + name + "' missing");
-        double c = 0;  // the coefficient at stored_at (Horner, as generate_detail::recombine)
-        for (std::size_t k = coeffs.size(); k-- > 0;) c = c * rs.stored_at + coeffs[k];
-        sources.push_back({*index, c});
+        sources.push_back({*index, polynomial_at(coeffs, rs.stored_at)});  // as generate_detail::recombine
     }
     if (sources.empty()) throw InputError(spec.file + ": recombined table '" + rs.name + "' has no terms");
     ChunkComputer computer(spec, backend, settings);
@@ -784,92 +785,89 @@ PlanVerification verify_plan(const Spec& planned, const std::vector<std::size_t>
     v.fitted_max = plan.error_max;
     v.fitted_rms = plan.error_rms;
     const std::vector<RecombinedGroup> groups = recombined_groups(planned, table_indices);
+    // Folds a table's sparse certificate into the verification's counts; a
+    // verified one keeps the prediction it replaces.
+    auto account = [&v](SparseCertificate& sc, double predicted_max, double predicted_rms) {
+        if (sc.verified) {
+            sc.certificate.predicted_max = predicted_max;
+            sc.certificate.predicted_rms = predicted_rms;
+            ++v.verified;
+        }
+        v.touched_cells += sc.touched_cells;
+        v.computed_cells += sc.computed_cells;
+        v.table_cells += sc.table_cells;
+    };
     for (std::size_t i = 0; i < plan.tables.size(); ++i) {
         const TablePlan& tp = plan.tables[i];
         double table_max = tp.error_max, table_rms = tp.error_rms;
         if (i >= pilots.size()) {
             // A recombined entry (after every piloted table, so its terms are
             // done): the same bound as the fitted prediction, from the terms'
-            // verified errors where they have them.
+            // verified errors where they have them, then its own certificate
+            // where the probes allow (the time limit: its terms').
             PlanVerification::Recombined r;
             r.table = tp.table;
             r.max = r.fitted_max = tp.error_max;
             r.rms = r.fitted_rms = tp.error_rms;
-            for (const RecombinedGroup& g : groups) {
-                if (g.name != tp.table) continue;
+            double seconds = 0;
+            const auto g = std::find_if(groups.begin(), groups.end(),
+                                        [&](const RecombinedGroup& x) { return x.name == tp.table; });
+            if (g != groups.end() &&
+                std::all_of(g->terms.begin(), g->terms.end(), [&](std::size_t t) { return t < pilots.size(); })) {
                 std::vector<TablePlan> terms;
-                bool all_verified = true;
-                for (std::size_t t : g.terms) {
-                    if (t >= plan.tables.size()) break;
+                r.from_verified_terms = true;
+                for (std::size_t t : g->terms) {
                     TablePlan term = plan.tables[t];
+                    seconds += term.seconds;
                     if (t < v.tables.size() && v.tables[t].verified) {
                         term.error_max = v.tables[t].certificate.max_error;
                         term.error_rms = v.tables[t].certificate.rms_error;
                     } else {
-                        all_verified = false;
+                        r.from_verified_terms = false;
                     }
                     terms.push_back(term);
                 }
-                if (terms.size() != g.terms.size()) break;
-                const TablePlan bound = predict_recombined(g, pilots, terms, target);
+                const TablePlan bound = predict_recombined(*g, pilots, terms, target);
                 r.max = bound.error_max;
                 r.rms = bound.error_rms;
-                r.from_verified_terms = all_verified;
-                break;
             }
-            // Its own certificate where the probes allow (as for a computed
-            // table; the time limit: its terms').
-            for (std::size_t k = 0; k < planned.recombined.size(); ++k) {
-                if (planned.recombined[k].name != tp.table) continue;
-                const CertifyOptions co = plan_certify_options(target, abs_floor, r.max);
-                double seconds = 0;
-                for (const RecombinedGroup& g : groups)
-                    if (g.name == tp.table)
-                        for (std::size_t t : g.terms)
-                            if (t < plan.tables.size()) seconds += plan.tables[t].seconds;
+            const auto rs = std::find_if(planned.recombined.begin(), planned.recombined.end(),
+                                         [&](const RecombinedSpec& x) { return x.name == tp.table; });
+            if (rs != planned.recombined.end()) {
                 try {
-                    r.sparse = certify_spec_recombined(planned, k, backend, settings, co,
-                                                       plan_sparse_options(sparse, seconds), progress);
+                    r.sparse = certify_spec_recombined(
+                        planned, static_cast<std::size_t>(rs - planned.recombined.begin()), backend, settings,
+                        plan_certify_options(target, abs_floor, r.max), plan_sparse_options(sparse, seconds),
+                        progress);
                 } catch (const InputError& e) {
                     r.sparse.why = e.what();  // e.g. no model quantity of its name: the bound stands
                 }
+                account(r.sparse, r.max, r.rms);
                 if (r.sparse.verified) {
-                    r.sparse.certificate.predicted_max = r.max;
-                    r.sparse.certificate.predicted_rms = r.rms;
                     r.verified = true;
                     r.max = r.sparse.certificate.max_error;
                     r.rms = r.sparse.certificate.rms_error;
-                    ++v.verified;
                 }
-                v.touched_cells += r.sparse.touched_cells;
-                v.computed_cells += r.sparse.computed_cells;
-                v.table_cells += r.sparse.table_cells;
-                break;
             }
             table_max = r.max;
             table_rms = r.rms;
             v.recombined.push_back(r);
         } else if (i < table_indices.size()) {
-            const CertifyOptions co = plan_certify_options(target, abs_floor, tp.error_max);
             SparseCertificate sc;
             try {
-                sc = certify_spec_table(planned, table_indices[i], backend, settings, co,
+                sc = certify_spec_table(planned, table_indices[i], backend, settings,
+                                        plan_certify_options(target, abs_floor, tp.error_max),
                                         plan_sparse_options(sparse, tp.seconds), progress);
             } catch (const InputError& e) {
                 // A table the certificate cannot measure (e.g. a model input
                 // it cannot probe): the fitted prediction stands.
                 sc.why = e.what();
             }
+            account(sc, tp.error_max, tp.error_rms);
             if (sc.verified) {
-                sc.certificate.predicted_max = tp.error_max;
-                sc.certificate.predicted_rms = tp.error_rms;
                 table_max = sc.certificate.max_error;
                 table_rms = sc.certificate.rms_error;
-                ++v.verified;
             }
-            v.touched_cells += sc.touched_cells;
-            v.computed_cells += sc.computed_cells;
-            v.table_cells += sc.table_cells;
             v.tables.push_back(std::move(sc));
         }
         v.error_max = std::max(v.error_max, table_max);

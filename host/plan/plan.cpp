@@ -11,6 +11,7 @@
 #include <toml++/toml.h>
 
 #include "host/core/error.h"
+#include "host/core/polynomial.h"
 #include "host/core/text.h"
 #include "host/core/splitmix.h"
 #include "host/engine/evaluate.h"
@@ -1093,14 +1094,6 @@ std::vector<std::size_t> shared_counts(const RecombinedGroup& group,
     }
     return shared;
 }
-
-namespace {
-double polynomial_at(const std::vector<double>& coeffs, double p) {
-    double v = 0;
-    for (std::size_t k = coeffs.size(); k-- > 0;) v = v * p + coeffs[k];  // Horner
-    return v;
-}
-}  // namespace
 
 TablePlan predict_recombined(const RecombinedGroup& group, const std::vector<TablePilot>& pilots,
                              const std::vector<TablePlan>& term_plans, const PlanTarget& target) {

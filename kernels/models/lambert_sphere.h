@@ -357,12 +357,18 @@ BT_INLINE void ls_fill_constants(REAL* p)
     ls_constants(p[LS_PARAM_C], 1, p + LS_DERIVED_K);
 }
 
-/* Writes H-function j (0..5 as LS_DERIVED_H) of rule b (0 accurate, 1
- * coarse) for the point's directions and c. */
+/* H-function slot j (0..5 of LS_DERIVED_H) of a rule holds H_{j/2} (kind
+ * HF_PSI_LAMBERT0 + j/2) at mu_i (j even) or mu_o (j odd); a quantity reads
+ * the first ls_h_slot_count of them (H2: brdf_three_term only). */
+BT_INLINE int ls_h_slot_count(int quantity) { return quantity == LS_Q_BRDF_THREE_TERM ? 6 : 4; }
+BT_INLINE int ls_h_slot_kind(int j) { return HF_PSI_LAMBERT0 + j / 2; }
+BT_INLINE REAL ls_h_slot_mu(const REAL* p, int j) { return ls_mu_of(j % 2 == 0 ? p[0] : p[2]); }
+
+/* Writes H-function slot j of rule b (0 accurate, 1 coarse) for the point's
+ * directions and c. */
 BT_INLINE void ls_fill_h(REAL* p, int b, int j)
 {
-    REAL mu = ls_mu_of(j % 2 == 0 ? p[0] : p[2]);
-    p[LS_DERIVED_H + 6 * b + j] = ls_h_exact(HF_PSI_LAMBERT0 + j / 2, mu, p[LS_PARAM_C], b);
+    p[LS_DERIVED_H + 6 * b + j] = ls_h_exact(ls_h_slot_kind(j), ls_h_slot_mu(p, j), p[LS_PARAM_C], b);
 }
 
 /* Every derived slot quantity (and options o) reads, the others 0: what
@@ -373,9 +379,8 @@ BT_INLINE void ls_fill_derived(REAL* p, int quantity, const int* o)
     for (int j = 0; j < LS_DERIVED_COUNT; ++j) p[LS_DERIVED_K + j] = R(0.0);
     if (!ls_reads_derived(quantity)) return;
     if (ls_reads_derived_constants(quantity, o)) ls_fill_constants(p);
-    int count = quantity == LS_Q_BRDF_THREE_TERM ? 6 : 4;
     for (int b = 0; b < 2; ++b)
-        for (int j = 0; j < count; ++j) ls_fill_h(p, b, j);
+        for (int j = 0; j < ls_h_slot_count(quantity); ++j) ls_fill_h(p, b, j);
 }
 
 /* eq. 31 (a, d as printed; 1/H0(inf) = sqrt(K0(0)) from eq. 32). */
