@@ -4,7 +4,9 @@
 // through the general per-cell-state path (a checkpoint whose save does
 // nothing, as `brdftab generate` passes one).  docs/benchmarks.md, session 6.
 //
-//   build/bench/bench_engine_closed_form [cells=2000000] [repeats=5] [device]
+//   build/bench/bench_engine_closed_form [cells=2000000] [repeats=5] [device] [paths=both]
+//
+// paths: `direct`, `general` or `both` (e.g. `direct` alone under a profiler).
 //
 // Points are held in one array and copied per cell, as `brdftab bench` does.
 #include <time.h>
@@ -35,8 +37,11 @@ int main(int argc, char** argv) {
     const std::size_t cells = argc > 1 ? std::strtoull(argv[1], nullptr, 10) : 2000000;
     const int repeats = argc > 2 ? std::atoi(argv[2]) : 5;
     const std::string device = argc > 3 ? argv[3] : "";
-    if (cells == 0 || repeats < 1) {
-        std::fprintf(stderr, "usage: bench_engine_closed_form [cells >= 1] [repeats >= 1] [device]\n");
+    const std::string paths = argc > 4 ? argv[4] : "both";
+    if (cells == 0 || repeats < 1 || (paths != "both" && paths != "direct" && paths != "general")) {
+        std::fprintf(stderr,
+                     "usage: bench_engine_closed_form [cells >= 1] [repeats >= 1] [device] "
+                     "[direct|general|both]\n");
         return 2;
     }
     const ModelInfo& model = find_model("rough-dielectric");
@@ -68,6 +73,7 @@ int main(int argc, char** argv) {
     estimate(*backend, model, q, options, std::min<std::size_t>(cells, 256), point_of, settings);
     std::printf("%s, %zu cells of rough-dielectric bsdf\n", backend->device_name().c_str(), cells);
     for (const bool with_checkpoint : {false, true}) {
+        if (paths != "both" && with_checkpoint != (paths == "general")) continue;
         for (int r = 0; r < repeats; ++r) {
             EstimateCheckpoint checkpoint;
             checkpoint.save = [](const EstimateState&, bool) {};

@@ -390,6 +390,45 @@ TEST_CASE("Phong needs alpha < 1: every cell checked before any launch (issue #1
     CHECK(f.model.check_cell(q, point.data(), f.options("ggx")).empty());
 }
 
+TEST_CASE("closed forms: a bad cell past the first launches stops the run, launches in flight") {
+    // Closed forms without a checkpoint check each cell as its launch is built
+    // (engine.cpp, the direct path), while the device computes the launch
+    // before it (Backend::start/finish).  A bad cell far into the table must
+    // still end the run with the model's message, wait for the launches in
+    // flight, and leave the backend usable: the next run gives the bits of
+    // a fresh backend (and, on the host, of the serial path).
+    Fixture f;
+    const QuantityInfo& q = f.model.quantity("brdf");
+    std::vector<std::map<std::string, double>> pts;
+    for (int k = 0; k < 300; ++k)
+        pts.push_back({{"theta_i", 0.29 * k}, {"theta_o", 40}, {"alpha", 0.2 + 0.002 * k}, {"eta", 1.5}});
+    auto bad = pts;
+    bad[250]["alpha"] = 1.0;  // Phong needs alpha < 1
+    IntegrationSettings s;
+    s.slab_work_items = 16;  // cell 250 is in the 16th launch
+    auto dev = device();
+    auto host = make_backend("host", Precision::Double);
+    for (Backend* backend : {dev.get(), host.get()}) {
+        CAPTURE(backend->device_name());
+        const std::string m = input_error_text([&] { f.run(*backend, q.name, bad, s, "phong"); });
+        CHECK(m.find("alpha = 1 ") == 0);
+    }
+    const EstimateResult after = f.run(*dev, q.name, pts, s, "phong");
+    auto fresh = device();
+    const EstimateResult reference = f.run(*fresh, q.name, pts, s, "phong");
+    CHECK(after.value == reference.value);
+    // A large launch next (the backend's buffers grow) is still right.
+    const EstimateResult one_launch = f.run(*dev, q.name, pts, IntegrationSettings{}, "phong");
+    CHECK(one_launch.value == reference.value);
+    // The host's values, which the device's match to rounding (closed forms
+    // above), are nonzero: the cells ran.
+    const EstimateResult on_host = f.run(*host, q.name, pts, s, "phong");
+    for (std::size_t c = 0; c < pts.size(); ++c) {
+        CHECK(on_host.value[c] > 0);
+        CHECK(after.value[c] == doctest::Approx(on_host.value[c]).epsilon(1e-9));
+    }
+}
+
 TEST_CASE("host-threads: bit-identical to the serial host for any thread count") {
     Fixture f;
     auto serial = make_backend("host", Precision::Double);

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdlib>
+#include <deque>
 #include <cmath>
 #include <map>
 #include <mutex>
@@ -195,6 +196,61 @@ public:
 
     void run(const BatchLaunch& l, std::vector<double>& mean,
              std::vector<double>& m2) override {
+        while (!unfinished_.empty()) finish();
+        enqueue_launch(l, mean, m2, nullptr);
+    }
+
+    // Overlapped launches (Backend::start): the writes, the kernel and the
+    // reads of a launch are enqueued without blocking, on the buffer set the
+    // unfinished launch (if any) does not use; finish() waits for the
+    // oldest launch's last read.  Launches that stage data on the host
+    // (float points, float accumulators) or run the sample-parallel kernels
+    // run synchronously inside start() instead.
+    void start(const BatchLaunch& l, std::vector<double>& mean,
+               std::vector<double>& m2) override {
+        if (unfinished_.size() >= 2)
+            throw Error("OpenCL backend: start() with two launches unfinished");
+        const bool overlap = precision_ == Precision::Double &&
+                             runtime_.device_info().has_fp64 && !use_sample_parallel(l);
+        if (!overlap) {
+            while (!unfinished_.empty()) finish();
+            enqueue_launch(l, mean, m2, nullptr);
+            unfinished_.push_back(cl::Event());  // already complete
+            return;
+        }
+        if (!unfinished_.empty()) swap_buffer_sets();
+        cl::Event done;
+        enqueue_launch(l, mean, m2, &done);
+        unfinished_.push_back(done);
+    }
+
+    void finish() override {
+        if (unfinished_.empty()) return;
+        cl::Event done = unfinished_.front();
+        unfinished_.pop_front();
+        if (!done()) return;
+        try {
+            done.wait();
+        } catch (const cl::Error& e) {
+            abandon();
+            throw OpenCLError(e.what(), e.err(), "while waiting for a kernel launch");
+        }
+    }
+
+    void abandon() noexcept override {
+        try {
+            runtime_.queue().finish();
+        } catch (...) {
+        }
+        unfinished_.clear();
+    }
+
+private:
+    // One launch's writes, kernel and reads on the active buffer set.  With
+    // `done` null every call blocks until the results are in `mean`/`m2`;
+    // otherwise nothing blocks and `done` is the event of the last read.
+    void enqueue_launch(const BatchLaunch& l, std::vector<double>& mean,
+                        std::vector<double>& m2, cl::Event* done) {
         const std::size_t n = l.cells.size();
         // Every entry is overwritten by the read below: no zero-fill.
         mean.resize(n);
@@ -246,8 +302,15 @@ public:
                                            local_range());
             }
             if (accum_double) {
-                queue.enqueueReadBuffer(out_mean_, CL_FALSE, 0, n * sizeof(double), mean.data());
-                queue.enqueueReadBuffer(out_m2_, CL_TRUE, 0, n * sizeof(double), m2.data());
+                const cl_bool block = done ? CL_FALSE : CL_TRUE;
+                if (l.need_m2) {
+                    queue.enqueueReadBuffer(out_mean_, CL_FALSE, 0, n * sizeof(double), mean.data());
+                    queue.enqueueReadBuffer(out_m2_, block, 0, n * sizeof(double), m2.data(),
+                                            nullptr, done);
+                } else {
+                    queue.enqueueReadBuffer(out_mean_, block, 0, n * sizeof(double), mean.data(),
+                                            nullptr, done);
+                }
             } else {
                 std::vector<float>& tmp = accum_f_;
                 tmp.resize(2 * n);
@@ -263,6 +326,7 @@ public:
                 runtime_.queue().finish();
             } catch (const cl::Error&) {
             }
+            unfinished_.clear();
             options_known_ = false;
             throw OpenCLError(e.what(), e.err(), "while running the kernel of model '" + l.model->name + "'");
         }
@@ -522,6 +586,24 @@ private:
     std::size_t scratch_bytes_ = 0;
     cl::Buffer points_, options_, cells_, batches_, out_mean_, out_m2_;
     std::size_t buffer_items_ = 0, buffer_point_bytes_ = 0, buffer_accum_size_ = 0;
+    // The second set of per-launch buffers (start(): one launch computes on
+    // one set while the next is written to the other), swapped in and out.
+    struct BufferSet {
+        cl::Buffer points, cells, batches, out_mean, out_m2;
+        std::size_t items = 0, point_bytes = 0, accum_size = 0;
+    };
+    BufferSet idle_;
+    void swap_buffer_sets() {
+        std::swap(points_, idle_.points);
+        std::swap(cells_, idle_.cells);
+        std::swap(batches_, idle_.batches);
+        std::swap(out_mean_, idle_.out_mean);
+        std::swap(out_m2_, idle_.out_m2);
+        std::swap(buffer_items_, idle_.items);
+        std::swap(buffer_point_bytes_, idle_.point_bytes);
+        std::swap(buffer_accum_size_, idle_.accum_size);
+    }
+    std::deque<cl::Event> unfinished_;  // start()ed launches, oldest first
     cl::Kernel* last_kernel_ = nullptr;  // the kernel of the last launch, and its key
     const ModelInfo* last_model_ = nullptr;
     int last_quantity_ = 0;
@@ -634,7 +716,15 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
     // The model's cross-checks of parameters and options (e.g. Phong needs
     // alpha < 1) on every cell before anything runs: one point per cell, far
     // cheaper than the kernel, and no launch computes a cell that is invalid.
-    if (model.check_cell) {
+    // Closed forms without a checkpoint (the direct path below) check each
+    // cell's point as it is built for its launch instead: there the separate
+    // pass built every point twice and cost about as much as the kernel
+    // (bench/bench_engine_closed_form), and a launch of closed forms is cheap
+    // enough that a bad cell still stops the run before any long work.
+    const Method method_resolved = resolve_method(quantity, settings.method);
+    const bool check_while_building =
+        method_resolved == Method::ClosedForm && !(checkpoint && (checkpoint->save || checkpoint->resume));
+    if (model.check_cell && !check_while_building) {
         std::vector<double> cell_point(model.point_stride());
         for (std::size_t c = 0; c < cell_count; ++c) {
             point_of(c, cell_point.data());
@@ -648,7 +738,7 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
     };
 
     EstimateResult result;
-    result.method = resolve_method(quantity, settings.method);
+    result.method = method_resolved;
     const bool quadrature = result.method == Method::Quadrature;
     // Quadrature runs like a closed form with two one-sample batches.
     const bool closed = result.method == Method::ClosedForm || quadrature;
@@ -772,10 +862,15 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
     // first_batch + 1, ... (take of them) of one cell: its point is built
     // straight into the first item's slot and copied to the others.  Both
     // paths below fill their launches with it.
-    auto add_items = [&](std::size_t cell, std::uint32_t first_batch, std::uint32_t take, std::size_t& items) {
+    auto add_items_to = [&](BatchLaunch& launch, std::size_t cell, std::uint32_t first_batch,
+                            std::uint32_t take, std::size_t& items) {
         const std::size_t stride = launch.stride;
         double* const first_point = launch.points.data() + items * stride;
         point_of(cell, first_point);
+        if (check_while_building && model.check_cell) {
+            const std::string problem = model.check_cell(quantity, first_point, options);
+            if (!problem.empty()) throw InputError(problem);
+        }
         if (derivation.slots > 0) derivation.fill(first_point);
         for (std::uint32_t k = 0; k < take; ++k, ++items) {
             if (k) std::copy_n(first_point, stride, launch.points.data() + items * stride);
@@ -783,6 +878,8 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
             launch.batches[items] = first_batch + k;
         }
     };
+    auto add_items = [&](std::size_t cell, std::uint32_t first_batch, std::uint32_t take,
+                         std::size_t& items) { add_items_to(launch, cell, first_batch, take, items); };
 
     // Closed forms and quadratures without a checkpoint: every cell runs its
     // fixed one (closed form) or two (quadrature: accurate and coarse rule)
@@ -802,53 +899,100 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
         std::uint32_t batch_cursor = 0;  // next batch of cell_cursor
         std::uint64_t work_done = 0;
         const std::uint64_t total_work = static_cast<std::uint64_t>(cell_count) * first_batches;
-        while (cell_cursor < cell_count) {
-            launch.cells.resize(slab);
-            launch.batches.resize(slab);
-            launch.points.resize(slab * stride);
-            std::size_t items = 0;
-            while (cell_cursor < cell_count && items < slab) {
-                const std::uint32_t take = static_cast<std::uint32_t>(
-                    std::min<std::size_t>(first_batches - batch_cursor, slab - items));
-                add_items(cell_cursor, batch_cursor, take, items);
-                batch_cursor += take;
-                if (batch_cursor == first_batches) {
-                    ++cell_cursor;
-                    batch_cursor = 0;
-                }
+        // Two launches in turn (Backend::start/finish): while the device
+        // computes one, the next one's points are built here, so the host's
+        // share of a closed form's cost overlaps the kernel's instead of
+        // adding to it.  Launches are merged in the order they were built,
+        // so the results do not depend on it.
+        struct Slot {
+            BatchLaunch launch;
+            std::vector<double> mean, m2;
+            double started = 0;
+            std::size_t items = 0, cells_complete = 0;
+        };
+        Slot slots[2];
+        for (Slot& slot : slots) {
+            slot.launch = launch;
+            slot.launch.need_m2 = false;  // one-sample batches: m2 = 0
+        }
+        // Unfinished launches read and write the slots: on any exception they
+        // are waited for and dropped before the slots go away.
+        struct AbandonOnUnwind {
+            Backend& backend;
+            bool armed = true;
+            ~AbandonOnUnwind() {
+                if (armed) backend.abandon();
             }
-            launch.cells.resize(items);
-            launch.batches.resize(items);
-            launch.points.resize(items * stride);
-            const double launch_start = elapsed();
-            backend.run(launch, slab_mean, slab_m2);
-            resize_slab(items, elapsed() - launch_start);
-            for (std::size_t w = 0; w < items; ++w) {
-                const std::size_t c = launch.cells[w] - cell_base;
-                const double x = slab_mean[w];
+        } abandon_guard{backend};
+        std::size_t unfinished = 0, oldest = 0, next = 0;
+        double last_finish = 0;
+        auto merge_oldest = [&] {
+            Slot& slot = slots[oldest];
+            backend.finish();
+            --unfinished;
+            oldest ^= 1;
+            const double now = elapsed();
+            // The device's time for this launch: from its start or the end of
+            // the one before it, whichever came later.
+            resize_slab(slot.items, now - std::max(slot.started, last_finish));
+            last_finish = now;
+            const BatchLaunch& l = slot.launch;
+            for (std::size_t w = 0; w < slot.items; ++w) {
+                const std::size_t c = l.cells[w] - cell_base;
+                const double x = slot.mean[w];
                 if (!quadrature) {
                     // merge_batch's first merge: 0 + (x - 0) * 1 / 1, which
                     // turns -0 into +0; the rest of it is exact.
                     result.value[c] = 0.0 + x;
-                } else if (launch.batches[w] == 0) {
+                } else if (l.batches[w] == 0) {
                     result.value[c] = x;  // the accurate rule, taken as it is
                 } else {
                     // Batch 0 of this cell came first (same or earlier launch).
                     result.stderr_[c] = std::fabs(result.value[c] - x);
                 }
             }
-            work_done += items;
+            work_done += slot.items;
             if (progress) {
                 // A cell is finished once its last batch is merged.
-                prog.cells_done = cell_cursor;
+                prog.cells_done = slot.cells_complete;
                 prog.samples_done = work_done;
-                prog.elapsed_seconds = elapsed();
+                prog.elapsed_seconds = now;
                 prog.fraction = std::min(1.0, static_cast<double>(work_done) /
                                                   static_cast<double>(std::max<std::uint64_t>(
                                                       total_work, 1)));
                 progress(prog);
             }
+        };
+        while (cell_cursor < cell_count) {
+            Slot& slot = slots[next];
+            BatchLaunch& l = slot.launch;
+            l.cells.resize(slab);
+            l.batches.resize(slab);
+            l.points.resize(slab * stride);
+            std::size_t items = 0;
+            while (cell_cursor < cell_count && items < slab) {
+                const std::uint32_t take = static_cast<std::uint32_t>(
+                    std::min<std::size_t>(first_batches - batch_cursor, slab - items));
+                add_items_to(l, cell_cursor, batch_cursor, take, items);
+                batch_cursor += take;
+                if (batch_cursor == first_batches) {
+                    ++cell_cursor;
+                    batch_cursor = 0;
+                }
+            }
+            l.cells.resize(items);
+            l.batches.resize(items);
+            l.points.resize(items * stride);
+            slot.items = items;
+            slot.cells_complete = cell_cursor;
+            slot.started = elapsed();
+            backend.start(l, slot.mean, slot.m2);
+            ++unfinished;
+            next ^= 1;
+            if (unfinished == 2) merge_oldest();
         }
+        while (unfinished > 0) merge_oldest();
+        abandon_guard.armed = false;
         result.total_samples = total_work;  // batch_size is 1
         finish(0.0);
         return result;

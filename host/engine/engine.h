@@ -74,6 +74,10 @@ struct BatchLaunch {
     std::vector<double> points;  // n_work * stride
     std::vector<std::uint32_t> cells, batches;
     std::uint32_t batch_size = 1;
+    // false: the caller reads no m2 (the direct path of closed forms and
+    // quadratures, whose one-sample batches have m2 = 0), and a backend
+    // may leave m2 unset.
+    bool need_m2 = true;
 };
 
 class Backend {
@@ -84,6 +88,20 @@ public:
     // Fills mean[w], m2[w] for every work item.
     virtual void run(const BatchLaunch& launch, std::vector<double>& mean,
                      std::vector<double>& m2) = 0;
+    // The same in two steps, so that the caller can build its next launch
+    // while the device computes this one: start() begins a launch, finish()
+    // completes the oldest launch started and not yet finished, leaving its
+    // results in the vectors given to start().  At most two launches are
+    // started and unfinished at a time; their BatchLaunch and vectors must
+    // stay untouched until finished.  abandon() waits for whatever is
+    // started and drops it (for error paths; it never throws).  Results are
+    // those of run().  The default runs the launch inside start().
+    virtual void start(const BatchLaunch& launch, std::vector<double>& mean,
+                       std::vector<double>& m2) {
+        run(launch, mean, m2);
+    }
+    virtual void finish() {}
+    virtual void abandon() noexcept {}
     // Suggested work items per launch.
     virtual std::size_t preferred_slab() const = 0;
 };

@@ -153,8 +153,9 @@ struct ModelInfo {
     // `point` is the kernel point (point_stride() values, parameters by slot,
     // angles in radians), `options` the option indices; returns an error text
     // naming the parameter, its value and the allowed range, or empty.  The
-    // engine (estimate()) runs it on every cell before any kernel launch, so
-    // eval, generate and validate refuse the same cells.
+    // engine (estimate()) runs it on every cell before any kernel launch
+    // (closed forms without a checkpoint: on each cell as its launch is
+    // built), so eval, generate and validate refuse the same cells.
     std::string (*check_cell)(const QuantityInfo& q, const double* point,
                               const std::vector<int>& options) = nullptr;
     // Optional per-cell invariants hoisted out of the kernel: values that
