@@ -899,11 +899,12 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
         std::uint32_t batch_cursor = 0;  // next batch of cell_cursor
         std::uint64_t work_done = 0;
         const std::uint64_t total_work = static_cast<std::uint64_t>(cell_count) * first_batches;
-        // Two launches in turn (Backend::start/finish): while the device
-        // computes one, the next one's points are built here, so the host's
-        // share of a closed form's cost overlaps the kernel's instead of
-        // adding to it.  Launches are merged in the order they were built,
-        // so the results do not depend on it.
+        // Two launches in turn (Backend::start/finish): once the launches
+        // have grown to the backend's largest, the next one's points are
+        // built here while the device computes one, so the host's share of
+        // a closed form's cost overlaps the kernel's instead of adding to it.
+        // Launches are merged in the order they were built, so the results
+        // do not depend on it.
         struct Slot {
             BatchLaunch launch;
             std::vector<double> mean, m2;
@@ -989,7 +990,12 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
             backend.start(l, slot.mean, slot.m2);
             ++unfinished;
             next ^= 1;
-            if (unfinished == 2) merge_oldest();
+            // While the launches still grow (resize_slab), each one's time
+            // sets the next one's size, so it is finished before the next is
+            // built: the launch sizes are those of the general path (which
+            // plan's cost model follows, tests/test_plan_cost.cpp).  At the
+            // largest size one launch computes while the next is built.
+            if (unfinished == 2 || slab < max_slab) merge_oldest();
         }
         while (unfinished > 0) merge_oldest();
         abandon_guard.armed = false;

@@ -66,6 +66,9 @@ struct LazyCells {
     std::size_t limit = 0;     // refuse (skipped) when stage 1 + the bound of stage 2 touch more
     bool skipped = false;
     std::size_t planned = 0;   // stage 1's cells + the bound of stage 2's (the refusal test)
+    // Points (model-input names) whose interpolation cells also set the
+    // automatic floor (SparseCertifyOptions::floor_hints).
+    std::vector<std::map<std::string, double>> floor_hints;
 };
 
 Certificate certify_impl(const TableData& stored, Backend& backend, const CertifyOptions& options,
@@ -311,6 +314,49 @@ Certificate certify_impl(const TableData& stored, Backend& backend, const Certif
                         flat = flat * t.axes[a].count + (((corner >> a) & 1) ? t.axes[a].count - 1 : 0);
                     cells.push_back(flat);
                 }
+                // And the cells around the caller's hints (the planner's:
+                // where its pilot saw the largest value), which catch a
+                // largest value inside the table that no probe reads: the
+                // nodes within kHintReach of the nearest node on every axis
+                // (a peak's largest node need not be the nearest one: the
+                // off-specular shift of a glossy lobe, the pilot's own
+                // spacing).  Hints on tables with dependent axes are not
+                // used (their nodes move with the other axes).
+                constexpr std::size_t kHintReach = 2;
+                bool independent = true;
+                for (const Axis& ax : t.axes) independent = independent && !ax.dependent();
+                for (const auto& hint : lazy->floor_hints) {
+                    if (!independent) break;
+                    std::vector<std::size_t> lo(dims), hi(dims);
+                    bool complete = true;
+                    for (std::size_t a = 0; a < dims && complete; ++a) {
+                        const auto it = hint.find(t.axes[a].name);
+                        complete = it != hint.end() && std::isfinite(it->second);
+                        if (!complete) break;
+                        const std::vector<double>& v = t.axes[a].values;
+                        std::size_t near = 0;
+                        for (std::size_t j = 1; j < v.size(); ++j)
+                            if (std::fabs(v[j] - it->second) < std::fabs(v[near] - it->second)) near = j;
+                        lo[a] = near >= kHintReach ? near - kHintReach : 0;
+                        hi[a] = std::min(v.size() - 1, near + kHintReach);
+                    }
+                    if (!complete) continue;
+                    std::vector<std::size_t> at = lo;  // odometer over the block
+                    for (bool more = true; more;) {
+                        std::size_t flat = 0;
+                        for (std::size_t a = 0; a < dims; ++a) flat = flat * t.axes[a].count + at[a];
+                        cells.push_back(flat);
+                        more = false;
+                        for (std::size_t a = dims; a-- > 0;) {
+                            if (at[a] < hi[a]) {
+                                ++at[a];
+                                more = true;
+                                break;
+                            }
+                            at[a] = lo[a];
+                        }
+                    }
+                }
             }
             std::sort(cells.begin(), cells.end());
             cells.erase(std::unique(cells.begin(), cells.end()), cells.end());
@@ -484,6 +530,7 @@ SparseCertificate sparse_certificate(ChunkComputer& computer, TableData describe
     };
     LazyCells lazy;
     lazy.limit = static_cast<std::size_t>(sparse.max_touched_fraction * double(cells));
+    lazy.floor_hints = sparse.floor_hints;
     lazy.fill = [&](const std::vector<std::size_t>& wanted, TableData& values) {
         if (keep_stderr && values.stderr_.empty()) values.stderr_.assign(cells, std::nan(""));
         std::vector<std::pair<std::size_t, std::size_t>> runs;  // [first, last]
@@ -855,9 +902,11 @@ PlanVerification verify_plan(const Spec& planned, const std::vector<std::size_t>
         } else if (i < table_indices.size()) {
             SparseCertificate sc;
             try {
+                SparseCertifyOptions table_sparse = plan_sparse_options(sparse, tp.seconds);
+                if (!pilots[i].max_at.empty()) table_sparse.floor_hints.push_back(pilots[i].max_at);
                 sc = certify_spec_table(planned, table_indices[i], backend, settings,
                                         plan_certify_options(target, abs_floor, tp.error_max),
-                                        plan_sparse_options(sparse, tp.seconds), progress);
+                                        table_sparse, progress);
             } catch (const InputError& e) {
                 // A table the certificate cannot measure (e.g. a model input
                 // it cannot probe): the fitted prediction stands.

@@ -37,6 +37,7 @@
 #include <cstdint>
 #include <functional>
 #include <limits>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -129,8 +130,9 @@ Certificate certify_file_table(const std::string& path, const std::string& table
 // bit for bit (same options and seed), at the cost of the touched cells.
 // Exceptions: the automatic relative floor (CertifyOptions::abs_floor = 0)
 // is rel_floor_factor x the largest value among the cells the first stage
-// reads and the table's 2^D corners (the table's largest value whenever
-// that cell is among them, else smaller: larger relative errors);
+// reads, the table's 2^D corners and the cells around the floor hints (the
+// table's largest value whenever that cell is among them, else smaller:
+// larger relative errors);
 // and for a quadrature without a finer reference rule the added rule error
 // is the largest stored two-rule difference over the computed cells only.
 struct SparseCertifyOptions {
@@ -152,6 +154,14 @@ struct SparseCertifyOptions {
     // Runs of touched cells closer than this are computed as one engine run
     // (the cells between are computed too: fewer, larger runs).
     std::size_t merge_gap_closed_form = 8, merge_gap_sampled = 2;
+    // Points (model-input names, the table's axis values) whose linear
+    // interpolation cells join the cells that set the automatic relative
+    // floor.  verify_plan() passes where the table's pilot saw its largest
+    // value: a largest value inside the table, off the probes' cells and the
+    // corners, otherwise leaves the floor low and the relative errors
+    // too large (interfaced-lambertian-anisotropic's brdf: 16x).  A point
+    // missing an axis is ignored.
+    std::vector<std::map<std::string, double>> floor_hints;
 };
 
 struct SparseCertificate {

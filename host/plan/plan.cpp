@@ -580,8 +580,10 @@ TablePilot run_pilot(const Spec& spec, std::size_t table_index, Backend& backend
     pilot.min_value = std::numeric_limits<double>::infinity();
     pilot.signed_min = r.value.empty() ? 0.0 : r.value.front();
     pilot.signed_max = pilot.signed_min;
-    for (double v : r.value) {
+    for (std::size_t k = 0; k < r.value.size(); ++k) {
+        const double v = r.value[k];
         pilot.signed_min = std::min(pilot.signed_min, v), pilot.signed_max = std::max(pilot.signed_max, v);
+        if (std::fabs(v) > pilot.max_value && k < named.size()) pilot.max_at = named[k];
         pilot.max_value = std::max(pilot.max_value, std::fabs(v));
         pilot.min_value = std::min(pilot.min_value, std::fabs(v));
     }

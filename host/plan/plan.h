@@ -161,6 +161,7 @@ struct TablePilot {
     QuantityKind kind = QuantityKind::ClosedForm;
     std::vector<Axis> axes;        // as the spec has them
     double max_value = 0;          // largest |value| seen by the pilot
+    std::map<std::string, double> max_at;  // where (model inputs); the floor hint of verify_plan
     double min_value = 0;          // smallest |value| seen by the pilot
     double signed_min = 0, signed_max = 0;  // smallest and largest value (signed): recombined bounds
     double rel_floor = 0;          // relative errors divide by max(|value|, rel_floor)
