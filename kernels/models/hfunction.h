@@ -203,33 +203,59 @@ BT_INLINE REAL hf_log_k_over_q(const hf_psi* P, REAL t)
     return bt_log(hf_k_direct(P, t)) - bt_log(a + bt2) + bt_log1p(bt2);
 }
 
-/* H(mu) for mu >= 0 (eq. 16 with notes 2-3).  `coarse` != 0 uses every
- * second trapezoid node (error estimate of BT_METHOD_QUADRATURE). */
-BT_INLINE REAL hf_h(const hf_psi* P, REAL mu, int coarse)
+/* The trapezoid rule of H(mu) (eq. 16 with notes 2-3) in three parts, so
+ * that the serial loop (hf_h below) and the engine's node-parallel kernels
+ * (kernels/common/node_parallel.h: one work item per node, then a sum in
+ * node order) evaluate the very same expressions in the same order:
+ *   hf_h_nodes   the number n of nodes s_k = s_lo + step k of one (mu, rule),
+ *                0 where H needs no sum (mu <= 0, or no H-function);
+ *   hf_h_term    the k-th term of the sum (before the factor step/pi);
+ *   hf_h_finish  H from the sum of the n terms, added in order k = 0, 1, ...
+ * `coarse` != 0 uses every second node (error estimate of
+ * BT_METHOD_QUADRATURE). */
+BT_INLINE int hf_h_nodes(const hf_psi* P, REAL mu, int coarse, REAL* s_lo, REAL* step)
 {
-    if (!(mu > R(0.0))) return R(1.0);
-    REAL a = P->k0;
-    if (a < R(0.0)) return R(0.0) / R(0.0); /* no H-function: K has a real zero */
-    REAL sb = sqrt(hf_beta(P));
-    REAL factor = (mu + sb) / (mu * sqrt(a) + sb); /* note 2 */
+    *s_lo = R(0.0);
+    *step = R(0.0);
+    if (!(mu > R(0.0)) || P->k0 < R(0.0)) return 0;
     /* Integration limits in s = log t (note 3): the integrand is ~ mu b t^3
      * below t ~ 1/mu and ~ 1/(mu t^2) above max(1, 1/mu). */
     REAL lmu = bt_log(mu);
-    REAL s_lo = -R(13.0) - (lmu > R(0.0) ? lmu / R(3.0) : R(0.0));
-    REAL s_hi = R(18.0) + (lmu < R(0.0) ? -lmu : R(0.0));
+    REAL lo = -R(13.0) - (lmu > R(0.0) ? lmu / R(3.0) : R(0.0));
+    REAL hi = R(18.0) + (lmu < R(0.0) ? -lmu : R(0.0));
     REAL h = HF_H_FINE;
-    int n = (int)((s_hi - s_lo) / h) + 1;
+    int n = (int)((hi - lo) / h) + 1;
     if (coarse) n = n / 2 + 1; /* same grid origin, twice the step */
-    REAL step = coarse ? R(2.0) * h : h;
-    REAL sum = R(0.0);
-    for (int k = 0; k < n; ++k) {
-        REAL t = bt_exp(s_lo + step * (REAL)k);
-        REAL mt = mu * t;
-        sum += hf_log_k_over_q(P, t) * mt / (R(1.0) + mt * mt);
-    }
+    *s_lo = lo;
+    *step = coarse ? R(2.0) * h : h;
+    return n;
+}
+
+BT_INLINE REAL hf_h_term(const hf_psi* P, REAL mu, REAL s_lo, REAL step, int k)
+{
+    REAL t = bt_exp(s_lo + step * (REAL)k);
+    REAL mt = mu * t;
+    return hf_log_k_over_q(P, t) * mt / (R(1.0) + mt * mt);
+}
+
+BT_INLINE REAL hf_h_finish(const hf_psi* P, REAL mu, REAL step, REAL sum)
+{
+    if (!(mu > R(0.0))) return R(1.0);
+    if (P->k0 < R(0.0)) return R(0.0) / R(0.0); /* no H-function: K has a real zero */
+    REAL sb = sqrt(hf_beta(P));
+    REAL factor = (mu + sb) / (mu * sqrt(P->k0) + sb); /* note 2 */
     return factor * bt_exp(-step * sum * BT_INV_PI);
 }
 
+/* H(mu) for mu >= 0 (eq. 16 with notes 2-3). */
+BT_INLINE REAL hf_h(const hf_psi* P, REAL mu, int coarse)
+{
+    REAL s_lo, step;
+    int n = hf_h_nodes(P, mu, coarse, &s_lo, &step);
+    REAL sum = R(0.0);
+    for (int k = 0; k < n; ++k) sum += hf_h_term(P, mu, s_lo, step, k);
+    return hf_h_finish(P, mu, step, sum);
+}
 
 /* alpha_n = int_0^1 mu^n H(mu) dmu with mu = u^2 (note 4). */
 BT_INLINE REAL hf_alpha(const hf_psi* P, int n, int coarse)
@@ -273,14 +299,25 @@ BT_INLINE REAL hf_alpha(const hf_psi* P, int n, int coarse)
 #define HF_OPT_COUNT 1
 #define HF_Q_COUNT 4
 
-BT_INLINE REAL hfunction_sample(const REAL* p, const int* o, int quantity, const bt_sampler* s)
+/* Psi of a kernel point (slots and option above). */
+BT_INLINE hf_psi hfunction_point_psi(const REAL* p, const int* o)
 {
     REAL poly[HF_NCOEF];
     for (int k = 0; k < HF_NCOEF; ++k) poly[k] = p[HF_PARAM_PSI_0 + k];
-    hf_psi P = hf_make_psi(o[HF_OPT_PSI], p[HF_PARAM_C], poly);
-    /* Deterministic: the same value under every method; only batch 1 of
-     * BT_METHOD_QUADRATURE uses the coarse rule. */
-    int coarse = (s->method == BT_METHOD_QUADRATURE && s->batch == 1u) ? 1 : 0;
+    return hf_make_psi(o[HF_OPT_PSI], p[HF_PARAM_C], poly);
+}
+
+/* Deterministic: the same value under every method; only batch 1 of
+ * BT_METHOD_QUADRATURE uses the coarse rule. */
+BT_INLINE int hfunction_coarse(const bt_sampler* s)
+{
+    return (s->method == BT_METHOD_QUADRATURE && s->batch == 1u) ? 1 : 0;
+}
+
+BT_INLINE REAL hfunction_sample(const REAL* p, const int* o, int quantity, const bt_sampler* s)
+{
+    hf_psi P = hfunction_point_psi(p, o);
+    int coarse = hfunction_coarse(s);
     if (quantity == HF_Q_H) return hf_h(&P, p[HF_PARAM_MU], coarse);
     if (quantity == HF_Q_MOMENT) return hf_alpha(&P, (int)floor(p[HF_PARAM_N] + R(0.5)), coarse);
     if (quantity == HF_Q_HINF) /* eq. 32 (general form 1/sqrt(K(0))) */
@@ -291,6 +328,41 @@ BT_INLINE REAL hfunction_sample(const REAL* p, const int* o, int quantity, const
         return hf_k_direct(&P, t);
     }
     return R(0.0);
+}
+
+/* The node functions of quantity H (HF_Q_H only) for the engine's
+ * node-parallel path (kernels/common/node_parallel.h; registered as
+ * QuantityInfo::node_parallel in host/models/lambert_sphere.cpp):
+ *     finish(sum over k < count of term(k), added in order k = 0, 1, ...)
+ * is hfunction_sample(p, o, HF_Q_H, s) bit for bit, because hf_h is that
+ * very sum of hf_h_term between hf_h_nodes and hf_h_finish. */
+BT_INLINE int hfunction_h_node_count(const REAL* p, const int* o, int quantity,
+                                     const bt_sampler* s)
+{
+    (void)quantity;
+    hf_psi P = hfunction_point_psi(p, o);
+    REAL s_lo, step;
+    return hf_h_nodes(&P, p[HF_PARAM_MU], hfunction_coarse(s), &s_lo, &step);
+}
+
+BT_INLINE REAL hfunction_h_node_term(const REAL* p, const int* o, int quantity,
+                                     const bt_sampler* s, int k)
+{
+    (void)quantity;
+    hf_psi P = hfunction_point_psi(p, o);
+    REAL s_lo, step;
+    (void)hf_h_nodes(&P, p[HF_PARAM_MU], hfunction_coarse(s), &s_lo, &step);
+    return hf_h_term(&P, p[HF_PARAM_MU], s_lo, step, k);
+}
+
+BT_INLINE REAL hfunction_h_node_finish(const REAL* p, const int* o, int quantity,
+                                       const bt_sampler* s, REAL sum)
+{
+    (void)quantity;
+    hf_psi P = hfunction_point_psi(p, o);
+    REAL s_lo, step;
+    (void)hf_h_nodes(&P, p[HF_PARAM_MU], hfunction_coarse(s), &s_lo, &step);
+    return hf_h_finish(&P, p[HF_PARAM_MU], step, sum);
 }
 
 #endif /* BRDFTAB_HFUNCTION_H */
