@@ -75,7 +75,20 @@ typedef struct {
     REAL a[HF_NCOEF]; /* Psi = sum a_k mu^(2k) */
     REAL k0;          /* a = K(0) = 1 - 2 m_0 */
     REAL b;           /* 2 m_1 */
+    /* m_j = int_0^1 Psi x^(2j) dx, j < HF_SERIES_TERMS (hf_moment_psi; the
+     * series of note 1 reads them): computed once per Psi rather than once
+     * per term of every series evaluation. */
+    REAL m[HF_SERIES_TERMS];
 } hf_psi;
+
+/* m_j = int_0^1 Psi(x) x^(2j) dx. */
+BT_INLINE REAL hf_moment_psi(const hf_psi* P, int j)
+{
+    REAL m = R(0.0);
+    BT_MATH_UNROLL
+    for (int k = 0; k < HF_NCOEF; ++k) m += P->a[k] / (REAL)(2 * k + 2 * j + 1);
+    return m;
+}
 
 /* Psi as an even polynomial (eqs. 13-15 expanded). */
 BT_INLINE hf_psi hf_make_psi(int kind, REAL c, const REAL* poly)
@@ -83,6 +96,7 @@ BT_INLINE hf_psi hf_make_psi(int kind, REAL c, const REAL* poly)
     hf_psi P;
     P.kind = kind;
     P.c = c;
+    BT_MATH_UNROLL
     for (int k = 0; k < HF_NCOEF; ++k) P.a[k] = R(0.0);
     if (kind == HF_PSI_LAMBERT0) { /* eq. 13 */
         P.a[0] = R(207.0) * c / R(384.0);
@@ -100,9 +114,11 @@ BT_INLINE hf_psi hf_make_psi(int kind, REAL c, const REAL* poly)
     } else if (kind == HF_PSI_ISOTROPIC) {
         P.a[0] = R(0.5) * c;
     } else {
+        BT_MATH_UNROLL
         for (int k = 0; k < HF_NCOEF; ++k) P.a[k] = poly[k];
     }
     REAL m0 = R(0.0), m1 = R(0.0);
+    BT_MATH_UNROLL
     for (int k = 0; k < HF_NCOEF; ++k) {
         m0 += P.a[k] / (REAL)(2 * k + 1);
         m1 += P.a[k] / (REAL)(2 * k + 3);
@@ -117,15 +133,8 @@ BT_INLINE hf_psi hf_make_psi(int kind, REAL c, const REAL* poly)
     else
         P.k0 = R(1.0) - R(2.0) * m0;
     P.b = R(2.0) * m1;
+    for (int j = 0; j < HF_SERIES_TERMS; ++j) P.m[j] = hf_moment_psi(&P, j);
     return P;
-}
-
-/* m_j = int_0^1 Psi(x) x^(2j) dx. */
-BT_INLINE REAL hf_moment_psi(const hf_psi* P, int j)
-{
-    REAL m = R(0.0);
-    for (int k = 0; k < HF_NCOEF; ++k) m += P->a[k] / (REAL)(2 * k + 2 * j + 1);
-    return m;
 }
 
 /* K(t) - a - b t^2 for t < HF_T_SERIES (alternating series, note 1). */
@@ -135,8 +144,9 @@ BT_INLINE REAL hf_k_series_rest(const hf_psi* P, REAL t)
     REAL tp = t2 * t2; /* t^(2j), j = 2 */
     REAL sum = R(0.0);
     REAL sign = -R(1.0);
+    BT_MATH_UNROLL
     for (int j = 2; j < HF_SERIES_TERMS; ++j) {
-        sum += sign * tp * hf_moment_psi(P, j);
+        sum += sign * tp * P->m[j];
         tp *= t2;
         sign = -sign;
     }
@@ -177,6 +187,7 @@ BT_INLINE REAL hf_k_direct(const hf_psi* P, REAL t)
     }
     REAL I = at / t;
     REAL s = P->a[0] * I;
+    BT_MATH_UNROLL
     for (int k = 1; k < HF_NCOEF; ++k) {
         I = (R(1.0) / (REAL)(2 * k - 1) - I) / t2;
         s += P->a[k] * I;
@@ -188,19 +199,55 @@ BT_INLINE REAL hf_k_direct(const hf_psi* P, REAL t)
  * log(K/Q) vanish at t = 0; the analytic factor holds for every beta). */
 BT_INLINE REAL hf_beta(const hf_psi* P) { return P->b > R(0.0) ? P->b : R(1.0); }
 
-/* L(t) = log(K(t)/Q(t)), note 2. */
-BT_INLINE REAL hf_log_k_over_q(const hf_psi* P, REAL t)
+/* bt_log and bt_log1p, each call in a basic block of its own: the same
+ * values (the other branch returns what bt_log / bt_log1p return there:
+ * -inf at 0 resp. -1, else bt_math's NaN), so that clang's SLP vectoriser,
+ * which PoCL runs when it builds a program, finds no two logarithms in one
+ * block to pack into a 2-wide vector: that packing keeps PoCL from running
+ * the node-parallel kernel's work items as SIMD lanes (docs/contributing.md,
+ * "What keeps PoCL's work-item loop scalar").  Float builds use the OpenCL
+ * built-ins (bt_math.h), calls that propagate NaN inputs: unchanged there. */
+#if BT_DEVICE && defined(BT_REAL_IS_FLOAT) && BT_REAL_IS_FLOAT
+#define hf_log(x) bt_log(x)
+#define hf_log1p(x) bt_log1p(x)
+#else
+BT_INLINE REAL hf_log(REAL x)
+{
+    if (x > R(0.0)) return bt_log(x);
+    return x == R(0.0) ? -BT_M_INF : BT_M_NAN;
+}
+BT_INLINE REAL hf_log1p(REAL x)
+{
+    if (x > -R(1.0)) return bt_log1p(x);
+    return x == -R(1.0) ? -BT_M_INF : BT_M_NAN;
+}
+#endif
+
+/* L(t) = log(K(t)/Q(t)), note 2, in its two forms: by the series of note 1
+ * for t < HF_T_SERIES, else from K directly. */
+BT_INLINE REAL hf_log_k_over_q_series(const hf_psi* P, REAL t)
 {
     REAL a = P->k0, beta = hf_beta(P);
     REAL t2 = t * t;
     REAL bt2 = beta * t2;
-    if (t < HF_T_SERIES) {
-        REAL rest = (P->b - beta) * t2 + hf_k_series_rest(P, t);
-        REAL aq = a + bt2;
-        if (!(aq > R(0.0))) return R(0.0); /* t = 0 with a = 0 */
-        return bt_log1p(rest / aq) + bt_log1p(bt2);
-    }
-    return bt_log(hf_k_direct(P, t)) - bt_log(a + bt2) + bt_log1p(bt2);
+    REAL rest = (P->b - beta) * t2 + hf_k_series_rest(P, t);
+    REAL aq = a + bt2;
+    if (!(aq > R(0.0))) return R(0.0); /* t = 0 with a = 0 */
+    return hf_log1p(rest / aq) + hf_log1p(bt2);
+}
+
+BT_INLINE REAL hf_log_k_over_q_direct(const hf_psi* P, REAL t)
+{
+    REAL a = P->k0, beta = hf_beta(P);
+    REAL t2 = t * t;
+    REAL bt2 = beta * t2;
+    return hf_log(hf_k_direct(P, t)) - hf_log(a + bt2) + hf_log1p(bt2);
+}
+
+BT_INLINE REAL hf_log_k_over_q(const hf_psi* P, REAL t)
+{
+    if (t < HF_T_SERIES) return hf_log_k_over_q_series(P, t);
+    return hf_log_k_over_q_direct(P, t);
 }
 
 /* The trapezoid rule of H(mu) (eq. 16 with notes 2-3) in three parts, so
@@ -231,11 +278,30 @@ BT_INLINE int hf_h_nodes(const hf_psi* P, REAL mu, int coarse, REAL* s_lo, REAL*
     return n;
 }
 
+/* Node t_k = exp(s_k), and the term's weight applied to L(t_k). */
+BT_INLINE REAL hf_h_node_t(REAL s_lo, REAL step, int k) { return bt_exp(s_lo + step * (REAL)k); }
+BT_INLINE REAL hf_h_weighted(REAL log_k_over_q, REAL mu, REAL t)
+{
+    REAL mt = mu * t;
+    return log_k_over_q * mt / (R(1.0) + mt * mt);
+}
+
 BT_INLINE REAL hf_h_term(const hf_psi* P, REAL mu, REAL s_lo, REAL step, int k)
 {
-    REAL t = bt_exp(s_lo + step * (REAL)k);
-    REAL mt = mu * t;
-    return hf_log_k_over_q(P, t) * mt / (R(1.0) + mt * mt);
+    REAL t = hf_h_node_t(s_lo, step, k);
+    return hf_h_weighted(hf_log_k_over_q(P, t), mu, t);
+}
+
+/* The same term with both forms of L evaluated and one selected: the same
+ * value, without a branch, for the node-parallel kernel (a branch there
+ * keeps PoCL from running the work items as SIMD lanes; measured,
+ * docs/benchmarks.md "Node-parallel quadrature"). */
+BT_INLINE REAL hf_h_term_branch_free(const hf_psi* P, REAL mu, REAL s_lo, REAL step, int k)
+{
+    REAL t = hf_h_node_t(s_lo, step, k);
+    REAL l_series = hf_log_k_over_q_series(P, t);
+    REAL l_direct = hf_log_k_over_q_direct(P, t);
+    return hf_h_weighted(t < HF_T_SERIES ? l_series : l_direct, mu, t);
 }
 
 BT_INLINE REAL hf_h_finish(const hf_psi* P, REAL mu, REAL step, REAL sum)
@@ -303,6 +369,7 @@ BT_INLINE REAL hf_alpha(const hf_psi* P, int n, int coarse)
 BT_INLINE hf_psi hfunction_point_psi(const REAL* p, const int* o)
 {
     REAL poly[HF_NCOEF];
+    BT_MATH_UNROLL
     for (int k = 0; k < HF_NCOEF; ++k) poly[k] = p[HF_PARAM_PSI_0 + k];
     return hf_make_psi(o[HF_OPT_PSI], p[HF_PARAM_C], poly);
 }
@@ -333,9 +400,14 @@ BT_INLINE REAL hfunction_sample(const REAL* p, const int* o, int quantity, const
 /* The node functions of quantity H (HF_Q_H only) for the engine's
  * node-parallel path (kernels/common/node_parallel.h; registered as
  * QuantityInfo::node_parallel in host/models/lambert_sphere.cpp):
- *     finish(sum over k < count of term(k), added in order k = 0, 1, ...)
- * is hfunction_sample(p, o, HF_Q_H, s) bit for bit, because hf_h is that
- * very sum of hf_h_term between hf_h_nodes and hf_h_finish. */
+ *     finish(sum over k < count of term(state, k), added in order k = 0, 1, ...)
+ * with the state from prepare is hfunction_sample(p, o, HF_Q_H, s) bit for
+ * bit, because hf_h is that very sum of hf_h_term between hf_h_nodes and
+ * hf_h_finish, and the state holds the exact values the loop uses.
+ * State (HF_NODE_STATE values): mu, s_lo, step, then Psi's c, k0, b, a[],
+ * m[] (its kind is the option o[HF_OPT_PSI]). */
+#define HF_NODE_STATE (6 + HF_NCOEF + HF_SERIES_TERMS)
+
 BT_INLINE int hfunction_h_node_count(const REAL* p, const int* o, int quantity,
                                      const bt_sampler* s)
 {
@@ -345,14 +417,36 @@ BT_INLINE int hfunction_h_node_count(const REAL* p, const int* o, int quantity,
     return hf_h_nodes(&P, p[HF_PARAM_MU], hfunction_coarse(s), &s_lo, &step);
 }
 
-BT_INLINE REAL hfunction_h_node_term(const REAL* p, const int* o, int quantity,
-                                     const bt_sampler* s, int k)
+BT_INLINE void hfunction_h_node_prepare(const REAL* p, const int* o, int quantity,
+                                        const bt_sampler* s, REAL* state)
 {
     (void)quantity;
     hf_psi P = hfunction_point_psi(p, o);
     REAL s_lo, step;
     (void)hf_h_nodes(&P, p[HF_PARAM_MU], hfunction_coarse(s), &s_lo, &step);
-    return hf_h_term(&P, p[HF_PARAM_MU], s_lo, step, k);
+    state[0] = p[HF_PARAM_MU];
+    state[1] = s_lo;
+    state[2] = step;
+    state[3] = P.c;
+    state[4] = P.k0;
+    state[5] = P.b;
+    for (int k = 0; k < HF_NCOEF; ++k) state[6 + k] = P.a[k];
+    for (int j = 0; j < HF_SERIES_TERMS; ++j) state[6 + HF_NCOEF + j] = P.m[j];
+}
+
+BT_INLINE REAL hfunction_h_node_term(const REAL* state, const int* o, int quantity, int k)
+{
+    (void)quantity;
+    hf_psi P;
+    P.kind = o[HF_OPT_PSI];
+    P.c = state[3];
+    P.k0 = state[4];
+    P.b = state[5];
+    BT_MATH_UNROLL
+    for (int i = 0; i < HF_NCOEF; ++i) P.a[i] = state[6 + i];
+    BT_MATH_UNROLL
+    for (int j = 0; j < HF_SERIES_TERMS; ++j) P.m[j] = state[6 + HF_NCOEF + j];
+    return hf_h_term_branch_free(&P, state[0], state[1], state[2], k);
 }
 
 BT_INLINE REAL hfunction_h_node_finish(const REAL* p, const int* o, int quantity,
