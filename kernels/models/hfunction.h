@@ -69,6 +69,15 @@
 #define HF_H_FINE R(0.25)
 #define HF_SERIES_TERMS 40
 
+/* Fixed-count loops are unrolled on the device (as BT_MATH_UNROLL in
+ * bt_math.h, which float builds do not define): a loop left in the body of
+ * the node-parallel kernel keeps PoCL's work-item loop from being innermost. */
+#if BT_DEVICE
+#define HF_UNROLL _Pragma("unroll")
+#else
+#define HF_UNROLL
+#endif
+
 typedef struct {
     int kind;
     REAL c;
@@ -85,7 +94,7 @@ typedef struct {
 BT_INLINE REAL hf_moment_psi(const hf_psi* P, int j)
 {
     REAL m = R(0.0);
-    BT_MATH_UNROLL
+    HF_UNROLL
     for (int k = 0; k < HF_NCOEF; ++k) m += P->a[k] / (REAL)(2 * k + 2 * j + 1);
     return m;
 }
@@ -96,7 +105,7 @@ BT_INLINE hf_psi hf_make_psi(int kind, REAL c, const REAL* poly)
     hf_psi P;
     P.kind = kind;
     P.c = c;
-    BT_MATH_UNROLL
+    HF_UNROLL
     for (int k = 0; k < HF_NCOEF; ++k) P.a[k] = R(0.0);
     if (kind == HF_PSI_LAMBERT0) { /* eq. 13 */
         P.a[0] = R(207.0) * c / R(384.0);
@@ -114,11 +123,11 @@ BT_INLINE hf_psi hf_make_psi(int kind, REAL c, const REAL* poly)
     } else if (kind == HF_PSI_ISOTROPIC) {
         P.a[0] = R(0.5) * c;
     } else {
-        BT_MATH_UNROLL
+        HF_UNROLL
         for (int k = 0; k < HF_NCOEF; ++k) P.a[k] = poly[k];
     }
     REAL m0 = R(0.0), m1 = R(0.0);
-    BT_MATH_UNROLL
+    HF_UNROLL
     for (int k = 0; k < HF_NCOEF; ++k) {
         m0 += P.a[k] / (REAL)(2 * k + 1);
         m1 += P.a[k] / (REAL)(2 * k + 3);
@@ -144,7 +153,7 @@ BT_INLINE REAL hf_k_series_rest(const hf_psi* P, REAL t)
     REAL tp = t2 * t2; /* t^(2j), j = 2 */
     REAL sum = R(0.0);
     REAL sign = -R(1.0);
-    BT_MATH_UNROLL
+    HF_UNROLL
     for (int j = 2; j < HF_SERIES_TERMS; ++j) {
         sum += sign * tp * P->m[j];
         tp *= t2;
@@ -187,7 +196,7 @@ BT_INLINE REAL hf_k_direct(const hf_psi* P, REAL t)
     }
     REAL I = at / t;
     REAL s = P->a[0] * I;
-    BT_MATH_UNROLL
+    HF_UNROLL
     for (int k = 1; k < HF_NCOEF; ++k) {
         I = (R(1.0) / (REAL)(2 * k - 1) - I) / t2;
         s += P->a[k] * I;
@@ -223,31 +232,19 @@ BT_INLINE REAL hf_log1p(REAL x)
 }
 #endif
 
-/* L(t) = log(K(t)/Q(t)), note 2, in its two forms: by the series of note 1
- * for t < HF_T_SERIES, else from K directly. */
-BT_INLINE REAL hf_log_k_over_q_series(const hf_psi* P, REAL t)
-{
-    REAL a = P->k0, beta = hf_beta(P);
-    REAL t2 = t * t;
-    REAL bt2 = beta * t2;
-    REAL rest = (P->b - beta) * t2 + hf_k_series_rest(P, t);
-    REAL aq = a + bt2;
-    if (!(aq > R(0.0))) return R(0.0); /* t = 0 with a = 0 */
-    return hf_log1p(rest / aq) + hf_log1p(bt2);
-}
-
-BT_INLINE REAL hf_log_k_over_q_direct(const hf_psi* P, REAL t)
-{
-    REAL a = P->k0, beta = hf_beta(P);
-    REAL t2 = t * t;
-    REAL bt2 = beta * t2;
-    return hf_log(hf_k_direct(P, t)) - hf_log(a + bt2) + hf_log1p(bt2);
-}
-
+/* L(t) = log(K(t)/Q(t)), note 2. */
 BT_INLINE REAL hf_log_k_over_q(const hf_psi* P, REAL t)
 {
-    if (t < HF_T_SERIES) return hf_log_k_over_q_series(P, t);
-    return hf_log_k_over_q_direct(P, t);
+    REAL a = P->k0, beta = hf_beta(P);
+    REAL t2 = t * t;
+    REAL bt2 = beta * t2;
+    if (t < HF_T_SERIES) {
+        REAL rest = (P->b - beta) * t2 + hf_k_series_rest(P, t);
+        REAL aq = a + bt2;
+        if (!(aq > R(0.0))) return R(0.0); /* t = 0 with a = 0 */
+        return hf_log1p(rest / aq) + hf_log1p(bt2);
+    }
+    return hf_log(hf_k_direct(P, t)) - hf_log(a + bt2) + hf_log1p(bt2);
 }
 
 /* The trapezoid rule of H(mu) (eq. 16 with notes 2-3) in three parts, so
@@ -278,30 +275,11 @@ BT_INLINE int hf_h_nodes(const hf_psi* P, REAL mu, int coarse, REAL* s_lo, REAL*
     return n;
 }
 
-/* Node t_k = exp(s_k), and the term's weight applied to L(t_k). */
-BT_INLINE REAL hf_h_node_t(REAL s_lo, REAL step, int k) { return bt_exp(s_lo + step * (REAL)k); }
-BT_INLINE REAL hf_h_weighted(REAL log_k_over_q, REAL mu, REAL t)
-{
-    REAL mt = mu * t;
-    return log_k_over_q * mt / (R(1.0) + mt * mt);
-}
-
 BT_INLINE REAL hf_h_term(const hf_psi* P, REAL mu, REAL s_lo, REAL step, int k)
 {
-    REAL t = hf_h_node_t(s_lo, step, k);
-    return hf_h_weighted(hf_log_k_over_q(P, t), mu, t);
-}
-
-/* The same term with both forms of L evaluated and one selected: the same
- * value, without a branch, for the node-parallel kernel (a branch there
- * keeps PoCL from running the work items as SIMD lanes; measured,
- * docs/benchmarks.md "Node-parallel quadrature"). */
-BT_INLINE REAL hf_h_term_branch_free(const hf_psi* P, REAL mu, REAL s_lo, REAL step, int k)
-{
-    REAL t = hf_h_node_t(s_lo, step, k);
-    REAL l_series = hf_log_k_over_q_series(P, t);
-    REAL l_direct = hf_log_k_over_q_direct(P, t);
-    return hf_h_weighted(t < HF_T_SERIES ? l_series : l_direct, mu, t);
+    REAL t = bt_exp(s_lo + step * (REAL)k);
+    REAL mt = mu * t;
+    return hf_log_k_over_q(P, t) * mt / (R(1.0) + mt * mt);
 }
 
 BT_INLINE REAL hf_h_finish(const hf_psi* P, REAL mu, REAL step, REAL sum)
@@ -369,7 +347,7 @@ BT_INLINE REAL hf_alpha(const hf_psi* P, int n, int coarse)
 BT_INLINE hf_psi hfunction_point_psi(const REAL* p, const int* o)
 {
     REAL poly[HF_NCOEF];
-    BT_MATH_UNROLL
+    HF_UNROLL
     for (int k = 0; k < HF_NCOEF; ++k) poly[k] = p[HF_PARAM_PSI_0 + k];
     return hf_make_psi(o[HF_OPT_PSI], p[HF_PARAM_C], poly);
 }
@@ -442,11 +420,11 @@ BT_INLINE REAL hfunction_h_node_term(const REAL* state, const int* o, int quanti
     P.c = state[3];
     P.k0 = state[4];
     P.b = state[5];
-    BT_MATH_UNROLL
+    HF_UNROLL
     for (int i = 0; i < HF_NCOEF; ++i) P.a[i] = state[6 + i];
-    BT_MATH_UNROLL
+    HF_UNROLL
     for (int j = 0; j < HF_SERIES_TERMS; ++j) P.m[j] = state[6 + HF_NCOEF + j];
-    return hf_h_term_branch_free(&P, state[0], state[1], state[2], k);
+    return hf_h_term(&P, state[0], state[1], state[2], k);
 }
 
 BT_INLINE REAL hfunction_h_node_finish(const REAL* p, const int* o, int quantity,
