@@ -447,8 +447,13 @@ private:
     // item's node count from the host count function, their exclusive prefix
     // sum node_offset_host_[0..n] and the work item of every node.  False (and
     // the usual kernel runs) when the node numbers would not fit a uint.
+    // BRDFTAB_NODE_PARALLEL_LAYOUT_CAP=N lays out at most N nodes per work
+    // item, for tests of the sum kernel's own terms (what it does when the
+    // device counts more nodes than the host, e.g. in float).
     bool lay_out_nodes(const BatchLaunch& l) {
         const NodeParallelFunctions& f = *node_functions(l);
+        const char* layout_env = std::getenv("BRDFTAB_NODE_PARALLEL_LAYOUT_CAP");
+        const long long layout_cap = layout_env && *layout_env ? std::atoll(layout_env) : -1;
         const std::size_t n = l.cells.size();
         int opts[BT_MAX_OPTIONS] = {0};
         for (std::size_t k = 0; k < l.options.size() && k < BT_MAX_OPTIONS; ++k)
@@ -465,7 +470,8 @@ private:
             std::copy_n(&l.points[w * l.stride], l.stride, point);
             s.cell = l.cells[w];
             s.batch = l.batches[w];
-            const int count = f.host_count(point, opts, l.quantity, &s);
+            int count = f.host_count(point, opts, l.quantity, &s);
+            if (layout_cap >= 0 && count > layout_cap) count = static_cast<int>(layout_cap);
             if (total > 0xFFFFFFFFull) return false;
             node_offset_host_[w] = static_cast<std::uint32_t>(total);
             total += static_cast<std::uint64_t>(std::max(count, 0));
