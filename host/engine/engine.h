@@ -106,7 +106,8 @@ std::unique_ptr<Backend> make_backend(const std::string& device_selector,
 // BRDFTAB_SAMPLE_PARALLEL=1 forces it for every Monte Carlo / RQMC launch of
 // more than one sample per batch, =0 turns it off.
 // BRDFTAB_SAMPLE_PARALLEL_SCRATCH=N caps a sub-launch at N samples (default
-// 2^22; a batch larger than the cap runs the usual kernel).
+// 2^22; a batch larger than the cap runs the usual kernel).  Quadratures have
+// their own switch, BRDFTAB_NODE_PARALLEL (node-parallel launches, below).
 struct SampleParallelCase {
     std::string model, quantity;
     Method method;       // MonteCarlo or Rqmc
@@ -128,7 +129,8 @@ bool sample_parallel_by_default(const ModelInfo& model, const QuantityInfo& quan
 // default where node_parallel_by_default() says so (measured,
 // docs/benchmarks.md "Node-parallel quadrature"); BRDFTAB_NODE_PARALLEL=0
 // turns it off, =1 forces it on.  BRDFTAB_NODE_PARALLEL_SCRATCH=N caps a
-// sub-launch at N nodes (default 2^22).
+// sub-launch at N nodes (default 2^22); BRDFTAB_NODE_PARALLEL_LAYOUT_CAP=N
+// (tests) lays out at most N nodes per batch, the sum kernel computing the rest.
 bool node_parallel_by_default();
 
 struct Progress {
