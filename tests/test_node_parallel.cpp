@@ -22,6 +22,7 @@
 #include "host/engine/engine.h"
 #include "host/models/registry.h"
 #include "kernels/common/sampler.h"
+#include "kernels/models/hfunction.h"
 
 using namespace brdftab;
 
@@ -263,4 +264,38 @@ TEST_CASE("node-parallel H through estimate(): same values and error estimates a
         CHECK(same_bits(usual.value[c], by_default.value[c]));
         CHECK(usual.samples[c] == node.samples[c]);
     }
+}
+
+TEST_CASE("hfunction's node functions compose to its sample function (host build)") {
+    // The contract of kernels/common/node_parallel.h, checked on the C++
+    // build of the header: count, prepare, the terms added in node order and
+    // finish give hfunction_sample's H bit for bit (and so the serial path's).
+    const double mus[] = {0.0, 1e-140, 1e-12, 1e-5, 0.02, 0.5, 1.0, 7.0, 1e12};
+    const double cs[] = {0.0, 0.5, 0.999999, 1.0};
+    const double poly[4] = {0.2, 0.3, -0.1, 0.25};
+    for (int psi = HF_PSI_LAMBERT0; psi <= HF_PSI_POLY; ++psi)
+        for (double mu : mus)
+            for (double c : cs)
+                for (unsigned batch : {0u, 1u}) {
+                    CAPTURE(psi);
+                    CAPTURE(mu);
+                    CAPTURE(c);
+                    CAPTURE(batch);
+                    double p[16] = {0};
+                    p[HF_PARAM_MU] = mu;
+                    p[HF_PARAM_C] = c;
+                    for (int k = 0; k < 4; ++k) p[HF_PARAM_PSI_0 + k] = poly[k];
+                    const int o[8] = {psi};
+                    bt_sampler s{};
+                    s.method = BT_METHOD_QUADRATURE;
+                    s.batch = batch;
+                    const int n = hfunction_h_node_count(p, o, HF_Q_H, &s);
+                    double state[HF_NODE_STATE];
+                    hfunction_h_node_prepare(p, o, HF_Q_H, &s, state);
+                    double sum = 0.0;
+                    for (int k = 0; k < n; ++k) sum += hfunction_h_node_term(state, o, HF_Q_H, k);
+                    const double composed = hfunction_h_node_finish(p, o, HF_Q_H, &s, sum);
+                    CHECK(same_bits(composed, hfunction_sample(p, o, HF_Q_H, &s)));
+                    if (mu > 0) CHECK(n > (batch == 0 ? 120 : 60));  // the fine rule has ~125+ nodes
+                }
 }
