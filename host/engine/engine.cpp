@@ -148,6 +148,12 @@ const std::vector<SampleParallelCase>& sample_parallel_default_cases() {
     return cases;
 }
 
+// Node-parallel quadrature by default (engine.h): measured faster per
+// CPU-second on its one user, hfunction H (2.8x r9's kernel, 1.8x the usual
+// kernel of the same build; docs/benchmarks.md "Node-parallel quadrature"),
+// bit-identical to the usual kernel (tests/test_node_parallel.cpp).
+bool node_parallel_by_default() { return true; }
+
 bool sample_parallel_by_default(const ModelInfo& model, const QuantityInfo& quantity,
                                 Method method, const std::vector<int>& options) {
     for (const SampleParallelCase& c : sample_parallel_default_cases()) {
@@ -257,7 +263,10 @@ private:
         m2.resize(n);
         if (n == 0) return;
         const bool sample_parallel = use_sample_parallel(l);
-        cl::Kernel* kernel_ptr = sample_parallel ? nullptr : &kernel_for(l);
+        // Node-parallel quadrature (lays out the nodes on the host first).
+        const bool node_parallel = !sample_parallel && use_node_parallel(l) && lay_out_nodes(l);
+        NodeParallelKernels* nodes = node_parallel ? &node_parallel_kernels_for(l) : nullptr;
+        cl::Kernel* kernel_ptr = sample_parallel || node_parallel ? nullptr : &kernel_for(l);
         SampleParallelKernels* pair = sample_parallel ? &sample_parallel_kernels_for(l) : nullptr;
         const bool real_float = precision_ == Precision::Float;
         const bool accum_double = runtime_.device_info().has_fp64;
@@ -291,6 +300,8 @@ private:
                                      l.batches.data());
             if (sample_parallel) {
                 enqueue_sample_parallel(l, *pair, accum_size);
+            } else if (node_parallel) {
+                enqueue_node_parallel(l, *nodes, real_size);
             } else {
                 cl::Kernel& kernel = *kernel_ptr;
                 int a = set_work_args(kernel, l);
@@ -460,6 +471,201 @@ private:
         }
     }
 
+    // ------------------------------------------- node-parallel quadrature
+    // The node-parallel kernels (kernels/common/node_parallel.h) of one
+    // (model, quantity, options, method).
+    struct NodeParallelKernels {
+        cl::Kernel prepare, node, sum;
+    };
+
+    static const NodeParallelFunctions* node_functions(const BatchLaunch& l) {
+        for (const QuantityInfo& q : l.model->quantities)
+            if (q.id == l.quantity) return q.node_parallel.enabled() ? &q.node_parallel : nullptr;
+        return nullptr;
+    }
+
+    // Whether this launch runs node-parallel: quadrature (or closed-form)
+    // launches of one-sample batches of a quantity that names node functions
+    // (QuantityInfo::node_parallel), then as BRDFTAB_NODE_PARALLEL says ("0":
+    // never, "1": always), by default where node_parallel_by_default() says so.
+    bool use_node_parallel(const BatchLaunch& l) const {
+        if (l.method != BT_METHOD_QUADRATURE && l.method != BT_METHOD_CLOSED) return false;
+        if (l.batch_size != 1 || !node_functions(l)) return false;
+        const char* env = std::getenv("BRDFTAB_NODE_PARALLEL");
+        if (env && std::string(env) == "0") return false;
+        if (env && std::string(env) == "1") return true;
+        return node_parallel_by_default();
+    }
+
+    // Nodes per sub-launch of the node-parallel path (the scratch buffer's
+    // size: 2^22 terms); a launch with more nodes is split into sub-launches
+    // of whole work items, which changes no result (a work item with more
+    // nodes than the cap gets a sub-launch of its own).
+    // BRDFTAB_NODE_PARALLEL_SCRATCH (nodes, >= 1) sets another cap, for tests.
+    static std::size_t node_parallel_scratch_nodes() {
+        const char* env = std::getenv("BRDFTAB_NODE_PARALLEL_SCRATCH");
+        if (env && *env) {
+            const long long v = std::min(std::atoll(env), 1LL << 31);
+            if (v >= 1) return static_cast<std::size_t>(v);
+        }
+        return std::size_t{1} << 22;
+    }
+
+    // The node layout of `l` (kernels/common/node_parallel.h): every work
+    // item's node count from the host count function, their exclusive prefix
+    // sum node_offset_host_[0..n] and the work item of every node.  False (and
+    // the usual kernel runs) when the node numbers would not fit a uint.
+    // BRDFTAB_NODE_PARALLEL_LAYOUT_CAP=N lays out at most N nodes per work
+    // item, for tests of the sum kernel's own terms (what it does when the
+    // device counts more nodes than the host, e.g. in float).
+    bool lay_out_nodes(const BatchLaunch& l) {
+        const NodeParallelFunctions& f = *node_functions(l);
+        const char* layout_env = std::getenv("BRDFTAB_NODE_PARALLEL_LAYOUT_CAP");
+        const long long layout_cap = layout_env && *layout_env ? std::atoll(layout_env) : -1;
+        const std::size_t n = l.cells.size();
+        int opts[BT_MAX_OPTIONS] = {0};
+        for (std::size_t k = 0; k < l.options.size() && k < BT_MAX_OPTIONS; ++k)
+            opts[k] = l.options[k];
+        double point[BT_MAX_POINT] = {0};
+        bt_sampler s{};
+        s.key0 = l.key0;
+        s.key1 = l.key1;
+        s.method = l.method;
+        s.sample = 0;
+        node_offset_host_.resize(n + 1);
+        std::uint64_t total = 0;
+        for (std::size_t w = 0; w < n; ++w) {
+            std::copy_n(&l.points[w * l.stride], l.stride, point);
+            s.cell = l.cells[w];
+            s.batch = l.batches[w];
+            int count = f.host_count(point, opts, l.quantity, &s);
+            if (layout_cap >= 0 && count > layout_cap) count = static_cast<int>(layout_cap);
+            if (total > 0xFFFFFFFFull) return false;
+            node_offset_host_[w] = static_cast<std::uint32_t>(total);
+            total += static_cast<std::uint64_t>(std::max(count, 0));
+        }
+        if (total > 0xFFFFFFFFull) return false;
+        node_offset_host_[n] = static_cast<std::uint32_t>(total);
+        node_item_host_.resize(static_cast<std::size_t>(total));
+        for (std::size_t w = 0; w < n; ++w)
+            std::fill(node_item_host_.begin() + node_offset_host_[w],
+                      node_item_host_.begin() + node_offset_host_[w + 1],
+                      static_cast<std::uint32_t>(w));
+        return true;
+    }
+
+    // Writes the node layout and enqueues the node and sum kernels over every
+    // work item of `l`, in sub-launches of at most
+    // node_parallel_scratch_nodes() nodes.  The launch's inputs are already
+    // written; the outputs are read by run().
+    void enqueue_node_parallel(const BatchLaunch& l, NodeParallelKernels& k, std::size_t real_size) {
+        cl::CommandQueue& queue = runtime_.queue();
+        cl::Context& ctx = runtime_.context();
+        const std::size_t n = l.cells.size();
+        const std::vector<std::uint32_t>& offset = node_offset_host_;
+        // Sub-launches [first, last) of whole work items.
+        const std::size_t cap = node_parallel_scratch_nodes();
+        std::vector<std::pair<std::size_t, std::size_t>> subs;
+        std::size_t most_nodes = 1, most_items = 1;
+        for (std::size_t first = 0; first < n;) {
+            std::size_t last = first + 1;
+            while (last < n && offset[last + 1] - offset[first] <= cap) ++last;
+            subs.emplace_back(first, last);
+            most_nodes = std::max<std::size_t>(most_nodes, offset[last] - offset[first]);
+            most_items = std::max(most_items, last - first);
+            first = last;
+        }
+        const NodeParallelFunctions& f = *node_functions(l);
+        // Buffers grown geometrically and kept (reserve_buffers); the
+        // scratch once per launch: the in-order queue runs a sub-launch's
+        // node kernel after the previous sum kernel has read it.
+        const std::size_t total = offset[n];
+        if (n + 1 > node_offset_items_) {
+            node_offset_items_ = std::max(n + 1, 2 * node_offset_items_);
+            node_offset_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, node_offset_items_ * sizeof(std::uint32_t));
+        }
+        if (std::max<std::size_t>(total, 1) > node_item_items_) {
+            node_item_items_ = std::max(std::max<std::size_t>(total, 1), 2 * node_item_items_);
+            node_item_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, node_item_items_ * sizeof(std::uint32_t));
+        }
+        if (most_nodes * real_size > node_scratch_bytes_) {
+            node_scratch_bytes_ = most_nodes * real_size;
+            node_scratch_ = cl::Buffer(ctx, CL_MEM_READ_WRITE, node_scratch_bytes_);
+        }
+        const std::size_t state_bytes =
+            most_items * static_cast<std::size_t>(std::max(f.state_size, 1)) * real_size;
+        if (state_bytes > node_state_bytes_) {
+            node_state_bytes_ = state_bytes;
+            node_state_ = cl::Buffer(ctx, CL_MEM_READ_WRITE, node_state_bytes_);
+        }
+        // Not blocking: the host vectors are members, unchanged until the
+        // blocking read that ends run().
+        queue.enqueueWriteBuffer(node_offset_, CL_FALSE, 0, (n + 1) * sizeof(std::uint32_t),
+                                 offset.data());
+        if (total > 0)
+            queue.enqueueWriteBuffer(node_item_, CL_FALSE, 0, total * sizeof(std::uint32_t),
+                                     node_item_host_.data());
+        const int prepare_first_arg = set_work_args(k.prepare, l);  // first_work, n_work, state
+        k.prepare.setArg(prepare_first_arg + 2, node_state_);
+        // options, n_options, quantity, node_item, node_offset, first_work,
+        // first_node, n_nodes, state, scratch
+        k.node.setArg(0, options_);
+        k.node.setArg(1, static_cast<cl_uint>(l.options.size()));
+        k.node.setArg(2, static_cast<cl_int>(l.quantity));
+        k.node.setArg(3, node_item_);
+        k.node.setArg(4, node_offset_);
+        k.node.setArg(8, node_state_);
+        k.node.setArg(9, node_scratch_);
+        const int sum_first_arg = set_work_args(k.sum, l);  // node_offset, first_node, first_work, n_work, scratch, out_mean, out_m2
+        k.sum.setArg(sum_first_arg, node_offset_);
+        k.sum.setArg(sum_first_arg + 4, node_scratch_);
+        k.sum.setArg(sum_first_arg + 5, out_mean_);
+        k.sum.setArg(sum_first_arg + 6, out_m2_);
+        const cl::NDRange local = local_range();
+        for (const auto& [first, last] : subs) {
+            const std::size_t nodes = offset[last] - offset[first];
+            if (nodes > 0) {
+                k.prepare.setArg(prepare_first_arg, static_cast<cl_uint>(first));
+                k.prepare.setArg(prepare_first_arg + 1, static_cast<cl_uint>(last - first));
+                queue.enqueueNDRangeKernel(k.prepare, cl::NullRange,
+                                           cl::NDRange(padded_global(last - first)), local);
+                k.node.setArg(5, static_cast<cl_uint>(first));
+                k.node.setArg(6, static_cast<cl_uint>(offset[first]));
+                k.node.setArg(7, static_cast<cl_uint>(nodes));
+                queue.enqueueNDRangeKernel(k.node, cl::NullRange, cl::NDRange(padded_global(nodes)),
+                                           local);
+            }
+            k.sum.setArg(sum_first_arg + 1, static_cast<cl_uint>(offset[first]));
+            k.sum.setArg(sum_first_arg + 2, static_cast<cl_uint>(first));
+            k.sum.setArg(sum_first_arg + 3, static_cast<cl_uint>(last - first));
+            queue.enqueueNDRangeKernel(k.sum, cl::NullRange, cl::NDRange(padded_global(last - first)),
+                                       local);
+        }
+    }
+
+    NodeParallelKernels& node_parallel_kernels_for(const BatchLaunch& l) {
+        const ModelInfo& model = *l.model;
+        const NodeParallelFunctions& f = *node_functions(l);
+        const std::string options = build_options(l);
+        const std::string key = model.name + "\n" + f.term + "\n" + options;
+        auto it = node_parallel_kernels_.find(key);
+        if (it != node_parallel_kernels_.end()) return it->second;
+        const std::string source = node_parallel_kernel_source(
+            model.kernel_header, std::to_string(f.state_size), f.count, f.prepare, f.term, f.finish,
+            kernel_dir_);
+        cl::Program program = cached_program(runtime_, source, options);
+        try {
+            NodeParallelKernels k{cl::Kernel(program, kNodePrepareKernelName),
+                                  cl::Kernel(program, kNodeKernelName),
+                                  cl::Kernel(program, kNodeSumKernelName)};
+            return node_parallel_kernels_.emplace(key, std::move(k)).first->second;
+        } catch (const cl::Error& e) {
+            throw OpenCLError(e.what(), e.err(), "node-parallel entry points of model '" +
+                                                     model.name + "' (kernels/" +
+                                                     model.kernel_header + ")");
+        }
+    }
+
     // Work-group size: a fixed 64 (or BRDFTAB_LOCAL_SIZE, a divisor of 256
     // below 256, for experiments; 0 or 256 = the driver's choice, on a global
     // size padded to a multiple of 256 as before).  Fixed, because PoCL compiles
@@ -584,6 +790,13 @@ private:
     std::map<std::string, SampleParallelKernels> sample_parallel_kernels_;
     cl::Buffer scratch_;  // sample-parallel path: one sub-launch's samples
     std::size_t scratch_bytes_ = 0;
+    // Node-parallel path: the layout (host copies and buffers) and one
+    // sub-launch's terms.
+    std::map<std::string, NodeParallelKernels> node_parallel_kernels_;
+    std::vector<std::uint32_t> node_offset_host_, node_item_host_;
+    cl::Buffer node_offset_, node_item_, node_scratch_, node_state_;
+    std::size_t node_offset_items_ = 0, node_item_items_ = 0, node_scratch_bytes_ = 0;
+    std::size_t node_state_bytes_ = 0;
     cl::Buffer points_, options_, cells_, batches_, out_mean_, out_m2_;
     std::size_t buffer_items_ = 0, buffer_point_bytes_ = 0, buffer_accum_size_ = 0;
     // The second set of per-launch buffers (start(): one launch computes on

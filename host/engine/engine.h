@@ -124,7 +124,8 @@ std::unique_ptr<Backend> make_backend(const std::string& device_selector,
 // BRDFTAB_SAMPLE_PARALLEL=1 forces it for every Monte Carlo / RQMC launch of
 // more than one sample per batch, =0 turns it off.
 // BRDFTAB_SAMPLE_PARALLEL_SCRATCH=N caps a sub-launch at N samples (default
-// 2^22; a batch larger than the cap runs the usual kernel).
+// 2^22; a batch larger than the cap runs the usual kernel).  Quadratures have
+// their own switch, BRDFTAB_NODE_PARALLEL (node-parallel launches, below).
 struct SampleParallelCase {
     std::string model, quantity;
     Method method;       // MonteCarlo or Rqmc
@@ -136,6 +137,19 @@ const std::vector<SampleParallelCase>& sample_parallel_default_cases();
 // indices (resolve_options) runs sample-parallel by default.
 bool sample_parallel_by_default(const ModelInfo& model, const QuantityInfo& quantity,
                                 Method method, const std::vector<int>& options);
+
+// Node-parallel quadrature (OpenCL backend only): a quantity that names node
+// functions (QuantityInfo::node_parallel, host/models/registry.h; today
+// hfunction's H) runs its quadrature batches as one work item per node of a
+// node kernel and one work item per batch of a sum kernel that adds the terms
+// in node order (kernels/common/node_parallel.h), instead of one work item
+// looping over the nodes; results are bit-identical either way.  On by
+// default where node_parallel_by_default() says so (measured,
+// docs/benchmarks.md "Node-parallel quadrature"); BRDFTAB_NODE_PARALLEL=0
+// turns it off, =1 forces it on.  BRDFTAB_NODE_PARALLEL_SCRATCH=N caps a
+// sub-launch at N nodes (default 2^22); BRDFTAB_NODE_PARALLEL_LAYOUT_CAP=N
+// (tests) lays out at most N nodes per batch, the sum kernel computing the rest.
+bool node_parallel_by_default();
 
 struct Progress {
     std::size_t cells_total = 0;

@@ -232,6 +232,28 @@ std::string sample_parallel_kernel_source(const std::string& kernel_header,
     return source;
 }
 
+std::string node_parallel_kernel_source(const std::string& kernel_header,
+                                        const std::string& state_size,
+                                        const std::string& count_function,
+                                        const std::string& prepare_function,
+                                        const std::string& term_function,
+                                        const std::string& finish_function,
+                                        const std::string& kernel_dir) {
+    // Forced inlining (kernels/common/estimator.h) unless the build options
+    // decide: a call left in the node kernel keeps its work-item loop scalar
+    // (measured on hfunction's H, docs/benchmarks.md).
+    std::string source = "#if !defined(BT_FORCE_INLINE)\n#define BT_FORCE_INLINE 1\n#endif\n";
+    source += load_kernel_source("common/estimator.h", kernel_dir);
+    source += load_kernel_source(kernel_header, kernel_dir);
+    source += load_kernel_source("common/node_parallel.h", kernel_dir);
+    source += "#line 1 \"generated node-parallel entry points for " + kernel_header + "\"\n";
+    source += "BT_DEFINE_NODE_PARALLEL_KERNELS(" + std::string(kNodePrepareKernelName) + ", " +
+              kNodeKernelName + ", " + kNodeSumKernelName + ", " + state_size + ", " +
+              count_function + ", " + prepare_function + ", " + term_function + ", " +
+              finish_function + ")\n";
+    return source;
+}
+
 std::string specialisation_options(int quantity, const std::vector<int>& options,
                                    unsigned method, std::size_t stride) {
     std::string list;

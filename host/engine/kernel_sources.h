@@ -19,6 +19,10 @@ constexpr const char* kEstimateKernelName = "bt_estimate";
 // The two entry points sample_parallel_kernel_source() generates.
 constexpr const char* kSampleKernelName = "bt_sample";
 constexpr const char* kReduceKernelName = "bt_reduce";
+// The three entry points node_parallel_kernel_source() generates.
+constexpr const char* kNodePrepareKernelName = "bt_node_prepare";
+constexpr const char* kNodeKernelName = "bt_node";
+constexpr const char* kNodeSumKernelName = "bt_node_sum";
 
 std::vector<std::string> embedded_kernel_files();  // paths relative to kernels/
 std::string load_kernel_source(const std::string& relative_path,
@@ -36,6 +40,18 @@ std::string estimate_kernel_source(const std::string& kernel_header,
 std::string sample_parallel_kernel_source(const std::string& kernel_header,
                                           const std::string& sample_function,
                                           const std::string& kernel_dir = "");
+// The program of a quantity's node-parallel quadrature: the model's kernel
+// header and the entry points BT_DEFINE_NODE_PARALLEL_KERNELS(bt_node_prepare,
+// bt_node, bt_node_sum, state_size, count, prepare, term, finish) of
+// kernels/common/node_parallel.h around the model's node functions
+// (QuantityInfo::node_parallel); a separate program, like the one above.
+std::string node_parallel_kernel_source(const std::string& kernel_header,
+                                        const std::string& state_size,
+                                        const std::string& count_function,
+                                        const std::string& prepare_function,
+                                        const std::string& term_function,
+                                        const std::string& finish_function,
+                                        const std::string& kernel_dir = "");
 // The -D definitions that specialise the program of estimate_kernel_source()
 // to one quantity, option set, method (BT_METHOD_*) and point stride
 // (kernels/common/estimator.h, "Specialisation"), with a leading space:

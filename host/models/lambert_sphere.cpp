@@ -71,6 +71,12 @@ ModelInfo hfunction_model() {
                             "half-resolution rule)",
                             "1", QuantityKind::Quadrature, none, psi, "eqs. 13-20 (d'Eon)",
                             Method::Quadrature, 0});
+    // H's trapezoid sum runs one work item per node on OpenCL devices
+    // (kernels/models/hfunction.h, hfunction_h_node_*; docs/benchmarks.md,
+    // "Node-parallel quadrature").  `moment` (24 H's per cell) keeps the usual kernel.
+    b.quantity_by_id(HF_Q_H).node_parallel = {
+        "hfunction_h_node_count", "hfunction_h_node_prepare", "hfunction_h_node_term",
+        "hfunction_h_node_finish", HF_NODE_STATE, &hfunction_h_node_count};
     b.quantity(
         QuantityInfo{"moment", HF_Q_MOMENT,
                      "alpha_n = int_0^1 mu^n H(mu) dmu (24-point Gauss-Legendre in sqrt(mu))", "1",

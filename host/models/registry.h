@@ -49,6 +49,25 @@ typedef double (*HostSampleFn)(const double* point, const int* options, int quan
 
 constexpr int kDirectionSlots = 4;
 
+// Node-parallel quadrature (OpenCL backend only; kernels/common/node_parallel.h,
+// host/engine/engine.cpp): a quantity whose value is an in-order sum of
+// data-dependent length, value = finish(term(0) + term(1) + ... +
+// term(count - 1)), names the four functions of its kernel header that
+// compute it and the size of the state its terms share (signatures in
+// node_parallel.h), and the count function compiled for the host, by which
+// the engine lays out one work item per node.
+// The model's sample function must compute exactly that composition (same
+// calls, same order), so that both paths give the same bits.  Empty (no
+// host_count): the quantity runs the usual kernel only.
+typedef int (*HostNodeCountFn)(const double* point, const int* options, int quantity,
+                               const bt_sampler* sampler);
+struct NodeParallelFunctions {
+    std::string count, prepare, term, finish;  // function names in the kernel header
+    int state_size = 0;                        // REAL values prepare writes
+    HostNodeCountFn host_count = nullptr;
+    bool enabled() const { return host_count != nullptr; }
+};
+
 // A quantity's per-cell invariants (ModelInfo::derive): `slots` values that
 // follow the parameters in every kernel point, written by `fill` into a point
 // whose first point_stride() values are set.
@@ -116,6 +135,9 @@ struct QuantityInfo {
     // table, never estimated.  float_note: where float fails, when it does.
     double float_max_rel_diff = -1;
     std::string float_note = {};  // = {}: aggregates that stop before it stay warning-free
+    // Node-parallel quadrature functions (see NodeParallelFunctions); set by
+    // the model file after registering the quantity.
+    NodeParallelFunctions node_parallel = {};
     bool float_measured() const { return float_max_rel_diff >= 0; }
     // Whether float reaches the precision of a stored float32 (2^-24 relative)
     // or float16 (2^-11) table over the measured domains.

@@ -69,13 +69,35 @@
 #define HF_H_FINE R(0.25)
 #define HF_SERIES_TERMS 40
 
+/* Fixed-count loops are unrolled on the device (as BT_MATH_UNROLL in
+ * bt_math.h, which float builds do not define): a loop left in the body of
+ * the node-parallel kernel keeps PoCL's work-item loop from being innermost. */
+#if BT_DEVICE
+#define HF_UNROLL _Pragma("unroll")
+#else
+#define HF_UNROLL
+#endif
+
 typedef struct {
     int kind;
     REAL c;
     REAL a[HF_NCOEF]; /* Psi = sum a_k mu^(2k) */
     REAL k0;          /* a = K(0) = 1 - 2 m_0 */
     REAL b;           /* 2 m_1 */
+    /* m_j = int_0^1 Psi x^(2j) dx, j < HF_SERIES_TERMS (hf_moment_psi; the
+     * series of note 1 reads them): computed once per Psi rather than once
+     * per term of every series evaluation. */
+    REAL m[HF_SERIES_TERMS];
 } hf_psi;
+
+/* m_j = int_0^1 Psi(x) x^(2j) dx. */
+BT_INLINE REAL hf_moment_psi(const hf_psi* P, int j)
+{
+    REAL m = R(0.0);
+    HF_UNROLL
+    for (int k = 0; k < HF_NCOEF; ++k) m += P->a[k] / (REAL)(2 * k + 2 * j + 1);
+    return m;
+}
 
 /* Psi as an even polynomial (eqs. 13-15 expanded). */
 BT_INLINE hf_psi hf_make_psi(int kind, REAL c, const REAL* poly)
@@ -83,6 +105,7 @@ BT_INLINE hf_psi hf_make_psi(int kind, REAL c, const REAL* poly)
     hf_psi P;
     P.kind = kind;
     P.c = c;
+    HF_UNROLL
     for (int k = 0; k < HF_NCOEF; ++k) P.a[k] = R(0.0);
     if (kind == HF_PSI_LAMBERT0) { /* eq. 13 */
         P.a[0] = R(207.0) * c / R(384.0);
@@ -100,9 +123,11 @@ BT_INLINE hf_psi hf_make_psi(int kind, REAL c, const REAL* poly)
     } else if (kind == HF_PSI_ISOTROPIC) {
         P.a[0] = R(0.5) * c;
     } else {
+        HF_UNROLL
         for (int k = 0; k < HF_NCOEF; ++k) P.a[k] = poly[k];
     }
     REAL m0 = R(0.0), m1 = R(0.0);
+    HF_UNROLL
     for (int k = 0; k < HF_NCOEF; ++k) {
         m0 += P.a[k] / (REAL)(2 * k + 1);
         m1 += P.a[k] / (REAL)(2 * k + 3);
@@ -117,15 +142,8 @@ BT_INLINE hf_psi hf_make_psi(int kind, REAL c, const REAL* poly)
     else
         P.k0 = R(1.0) - R(2.0) * m0;
     P.b = R(2.0) * m1;
+    for (int j = 0; j < HF_SERIES_TERMS; ++j) P.m[j] = hf_moment_psi(&P, j);
     return P;
-}
-
-/* m_j = int_0^1 Psi(x) x^(2j) dx. */
-BT_INLINE REAL hf_moment_psi(const hf_psi* P, int j)
-{
-    REAL m = R(0.0);
-    for (int k = 0; k < HF_NCOEF; ++k) m += P->a[k] / (REAL)(2 * k + 2 * j + 1);
-    return m;
 }
 
 /* K(t) - a - b t^2 for t < HF_T_SERIES (alternating series, note 1). */
@@ -135,8 +153,9 @@ BT_INLINE REAL hf_k_series_rest(const hf_psi* P, REAL t)
     REAL tp = t2 * t2; /* t^(2j), j = 2 */
     REAL sum = R(0.0);
     REAL sign = -R(1.0);
+    HF_UNROLL
     for (int j = 2; j < HF_SERIES_TERMS; ++j) {
-        sum += sign * tp * hf_moment_psi(P, j);
+        sum += sign * tp * P->m[j];
         tp *= t2;
         sign = -sign;
     }
@@ -177,6 +196,7 @@ BT_INLINE REAL hf_k_direct(const hf_psi* P, REAL t)
     }
     REAL I = at / t;
     REAL s = P->a[0] * I;
+    HF_UNROLL
     for (int k = 1; k < HF_NCOEF; ++k) {
         I = (R(1.0) / (REAL)(2 * k - 1) - I) / t2;
         s += P->a[k] * I;
@@ -188,6 +208,30 @@ BT_INLINE REAL hf_k_direct(const hf_psi* P, REAL t)
  * log(K/Q) vanish at t = 0; the analytic factor holds for every beta). */
 BT_INLINE REAL hf_beta(const hf_psi* P) { return P->b > R(0.0) ? P->b : R(1.0); }
 
+/* bt_log and bt_log1p, each call in a basic block of its own: the same
+ * values (the other branch returns what bt_log / bt_log1p return there:
+ * -inf at 0 resp. -1, else bt_math's NaN), so that clang's SLP vectoriser,
+ * which PoCL runs when it builds a program, finds no two logarithms in one
+ * block to pack into a 2-wide vector: that packing keeps PoCL from running
+ * the node-parallel kernel's work items as SIMD lanes (docs/contributing.md,
+ * "What keeps PoCL's work-item loop scalar").  Float builds use the OpenCL
+ * built-ins (bt_math.h), calls that propagate NaN inputs: unchanged there. */
+#if BT_DEVICE && defined(BT_REAL_IS_FLOAT) && BT_REAL_IS_FLOAT
+#define hf_log(x) bt_log(x)
+#define hf_log1p(x) bt_log1p(x)
+#else
+BT_INLINE REAL hf_log(REAL x)
+{
+    if (x > R(0.0)) return bt_log(x);
+    return x == R(0.0) ? -BT_M_INF : BT_M_NAN;
+}
+BT_INLINE REAL hf_log1p(REAL x)
+{
+    if (x > -R(1.0)) return bt_log1p(x);
+    return x == -R(1.0) ? -BT_M_INF : BT_M_NAN;
+}
+#endif
+
 /* L(t) = log(K(t)/Q(t)), note 2. */
 BT_INLINE REAL hf_log_k_over_q(const hf_psi* P, REAL t)
 {
@@ -198,38 +242,64 @@ BT_INLINE REAL hf_log_k_over_q(const hf_psi* P, REAL t)
         REAL rest = (P->b - beta) * t2 + hf_k_series_rest(P, t);
         REAL aq = a + bt2;
         if (!(aq > R(0.0))) return R(0.0); /* t = 0 with a = 0 */
-        return bt_log1p(rest / aq) + bt_log1p(bt2);
+        return hf_log1p(rest / aq) + hf_log1p(bt2);
     }
-    return bt_log(hf_k_direct(P, t)) - bt_log(a + bt2) + bt_log1p(bt2);
+    return hf_log(hf_k_direct(P, t)) - hf_log(a + bt2) + hf_log1p(bt2);
 }
 
-/* H(mu) for mu >= 0 (eq. 16 with notes 2-3).  `coarse` != 0 uses every
- * second trapezoid node (error estimate of BT_METHOD_QUADRATURE). */
-BT_INLINE REAL hf_h(const hf_psi* P, REAL mu, int coarse)
+/* The trapezoid rule of H(mu) (eq. 16 with notes 2-3) in three parts, so
+ * that the serial loop (hf_h below) and the engine's node-parallel kernels
+ * (kernels/common/node_parallel.h: one work item per node, then a sum in
+ * node order) evaluate the very same expressions in the same order:
+ *   hf_h_nodes   the number n of nodes s_k = s_lo + step k of one (mu, rule),
+ *                0 where H needs no sum (mu <= 0, or no H-function);
+ *   hf_h_term    the k-th term of the sum (before the factor step/pi);
+ *   hf_h_finish  H from the sum of the n terms, added in order k = 0, 1, ...
+ * `coarse` != 0 uses every second node (error estimate of
+ * BT_METHOD_QUADRATURE). */
+BT_INLINE int hf_h_nodes(const hf_psi* P, REAL mu, int coarse, REAL* s_lo, REAL* step)
 {
-    if (!(mu > R(0.0))) return R(1.0);
-    REAL a = P->k0;
-    if (a < R(0.0)) return R(0.0) / R(0.0); /* no H-function: K has a real zero */
-    REAL sb = sqrt(hf_beta(P));
-    REAL factor = (mu + sb) / (mu * sqrt(a) + sb); /* note 2 */
+    *s_lo = R(0.0);
+    *step = R(0.0);
+    if (!(mu > R(0.0)) || P->k0 < R(0.0)) return 0;
     /* Integration limits in s = log t (note 3): the integrand is ~ mu b t^3
      * below t ~ 1/mu and ~ 1/(mu t^2) above max(1, 1/mu). */
     REAL lmu = bt_log(mu);
-    REAL s_lo = -R(13.0) - (lmu > R(0.0) ? lmu / R(3.0) : R(0.0));
-    REAL s_hi = R(18.0) + (lmu < R(0.0) ? -lmu : R(0.0));
+    REAL lo = -R(13.0) - (lmu > R(0.0) ? lmu / R(3.0) : R(0.0));
+    REAL hi = R(18.0) + (lmu < R(0.0) ? -lmu : R(0.0));
     REAL h = HF_H_FINE;
-    int n = (int)((s_hi - s_lo) / h) + 1;
+    int n = (int)((hi - lo) / h) + 1;
     if (coarse) n = n / 2 + 1; /* same grid origin, twice the step */
-    REAL step = coarse ? R(2.0) * h : h;
-    REAL sum = R(0.0);
-    for (int k = 0; k < n; ++k) {
-        REAL t = bt_exp(s_lo + step * (REAL)k);
-        REAL mt = mu * t;
-        sum += hf_log_k_over_q(P, t) * mt / (R(1.0) + mt * mt);
-    }
+    *s_lo = lo;
+    *step = coarse ? R(2.0) * h : h;
+    return n;
+}
+
+BT_INLINE REAL hf_h_term(const hf_psi* P, REAL mu, REAL s_lo, REAL step, int k)
+{
+    REAL t = bt_exp(s_lo + step * (REAL)k);
+    REAL mt = mu * t;
+    return hf_log_k_over_q(P, t) * mt / (R(1.0) + mt * mt);
+}
+
+BT_INLINE REAL hf_h_finish(const hf_psi* P, REAL mu, REAL step, REAL sum)
+{
+    if (!(mu > R(0.0))) return R(1.0);
+    if (P->k0 < R(0.0)) return R(0.0) / R(0.0); /* no H-function: K has a real zero */
+    REAL sb = sqrt(hf_beta(P));
+    REAL factor = (mu + sb) / (mu * sqrt(P->k0) + sb); /* note 2 */
     return factor * bt_exp(-step * sum * BT_INV_PI);
 }
 
+/* H(mu) for mu >= 0 (eq. 16 with notes 2-3). */
+BT_INLINE REAL hf_h(const hf_psi* P, REAL mu, int coarse)
+{
+    REAL s_lo, step;
+    int n = hf_h_nodes(P, mu, coarse, &s_lo, &step);
+    REAL sum = R(0.0);
+    for (int k = 0; k < n; ++k) sum += hf_h_term(P, mu, s_lo, step, k);
+    return hf_h_finish(P, mu, step, sum);
+}
 
 /* alpha_n = int_0^1 mu^n H(mu) dmu with mu = u^2 (note 4). */
 BT_INLINE REAL hf_alpha(const hf_psi* P, int n, int coarse)
@@ -273,14 +343,26 @@ BT_INLINE REAL hf_alpha(const hf_psi* P, int n, int coarse)
 #define HF_OPT_COUNT 1
 #define HF_Q_COUNT 4
 
-BT_INLINE REAL hfunction_sample(const REAL* p, const int* o, int quantity, const bt_sampler* s)
+/* Psi of a kernel point (slots and option above). */
+BT_INLINE hf_psi hfunction_point_psi(const REAL* p, const int* o)
 {
     REAL poly[HF_NCOEF];
+    HF_UNROLL
     for (int k = 0; k < HF_NCOEF; ++k) poly[k] = p[HF_PARAM_PSI_0 + k];
-    hf_psi P = hf_make_psi(o[HF_OPT_PSI], p[HF_PARAM_C], poly);
-    /* Deterministic: the same value under every method; only batch 1 of
-     * BT_METHOD_QUADRATURE uses the coarse rule. */
-    int coarse = (s->method == BT_METHOD_QUADRATURE && s->batch == 1u) ? 1 : 0;
+    return hf_make_psi(o[HF_OPT_PSI], p[HF_PARAM_C], poly);
+}
+
+/* Deterministic: the same value under every method; only batch 1 of
+ * BT_METHOD_QUADRATURE uses the coarse rule. */
+BT_INLINE int hfunction_coarse(const bt_sampler* s)
+{
+    return (s->method == BT_METHOD_QUADRATURE && s->batch == 1u) ? 1 : 0;
+}
+
+BT_INLINE REAL hfunction_sample(const REAL* p, const int* o, int quantity, const bt_sampler* s)
+{
+    hf_psi P = hfunction_point_psi(p, o);
+    int coarse = hfunction_coarse(s);
     if (quantity == HF_Q_H) return hf_h(&P, p[HF_PARAM_MU], coarse);
     if (quantity == HF_Q_MOMENT) return hf_alpha(&P, (int)floor(p[HF_PARAM_N] + R(0.5)), coarse);
     if (quantity == HF_Q_HINF) /* eq. 32 (general form 1/sqrt(K(0))) */
@@ -291,6 +373,68 @@ BT_INLINE REAL hfunction_sample(const REAL* p, const int* o, int quantity, const
         return hf_k_direct(&P, t);
     }
     return R(0.0);
+}
+
+/* The node functions of quantity H (HF_Q_H only) for the engine's
+ * node-parallel path (kernels/common/node_parallel.h; registered as
+ * QuantityInfo::node_parallel in host/models/lambert_sphere.cpp):
+ *     finish(sum over k < count of term(state, k), added in order k = 0, 1, ...)
+ * with the state from prepare is hfunction_sample(p, o, HF_Q_H, s) bit for
+ * bit, because hf_h is that very sum of hf_h_term between hf_h_nodes and
+ * hf_h_finish, and the state holds the exact values the loop uses.
+ * State (HF_NODE_STATE values): mu, s_lo, step, then Psi's c, k0, b, a[],
+ * m[] (its kind is the option o[HF_OPT_PSI]). */
+#define HF_NODE_STATE (6 + HF_NCOEF + HF_SERIES_TERMS)
+
+BT_INLINE int hfunction_h_node_count(const REAL* p, const int* o, int quantity,
+                                     const bt_sampler* s)
+{
+    (void)quantity;
+    hf_psi P = hfunction_point_psi(p, o);
+    REAL s_lo, step;
+    return hf_h_nodes(&P, p[HF_PARAM_MU], hfunction_coarse(s), &s_lo, &step);
+}
+
+BT_INLINE void hfunction_h_node_prepare(const REAL* p, const int* o, int quantity,
+                                        const bt_sampler* s, REAL* state)
+{
+    (void)quantity;
+    hf_psi P = hfunction_point_psi(p, o);
+    REAL s_lo, step;
+    (void)hf_h_nodes(&P, p[HF_PARAM_MU], hfunction_coarse(s), &s_lo, &step);
+    state[0] = p[HF_PARAM_MU];
+    state[1] = s_lo;
+    state[2] = step;
+    state[3] = P.c;
+    state[4] = P.k0;
+    state[5] = P.b;
+    for (int k = 0; k < HF_NCOEF; ++k) state[6 + k] = P.a[k];
+    for (int j = 0; j < HF_SERIES_TERMS; ++j) state[6 + HF_NCOEF + j] = P.m[j];
+}
+
+BT_INLINE REAL hfunction_h_node_term(const REAL* state, const int* o, int quantity, int k)
+{
+    (void)quantity;
+    hf_psi P;
+    P.kind = o[HF_OPT_PSI];
+    P.c = state[3];
+    P.k0 = state[4];
+    P.b = state[5];
+    HF_UNROLL
+    for (int i = 0; i < HF_NCOEF; ++i) P.a[i] = state[6 + i];
+    HF_UNROLL
+    for (int j = 0; j < HF_SERIES_TERMS; ++j) P.m[j] = state[6 + HF_NCOEF + j];
+    return hf_h_term(&P, state[0], state[1], state[2], k);
+}
+
+BT_INLINE REAL hfunction_h_node_finish(const REAL* p, const int* o, int quantity,
+                                       const bt_sampler* s, REAL sum)
+{
+    (void)quantity;
+    hf_psi P = hfunction_point_psi(p, o);
+    REAL s_lo, step;
+    (void)hf_h_nodes(&P, p[HF_PARAM_MU], hfunction_coarse(s), &s_lo, &step);
+    return hf_h_finish(&P, p[HF_PARAM_MU], step, sum);
 }
 
 #endif /* BRDFTAB_HFUNCTION_H */

@@ -1,0 +1,133 @@
+/*
+ * node_parallel.h — node-parallel launch of a quadrature sum (the engine's
+ * "node-parallel" path, host/engine/engine.cpp; BRDFTAB_NODE_PARALLEL).
+ *
+ * The usual kernel (BT_DEFINE_ESTIMATE_KERNEL in estimator.h) runs a
+ * quadrature rule as a loop inside one work item.  When that loop's trip
+ * count depends on the point (hfunction's H: ~60-200 trapezoid nodes), PoCL's
+ * loop over the work items of a group wraps it, is not innermost, and stays
+ * scalar.  A model whose value is a plain in-order sum
+ *     value = finish(sum_{k = 0}^{count - 1} term(k))
+ * can opt in per quantity (QuantityInfo::node_parallel,
+ * host/models/registry.h) with four functions of its kernel header and the
+ * size of a per-work-item state:
+ *     int  count_fn  (const REAL* p, const int* o, int quantity, const bt_sampler* s);
+ *     void prepare_fn(const REAL* p, const int* o, int quantity, const bt_sampler* s,
+ *                     REAL* state);                  (state_size values)
+ *     REAL term_fn   (const REAL* state, const int* o, int quantity, int k);
+ *     REAL finish_fn (const REAL* p, const int* o, int quantity, const bt_sampler* s,
+ *                     REAL sum);
+ * whose composition, with `sum` a REAL that starts at 0 and adds term(k) for
+ * k = 0, 1, ..., count - 1, is the sample function's value bit for bit
+ * (the model's serial loop must compute that very composition: see hf_h in
+ * kernels/models/hfunction.h).  The state holds what every term of a work
+ * item shares (hfunction: Psi's coefficients and moments, the grid), so
+ * that the per-node kernel neither recomputes it nor holds the loops and
+ * divisions that compute it.  The work is three kernels, no barrier:
+ *
+ *   prepare_kernel  one work item per work item w of a sub-launch: its state,
+ *                   stored in state[(w - first_work) * state_size + ...].
+ *   node_kernel     one work item per node of a sub-launch: global node number
+ *                   first_node + gid, which belongs to work item
+ *                   w = node_item[first_node + gid] and is its node
+ *                   k = first_node + gid - node_offset[w]; stores term(k) in
+ *                   scratch[gid].  No loop around the term, so the work-item
+ *                   loop is innermost and can be vectorised.
+ *   sum_kernel      one work item per work item w of the sub-launch: adds its
+ *                   count(w) terms in order k = 0, 1, ... from scratch,
+ *                   applies finish, and stores mean and M2 with the same
+ *                   one-sample Welford update as the usual kernel (M2 = 0 for
+ *                   a finite value).
+ *
+ * The host lays the nodes out (node_offset: the exclusive prefix sum of the
+ * counts, node_item: the work item of every node) from the count function
+ * compiled for the host.  The device recomputes the count in the sum kernel
+ * and trusts only its own: a node the host did not lay out (a float build
+ * that rounds the count up) is computed there, in its place in the order; a
+ * laid-out node beyond the device's count is never read.  Every term is the
+ * same function of the same inputs as in the serial loop, stored exactly
+ * (scratch and state are REAL, the type of the loop's values), and added in
+ * the same order, so the result has the usual kernel's bits
+ * (tests/test_node_parallel.cpp).
+ */
+#ifndef BRDFTAB_NODE_PARALLEL_H
+#define BRDFTAB_NODE_PARALLEL_H
+
+#include "estimator.h"
+
+#if BT_DEVICE
+#define BT_DEFINE_NODE_PARALLEL_KERNELS(prepare_kernel, node_kernel,           \
+                                        sum_kernel, state_size, count_fn,      \
+                                        prepare_fn, term_fn, finish_fn)        \
+    __kernel void prepare_kernel(                                              \
+        __global const REAL* points, uint stride, __global const int* options, \
+        uint n_options, int quantity, uint method, uint key0, uint key1,       \
+        __global const uint* work_cell, __global const uint* work_batch,       \
+        uint first_work, uint n_work, __global REAL* state)                     \
+    {                                                                          \
+        const uint gid = (uint)get_global_id(0);                               \
+        if (gid >= n_work) return;                                             \
+        const uint w = first_work + gid;                                       \
+        BT_KERNEL_LOAD_WORK_(w)                                                \
+        s.sample = 0u;                                                         \
+        REAL st[state_size];                                                   \
+        prepare_fn(p, o, BT_KERNEL_QUANTITY_(quantity), &s, st);               \
+        _Pragma("unroll")                                                      \
+        for (uint i = 0; i < (uint)(state_size); ++i)                          \
+            state[(size_t)gid * (state_size) + i] = st[i];                     \
+    }                                                                          \
+    __kernel void node_kernel(                                                 \
+        __global const int* options, uint n_options, int quantity,             \
+        __global const uint* node_item, __global const uint* node_offset,      \
+        uint first_work, uint first_node, uint n_nodes,                        \
+        __global const REAL* state, __global REAL* scratch)                    \
+    {                                                                          \
+        const uint gid = (uint)get_global_id(0);                               \
+        if (gid >= n_nodes) return;                                            \
+        const uint node = first_node + gid;                                    \
+        const uint w = node_item[node];                                        \
+        BT_KERNEL_LOAD_OPTIONS_(o, options, n_options)                         \
+        __global const REAL* my_state =                                        \
+            state + (size_t)(w - first_work) * (state_size);                   \
+        REAL st[state_size];                                                   \
+        _Pragma("unroll")                                                      \
+        for (uint i = 0; i < (uint)(state_size); ++i) st[i] = my_state[i];     \
+        scratch[gid] = term_fn(st, o, BT_KERNEL_QUANTITY_(quantity),           \
+                               (int)(node - node_offset[w]));                  \
+    }                                                                          \
+    __kernel void sum_kernel(                                                  \
+        __global const REAL* points, uint stride, __global const int* options, \
+        uint n_options, int quantity, uint method, uint key0, uint key1,       \
+        __global const uint* work_cell, __global const uint* work_batch,       \
+        __global const uint* node_offset, uint first_node, uint first_work,    \
+        uint n_work, __global const REAL* scratch, __global ACCUM* out_mean,   \
+        __global ACCUM* out_m2)                                                \
+    {                                                                          \
+        const uint gid = (uint)get_global_id(0);                               \
+        if (gid >= n_work) return;                                             \
+        const uint w = first_work + gid;                                       \
+        BT_KERNEL_LOAD_WORK_(w)                                                \
+        s.sample = 0u;                                                         \
+        const int q_ = BT_KERNEL_QUANTITY_(quantity);                          \
+        const int n = count_fn(p, o, q_, &s);                                  \
+        const uint stored = node_offset[w + 1u] - node_offset[w];              \
+        __global const REAL* x = scratch + (node_offset[w] - first_node);      \
+        REAL sum = R(0.0);                                                     \
+        for (int k = 0; k < n; ++k) {                                          \
+            if ((uint)k < stored) {                                            \
+                sum += x[k];                                                   \
+            } else { /* not laid out by the host: computed here */             \
+                REAL st[state_size];                                           \
+                prepare_fn(p, o, q_, &s, st);                                  \
+                sum += term_fn(st, o, q_, k);                                  \
+            }                                                                  \
+        }                                                                      \
+        ACCUM value = (ACCUM)finish_fn(p, o, q_, &s, sum);                     \
+        ACCUM mean = 0, m2 = 0;                                                \
+        BT_WELFORD_ADD(mean, m2, value, 1u);                                   \
+        out_mean[w] = mean;                                                    \
+        out_m2[w] = m2;                                                        \
+    }
+#endif
+
+#endif /* BRDFTAB_NODE_PARALLEL_H */

@@ -1,0 +1,301 @@
+// Node-parallel quadrature (kernels/common/node_parallel.h; host/engine/engine.cpp,
+// BRDFTAB_NODE_PARALLEL): a quadrature batch's nodes as work items of one
+// kernel, summed in node order by another, must give the very bits of the
+// usual kernel, whose work item loops over the nodes itself.
+//
+// Oracles: the usual kernel (one loop, no layout, no scratch, no
+// sub-launches) for bit identity, and the serial host path (the same header
+// compiled as C++), which agrees to rounding: the device contracts a*b + c
+// into FMAs where the host build does not (kernels/common/bt_math.h), so
+// host and device differ in the last bits today, with or without this path.
+// Accuracy against independent solutions of the H-equation is
+// tests/test_hfunction.cpp's job.
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "host/engine/engine.h"
+#include "host/models/registry.h"
+#include "kernels/common/sampler.h"
+#include "kernels/models/hfunction.h"
+
+using namespace brdftab;
+
+namespace {
+
+// Sets an environment variable for the lifetime of the object (the engine
+// reads BRDFTAB_NODE_PARALLEL* at every launch).
+class ScopedEnv {
+public:
+    ScopedEnv(const char* name, const char* value) : name_(name) {
+        const char* old = std::getenv(name);
+        had_ = old != nullptr;
+        if (had_) old_ = old;
+        if (value)
+            ::setenv(name, value, 1);
+        else
+            ::unsetenv(name);
+    }
+    ~ScopedEnv() {
+        if (had_)
+            ::setenv(name_, old_.c_str(), 1);
+        else
+            ::unsetenv(name_);
+    }
+
+private:
+    const char* name_;
+    bool had_ = false;
+    std::string old_;
+};
+
+// Bitwise equality of doubles (NaN included).
+bool same_bits(double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; }
+
+// Every (mu, c) of the test, fine rule (batch 0) and coarse rule (batch 1)
+// for each: mu at 0, tiny (the node count grows like -log mu: ~3100 nodes at
+// the smallest denormal), small, 1, above 1 (analytic continuation) and
+// large; c from 0 to 1, with c next to 1 (K(0) -> 0, the log singularity).
+struct Launch {
+    BatchLaunch launch;
+    std::vector<double> mu, c;
+};
+
+Launch h_launch(const std::string& psi, const std::map<std::string, double>& poly = {}) {
+    const ModelInfo& m = find_model("hfunction");
+    const QuantityInfo& q = m.quantity("H");
+    PointBuilder builder(m, q);
+    Launch out;
+    BatchLaunch& l = out.launch;
+    l.model = &m;
+    l.quantity = q.id;
+    l.options = resolve_options(m, {{"psi", psi}}, "test");
+    l.method = BT_METHOD_QUADRATURE;
+    l.key0 = 7;
+    l.key1 = 11;
+    l.stride = m.point_stride();
+    l.batch_size = 1;
+    const double mus[] = {0.0,  4.9e-324, 1e-300, 1e-12, 1e-5, 3e-3, 0.02, 0.1, 0.25,
+                          0.5,  0.77,     0.999,  1.0,   1.5,  7.0,  1e3,  1e6, 1e12};
+    const double cs[] = {0.0, 0.1, 0.5, 0.9, 0.99, 0.999999, 1.0 - 1e-12, 1.0};
+    std::uint32_t cell = 0;
+    for (double mu : mus)
+        for (double c : cs) {
+            std::map<std::string, double> values = poly;
+            values["mu"] = mu;
+            values["c"] = c;
+            std::vector<double> point(l.stride);
+            builder.build(values, point.data());
+            for (std::uint32_t batch : {0u, 1u}) {
+                l.points.insert(l.points.end(), point.begin(), point.end());
+                l.cells.push_back(cell);
+                l.batches.push_back(batch);
+                out.mu.push_back(mu);
+                out.c.push_back(c);
+            }
+            ++cell;
+        }
+    return out;
+}
+
+struct Outputs {
+    std::vector<double> mean, m2;
+};
+
+Outputs run(Backend& backend, const BatchLaunch& l) {
+    Outputs o;
+    backend.run(l, o.mean, o.m2);
+    return o;
+}
+
+void check_same_bits(const Launch& x, const Outputs& a, const Outputs& b) {
+    REQUIRE(a.mean.size() == b.mean.size());
+    for (std::size_t w = 0; w < a.mean.size(); ++w) {
+        CAPTURE(w);
+        CAPTURE(x.mu[w]);
+        CAPTURE(x.c[w]);
+        CAPTURE(x.launch.batches[w]);
+        CHECK(same_bits(a.mean[w], b.mean[w]));
+        CHECK(same_bits(a.m2[w], b.m2[w]));
+    }
+}
+
+const char* const kPsi[] = {"lambert0", "lambert1", "lambert2", "isotropic", "poly"};
+
+// psi = poly: a valid Psi (1 - 2 int Psi = 0.32 > 0) with every coefficient set.
+const std::map<std::string, double> kPoly = {
+    {"psi_0", 0.2}, {"psi_1", 0.3}, {"psi_2", -0.1}, {"psi_3", 0.25}};
+
+}  // namespace
+
+TEST_CASE("node-parallel H: the usual kernel's bits, every psi, fine and coarse rules") {
+    auto device = make_backend("", Precision::Double);
+    auto host = make_backend("host", Precision::Double);
+    for (const char* psi : kPsi) {
+        CAPTURE(psi);
+        const Launch x = h_launch(psi, std::string(psi) == "poly" ? kPoly : std::map<std::string, double>{});
+        Outputs usual, node, split, short_layout;
+        {
+            ScopedEnv off("BRDFTAB_NODE_PARALLEL", "0");
+            usual = run(*device, x.launch);
+        }
+        {
+            ScopedEnv on("BRDFTAB_NODE_PARALLEL", "1");
+            node = run(*device, x.launch);
+            // Sub-launches of at most 300 nodes: one or two work items each,
+            // and a work item of more nodes than the cap alone (tiny mu).
+            {
+                ScopedEnv cap("BRDFTAB_NODE_PARALLEL_SCRATCH", "300");
+                split = run(*device, x.launch);
+            }
+            // The host lays out 50 nodes per work item at most; the sum
+            // kernel computes the others itself, in their place.
+            {
+                ScopedEnv cap("BRDFTAB_NODE_PARALLEL_LAYOUT_CAP", "50");
+                short_layout = run(*device, x.launch);
+            }
+        }
+        const Outputs serial = run(*host, x.launch);
+        check_same_bits(x, usual, node);
+        check_same_bits(x, usual, split);
+        check_same_bits(x, usual, short_layout);
+        for (std::size_t w = 0; w < serial.mean.size(); ++w) {
+            CAPTURE(w);
+            CAPTURE(x.mu[w]);
+            CAPTURE(x.c[w]);
+            CAPTURE(x.launch.batches[w]);
+            if (x.mu[w] < 1e-140) {
+                // Below mu ~ 5e-147 the rule's last nodes t = e^18 / mu
+                // overflow t^2 and H comes out NaN on every path (as before
+                // this path existed; the model's domain starts at 0 but its
+                // tests stop at 1e-5): only compared bit for bit above.
+                CHECK(std::isfinite(serial.mean[w]) == std::isfinite(node.mean[w]));
+                continue;
+            }
+            REQUIRE(std::isfinite(serial.mean[w]));
+            // Host and device differ by FMA contraction only (see the top).
+            CHECK(std::fabs(node.mean[w] - serial.mean[w]) <= 1e-13 * std::fabs(serial.mean[w]));
+            CHECK(node.m2[w] == 0.0);
+            if (x.mu[w] == 0.0) CHECK(node.mean[w] == 1.0);  // H(0) = 1
+        }
+    }
+}
+
+TEST_CASE("node-parallel H: no H-function (poly with 1 - 2 int Psi < 0) gives the usual NaN") {
+    auto device = make_backend("", Precision::Double);
+    const Launch x = h_launch("poly", {{"psi_0", 0.8}});
+    Outputs usual, node;
+    {
+        ScopedEnv off("BRDFTAB_NODE_PARALLEL", "0");
+        usual = run(*device, x.launch);
+    }
+    {
+        ScopedEnv on("BRDFTAB_NODE_PARALLEL", "1");
+        node = run(*device, x.launch);
+    }
+    check_same_bits(x, usual, node);
+    for (std::size_t w = 0; w < node.mean.size(); ++w)
+        if (x.mu[w] > 0) CHECK(std::isnan(node.mean[w]));
+}
+
+TEST_CASE("node-parallel H in float: the usual float kernel's bits") {
+    // The host lays out the nodes from its double count; a float device may
+    // count one more or one fewer, which the sum kernel absorbs.
+    auto device = make_backend("", Precision::Float);
+    for (const char* psi : {"lambert0", "isotropic"}) {
+        CAPTURE(psi);
+        const Launch x = h_launch(psi);
+        Outputs usual, node;
+        {
+            ScopedEnv off("BRDFTAB_NODE_PARALLEL", "0");
+            usual = run(*device, x.launch);
+        }
+        {
+            ScopedEnv on("BRDFTAB_NODE_PARALLEL", "1");
+            node = run(*device, x.launch);
+        }
+        check_same_bits(x, usual, node);
+    }
+}
+
+TEST_CASE("node-parallel H through estimate(): same values and error estimates as the usual kernel") {
+    // The engine's own launches (slabs, the fine/coarse batch pair, the
+    // default switch): the whole result, bit for bit, and the default is the
+    // node-parallel path.
+    const ModelInfo& m = find_model("hfunction");
+    const QuantityInfo& q = m.quantity("H");
+    REQUIRE(q.node_parallel.enabled());
+    CHECK_FALSE(m.quantity("moment").node_parallel.enabled());  // stays on the usual kernel
+    auto device = make_backend("", Precision::Double);
+    PointBuilder builder(m, q);
+    std::vector<std::map<std::string, double>> cells;
+    for (int k = 0; k < 200; ++k) cells.push_back({{"mu", 0.005 * k}, {"c", 0.995}});
+    const std::vector<int> options = resolve_options(m, {{"psi", "lambert1"}}, "test");
+    IntegrationSettings s;
+    s.slab_work_items = 64;  // several launches
+    auto estimate_h = [&] {
+        return estimate(*device, m, q, options, cells.size(),
+                        [&](std::size_t c, double* out) { builder.build(cells[c], out); }, s);
+    };
+    EstimateResult usual, node, by_default;
+    {
+        ScopedEnv off("BRDFTAB_NODE_PARALLEL", "0");
+        usual = estimate_h();
+    }
+    {
+        ScopedEnv on("BRDFTAB_NODE_PARALLEL", "1");
+        node = estimate_h();
+    }
+    {
+        ScopedEnv unset("BRDFTAB_NODE_PARALLEL", nullptr);
+        by_default = estimate_h();
+    }
+    CHECK(node_parallel_by_default());
+    REQUIRE(usual.value.size() == cells.size());
+    for (std::size_t c = 0; c < cells.size(); ++c) {
+        CAPTURE(c);
+        CHECK(same_bits(usual.value[c], node.value[c]));
+        CHECK(same_bits(usual.stderr_[c], node.stderr_[c]));
+        CHECK(same_bits(usual.value[c], by_default.value[c]));
+        CHECK(usual.samples[c] == node.samples[c]);
+    }
+}
+
+TEST_CASE("hfunction's node functions compose to its sample function (host build)") {
+    // The contract of kernels/common/node_parallel.h, checked on the C++
+    // build of the header: count, prepare, the terms added in node order and
+    // finish give hfunction_sample's H bit for bit (and so the serial path's).
+    const double mus[] = {0.0, 1e-140, 1e-12, 1e-5, 0.02, 0.5, 1.0, 7.0, 1e12};
+    const double cs[] = {0.0, 0.5, 0.999999, 1.0};
+    const double poly[4] = {0.2, 0.3, -0.1, 0.25};
+    for (int psi = HF_PSI_LAMBERT0; psi <= HF_PSI_POLY; ++psi)
+        for (double mu : mus)
+            for (double c : cs)
+                for (unsigned batch : {0u, 1u}) {
+                    CAPTURE(psi);
+                    CAPTURE(mu);
+                    CAPTURE(c);
+                    CAPTURE(batch);
+                    double p[16] = {0};
+                    p[HF_PARAM_MU] = mu;
+                    p[HF_PARAM_C] = c;
+                    for (int k = 0; k < 4; ++k) p[HF_PARAM_PSI_0 + k] = poly[k];
+                    const int o[8] = {psi};
+                    bt_sampler s{};
+                    s.method = BT_METHOD_QUADRATURE;
+                    s.batch = batch;
+                    const int n = hfunction_h_node_count(p, o, HF_Q_H, &s);
+                    double state[HF_NODE_STATE];
+                    hfunction_h_node_prepare(p, o, HF_Q_H, &s, state);
+                    double sum = 0.0;
+                    for (int k = 0; k < n; ++k) sum += hfunction_h_node_term(state, o, HF_Q_H, k);
+                    const double composed = hfunction_h_node_finish(p, o, HF_Q_H, &s, sum);
+                    CHECK(same_bits(composed, hfunction_sample(p, o, HF_Q_H, &s)));
+                    if (mu > 0) CHECK(n > (batch == 0 ? 120 : 60));  // the fine rule has ~125+ nodes
+                }
+}
