@@ -210,14 +210,16 @@ public:
     // reads of a launch are enqueued without blocking, on the buffer set the
     // unfinished launch (if any) does not use; finish() waits for the
     // oldest launch's last read.  Launches that stage data on the host
-    // (float points, float accumulators) or run the sample-parallel kernels
-    // run synchronously inside start() instead.
+    // (float points, float accumulators) or run the sample-parallel or
+    // node-parallel kernels (one set of scratch buffers and, for the node
+    // layout, host vectors) run synchronously inside start() instead.
     void start(const BatchLaunch& l, std::vector<double>& mean,
                std::vector<double>& m2) override {
         if (unfinished_.size() >= 2)
             throw Error("OpenCL backend: start() with two launches unfinished");
         const bool overlap = precision_ == Precision::Double &&
-                             runtime_.device_info().has_fp64 && !use_sample_parallel(l);
+                             runtime_.device_info().has_fp64 && !use_sample_parallel(l) &&
+                             !use_node_parallel(l);
         if (!overlap) {
             while (!unfinished_.empty()) finish();
             enqueue_launch(l, mean, m2, nullptr);
