@@ -231,8 +231,73 @@ Certificate certify_impl(const TableData& stored, Backend& backend, const Certif
     // computed.
     std::optional<LookupTable> filled;
     TableData work;
+    // Lazily computed with the automatic relative floor: the cells that set
+    // the floor besides those the first stage reads.  A table's largest value
+    // often lies at a corner or along an edge (grazing angles, the specular
+    // direction at grazing, the ends of parameter ranges), which the probe
+    // lines rarely pass through in the right combination: every node of the
+    // table's edges (the lines along one axis with every other axis at one
+    // of its ends; the corners are among them), and the nodes within
+    // kHintReach of the nearest node to each of the caller's floor hints on
+    // every axis (the planner's: where its pilot saw its largest value; a
+    // peak's largest node need not be the nearest one: the off-specular
+    // shift of a glossy lobe, the pilot's own spacing).  Hints on tables with
+    // dependent axes are not used (their nodes move with the other axes).
+    std::vector<std::size_t> floor_cells;
+    if (lazy && !options.absolute && !(options.abs_floor > 0)) {
+        auto add_block = [&](const std::vector<std::size_t>& lo, const std::vector<std::size_t>& hi) {
+            std::vector<std::size_t> at = lo;  // odometer over the block
+            for (bool more = true; more;) {
+                std::size_t flat = 0;
+                for (std::size_t a = 0; a < dims; ++a) flat = flat * t.axes[a].count + at[a];
+                floor_cells.push_back(flat);
+                more = false;
+                for (std::size_t a = dims; a-- > 0;) {
+                    if (at[a] < hi[a]) {
+                        ++at[a];
+                        more = true;
+                        break;
+                    }
+                    at[a] = lo[a];
+                }
+            }
+        };
+        for (std::size_t a = 0; a < dims; ++a)
+            for (std::size_t ends = 0; ends < (std::size_t(1) << dims); ++ends) {
+                if ((ends >> a) & 1) continue;  // axis a's bit unused: each edge once
+                std::vector<std::size_t> lo(dims), hi(dims);
+                for (std::size_t b = 0; b < dims; ++b) {
+                    const std::size_t end = ((ends >> b) & 1) ? t.axes[b].count - 1 : 0;
+                    lo[b] = b == a ? 0 : end;
+                    hi[b] = b == a ? t.axes[b].count - 1 : end;
+                }
+                add_block(lo, hi);
+            }
+        constexpr std::size_t kHintReach = 2;
+        bool independent = true;
+        for (const Axis& ax : t.axes) independent = independent && !ax.dependent();
+        for (const auto& hint : lazy->floor_hints) {
+            if (!independent) break;
+            std::vector<std::size_t> lo(dims), hi(dims);
+            bool complete = true;
+            for (std::size_t a = 0; a < dims && complete; ++a) {
+                const auto it = hint.find(t.axes[a].name);
+                complete = it != hint.end() && std::isfinite(it->second);
+                if (!complete) break;
+                const std::vector<double>& v = t.axes[a].values;
+                std::size_t near = 0;
+                for (std::size_t j = 1; j < v.size(); ++j)
+                    if (std::fabs(v[j] - it->second) < std::fabs(v[near] - it->second)) near = j;
+                lo[a] = near >= kHintReach ? near - kHintReach : 0;
+                hi[a] = std::min(v.size() - 1, near + kHintReach);
+            }
+            if (complete) add_block(lo, hi);
+        }
+        std::sort(floor_cells.begin(), floor_cells.end());
+        floor_cells.erase(std::unique(floor_cells.begin(), floor_cells.end()), floor_cells.end());
+    }
     if (lazy) {
-        std::vector<std::size_t> touched;
+        std::vector<std::size_t> touched = floor_cells;
         for (const auto& x : coords) table.stencil_cells(x, options.interpolation, OutOfRange::Clamp, touched);
         std::sort(touched.begin(), touched.end());
         touched.erase(std::unique(touched.begin(), touched.end()), touched.end());
@@ -261,10 +326,10 @@ Certificate certify_impl(const TableData& stored, Backend& backend, const Certif
                    : options.abs_floor > 0 ? options.abs_floor
                                            : std::max(options.rel_floor_factor * max_table, 1e-300);
     // Computed lazily, the automatic floor is taken over the cells the first
-    // stage reads and the table's 2^D corners (set in `evaluate`, before any
-    // error is measured): the table's largest value whenever its cell is
-    // among them, otherwise below it (the certificate errs towards larger
-    // relative errors).
+    // stage reads and floor_cells (set in `evaluate`, before any error is
+    // measured): the table's largest value whenever its cell is among them,
+    // otherwise below it (the certificate errs towards larger relative
+    // errors).
     const bool floor_from_cells = lazy && !options.absolute && !(options.abs_floor > 0);
 
     // ---- the reference: closed form, or the quantity's default method under
@@ -304,60 +369,7 @@ Certificate certify_impl(const TableData& stored, Backend& backend, const Certif
             std::vector<std::size_t> cells;
             for (std::size_t k = first; k < coords.size(); ++k)
                 table.stencil_cells(coords[k], options.interpolation, OutOfRange::Clamp, cells);
-            if (floor_from_cells && first == 0) {
-                // The table's corners too: a table's largest value often
-                // lies at one (grazing angles, the ends of parameter
-                // ranges), and the lines rarely pass through them.
-                for (std::size_t corner = 0; corner < (std::size_t(1) << dims); ++corner) {
-                    std::size_t flat = 0;
-                    for (std::size_t a = 0; a < dims; ++a)
-                        flat = flat * t.axes[a].count + (((corner >> a) & 1) ? t.axes[a].count - 1 : 0);
-                    cells.push_back(flat);
-                }
-                // And the cells around the caller's hints (the planner's:
-                // where its pilot saw the largest value), which catch a
-                // largest value inside the table that no probe reads: the
-                // nodes within kHintReach of the nearest node on every axis
-                // (a peak's largest node need not be the nearest one: the
-                // off-specular shift of a glossy lobe, the pilot's own
-                // spacing).  Hints on tables with dependent axes are not
-                // used (their nodes move with the other axes).
-                constexpr std::size_t kHintReach = 2;
-                bool independent = true;
-                for (const Axis& ax : t.axes) independent = independent && !ax.dependent();
-                for (const auto& hint : lazy->floor_hints) {
-                    if (!independent) break;
-                    std::vector<std::size_t> lo(dims), hi(dims);
-                    bool complete = true;
-                    for (std::size_t a = 0; a < dims && complete; ++a) {
-                        const auto it = hint.find(t.axes[a].name);
-                        complete = it != hint.end() && std::isfinite(it->second);
-                        if (!complete) break;
-                        const std::vector<double>& v = t.axes[a].values;
-                        std::size_t near = 0;
-                        for (std::size_t j = 1; j < v.size(); ++j)
-                            if (std::fabs(v[j] - it->second) < std::fabs(v[near] - it->second)) near = j;
-                        lo[a] = near >= kHintReach ? near - kHintReach : 0;
-                        hi[a] = std::min(v.size() - 1, near + kHintReach);
-                    }
-                    if (!complete) continue;
-                    std::vector<std::size_t> at = lo;  // odometer over the block
-                    for (bool more = true; more;) {
-                        std::size_t flat = 0;
-                        for (std::size_t a = 0; a < dims; ++a) flat = flat * t.axes[a].count + at[a];
-                        cells.push_back(flat);
-                        more = false;
-                        for (std::size_t a = dims; a-- > 0;) {
-                            if (at[a] < hi[a]) {
-                                ++at[a];
-                                more = true;
-                                break;
-                            }
-                            at[a] = lo[a];
-                        }
-                    }
-                }
-            }
+            if (floor_from_cells && first == 0) cells.insert(cells.end(), floor_cells.begin(), floor_cells.end());
             std::sort(cells.begin(), cells.end());
             cells.erase(std::unique(cells.begin(), cells.end()), cells.end());
             lazy->fill(cells, work);

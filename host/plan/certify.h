@@ -130,9 +130,10 @@ Certificate certify_file_table(const std::string& path, const std::string& table
 // bit for bit (same options and seed), at the cost of the touched cells.
 // Exceptions: the automatic relative floor (CertifyOptions::abs_floor = 0)
 // is rel_floor_factor x the largest value among the cells the first stage
-// reads, the table's 2^D corners and the cells around the floor hints (the
-// table's largest value whenever that cell is among them, else smaller:
-// larger relative errors);
+// reads, the nodes of the table's edges (every axis but one at one of its
+// ends; the 2^D corners among them; they count towards the cells touched)
+// and the cells around the floor hints (the table's largest value whenever
+// that cell is among them, else smaller: larger relative errors);
 // and for a quadrature without a finer reference rule the added rule error
 // is the largest stored two-rule difference over the computed cells only.
 struct SparseCertifyOptions {
@@ -158,9 +159,9 @@ struct SparseCertifyOptions {
     // interpolation cells join the cells that set the automatic relative
     // floor.  verify_plan() passes where the table's pilot saw its largest
     // value: a largest value inside the table, off the probes' cells and the
-    // corners, otherwise leaves the floor low and the relative errors
-    // too large (interfaced-lambertian-anisotropic's brdf: 16x).  A point
-    // missing an axis is ignored.
+    // table's edges, otherwise leaves the floor low and the relative errors
+    // too large.  A point missing an axis is ignored, and so are all of them
+    // on a table with dependent axes.
     std::vector<std::map<std::string, double>> floor_hints;
 };
 
