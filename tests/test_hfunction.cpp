@@ -228,6 +228,26 @@ TEST_CASE("limits: H(0) = 1, H0(inf) (eq. 32), small c, Chandrasekhar's H(1) = 2
     }
 }
 
+TEST_CASE("H at tiny mu: 1 to double precision, finite down to the smallest double") {
+    // H(mu) - 1 = O(mu log(1/mu)) (the first-order term above: (c/2) mu
+    // log(1 + 1/mu) for isotropic scattering, at most ~mu log(1/mu) for
+    // every Psi), far below half an ulp of 1 for mu <= 1e-20.  The trapezoid
+    // rule's upper limit t = e^18 / mu used to overflow t^2 below mu ~ 5e-147
+    // (H was NaN there).
+    for (int kind = 0; kind < 5; ++kind)
+        for (double c : {0.3, 0.99, 1.0})
+            for (double mu : {1e-20, 1e-60, 1e-99, 1e-101, 1e-146, 1e-200, 1e-300, 4.9e-324}) {
+                CAPTURE(kind);
+                CAPTURE(c);
+                CAPTURE(mu);
+                for (int coarse : {0, 1}) {
+                    const double h = kernel_h(kind, c, kPoly, mu, coarse);
+                    CHECK(std::isfinite(h));
+                    CHECK(std::fabs(h - 1.0) <= 2.3e-16);  // within an ulp of 1
+                }
+            }
+}
+
 TEST_CASE("moments: isotropic alpha_0 = (2/c)(1 - sqrt(1 - c)); int Psi H = 1 - sqrt(K(0))") {
     for (double c : {0.01, 0.5, 0.9, 1.0}) {
         hf_psi P = hf_make_psi(HF_PSI_ISOTROPIC, c, kNoPoly);
