@@ -481,7 +481,7 @@ private:
     // (model, quantity, options, method).
     struct NodeParallelKernels {
         cl::Kernel prepare, node, sum;
-        cl::Kernel group = {};  // nested sums only
+        cl::Kernel group = {}, chunk = {};  // nested sums only
     };
 
     static const NodeParallelFunctions* node_functions(const BatchLaunch& l) {
@@ -653,9 +653,9 @@ private:
     // work item's groups from the host count function; per sub-launch of
     // whole work items (at most node_parallel_scratch_nodes() / 512 groups,
     // a work item with more alone), the prepare and group kernels, a read of
-    // the device's node counts, their layout (offsets and the chunk table),
-    // then the node and sum kernels.  The launch's inputs are already
-    // written; the outputs are read by run().
+    // the device's node counts and their offsets, then the chunk-table, node
+    // and sum kernels.  The launch's inputs are already written; the outputs
+    // are read by run().
     void enqueue_nested_node_parallel(const BatchLaunch& l, NodeParallelKernels& k,
                                       std::size_t real_size) {
         cl::CommandQueue& queue = runtime_.queue();
@@ -690,7 +690,7 @@ private:
             have = std::max(need, 2 * have);
             buffer = cl::Buffer(ctx, flags, have);
         };
-        std::vector<std::uint32_t> item_group, group_item, group_node, chunk_group;
+        std::vector<std::uint32_t> item_group, group_item, group_node;
         std::vector<cl_int> group_nodes;
         const cl::NDRange local = local_range();
         for (std::size_t first = 0; first < n;) {
@@ -754,26 +754,19 @@ private:
                 group_node[total_groups] = static_cast<std::uint32_t>(total_nodes);
                 while ((std::size_t{2} << chunk_shift) <= smallest) ++chunk_shift;
                 const std::size_t chunks = (total_nodes >> chunk_shift) + 1;
-                chunk_group.resize(2 * chunks);
-                // chunk c: the groups of its first and its last node
-                std::size_t g = 0;
-                for (std::size_t c = 0; c < chunks; ++c) {
-                    const std::size_t node0 = c << chunk_shift;
-                    const std::size_t node1 = std::min(node0 + (std::size_t{1} << chunk_shift), total_nodes) - 1;
-                    while (g + 1 < total_groups && group_node[g + 1] <= node0) ++g;
-                    chunk_group[2 * c] = static_cast<std::uint32_t>(g);
-                    std::size_t g1 = g;
-                    while (g1 + 1 < total_groups && group_node[g1 + 1] <= node1) ++g1;
-                    chunk_group[2 * c + 1] = static_cast<std::uint32_t>(g1);
-                }
                 queue.enqueueWriteBuffer(nested_group_node_, CL_TRUE, 0, (total_groups + 1) * 4,
                                          group_node.data());
                 if (total_nodes > 0) {
-                    grow(nested_chunk_group_, nested_chunk_group_bytes_, chunk_group.size() * 4,
-                         CL_MEM_READ_ONLY);
+                    grow(nested_chunk_group_, nested_chunk_group_bytes_, 2 * chunks * 4,
+                         CL_MEM_READ_WRITE);
                     grow(node_scratch_, node_scratch_bytes_, total_nodes * term_bytes, CL_MEM_READ_WRITE);
-                    queue.enqueueWriteBuffer(nested_chunk_group_, CL_TRUE, 0, chunk_group.size() * 4,
-                                             chunk_group.data());
+                    // group_node, n_groups, chunk_shift, chunk_group
+                    k.chunk.setArg(0, nested_group_node_);
+                    k.chunk.setArg(1, static_cast<cl_uint>(total_groups));
+                    k.chunk.setArg(2, static_cast<cl_uint>(chunk_shift));
+                    k.chunk.setArg(3, nested_chunk_group_);
+                    queue.enqueueNDRangeKernel(k.chunk, cl::NullRange,
+                                               cl::NDRange(padded_global(total_groups)), local);
                     // options, n_options, quantity, chunk_group, chunk_shift,
                     // group_node, group_item, n_nodes, item_state, group_state, scratch
                     k.node.setArg(0, options_);
@@ -808,8 +801,6 @@ private:
             k.sum.setArg(a++, out_mean_);
             k.sum.setArg(a++, out_m2_);
             queue.enqueueNDRangeKernel(k.sum, cl::NullRange, cl::NDRange(padded_global(items)), local);
-            // The next sub-launch rewrites the layout buffers: let this one finish.
-            queue.finish();
             first = last;
         }
     }
@@ -836,7 +827,10 @@ private:
             NodeParallelKernels k{cl::Kernel(program, kNodePrepareKernelName),
                                   cl::Kernel(program, kNodeKernelName),
                                   cl::Kernel(program, kNodeSumKernelName)};
-            if (f.nested()) k.group = cl::Kernel(program, kNodeGroupKernelName);
+            if (f.nested()) {
+                k.group = cl::Kernel(program, kNodeGroupKernelName);
+                k.chunk = cl::Kernel(program, kNodeChunkKernelName);
+            }
             return node_parallel_kernels_.emplace(key, std::move(k)).first->second;
         } catch (const cl::Error& e) {
             throw OpenCLError(e.what(), e.err(), "node-parallel entry points of model '" +

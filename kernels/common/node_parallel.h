@@ -152,14 +152,19 @@
  * The host lays out every work item's groups from the count function
  * compiled for the host (QuantityInfo::node_parallel.host_count); the
  * device counts each group's nodes (the group kernel), the host reads the
- * counts back and lays the nodes out.  A work item whose device group count
+ * counts back and lays the nodes out (prefix sums; the chunk kernel builds
+ * the node-to-group table).  A work item whose device group count
  * differs from the host's (rounding, in float) runs sample_fn instead.
  * Indices of work items, groups and nodes are local to a sub-launch:
  *   prepare_kernel  one work item per work item: item state.
  *   group_kernel    one work item per group G of work item
  *                   i = group_item[G], its number G - item_group[i]: group
  *                   state and node count group_nodes[G].
- *   node_kernel     one work item per node: group G (the host's chunk table:
+ *   chunk_kernel    one work item per group, after the host has laid out
+ *                   the nodes (group_node: the exclusive prefix sum of the
+ *                   device's counts): the chunk table below, for the chunks
+ *                   whose first or last node is the group's.
+ *   node_kernel     one work item per node: group G (the chunk table:
  *                   node gid lies in group chunk_group[2c] or, from
  *                   group_node[chunk_group[2c + 1]] on, in that one;
  *                   c = gid >> chunk_shift, 2^chunk_shift <= the node count
@@ -173,9 +178,25 @@
  */
 #if BT_DEVICE
 #define BT_DEFINE_NESTED_NODE_PARALLEL_KERNELS(                                \
-    prepare_kernel, group_kernel, node_kernel, sum_kernel, item_state_size,    \
-    group_state_size, n_terms, acc_size, count_fn, prepare_fn,                 \
-    group_prepare_fn, term_fn, group_sum_fn, finish_fn, sample_fn)             \
+    prepare_kernel, group_kernel, chunk_kernel, node_kernel, sum_kernel,       \
+    item_state_size, group_state_size, n_terms, acc_size, count_fn,            \
+    prepare_fn, group_prepare_fn, term_fn, group_sum_fn, finish_fn, sample_fn) \
+    __kernel void chunk_kernel(__global const uint* group_node, uint n_groups, \
+                               uint chunk_shift, __global uint* chunk_group)   \
+    {                                                                          \
+        const uint g = (uint)get_global_id(0);                                 \
+        if (g >= n_groups) return;                                             \
+        const uint a = group_node[g], b = group_node[g + 1u];                  \
+        const uint total = group_node[n_groups];                               \
+        if (a == b) return;                                                    \
+        for (uint c = a >> chunk_shift; c <= (b - 1u) >> chunk_shift; ++c) {   \
+            const uint first_node = c << chunk_shift;                          \
+            const uint end = first_node + (1u << chunk_shift);                 \
+            const uint last_node = (end < total ? end : total) - 1u;           \
+            if (first_node >= a) chunk_group[2u * c] = g;                      \
+            if (last_node < b) chunk_group[2u * c + 1u] = g;                   \
+        }                                                                      \
+    }                                                                          \
     __kernel void prepare_kernel(                                              \
         __global const REAL* points, uint stride, __global const int* options, \
         uint n_options, int quantity, uint method, uint key0, uint key1,       \
