@@ -323,7 +323,16 @@ BT_INLINE void on_phi_node(const on_geom* g, REAL sin_a, REAL cos_a, REAL mid, R
                            int want, REAL* f1, REAL* f2)
 {
     REAL phi = mid + hl * x;
-    on_facet(g, bt_v3(sin_a * bt_cos(phi), sin_a * bt_sin(phi), cos_a), want, f1, f2);
+#if BT_DEVICE && defined(BT_REAL_IS_FLOAT) && BT_REAL_IS_FLOAT
+    REAL cos_phi = bt_cos(phi), sin_phi = bt_sin(phi);
+#else
+    /* bt_sincos: bt_sin's and bt_cos's values (one argument reduction, the
+     * same polynomials, exact sign changes) at less cost; the float
+     * device's builtins are not known to agree, so they stay apart. */
+    REAL cos_phi;
+    REAL sin_phi = bt_sincos(phi, &cos_phi);
+#endif
+    on_facet(g, bt_v3(sin_a * cos_phi, sin_a * sin_phi, cos_a), want, f1, f2);
 }
 
 /* The inner sum's step (one phi_a node of weight w on half-length hl). */
