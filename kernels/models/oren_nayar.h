@@ -307,10 +307,12 @@ BT_INLINE int on_phi_breaks(const on_geom* g, REAL theta_a, int want, REAL* b)
  * a period (the integrand is then a low-order trig polynomial). */
 BT_INLINE int on_phi_parts(int nb) { return nb == 1 ? 2 : 1; }
 
-/* Half-length and midpoint of part q of sub-interval [b[k], b[k+1]]. */
+/* Half-length and midpoint of part q of sub-interval [b[k], b[k+1]].
+ * parts is 1 or 2: the product by 1 or 1/2 is the quotient by parts, bit
+ * for bit (both are exact scalings), without a division. */
 BT_INLINE void on_phi_interval(REAL lo, REAL hi, int parts, int q, REAL* hl, REAL* mid)
 {
-    REAL step = (hi - lo) / (REAL)parts;
+    REAL step = (hi - lo) * (parts == 2 ? R(0.5) : R(1.0));
     REAL l = lo + step * (REAL)q;
     *hl = R(0.5) * step;
     *mid = l + *hl;
@@ -804,7 +806,8 @@ BT_INLINE REAL oren_nayar_sample(const REAL* p, const int* o, int quantity, cons
 #define ON_NODE_GEOM 12
 #define ON_NODE_I_N (ON_NODE_GEOM)
 #define ON_NODE_I_INV2S2 (ON_NODE_GEOM + 1)
-#define ON_NODE_I_LO (ON_NODE_GEOM + 2)
+#define ON_NODE_I_INV_N (ON_NODE_GEOM + 2)
+#define ON_NODE_I_LO (ON_NODE_GEOM + 3)
 #define ON_NODE_I_L (ON_NODE_I_LO + 7)
 #define ON_NODE_I_KIND (ON_NODE_I_L + 7)
 #define ON_NODE_I_GX (ON_NODE_I_KIND + 7)
@@ -889,6 +892,7 @@ BT_INLINE void oren_nayar_node_prepare(const REAL* p, const int* o, int quantity
     int n = on_quad_nodes(p, s);
     st[ON_NODE_I_N] = (REAL)n;
     st[ON_NODE_I_INV2S2] = R(0.5) / (sigma * sigma);
+    st[ON_NODE_I_INV_N] = R(1.0) / (REAL)n;
     REAL e[8];
     int kind[8];
     int ne = on_theta_breaks(&g, sigma, e, kind);
@@ -939,9 +943,10 @@ BT_INLINE int oren_nayar_node_group(BT_GLOBAL const REAL* item, const int* o, in
 
 /* Node k of a group: F1 and F2 at phi_a node k % n of part k / n
  * (on_phi_node, as in on_phi_integral; a zero-length part's nodes are
- * computed too, and the group sum skips them).  No integer division (x86
- * has no vector one): k / n in REAL, exact since k < 2^13 and the quotient
- * is at least 1/(2n) from an integer; parts is 1 or 2. */
+ * computed too, and the group sum skips them).  No division (x86 has no
+ * vector integer one, and a REAL one is slow): k / n as (k + 1/2) (1/n) in
+ * REAL, whose floor is exact since k < 2^13 and (k + 1/2)/n is at least
+ * 1/(2n) from an integer; parts is 1 or 2. */
 BT_INLINE void oren_nayar_node_term(BT_GLOBAL const REAL* item, BT_GLOBAL const REAL* gs,
                                     const int* o, int quantity, int k, REAL* out)
 {
@@ -950,7 +955,7 @@ BT_INLINE void oren_nayar_node_term(BT_GLOBAL const REAL* item, BT_GLOBAL const 
     int n = (int)item[ON_NODE_I_N];
     int nb = (int)gs[ON_NODE_G_NB];
     int parts = on_phi_parts(nb);
-    int part = (int)(((REAL)k + R(0.5)) / (REAL)n), j = k - part * n;
+    int part = (int)(((REAL)k + R(0.5)) * item[ON_NODE_I_INV_N]), j = k - part * n;
     int iv = part >> (parts - 1), q = part & (parts - 1);
     REAL hl, mid;
     on_phi_interval(gs[ON_NODE_G_B + iv], gs[ON_NODE_G_B + iv + 1], parts, q, &hl, &mid);
