@@ -175,21 +175,29 @@ BT_INLINE REAL on_d(REAL x, REAL y, REAL c2)
 }
 
 /* Interreflection factor, eq. 19: int_{mv}^1 int_{ms}^1 K'(t, r) dr dt,
- * with d(1, m_v) and d(1, m_s) given (on_facet computes d(1, m_s) apart). */
-BT_INLINE REAL on_if_split(REAL d_v, REAL d_s, REAL mv, REAL ms, REAL c2)
+ * with d(1, m_v), d(1, m_s) and d(1, 1) given (on_facet computes d(1, m_s)
+ * apart, and d(1, 1) depends on theta_a alone). */
+BT_INLINE REAL on_if_split(REAL d_v, REAL d_s, REAL mv, REAL ms, REAL c2, REAL d_11)
 {
-    REAL r = BT_HALF_PI * (d_v + d_s - on_d(ms, mv, c2) - on_d(R(1.0), R(1.0), c2));
+    REAL r = BT_HALF_PI * (d_v + d_s - on_d(ms, mv, c2) - d_11);
     return fmax(r, R(0.0)); /* rounding only: the integrand K' is >= 0 */
 }
 
 BT_INLINE REAL on_if(REAL mv, REAL ms, REAL c2)
 {
-    return on_if_split(on_d(R(1.0), mv, c2), on_d(R(1.0), ms, c2), mv, ms, c2);
+    return on_if_split(on_d(R(1.0), mv, c2), on_d(R(1.0), ms, c2), mv, ms, c2,
+                       on_d(R(1.0), R(1.0), c2));
 }
 
+/* cos 2 theta_a from a_z = cos theta_a. */
+BT_INLINE REAL on_cos2(REAL az) { return R(2.0) * az * az - R(1.0); }
+
 /* Per-facet BRDF contributions F1 (per unit rho) and F2 (per unit rho^2), see
- * the header comment.  `want` selects which are computed. */
-BT_INLINE void on_facet(const on_geom* g, bt_vec3 a, int want, REAL* f1, REAL* f2)
+ * the header comment.  `want` selects which are computed.  have_d11 != 0
+ * (a constant at every call): d(1, 1) of eq. 20 at this theta_a is d11,
+ * computed once per theta_a node by the quadrature (the same value). */
+BT_INLINE void on_facet_d11(const on_geom* g, bt_vec3 a, int want, int have_d11, REAL d11,
+                            REAL* f1, REAL* f2)
 {
     *f1 = R(0.0);
     *f2 = R(0.0);
@@ -207,7 +215,7 @@ BT_INLINE void on_facet(const on_geom* g, bt_vec3 a, int want, REAL* f1, REAL* f
         REAL sa2 = R(2.0) * az * sz - sa, va2 = R(2.0) * az * vz - va;
         if (va > R(0.0) && sa2 > R(0.0)) {
             REAL mv = bt_clamp(-va2 / va, R(0.0), R(1.0));  /* eq. 15 */
-            REAL c2 = R(2.0) * az * az - R(1.0);             /* cos 2 theta_a */
+            REAL c2 = on_cos2(az);                           /* cos 2 theta_a */
             /* eq. 16: m_s/w = 0 while <a,s> >= 0, and then d(1, m_s) = 1
              * exactly (also for the -0 the clamp may give), so the branch
              * changes no value.  It keeps m_s and d(1, m_s) in a block of
@@ -219,11 +227,20 @@ BT_INLINE void on_facet(const on_geom* g, bt_vec3 a, int want, REAL* f1, REAL* f
                 ms = bt_clamp(-sa / sa2, R(0.0), R(1.0));
                 d_s = on_d(R(1.0), ms, c2);
             }
-            REAL itf = on_if_split(on_d(R(1.0), mv, c2), d_s, mv, ms, c2); /* eq. 19 */
+            REAL itf = on_if_split(on_d(R(1.0), mv, c2), d_s, mv, ms, c2,
+                                   have_d11 ? d11 : on_d(R(1.0), R(1.0), c2)); /* eq. 19 */
             *f2 = sa2 * va * itf * (BT_INV_PI * BT_INV_PI) / (az * vz * sz); /* eq. 18 */
         }
     }
 }
+
+BT_INLINE void on_facet(const on_geom* g, bt_vec3 a, int want, REAL* f1, REAL* f2)
+{
+    on_facet_d11(g, a, want, 0, R(0.0), f1, f2);
+}
+
+/* d(1, 1) of eq. 20 at slope cos theta_a = cos_a (on_facet_d11). */
+BT_INLINE REAL on_d11(REAL cos_a) { return on_d(R(1.0), R(1.0), on_cos2(cos_a)); }
 
 /* --------------------------------------------------------- quadrature */
 
@@ -321,8 +338,8 @@ BT_INLINE void on_phi_interval(REAL lo, REAL hi, int parts, int q, REAL* hl, REA
 /* F1, F2 at the GL node x of a sub-interval (mid, hl) at slope theta_a
  * (sin, cos of it given): the integrand of on_phi_integral, shared with the
  * node-parallel kernel (on_node_term). */
-BT_INLINE void on_phi_node(const on_geom* g, REAL sin_a, REAL cos_a, REAL mid, REAL hl, REAL x,
-                           int want, REAL* f1, REAL* f2)
+BT_INLINE void on_phi_node(const on_geom* g, REAL sin_a, REAL cos_a, REAL d11, REAL mid, REAL hl,
+                           REAL x, int want, REAL* f1, REAL* f2)
 {
     REAL phi = mid + hl * x;
 #if BT_DEVICE && defined(BT_REAL_IS_FLOAT) && BT_REAL_IS_FLOAT
@@ -334,7 +351,7 @@ BT_INLINE void on_phi_node(const on_geom* g, REAL sin_a, REAL cos_a, REAL mid, R
     REAL cos_phi;
     REAL sin_phi = bt_sincos(phi, &cos_phi);
 #endif
-    on_facet(g, bt_v3(sin_a * cos_phi, sin_a * sin_phi, cos_a), want, f1, f2);
+    on_facet_d11(g, bt_v3(sin_a * cos_phi, sin_a * sin_phi, cos_a), want, 1, d11, f1, f2);
 }
 
 /* The inner sum's step (one phi_a node of weight w on half-length hl). */
@@ -352,6 +369,7 @@ BT_INLINE void on_phi_integral(const on_geom* g, REAL theta_a, int want, int n, 
     REAL b[ON_MAX_BREAKS + 1];
     int nb = on_phi_breaks(g, theta_a, want, b);
     REAL sin_a = bt_sin(theta_a), cos_a = bt_cos(theta_a);
+    REAL d11 = on_d11(cos_a);
     REAL s1 = R(0.0), s2 = R(0.0);
     int parts = on_phi_parts(nb);
     for (int k = 0; k < nb; ++k) {
@@ -361,7 +379,7 @@ BT_INLINE void on_phi_integral(const on_geom* g, REAL theta_a, int want, int n, 
             if (!(hl > R(0.0))) continue;
             for (int j = 0; j < n; ++j) {
                 REAL f1, f2;
-                on_phi_node(g, sin_a, cos_a, mid, hl, gx[j], want, &f1, &f2);
+                on_phi_node(g, sin_a, cos_a, d11, mid, hl, gx[j], want, &f1, &f2);
                 on_phi_add(gw[j], hl, f1, f2, &s1, &s2);
             }
         }
@@ -802,7 +820,8 @@ BT_INLINE REAL oren_nayar_sample(const REAL* p, const int* o, int quantity, cons
  * bit for bit.
  * Item state (ON_NODE_ITEM_STATE): the geometry, n, the non-empty theta_a
  * sub-intervals (lo, L, kind) and the GL rule.  Group state
- * (ON_NODE_GROUP_STATE): theta_a, wp, sin and cos theta_a, nb, b[0..nb]. */
+ * (ON_NODE_GROUP_STATE): theta_a, wp, sin and cos theta_a, nb, d(1, 1),
+ * b[0..nb]. */
 #define ON_NODE_GEOM 12
 #define ON_NODE_I_N (ON_NODE_GEOM)
 #define ON_NODE_I_INV2S2 (ON_NODE_GEOM + 1)
@@ -818,7 +837,8 @@ BT_INLINE REAL oren_nayar_sample(const REAL* p, const int* o, int quantity, cons
 #define ON_NODE_G_SIN 2
 #define ON_NODE_G_COS 3
 #define ON_NODE_G_NB 4
-#define ON_NODE_G_B 5
+#define ON_NODE_G_D11 5
+#define ON_NODE_G_B 6
 #define ON_NODE_GROUP_STATE (ON_NODE_G_B + ON_MAX_BREAKS + 1)
 #define ON_NODE_TERMS 2
 #define ON_NODE_ACC 3
@@ -937,6 +957,7 @@ BT_INLINE int oren_nayar_node_group(BT_GLOBAL const REAL* item, const int* o, in
     gs[ON_NODE_G_SIN] = bt_sin(th);
     gs[ON_NODE_G_COS] = bt_cos(th);
     gs[ON_NODE_G_NB] = (REAL)nb;
+    gs[ON_NODE_G_D11] = on_d11(gs[ON_NODE_G_COS]);
     for (int i = 0; i <= ON_MAX_BREAKS; ++i) gs[ON_NODE_G_B + i] = i <= nb ? b[i] : R(0.0);
     return nb * on_phi_parts(nb) * n;
 }
@@ -960,7 +981,8 @@ BT_INLINE void oren_nayar_node_term(BT_GLOBAL const REAL* item, BT_GLOBAL const 
     REAL hl, mid;
     on_phi_interval(gs[ON_NODE_G_B + iv], gs[ON_NODE_G_B + iv + 1], parts, q, &hl, &mid);
     REAL f1, f2;
-    on_phi_node(&geo, gs[ON_NODE_G_SIN], gs[ON_NODE_G_COS], mid, hl, item[ON_NODE_I_GX + j],
+    on_phi_node(&geo, gs[ON_NODE_G_SIN], gs[ON_NODE_G_COS], gs[ON_NODE_G_D11], mid, hl,
+                item[ON_NODE_I_GX + j],
                 on_want(quantity), &f1, &f2);
     out[0] = f1;
     out[1] = f2;
