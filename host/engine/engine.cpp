@@ -653,9 +653,9 @@ private:
     // work item's groups from the host count function; per sub-launch of
     // whole work items (at most node_parallel_scratch_nodes() / 512 groups,
     // a work item with more alone), the prepare and group kernels, a read of
-    // the device's node counts and their offsets, then the chunk-table, node
-    // and sum kernels.  The launch's inputs are already written; the outputs
-    // are read by run().
+    // the device's node counts and their offsets, then the chunk (node to
+    // group), node and sum kernels.  The launch's inputs are already written;
+    // the outputs are read by run().
     void enqueue_nested_node_parallel(const BatchLaunch& l, NodeParallelKernels& k,
                                       std::size_t real_size) {
         cl::CommandQueue& queue = runtime_.queue();
@@ -714,7 +714,6 @@ private:
                  CL_MEM_READ_WRITE);
             queue.enqueueWriteBuffer(nested_item_group_, CL_TRUE, 0, (items + 1) * 4, item_group.data());
             std::size_t total_nodes = 0;
-            unsigned chunk_shift = 0;
             if (total_groups > 0) {
                 queue.enqueueWriteBuffer(nested_group_item_, CL_TRUE, 0, total_groups * 4,
                                          group_item.data());
@@ -740,46 +739,38 @@ private:
                 group_nodes.resize(total_groups);
                 queue.enqueueReadBuffer(nested_group_nodes_, CL_TRUE, 0, total_groups * 4,
                                         group_nodes.data());
-                // Node offsets; the chunk size: the largest power of two not
-                // above any non-empty group's node count.
+                // Node offsets.
                 group_node.resize(total_groups + 1);
-                std::size_t smallest = 0;
                 for (std::size_t g = 0; g < total_groups; ++g) {
                     group_node[g] = static_cast<std::uint32_t>(total_nodes);
-                    const std::size_t c = static_cast<std::size_t>(std::max(group_nodes[g], 0));
-                    if (c > 0 && (smallest == 0 || c < smallest)) smallest = c;
-                    total_nodes += c;
+                    total_nodes += static_cast<std::size_t>(std::max(group_nodes[g], 0));
                 }
                 if (total_nodes > 0xFFFFFFFFull) throw Error("node-parallel: more than 2^32 nodes in one sub-launch");
                 group_node[total_groups] = static_cast<std::uint32_t>(total_nodes);
-                while ((std::size_t{2} << chunk_shift) <= smallest) ++chunk_shift;
-                const std::size_t chunks = (total_nodes >> chunk_shift) + 1;
                 queue.enqueueWriteBuffer(nested_group_node_, CL_TRUE, 0, (total_groups + 1) * 4,
                                          group_node.data());
                 if (total_nodes > 0) {
-                    grow(nested_chunk_group_, nested_chunk_group_bytes_, 2 * chunks * 4,
+                    grow(nested_chunk_group_, nested_chunk_group_bytes_, total_nodes * 4,
                          CL_MEM_READ_WRITE);
                     grow(node_scratch_, node_scratch_bytes_, total_nodes * term_bytes, CL_MEM_READ_WRITE);
-                    // group_node, n_groups, chunk_shift, chunk_group
+                    // group_node, n_groups, node_group
                     k.chunk.setArg(0, nested_group_node_);
                     k.chunk.setArg(1, static_cast<cl_uint>(total_groups));
-                    k.chunk.setArg(2, static_cast<cl_uint>(chunk_shift));
-                    k.chunk.setArg(3, nested_chunk_group_);
+                    k.chunk.setArg(2, nested_chunk_group_);
                     queue.enqueueNDRangeKernel(k.chunk, cl::NullRange,
                                                cl::NDRange(padded_global(total_groups)), local);
-                    // options, n_options, quantity, chunk_group, chunk_shift,
-                    // group_node, group_item, n_nodes, item_state, group_state, scratch
+                    // options, n_options, quantity, node_group, group_node,
+                    // group_item, n_nodes, item_state, group_state, scratch
                     k.node.setArg(0, options_);
                     k.node.setArg(1, static_cast<cl_uint>(l.options.size()));
                     k.node.setArg(2, static_cast<cl_int>(l.quantity));
                     k.node.setArg(3, nested_chunk_group_);
-                    k.node.setArg(4, static_cast<cl_uint>(chunk_shift));
-                    k.node.setArg(5, nested_group_node_);
-                    k.node.setArg(6, nested_group_item_);
-                    k.node.setArg(7, static_cast<cl_uint>(total_nodes));
-                    k.node.setArg(8, node_state_);
-                    k.node.setArg(9, nested_group_state_);
-                    k.node.setArg(10, node_scratch_);
+                    k.node.setArg(4, nested_group_node_);
+                    k.node.setArg(5, nested_group_item_);
+                    k.node.setArg(6, static_cast<cl_uint>(total_nodes));
+                    k.node.setArg(7, node_state_);
+                    k.node.setArg(8, nested_group_state_);
+                    k.node.setArg(9, node_scratch_);
                     queue.enqueueNDRangeKernel(k.node, cl::NullRange,
                                                cl::NDRange(padded_global(total_nodes)), local);
                 }
@@ -970,7 +961,7 @@ private:
     cl::Buffer node_offset_, node_item_, node_scratch_, node_state_;
     std::size_t node_offset_items_ = 0, node_item_items_ = 0, node_scratch_bytes_ = 0;
     std::size_t node_state_bytes_ = 0;
-    // Nested sums: the group layout and state, the node chunk table.
+    // Nested sums: the group layout and state, every node's group.
     cl::Buffer nested_item_group_, nested_group_item_, nested_group_nodes_, nested_group_node_,
         nested_group_state_, nested_chunk_group_;
     std::size_t nested_item_group_bytes_ = 0, nested_group_item_bytes_ = 0,

@@ -24,7 +24,7 @@ constexpr const char* kNodePrepareKernelName = "bt_node_prepare";
 constexpr const char* kNodeKernelName = "bt_node";
 constexpr const char* kNodeSumKernelName = "bt_node_sum";
 // The extra entry points of nested_node_parallel_kernel_source() (the group
-// prepare and chunk-table kernels; the other three keep the names above).
+// prepare and node-to-group kernels; the other three keep the names above).
 constexpr const char* kNodeGroupKernelName = "bt_node_group";
 constexpr const char* kNodeChunkKernelName = "bt_node_chunk";
 

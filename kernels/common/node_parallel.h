@@ -152,8 +152,8 @@
  * The host lays out every work item's groups from the count function
  * compiled for the host (QuantityInfo::node_parallel.host_count); the
  * device counts each group's nodes (the group kernel), the host reads the
- * counts back and lays the nodes out (prefix sums; the chunk kernel builds
- * the node-to-group table).  A work item whose device group count
+ * counts back and lays the nodes out (prefix sums; the chunk kernel writes
+ * every node's group).  A work item whose device group count
  * differs from the host's (rounding, in float) runs sample_fn instead.
  * Indices of work items, groups and nodes are local to a sub-launch:
  *   prepare_kernel  one work item per work item: item state.
@@ -162,13 +162,9 @@
  *                   state and node count group_nodes[G].
  *   chunk_kernel    one work item per group, after the host has laid out
  *                   the nodes (group_node: the exclusive prefix sum of the
- *                   device's counts): the chunk table below, for the chunks
- *                   whose first or last node is the group's.
- *   node_kernel     one work item per node: group G (the chunk table:
- *                   node gid lies in group chunk_group[2c] or, from
- *                   group_node[chunk_group[2c + 1]] on, in that one;
- *                   c = gid >> chunk_shift, 2^chunk_shift <= the node count
- *                   of every non-empty group, so a chunk meets two of them at most), node
+ *                   device's counts): node_group[k] = G for its nodes k.
+ *   node_kernel     one work item per node: group G = node_group[gid] (a
+ *                   plain load, consecutive in gid), node
  *                   k = gid - group_node[G]; terms at scratch[n_terms * gid].
  *                   Loop-free: vectorises.
  *   sum_kernel      one work item per work item: its groups in order, then
@@ -182,20 +178,12 @@
     item_state_size, group_state_size, n_terms, acc_size, count_fn,            \
     prepare_fn, group_prepare_fn, term_fn, group_sum_fn, finish_fn, sample_fn) \
     __kernel void chunk_kernel(__global const uint* group_node, uint n_groups, \
-                               uint chunk_shift, __global uint* chunk_group)   \
+                               __global uint* node_group)                      \
     {                                                                          \
         const uint g = (uint)get_global_id(0);                                 \
         if (g >= n_groups) return;                                             \
-        const uint a = group_node[g], b = group_node[g + 1u];                  \
-        const uint total = group_node[n_groups];                               \
-        if (a == b) return;                                                    \
-        for (uint c = a >> chunk_shift; c <= (b - 1u) >> chunk_shift; ++c) {   \
-            const uint first_node = c << chunk_shift;                          \
-            const uint end = first_node + (1u << chunk_shift);                 \
-            const uint last_node = (end < total ? end : total) - 1u;           \
-            if (first_node >= a) chunk_group[2u * c] = g;                      \
-            if (last_node < b) chunk_group[2u * c + 1u] = g;                   \
-        }                                                                      \
+        for (uint k = group_node[g]; k < group_node[g + 1u]; ++k)              \
+            node_group[k] = g;                                                 \
     }                                                                          \
     __kernel void prepare_kernel(                                              \
         __global const REAL* points, uint stride, __global const int* options, \
@@ -232,16 +220,14 @@
     }                                                                          \
     __kernel void node_kernel(                                                 \
         __global const int* options, uint n_options, int quantity,             \
-        __global const uint* chunk_group, uint chunk_shift,                    \
+        __global const uint* node_group,                                       \
         __global const uint* group_node, __global const uint* group_item,      \
         uint n_nodes, __global const REAL* item_state,                         \
         __global const REAL* group_state, __global REAL* scratch)              \
     {                                                                          \
         const uint gid = (uint)get_global_id(0);                               \
         if (gid >= n_nodes) return;                                            \
-        const uint c = gid >> chunk_shift;                                     \
-        const uint g0 = chunk_group[2u * c], g1 = chunk_group[2u * c + 1u];    \
-        const uint g = gid >= group_node[g1] ? g1 : g0;                        \
+        const uint g = node_group[gid];                                        \
         BT_KERNEL_LOAD_OPTIONS_(o, options, n_options)                         \
         REAL t[n_terms];                                                       \
         term_fn(item_state + (size_t)group_item[g] * (item_state_size),        \
