@@ -151,7 +151,7 @@ const std::vector<SampleParallelCase>& sample_parallel_default_cases() {
 // Node-parallel quadrature by default (engine.h): measured faster per
 // CPU-second on hfunction H (2.8x r9's kernel, 1.8x the usual kernel of the
 // same build; docs/benchmarks.md "Node-parallel quadrature") and, as nested
-// sums, on oren-nayar's brdf (1.5x r9's kernel and the usual kernel),
+// sums, on oren-nayar's brdf (1.8x r9's kernel and the usual kernel),
 // bit-identical to the usual kernel (tests/test_node_parallel.cpp).  A
 // quantity can stay off by default (NodeParallelFunctions::by_default).
 bool node_parallel_by_default() { return true; }
