@@ -23,6 +23,7 @@
 #include "host/models/registry.h"
 #include "kernels/common/sampler.h"
 #include "kernels/models/hfunction.h"
+#include "kernels/models/oren_nayar.h"
 
 using namespace brdftab;
 
@@ -301,4 +302,228 @@ TEST_CASE("hfunction's node functions compose to its sample function (host build
                     else
                         CHECK(n == 0);  // H = 1 to double precision: no nodes (hf_h_nodes)
                 }
+}
+
+// ------------------------------------------------------------------------
+// Oren-Nayar's Gaussian-surface quadrature: nested node-parallel sums
+// (kernels/common/node_parallel.h "Nested sums"; groups = theta_a nodes,
+// nodes = the phi_a nodes of each).  Oracle: the usual kernel, bit for bit.
+
+namespace {
+
+// Every (direction pair, sigma, nodes) of the test, fine (batch 0) and
+// coarse (batch 1) rule: normal and grazing incidence and view (89.9 and
+// exactly 90 deg: the cosine floor), phi_d at 0 and 180 deg (the X = Y line
+// degenerates) and in between, sigma from 0 (no sum: the sample function's
+// own branch) and 0.05 deg to 60 deg, and node counts 2, 7 and 12.
+struct OnLaunch {
+    BatchLaunch launch;
+    std::vector<std::string> what;
+};
+
+OnLaunch on_launch(const std::string& quantity, const std::map<std::string, std::string>& options = {}) {
+    const ModelInfo& m = find_model("oren-nayar");
+    const QuantityInfo& q = m.quantity(quantity);
+    PointBuilder builder(m, q);
+    OnLaunch out;
+    BatchLaunch& l = out.launch;
+    l.model = &m;
+    l.quantity = q.id;
+    l.options = resolve_options(m, options, "test");
+    l.method = BT_METHOD_QUADRATURE;
+    l.key0 = 3;
+    l.key1 = 5;
+    l.stride = m.point_stride();
+    l.batch_size = 1;
+    const double thetas_i[] = {0.0, 30.0, 75.0, 89.9, 90.0};
+    const double thetas_o[] = {0.0, 45.0, 89.0, 90.0};
+    const double phis_d[] = {0.0, 180.0, 63.0};
+    const double sigmas[] = {0.0, 0.05, 5.0, 20.0, 60.0};
+    const double nodes[] = {2.0, 7.0, 12.0};
+    std::uint32_t cell = 0;
+    for (double ti : thetas_i)
+        for (double to : thetas_o)
+            for (double pd : phis_d)
+                for (double sigma : sigmas)
+                    for (double n : nodes) {
+                        if (n != 12.0 && (sigma == 0.0 || pd == 63.0)) continue;  // fewer cells
+                        std::vector<double> point(l.stride);
+                        builder.build({{"theta_i", ti}, {"phi_i", 10.0}, {"theta_o", to},
+                                       {"phi_o", 10.0 + pd}, {"sigma", sigma}, {"rho", 0.7},
+                                       {"nodes", n}},
+                                      point.data());
+                        for (std::uint32_t batch : {0u, 1u}) {
+                            l.points.insert(l.points.end(), point.begin(), point.end());
+                            l.cells.push_back(cell);
+                            l.batches.push_back(batch);
+                            out.what.push_back("theta_i " + std::to_string(ti) + " theta_o " +
+                                               std::to_string(to) + " phi_d " + std::to_string(pd) +
+                                               " sigma " + std::to_string(sigma) + " nodes " +
+                                               std::to_string(n) + " batch " + std::to_string(batch));
+                        }
+                        ++cell;
+                    }
+    return out;
+}
+
+void check_on_same_bits(const OnLaunch& x, const Outputs& a, const Outputs& b) {
+    REQUIRE(a.mean.size() == b.mean.size());
+    REQUIRE(a.mean.size() == x.what.size());
+    for (std::size_t w = 0; w < a.mean.size(); ++w) {
+        CAPTURE(x.what[w]);
+        CHECK(same_bits(a.mean[w], b.mean[w]));
+        CHECK(same_bits(a.m2[w], b.m2[w]));
+    }
+}
+
+}  // namespace
+
+TEST_CASE("node-parallel oren-nayar: the usual kernel's bits for every quadrature quantity") {
+    auto device = make_backend("", Precision::Double);
+    const std::vector<std::pair<std::string, std::map<std::string, std::string>>> cases = {
+        {"brdf", {}},
+        {"brdf_direct", {}},
+        {"brdf_interreflection", {}},
+        {"approx_error", {{"error", "absolute"}, {"approximation", "qualitative"}}},
+    };
+    for (const auto& [quantity, options] : cases) {
+        CAPTURE(quantity);
+        const QuantityInfo& q = find_model("oren-nayar").quantity(quantity);
+        REQUIRE(q.node_parallel.enabled());
+        REQUIRE(q.node_parallel.nested());
+        const OnLaunch x = on_launch(quantity, options);
+        Outputs usual, node, split;
+        {
+            ScopedEnv off("BRDFTAB_NODE_PARALLEL", "0");
+            usual = run(*device, x.launch);
+        }
+        {
+            ScopedEnv on("BRDFTAB_NODE_PARALLEL", "1");
+            node = run(*device, x.launch);
+            // One work item per sub-launch (the group cap is the scratch
+            // cap / 512, at least 1).
+            ScopedEnv cap("BRDFTAB_NODE_PARALLEL_SCRATCH", "300");
+            split = run(*device, x.launch);
+        }
+        check_on_same_bits(x, usual, node);
+        check_on_same_bits(x, usual, split);
+        // Not a vacuous comparison: a positive, finite BRDF everywhere (it
+        // grows like 1/cos when both directions graze: up to ~5e4 here).
+        if (quantity == "brdf")
+            for (std::size_t w = 0; w < node.mean.size(); ++w) {
+                CAPTURE(x.what[w]);
+                CHECK(std::isfinite(node.mean[w]));
+                CHECK(node.mean[w] > 0.0);
+            }
+    }
+    CHECK_FALSE(find_model("oren-nayar").quantity("single_slope_direct").node_parallel.enabled());
+}
+
+TEST_CASE("node-parallel oren-nayar in float: the usual float kernel's bits") {
+    auto device = make_backend("", Precision::Float);
+    const OnLaunch x = on_launch("brdf");
+    Outputs usual, node;
+    {
+        ScopedEnv off("BRDFTAB_NODE_PARALLEL", "0");
+        usual = run(*device, x.launch);
+    }
+    {
+        ScopedEnv on("BRDFTAB_NODE_PARALLEL", "1");
+        node = run(*device, x.launch);
+    }
+    check_on_same_bits(x, usual, node);
+}
+
+TEST_CASE("node-parallel oren-nayar through estimate(): the default, same values and errors") {
+    const ModelInfo& m = find_model("oren-nayar");
+    const QuantityInfo& q = m.quantity("brdf");
+    auto device = make_backend("", Precision::Double);
+    PointBuilder builder(m, q);
+    std::vector<std::map<std::string, double>> cells;
+    for (int k = 0; k < 120; ++k)
+        cells.push_back({{"theta_i", 0.75 * k}, {"phi_i", 0.0}, {"theta_o", 89.95 - 0.7 * k},
+                         {"phi_o", k % 3 == 0 ? 0.0 : (k % 3 == 1 ? 180.0 : 3.0 * k)},
+                         {"sigma", 0.5 + 0.5 * k},
+                         {"rho", 0.9}});
+    const std::vector<int> options = resolve_options(m, {}, "test");
+    IntegrationSettings s;
+    s.slab_work_items = 40;  // several launches
+    auto estimate_brdf = [&] {
+        return estimate(*device, m, q, options, cells.size(),
+                        [&](std::size_t c, double* out) { builder.build(cells[c], out); }, s);
+    };
+    EstimateResult usual, by_default;
+    {
+        ScopedEnv off("BRDFTAB_NODE_PARALLEL", "0");
+        usual = estimate_brdf();
+    }
+    {
+        ScopedEnv unset("BRDFTAB_NODE_PARALLEL", nullptr);
+        by_default = estimate_brdf();
+    }
+    CHECK(q.node_parallel.by_default);
+    REQUIRE(usual.value.size() == cells.size());
+    for (std::size_t c = 0; c < cells.size(); ++c) {
+        CAPTURE(c);
+        CHECK(same_bits(usual.value[c], by_default.value[c]));
+        CHECK(same_bits(usual.stderr_[c], by_default.stderr_[c]));
+        CHECK(usual.samples[c] == by_default.samples[c]);
+    }
+}
+
+TEST_CASE("oren-nayar's node functions compose to its sample function (host build)") {
+    // The nested contract of kernels/common/node_parallel.h on the C++ build
+    // of the header: count, prepare, every group's prepare, its terms, the
+    // group sums in order and finish give oren_nayar_sample bit for bit.
+    const double thetas_i[] = {0.0, 0.3, 1.2, 1.5706, BT_HALF_PI};
+    const double thetas_o[] = {0.0, 0.8, 1.55, BT_HALF_PI};
+    const double phis_d[] = {0.0, BT_PI, 2.0};
+    const double sigmas[] = {1e-7, 0.01, 0.3, 1.0};
+    const int quantities[] = {ON_Q_BRDF, ON_Q_BRDF_DIRECT, ON_Q_BRDF_INTER, ON_Q_APPROX_ERROR};
+    std::size_t nested = 0;
+    for (int quantity : quantities)
+        for (double ti : thetas_i)
+            for (double to : thetas_o)
+                for (double pd : phis_d)
+                    for (double sigma : sigmas)
+                        for (unsigned batch : {0u, 1u}) {
+                            CAPTURE(quantity);
+                            CAPTURE(ti);
+                            CAPTURE(to);
+                            CAPTURE(pd);
+                            CAPTURE(sigma);
+                            CAPTURE(batch);
+                            double p[16] = {0};
+                            p[0] = ti;
+                            p[1] = 0.2;
+                            p[2] = to;
+                            p[3] = 0.2 + pd;
+                            p[ON_PARAM_SIGMA] = sigma;
+                            p[ON_PARAM_RHO] = 0.6;
+                            p[ON_PARAM_NODES] = 9;
+                            const int o[8] = {0, 0, 0};
+                            bt_sampler s{};
+                            s.method = BT_METHOD_QUADRATURE;
+                            s.batch = batch;
+                            const double expected = oren_nayar_sample(p, o, quantity, &s);
+                            const int groups = oren_nayar_node_count(p, o, quantity, &s);
+                            if (groups == 0) continue;  // the sample function's own value
+                            ++nested;
+                            std::vector<double> item(ON_NODE_ITEM_STATE);
+                            oren_nayar_node_prepare(p, o, quantity, &s, item.data());
+                            double acc[ON_NODE_ACC] = {0, 0, 0};
+                            for (int g = 0; g < groups; ++g) {
+                                std::vector<double> gs(ON_NODE_GROUP_STATE);
+                                const int nodes = oren_nayar_node_group(item.data(), o, quantity, g, gs.data());
+                                REQUIRE(nodes >= 2 * (batch == 0 ? 9 : 5));
+                                std::vector<double> terms(static_cast<std::size_t>(nodes) * ON_NODE_TERMS);
+                                for (int k = 0; k < nodes; ++k)
+                                    oren_nayar_node_term(item.data(), gs.data(), o, quantity, k,
+                                                         &terms[static_cast<std::size_t>(k) * ON_NODE_TERMS]);
+                                oren_nayar_node_group_sum(item.data(), gs.data(), o, quantity, terms.data(), acc);
+                            }
+                            const double composed = oren_nayar_node_finish(p, o, quantity, &s, acc);
+                            CHECK(same_bits(composed, expected));
+                        }
+    CHECK(nested > 500);
 }

@@ -149,9 +149,11 @@ const std::vector<SampleParallelCase>& sample_parallel_default_cases() {
 }
 
 // Node-parallel quadrature by default (engine.h): measured faster per
-// CPU-second on its one user, hfunction H (2.8x r9's kernel, 1.8x the usual
-// kernel of the same build; docs/benchmarks.md "Node-parallel quadrature"),
-// bit-identical to the usual kernel (tests/test_node_parallel.cpp).
+// CPU-second on hfunction H (2.8x r9's kernel, 1.8x the usual kernel of the
+// same build; docs/benchmarks.md "Node-parallel quadrature") and, as nested
+// sums, on oren-nayar's brdf (1.8x r9's kernel and the usual kernel),
+// bit-identical to the usual kernel (tests/test_node_parallel.cpp).  A
+// quantity can stay off by default (NodeParallelFunctions::by_default).
 bool node_parallel_by_default() { return true; }
 
 bool sample_parallel_by_default(const ModelInfo& model, const QuantityInfo& quantity,
@@ -266,7 +268,8 @@ private:
         if (n == 0) return;
         const bool sample_parallel = use_sample_parallel(l);
         // Node-parallel quadrature (lays out the nodes on the host first).
-        const bool node_parallel = !sample_parallel && use_node_parallel(l) && lay_out_nodes(l);
+        const bool node_parallel = !sample_parallel && use_node_parallel(l) &&
+                                   (node_functions(l)->nested() || lay_out_nodes(l));
         NodeParallelKernels* nodes = node_parallel ? &node_parallel_kernels_for(l) : nullptr;
         cl::Kernel* kernel_ptr = sample_parallel || node_parallel ? nullptr : &kernel_for(l);
         SampleParallelKernels* pair = sample_parallel ? &sample_parallel_kernels_for(l) : nullptr;
@@ -302,6 +305,8 @@ private:
                                      l.batches.data());
             if (sample_parallel) {
                 enqueue_sample_parallel(l, *pair, accum_size);
+            } else if (node_parallel && node_functions(l)->nested()) {
+                enqueue_nested_node_parallel(l, *nodes, real_size);
             } else if (node_parallel) {
                 enqueue_node_parallel(l, *nodes, real_size);
             } else {
@@ -478,6 +483,7 @@ private:
     // (model, quantity, options, method).
     struct NodeParallelKernels {
         cl::Kernel prepare, node, sum;
+        cl::Kernel group = {}, chunk = {};  // nested sums only
     };
 
     static const NodeParallelFunctions* node_functions(const BatchLaunch& l) {
@@ -496,7 +502,7 @@ private:
         const char* env = std::getenv("BRDFTAB_NODE_PARALLEL");
         if (env && std::string(env) == "0") return false;
         if (env && std::string(env) == "1") return true;
-        return node_parallel_by_default();
+        return node_parallel_by_default() && node_functions(l)->by_default;
     }
 
     // Nodes per sub-launch of the node-parallel path (the scratch buffer's
@@ -645,6 +651,171 @@ private:
         }
     }
 
+    // Nested sums (kernels/common/node_parallel.h, "Nested sums"): every
+    // work item's groups from the host count function; per sub-launch of
+    // whole work items (group_cap below; a work item with more groups
+    // alone), the prepare and group kernels, a read of
+    // the device's node counts and their offsets, then the chunk (node to
+    // group), node and sum kernels.  The launch's inputs are already written;
+    // the outputs are read by run().
+    void enqueue_nested_node_parallel(const BatchLaunch& l, NodeParallelKernels& k,
+                                      std::size_t real_size) {
+        cl::CommandQueue& queue = runtime_.queue();
+        cl::Context& ctx = runtime_.context();
+        const NodeParallelFunctions& f = *node_functions(l);
+        const std::size_t n = l.cells.size();
+        int opts[BT_MAX_OPTIONS] = {0};
+        for (std::size_t j = 0; j < l.options.size() && j < BT_MAX_OPTIONS; ++j) opts[j] = l.options[j];
+        double point[BT_MAX_POINT] = {0};
+        bt_sampler s{};
+        s.key0 = l.key0;
+        s.key1 = l.key1;
+        s.method = l.method;
+        s.sample = 0;
+        std::vector<std::uint32_t>& groups = node_offset_host_;  // groups of each work item
+        groups.resize(n);
+        for (std::size_t w = 0; w < n; ++w) {
+            std::copy_n(&l.points[w * l.stride], l.stride, point);
+            s.cell = l.cells[w];
+            s.batch = l.batches[w];
+            const int count = f.host_count(point, opts, l.quantity, &s);
+            groups[w] = static_cast<std::uint32_t>(std::clamp(count, 0, std::max(f.max_groups, 0)));
+        }
+        // Groups per sub-launch: first node_parallel_scratch_nodes() / 512,
+        // then as many as the mean node count of the groups so far puts at
+        // node_parallel_scratch_nodes() / 16 nodes (2^18 by default; the
+        // scratch holds `terms` values per node, and oren-nayar at 64 nodes
+        // has up to 3200 per group).  Measured on oren-nayar's brdf at 12
+        // nodes: the same speed within the noise with a target of 1/4 and of
+        // all of node_parallel_scratch_nodes(), 1/16 marginally ahead.
+        const std::size_t node_cap = node_parallel_scratch_nodes();
+        const std::size_t node_target = std::max<std::size_t>(node_cap / 16, 1);
+        std::size_t group_cap = std::max<std::size_t>(node_cap / 512, 1);
+        std::size_t groups_seen = 0, nodes_seen = 0;
+        const std::size_t item_bytes = static_cast<std::size_t>(std::max(f.state_size, 1)) * real_size;
+        const std::size_t group_bytes =
+            static_cast<std::size_t>(std::max(f.group_state_size, 1)) * real_size;
+        const std::size_t term_bytes = static_cast<std::size_t>(std::max(f.terms, 1)) * real_size;
+        auto grow = [&](cl::Buffer& buffer, std::size_t& have, std::size_t need, cl_mem_flags flags) {
+            need = std::max<std::size_t>(need, 1);
+            if (need <= have) return;
+            have = std::max(need, 2 * have);
+            buffer = cl::Buffer(ctx, flags, have);
+        };
+        std::vector<std::uint32_t> item_group, group_item, group_node;
+        std::vector<cl_int> group_nodes;
+        const cl::NDRange local = local_range();
+        for (std::size_t first = 0; first < n;) {
+            std::size_t last = first, total_groups = 0;
+            while (last < n && (last == first || total_groups + groups[last] <= group_cap))
+                total_groups += groups[last++];
+            const std::size_t items = last - first;
+            item_group.assign(items + 1, 0);
+            group_item.resize(total_groups);
+            for (std::size_t i = 0, g = 0; i < items; ++i) {
+                item_group[i] = static_cast<std::uint32_t>(g);
+                for (std::uint32_t j = 0; j < groups[first + i]; ++j) group_item[g++] = static_cast<std::uint32_t>(i);
+            }
+            item_group[items] = static_cast<std::uint32_t>(total_groups);
+            grow(nested_item_group_, nested_item_group_bytes_, (items + 1) * 4, CL_MEM_READ_ONLY);
+            grow(nested_group_item_, nested_group_item_bytes_, total_groups * 4, CL_MEM_READ_ONLY);
+            grow(nested_group_nodes_, nested_group_nodes_bytes_, total_groups * 4, CL_MEM_READ_WRITE);
+            grow(nested_group_node_, nested_group_node_bytes_, (total_groups + 1) * 4, CL_MEM_READ_ONLY);
+            grow(node_state_, node_state_bytes_, items * item_bytes, CL_MEM_READ_WRITE);
+            grow(nested_group_state_, nested_group_state_bytes_, total_groups * group_bytes,
+                 CL_MEM_READ_WRITE);
+            queue.enqueueWriteBuffer(nested_item_group_, CL_TRUE, 0, (items + 1) * 4, item_group.data());
+            std::size_t total_nodes = 0;
+            if (total_groups > 0) {
+                queue.enqueueWriteBuffer(nested_group_item_, CL_TRUE, 0, total_groups * 4,
+                                         group_item.data());
+                int a = set_work_args(k.prepare, l);  // first_work, n_work, item_state
+                k.prepare.setArg(a++, static_cast<cl_uint>(first));
+                k.prepare.setArg(a++, static_cast<cl_uint>(items));
+                k.prepare.setArg(a++, node_state_);
+                queue.enqueueNDRangeKernel(k.prepare, cl::NullRange, cl::NDRange(padded_global(items)),
+                                           local);
+                // options, n_options, quantity, group_item, item_group, n_groups,
+                // item_state, group_state, group_nodes
+                k.group.setArg(0, options_);
+                k.group.setArg(1, static_cast<cl_uint>(l.options.size()));
+                k.group.setArg(2, static_cast<cl_int>(l.quantity));
+                k.group.setArg(3, nested_group_item_);
+                k.group.setArg(4, nested_item_group_);
+                k.group.setArg(5, static_cast<cl_uint>(total_groups));
+                k.group.setArg(6, node_state_);
+                k.group.setArg(7, nested_group_state_);
+                k.group.setArg(8, nested_group_nodes_);
+                queue.enqueueNDRangeKernel(k.group, cl::NullRange,
+                                           cl::NDRange(padded_global(total_groups)), local);
+                group_nodes.resize(total_groups);
+                queue.enqueueReadBuffer(nested_group_nodes_, CL_TRUE, 0, total_groups * 4,
+                                        group_nodes.data());
+                // Node offsets.
+                group_node.resize(total_groups + 1);
+                for (std::size_t g = 0; g < total_groups; ++g) {
+                    group_node[g] = static_cast<std::uint32_t>(total_nodes);
+                    total_nodes += static_cast<std::size_t>(std::max(group_nodes[g], 0));
+                }
+                if (total_nodes > 0xFFFFFFFFull) throw Error("node-parallel: more than 2^32 nodes in one sub-launch");
+                group_node[total_groups] = static_cast<std::uint32_t>(total_nodes);
+                groups_seen += total_groups;
+                nodes_seen += total_nodes;
+                if (nodes_seen > 0)
+                    group_cap = std::max<std::size_t>(
+                        static_cast<std::size_t>(static_cast<double>(node_target) *
+                                                 static_cast<double>(groups_seen) /
+                                                 static_cast<double>(nodes_seen)),
+                        1);
+                queue.enqueueWriteBuffer(nested_group_node_, CL_TRUE, 0, (total_groups + 1) * 4,
+                                         group_node.data());
+                if (total_nodes > 0) {
+                    grow(nested_chunk_group_, nested_chunk_group_bytes_, total_nodes * 4,
+                         CL_MEM_READ_WRITE);
+                    grow(node_scratch_, node_scratch_bytes_, total_nodes * term_bytes, CL_MEM_READ_WRITE);
+                    // group_node, n_groups, node_group
+                    k.chunk.setArg(0, nested_group_node_);
+                    k.chunk.setArg(1, static_cast<cl_uint>(total_groups));
+                    k.chunk.setArg(2, nested_chunk_group_);
+                    queue.enqueueNDRangeKernel(k.chunk, cl::NullRange,
+                                               cl::NDRange(padded_global(total_groups)), local);
+                    // options, n_options, quantity, node_group, group_node,
+                    // group_item, n_nodes, item_state, group_state, scratch
+                    k.node.setArg(0, options_);
+                    k.node.setArg(1, static_cast<cl_uint>(l.options.size()));
+                    k.node.setArg(2, static_cast<cl_int>(l.quantity));
+                    k.node.setArg(3, nested_chunk_group_);
+                    k.node.setArg(4, nested_group_node_);
+                    k.node.setArg(5, nested_group_item_);
+                    k.node.setArg(6, static_cast<cl_uint>(total_nodes));
+                    k.node.setArg(7, node_state_);
+                    k.node.setArg(8, nested_group_state_);
+                    k.node.setArg(9, node_scratch_);
+                    queue.enqueueNDRangeKernel(k.node, cl::NullRange,
+                                               cl::NDRange(padded_global(total_nodes)), local);
+                }
+            } else {
+                group_node.assign(1, 0);
+                queue.enqueueWriteBuffer(nested_group_node_, CL_TRUE, 0, 4, group_node.data());
+            }
+            grow(node_scratch_, node_scratch_bytes_, term_bytes, CL_MEM_READ_WRITE);
+            // first_work, n_work, item_group, group_node, item_state,
+            // group_state, scratch, out_mean, out_m2
+            int a = set_work_args(k.sum, l);
+            k.sum.setArg(a++, static_cast<cl_uint>(first));
+            k.sum.setArg(a++, static_cast<cl_uint>(items));
+            k.sum.setArg(a++, nested_item_group_);
+            k.sum.setArg(a++, nested_group_node_);
+            k.sum.setArg(a++, node_state_);
+            k.sum.setArg(a++, nested_group_state_);
+            k.sum.setArg(a++, node_scratch_);
+            k.sum.setArg(a++, out_mean_);
+            k.sum.setArg(a++, out_m2_);
+            queue.enqueueNDRangeKernel(k.sum, cl::NullRange, cl::NDRange(padded_global(items)), local);
+            first = last;
+        }
+    }
+
     NodeParallelKernels& node_parallel_kernels_for(const BatchLaunch& l) {
         const ModelInfo& model = *l.model;
         const NodeParallelFunctions& f = *node_functions(l);
@@ -652,14 +823,25 @@ private:
         const std::string key = model.name + "\n" + f.term + "\n" + options;
         auto it = node_parallel_kernels_.find(key);
         if (it != node_parallel_kernels_.end()) return it->second;
-        const std::string source = node_parallel_kernel_source(
-            model.kernel_header, std::to_string(f.state_size), f.count, f.prepare, f.term, f.finish,
-            kernel_dir_);
+        const std::string source =
+            f.nested()
+                ? nested_node_parallel_kernel_source(
+                      model.kernel_header,
+                      {std::to_string(f.state_size), std::to_string(f.group_state_size),
+                       std::to_string(f.terms), std::to_string(f.acc_size), f.count, f.prepare,
+                       f.group_prepare, f.term, f.group_sum, f.finish, f.sample},
+                      kernel_dir_)
+                : node_parallel_kernel_source(model.kernel_header, std::to_string(f.state_size),
+                                              f.count, f.prepare, f.term, f.finish, kernel_dir_);
         cl::Program program = cached_program(runtime_, source, options);
         try {
             NodeParallelKernels k{cl::Kernel(program, kNodePrepareKernelName),
                                   cl::Kernel(program, kNodeKernelName),
                                   cl::Kernel(program, kNodeSumKernelName)};
+            if (f.nested()) {
+                k.group = cl::Kernel(program, kNodeGroupKernelName);
+                k.chunk = cl::Kernel(program, kNodeChunkKernelName);
+            }
             return node_parallel_kernels_.emplace(key, std::move(k)).first->second;
         } catch (const cl::Error& e) {
             throw OpenCLError(e.what(), e.err(), "node-parallel entry points of model '" +
@@ -799,6 +981,12 @@ private:
     cl::Buffer node_offset_, node_item_, node_scratch_, node_state_;
     std::size_t node_offset_items_ = 0, node_item_items_ = 0, node_scratch_bytes_ = 0;
     std::size_t node_state_bytes_ = 0;
+    // Nested sums: the group layout and state, every node's group.
+    cl::Buffer nested_item_group_, nested_group_item_, nested_group_nodes_, nested_group_node_,
+        nested_group_state_, nested_chunk_group_;
+    std::size_t nested_item_group_bytes_ = 0, nested_group_item_bytes_ = 0,
+                nested_group_nodes_bytes_ = 0, nested_group_node_bytes_ = 0,
+                nested_group_state_bytes_ = 0, nested_chunk_group_bytes_ = 0;
     cl::Buffer points_, options_, cells_, batches_, out_mean_, out_m2_;
     std::size_t buffer_items_ = 0, buffer_point_bytes_ = 0, buffer_accum_size_ = 0;
     // The second set of per-launch buffers (start(): one launch computes on

@@ -254,6 +254,23 @@ std::string node_parallel_kernel_source(const std::string& kernel_header,
     return source;
 }
 
+std::string nested_node_parallel_kernel_source(const std::string& kernel_header,
+                                               const NestedNodeParallelNames& f,
+                                               const std::string& kernel_dir) {
+    // Forced inlining, as in node_parallel_kernel_source().
+    std::string source = "#if !defined(BT_FORCE_INLINE)\n#define BT_FORCE_INLINE 1\n#endif\n";
+    source += load_kernel_source("common/estimator.h", kernel_dir);
+    source += load_kernel_source(kernel_header, kernel_dir);
+    source += load_kernel_source("common/node_parallel.h", kernel_dir);
+    source += "#line 1 \"generated nested node-parallel entry points for " + kernel_header + "\"\n";
+    source += "BT_DEFINE_NESTED_NODE_PARALLEL_KERNELS(" + std::string(kNodePrepareKernelName) +
+              ", " + kNodeGroupKernelName + ", " + kNodeChunkKernelName + ", " + kNodeKernelName + ", " + kNodeSumKernelName +
+              ", " + f.item_state_size + ", " + f.group_state_size + ", " + f.terms + ", " +
+              f.acc_size + ", " + f.count + ", " + f.prepare + ", " + f.group_prepare + ", " +
+              f.term + ", " + f.group_sum + ", " + f.finish + ", " + f.sample + ")\n";
+    return source;
+}
+
 std::string specialisation_options(int quantity, const std::vector<int>& options,
                                    unsigned method, std::size_t stride) {
     std::string list;

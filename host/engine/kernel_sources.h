@@ -23,6 +23,10 @@ constexpr const char* kReduceKernelName = "bt_reduce";
 constexpr const char* kNodePrepareKernelName = "bt_node_prepare";
 constexpr const char* kNodeKernelName = "bt_node";
 constexpr const char* kNodeSumKernelName = "bt_node_sum";
+// The extra entry points of nested_node_parallel_kernel_source() (the group
+// prepare and node-to-group kernels; the other three keep the names above).
+constexpr const char* kNodeGroupKernelName = "bt_node_group";
+constexpr const char* kNodeChunkKernelName = "bt_node_chunk";
 
 std::vector<std::string> embedded_kernel_files();  // paths relative to kernels/
 std::string load_kernel_source(const std::string& relative_path,
@@ -52,6 +56,17 @@ std::string node_parallel_kernel_source(const std::string& kernel_header,
                                         const std::string& term_function,
                                         const std::string& finish_function,
                                         const std::string& kernel_dir = "");
+// The program of a quantity's nested node-parallel quadrature: the entry
+// points BT_DEFINE_NESTED_NODE_PARALLEL_KERNELS(bt_node_prepare,
+// bt_node_group, bt_node_chunk, bt_node, bt_node_sum, ...) of kernels/common/node_parallel.h
+// around the model's node functions (QuantityInfo::node_parallel, nested()).
+struct NestedNodeParallelNames {
+    std::string item_state_size, group_state_size, terms, acc_size;
+    std::string count, prepare, group_prepare, term, group_sum, finish, sample;
+};
+std::string nested_node_parallel_kernel_source(const std::string& kernel_header,
+                                               const NestedNodeParallelNames& names,
+                                               const std::string& kernel_dir = "");
 // The -D definitions that specialise the program of estimate_kernel_source()
 // to one quantity, option set, method (BT_METHOD_*) and point stride
 // (kernels/common/estimator.h, "Specialisation"), with a leading space:

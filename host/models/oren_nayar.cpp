@@ -166,6 +166,26 @@ ModelInfo oren_nayar_model() {
         b.quantity_by_id(id).directions = {"theta_i"};
     for (int id : {ON_Q_ALBEDO_AVG, ON_Q_ALBEDO_AVG_DIRECT, ON_Q_ALBEDO_AVG_INTER})
         b.quantity_by_id(id).directions = {};
+    // The Gaussian-surface quadrature runs node-parallel on OpenCL devices
+    // (nested sums: theta_a nodes, each with its phi_a nodes;
+    // kernels/models/oren_nayar.h, oren_nayar_node_*; docs/benchmarks.md,
+    // "Node-parallel quadrature").
+    for (int id : {ON_Q_BRDF, ON_Q_BRDF_DIRECT, ON_Q_BRDF_INTER, ON_Q_APPROX_ERROR}) {
+        NodeParallelFunctions& f = b.quantity_by_id(id).node_parallel;
+        f.count = "oren_nayar_node_count";
+        f.prepare = "oren_nayar_node_prepare";
+        f.term = "oren_nayar_node_term";
+        f.finish = "oren_nayar_node_finish";
+        f.state_size = ON_NODE_ITEM_STATE;
+        f.host_count = &oren_nayar_node_count;
+        f.group_prepare = "oren_nayar_node_group";
+        f.group_sum = "oren_nayar_node_group_sum";
+        f.sample = "oren_nayar_sample";
+        f.group_state_size = ON_NODE_GROUP_STATE;
+        f.terms = ON_NODE_TERMS;
+        f.acc_size = ON_NODE_ACC;
+        f.max_groups = ON_NODE_MAX_GROUPS;
+    }
     return b.build();
 }
 

@@ -130,4 +130,149 @@
     }
 #endif
 
+/*
+ * Nested sums (BT_DEFINE_NESTED_NODE_PARALLEL_KERNELS).  A tensor rule with
+ * data-dependent breakpoints on both levels (oren-nayar's theta_a nodes, each
+ * with its own phi_a sub-intervals) is a sum of *groups* (outer nodes) of
+ * nodes: value = finish(acc), where acc (acc_size values, from 0) takes
+ * group_sum(g) for g = 0, 1, ..., count - 1 in order, and group_sum adds its
+ * nodes' terms (n_terms values each) in its own order.  The model names:
+ *     int  count_fn        (p, o, quantity, s)  groups; 0: no nested sum
+ *                          (the sum kernel then returns sample_fn's value)
+ *     void prepare_fn      (p, o, quantity, s, REAL* item_state)
+ *     int  group_prepare_fn(BT_GLOBAL const REAL* item_state, o, quantity, g,
+ *                           REAL* group_state)   returns the group's nodes
+ *     void term_fn         (BT_GLOBAL const REAL* item_state,
+ *                           BT_GLOBAL const REAL* group_state, o, quantity,
+ *                           k, REAL* terms)
+ *     void group_sum_fn    (item_state, group_state, o, quantity,
+ *                           BT_GLOBAL const REAL* terms, REAL* acc)
+ *     REAL finish_fn       (p, o, quantity, s, const REAL* acc)
+ *     REAL sample_fn       (p, o, quantity, s)  the model's sample function
+ * The host lays out every work item's groups from the count function
+ * compiled for the host (QuantityInfo::node_parallel.host_count); the
+ * device counts each group's nodes (the group kernel), the host reads the
+ * counts back and lays the nodes out (prefix sums; the chunk kernel writes
+ * every node's group).  A work item whose device group count
+ * differs from the host's (rounding, in float) runs sample_fn instead.
+ * Indices of work items, groups and nodes are local to a sub-launch:
+ *   prepare_kernel  one work item per work item: item state.
+ *   group_kernel    one work item per group G of work item
+ *                   i = group_item[G], its number G - item_group[i]: group
+ *                   state and node count group_nodes[G].
+ *   chunk_kernel    one work item per group, after the host has laid out
+ *                   the nodes (group_node: the exclusive prefix sum of the
+ *                   device's counts): node_group[k] = G for its nodes k.
+ *   node_kernel     one work item per node: group G = node_group[gid] (a
+ *                   plain load, consecutive in gid), node
+ *                   k = gid - group_node[G]; terms at scratch[n_terms * gid].
+ *                   Loop-free: vectorises.
+ *   sum_kernel      one work item per work item: its groups in order, then
+ *                   finish; mean and M2 as in the usual kernel.
+ * Every term and every addition is the serial loop's (the model's serial
+ * code must call the same functions), so the bits are the usual kernel's.
+ */
+#if BT_DEVICE
+#define BT_DEFINE_NESTED_NODE_PARALLEL_KERNELS(                                \
+    prepare_kernel, group_kernel, chunk_kernel, node_kernel, sum_kernel,       \
+    item_state_size, group_state_size, n_terms, acc_size, count_fn,            \
+    prepare_fn, group_prepare_fn, term_fn, group_sum_fn, finish_fn, sample_fn) \
+    __kernel void chunk_kernel(__global const uint* group_node, uint n_groups, \
+                               __global uint* node_group)                      \
+    {                                                                          \
+        const uint g = (uint)get_global_id(0);                                 \
+        if (g >= n_groups) return;                                             \
+        for (uint k = group_node[g]; k < group_node[g + 1u]; ++k)              \
+            node_group[k] = g;                                                 \
+    }                                                                          \
+    __kernel void prepare_kernel(                                              \
+        __global const REAL* points, uint stride, __global const int* options, \
+        uint n_options, int quantity, uint method, uint key0, uint key1,       \
+        __global const uint* work_cell, __global const uint* work_batch,       \
+        uint first_work, uint n_work, __global REAL* item_state)               \
+    {                                                                          \
+        const uint gid = (uint)get_global_id(0);                               \
+        if (gid >= n_work) return;                                             \
+        const uint w = first_work + gid;                                       \
+        BT_KERNEL_LOAD_WORK_(w)                                                \
+        s.sample = 0u;                                                         \
+        REAL st[item_state_size];                                              \
+        prepare_fn(p, o, BT_KERNEL_QUANTITY_(quantity), &s, st);               \
+        for (uint i = 0; i < (uint)(item_state_size); ++i)                     \
+            item_state[(size_t)gid * (item_state_size) + i] = st[i];           \
+    }                                                                          \
+    __kernel void group_kernel(                                                \
+        __global const int* options, uint n_options, int quantity,             \
+        __global const uint* group_item, __global const uint* item_group,      \
+        uint n_groups, __global const REAL* item_state,                        \
+        __global REAL* group_state, __global int* group_nodes)                 \
+    {                                                                          \
+        const uint gid = (uint)get_global_id(0);                               \
+        if (gid >= n_groups) return;                                           \
+        const uint item = group_item[gid];                                     \
+        BT_KERNEL_LOAD_OPTIONS_(o, options, n_options)                         \
+        REAL gs[group_state_size];                                             \
+        group_nodes[gid] = group_prepare_fn(                                   \
+            item_state + (size_t)item * (item_state_size), o,                  \
+            BT_KERNEL_QUANTITY_(quantity), (int)(gid - item_group[item]), gs); \
+        for (uint i = 0; i < (uint)(group_state_size); ++i)                    \
+            group_state[(size_t)gid * (group_state_size) + i] = gs[i];         \
+    }                                                                          \
+    __kernel void node_kernel(                                                 \
+        __global const int* options, uint n_options, int quantity,             \
+        __global const uint* node_group,                                       \
+        __global const uint* group_node, __global const uint* group_item,      \
+        uint n_nodes, __global const REAL* item_state,                         \
+        __global const REAL* group_state, __global REAL* scratch)              \
+    {                                                                          \
+        const uint gid = (uint)get_global_id(0);                               \
+        if (gid >= n_nodes) return;                                            \
+        const uint g = node_group[gid];                                        \
+        BT_KERNEL_LOAD_OPTIONS_(o, options, n_options)                         \
+        REAL t[n_terms];                                                       \
+        term_fn(item_state + (size_t)group_item[g] * (item_state_size),        \
+                group_state + (size_t)g * (group_state_size), o,               \
+                BT_KERNEL_QUANTITY_(quantity), (int)(gid - group_node[g]), t); \
+        _Pragma("unroll")                                                      \
+        for (uint i = 0; i < (uint)(n_terms); ++i)                             \
+            scratch[(size_t)gid * (n_terms) + i] = t[i];                       \
+    }                                                                          \
+    __kernel void sum_kernel(                                                  \
+        __global const REAL* points, uint stride, __global const int* options, \
+        uint n_options, int quantity, uint method, uint key0, uint key1,       \
+        __global const uint* work_cell, __global const uint* work_batch,       \
+        uint first_work, uint n_work, __global const uint* item_group,         \
+        __global const uint* group_node, __global const REAL* item_state,      \
+        __global const REAL* group_state, __global const REAL* scratch,        \
+        __global ACCUM* out_mean, __global ACCUM* out_m2)                      \
+    {                                                                          \
+        const uint gid = (uint)get_global_id(0);                               \
+        if (gid >= n_work) return;                                             \
+        const uint w = first_work + gid;                                       \
+        BT_KERNEL_LOAD_WORK_(w)                                                \
+        s.sample = 0u;                                                         \
+        const int q_ = BT_KERNEL_QUANTITY_(quantity);                          \
+        const int n = count_fn(p, o, q_, &s);                                  \
+        const uint first = item_group[gid];                                    \
+        REAL value;                                                            \
+        if (n == 0 || (uint)n != item_group[gid + 1u] - first) {               \
+            value = sample_fn(p, o, q_, &s);                                   \
+        } else {                                                               \
+            REAL acc[acc_size];                                                \
+            for (uint i = 0; i < (uint)(acc_size); ++i) acc[i] = R(0.0);       \
+            for (uint g = first; g < first + (uint)n; ++g)                     \
+                group_sum_fn(item_state + (size_t)gid * (item_state_size),     \
+                             group_state + (size_t)g * (group_state_size), o,  \
+                             q_, scratch + (size_t)group_node[g] * (n_terms),  \
+                             acc);                                             \
+            value = finish_fn(p, o, q_, &s, acc);                              \
+        }                                                                      \
+        ACCUM x = (ACCUM)value;                                                \
+        ACCUM mean = 0, m2 = 0;                                                \
+        BT_WELFORD_ADD(mean, m2, x, 1u);                                       \
+        out_mean[w] = mean;                                                    \
+        out_m2[w] = m2;                                                        \
+    }
+#endif
+
 #endif /* BRDFTAB_NODE_PARALLEL_H */

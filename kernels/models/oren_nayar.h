@@ -174,17 +174,30 @@ BT_INLINE REAL on_d(REAL x, REAL y, REAL c2)
     return bt_safe_sqrt(x * x + R(2.0) * x * y * c2 + y * y);
 }
 
-/* Interreflection factor, eq. 19: int_{mv}^1 int_{ms}^1 K'(t, r) dr dt. */
-BT_INLINE REAL on_if(REAL mv, REAL ms, REAL c2)
+/* Interreflection factor, eq. 19: int_{mv}^1 int_{ms}^1 K'(t, r) dr dt,
+ * with d(1, m_v), d(1, m_s) and d(1, 1) given (on_facet computes d(1, m_s)
+ * apart, and d(1, 1) depends on theta_a alone). */
+BT_INLINE REAL on_if_split(REAL d_v, REAL d_s, REAL mv, REAL ms, REAL c2, REAL d_11)
 {
-    REAL r = BT_HALF_PI * (on_d(R(1.0), mv, c2) + on_d(R(1.0), ms, c2) - on_d(ms, mv, c2) -
-                           on_d(R(1.0), R(1.0), c2));
+    REAL r = BT_HALF_PI * (d_v + d_s - on_d(ms, mv, c2) - d_11);
     return fmax(r, R(0.0)); /* rounding only: the integrand K' is >= 0 */
 }
 
+BT_INLINE REAL on_if(REAL mv, REAL ms, REAL c2)
+{
+    return on_if_split(on_d(R(1.0), mv, c2), on_d(R(1.0), ms, c2), mv, ms, c2,
+                       on_d(R(1.0), R(1.0), c2));
+}
+
+/* cos 2 theta_a from a_z = cos theta_a. */
+BT_INLINE REAL on_cos2(REAL az) { return R(2.0) * az * az - R(1.0); }
+
 /* Per-facet BRDF contributions F1 (per unit rho) and F2 (per unit rho^2), see
- * the header comment.  `want` selects which are computed. */
-BT_INLINE void on_facet(const on_geom* g, bt_vec3 a, int want, REAL* f1, REAL* f2)
+ * the header comment.  `want` selects which are computed.  have_d11 != 0
+ * (a constant at every call): d(1, 1) of eq. 20 at this theta_a is d11,
+ * computed once per theta_a node by the quadrature (the same value). */
+BT_INLINE void on_facet_d11(const on_geom* g, bt_vec3 a, int want, int have_d11, REAL d11,
+                            REAL* f1, REAL* f2)
 {
     *f1 = R(0.0);
     *f2 = R(0.0);
@@ -202,13 +215,32 @@ BT_INLINE void on_facet(const on_geom* g, bt_vec3 a, int want, REAL* f1, REAL* f
         REAL sa2 = R(2.0) * az * sz - sa, va2 = R(2.0) * az * vz - va;
         if (va > R(0.0) && sa2 > R(0.0)) {
             REAL mv = bt_clamp(-va2 / va, R(0.0), R(1.0));  /* eq. 15 */
-            REAL ms = bt_clamp(-sa / sa2, R(0.0), R(1.0));  /* eq. 16 */
-            REAL c2 = R(2.0) * az * az - R(1.0);             /* cos 2 theta_a */
-            REAL itf = on_if(mv, ms, c2);                    /* eq. 19 */
+            REAL c2 = on_cos2(az);                           /* cos 2 theta_a */
+            /* eq. 16: m_s/w = 0 while <a,s> >= 0, and then d(1, m_s) = 1
+             * exactly (also for the -0 the clamp may give), so the branch
+             * changes no value.  It keeps m_s and d(1, m_s) in a block of
+             * their own: side by side with m_v's, clang's SLP vectoriser
+             * packed the pair into <2 x double>, which stopped the
+             * vectorisation of the node-parallel kernel's work-item loop. */
+            REAL ms = R(0.0), d_s = R(1.0);
+            if (sa < R(0.0)) {
+                ms = bt_clamp(-sa / sa2, R(0.0), R(1.0));
+                d_s = on_d(R(1.0), ms, c2);
+            }
+            REAL itf = on_if_split(on_d(R(1.0), mv, c2), d_s, mv, ms, c2,
+                                   have_d11 ? d11 : on_d(R(1.0), R(1.0), c2)); /* eq. 19 */
             *f2 = sa2 * va * itf * (BT_INV_PI * BT_INV_PI) / (az * vz * sz); /* eq. 18 */
         }
     }
 }
+
+BT_INLINE void on_facet(const on_geom* g, bt_vec3 a, int want, REAL* f1, REAL* f2)
+{
+    on_facet_d11(g, a, want, 0, R(0.0), f1, f2);
+}
+
+/* d(1, 1) of eq. 20 at slope cos theta_a = cos_a (on_facet_d11). */
+BT_INLINE REAL on_d11(REAL cos_a) { return on_d(R(1.0), R(1.0), on_cos2(cos_a)); }
 
 /* --------------------------------------------------------- quadrature */
 
@@ -259,12 +291,10 @@ BT_INLINE int on_add_dir_breaks(REAL phi_d, REAL td, REAL ta, int is_source, int
     return nb;
 }
 
-/* (1/2pi) int_0^{2pi} F1, F2 dphi_a at slope theta_a, GL rule (x, w, n) on
- * every sub-interval between kinks. */
-BT_INLINE void on_phi_integral(const on_geom* g, REAL theta_a, int want, int n, const REAL* gx,
-                               const REAL* gw, REAL* d1, REAL* d2)
+/* The phi_a breakpoints at slope theta_a, sorted, b[nb] = b[0] + 2pi;
+ * returns nb (>= 1). */
+BT_INLINE int on_phi_breaks(const on_geom* g, REAL theta_a, int want, REAL* b)
 {
-    REAL b[ON_MAX_BREAKS + 1];
     int nb = 0;
     REAL ta = bt_tan(theta_a);
     int layer = (want & ON_WANT_INTER) != 0;
@@ -286,23 +316,71 @@ BT_INLINE void on_phi_integral(const on_geom* g, REAL theta_a, int want, int n, 
         b[j + 1] = key;
     }
     b[nb] = b[0] + BT_TWO_PI;
-    /* A lone interval covering the whole period: split it in two so the rule
-     * sees half a period (the integrand is then a low-order trig polynomial). */
+    return nb;
+}
+
+/* The phi_a sub-intervals of on_phi_integral for nb breakpoints: a lone
+ * interval covering the whole period is split in two so the rule sees half
+ * a period (the integrand is then a low-order trig polynomial). */
+BT_INLINE int on_phi_parts(int nb) { return nb == 1 ? 2 : 1; }
+
+/* Half-length and midpoint of part q of sub-interval [b[k], b[k+1]].
+ * parts is 1 or 2: the product by 1 or 1/2 is the quotient by parts, bit
+ * for bit (both are exact scalings), without a division. */
+BT_INLINE void on_phi_interval(REAL lo, REAL hi, int parts, int q, REAL* hl, REAL* mid)
+{
+    REAL step = (hi - lo) * (parts == 2 ? R(0.5) : R(1.0));
+    REAL l = lo + step * (REAL)q;
+    *hl = R(0.5) * step;
+    *mid = l + *hl;
+}
+
+/* F1, F2 at the GL node x of a sub-interval (mid, hl) at slope theta_a
+ * (sin, cos of it given): the integrand of on_phi_integral, shared with the
+ * node-parallel kernel (on_node_term). */
+BT_INLINE void on_phi_node(const on_geom* g, REAL sin_a, REAL cos_a, REAL d11, REAL mid, REAL hl,
+                           REAL x, int want, REAL* f1, REAL* f2)
+{
+    REAL phi = mid + hl * x;
+#if BT_DEVICE && defined(BT_REAL_IS_FLOAT) && BT_REAL_IS_FLOAT
+    REAL cos_phi = bt_cos(phi), sin_phi = bt_sin(phi);
+#else
+    /* bt_sincos: bt_sin's and bt_cos's values (one argument reduction, the
+     * same polynomials, exact sign changes) at less cost; the float
+     * device's builtins are not known to agree, so they stay apart. */
+    REAL cos_phi;
+    REAL sin_phi = bt_sincos(phi, &cos_phi);
+#endif
+    on_facet_d11(g, bt_v3(sin_a * cos_phi, sin_a * sin_phi, cos_a), want, 1, d11, f1, f2);
+}
+
+/* The inner sum's step (one phi_a node of weight w on half-length hl). */
+BT_INLINE void on_phi_add(REAL w, REAL hl, REAL f1, REAL f2, REAL* s1, REAL* s2)
+{
+    *s1 += w * hl * f1;
+    *s2 += w * hl * f2;
+}
+
+/* (1/2pi) int_0^{2pi} F1, F2 dphi_a at slope theta_a, GL rule (x, w, n) on
+ * every sub-interval between kinks. */
+BT_INLINE void on_phi_integral(const on_geom* g, REAL theta_a, int want, int n, const REAL* gx,
+                               const REAL* gw, REAL* d1, REAL* d2)
+{
+    REAL b[ON_MAX_BREAKS + 1];
+    int nb = on_phi_breaks(g, theta_a, want, b);
+    REAL sin_a = bt_sin(theta_a), cos_a = bt_cos(theta_a);
+    REAL d11 = on_d11(cos_a);
     REAL s1 = R(0.0), s2 = R(0.0);
+    int parts = on_phi_parts(nb);
     for (int k = 0; k < nb; ++k) {
-        REAL lo = b[k], hi = b[k + 1];
-        int parts = nb == 1 ? 2 : 1;
-        REAL step = (hi - lo) / (REAL)parts;
         for (int q = 0; q < parts; ++q) {
-            REAL l = lo + step * (REAL)q;
-            REAL hl = R(0.5) * step, mid = l + hl;
+            REAL hl, mid;
+            on_phi_interval(b[k], b[k + 1], parts, q, &hl, &mid);
             if (!(hl > R(0.0))) continue;
             for (int j = 0; j < n; ++j) {
-                REAL phi = mid + hl * gx[j];
                 REAL f1, f2;
-                on_facet(g, on_facet_normal(theta_a, phi), want, &f1, &f2);
-                s1 += gw[j] * hl * f1;
-                s2 += gw[j] * hl * f2;
+                on_phi_node(g, sin_a, cos_a, d11, mid, hl, gx[j], want, &f1, &f2);
+                on_phi_add(gw[j], hl, f1, f2, &s1, &s2);
             }
         }
     }
@@ -310,21 +388,17 @@ BT_INLINE void on_phi_integral(const on_geom* g, REAL theta_a, int want, int n, 
     *d2 = s2 / BT_TWO_PI;
 }
 
-/* Gaussian slope integral (eq. 25 with eq. 26) by the tensor rule. */
-BT_INLINE void on_gauss_quadrature(const on_geom* g, REAL sigma, int want, int n, REAL* r1,
-                                   REAL* r2)
+/* theta_a breakpoints of the Gaussian slope integral: 0, 3 sigma (the
+ * Gaussian's bulk), the critical slopes pi/2 - theta_d where the phi_a kinks
+ * of d appear (substituted, see header), and the slopes where those kinks
+ * cross the fixed X = Y azimuth phi_x: cos(phi_x - phi_d) =
+ * +-1/(tan theta_a tan theta_d).  There three branches of the min() in F1
+ * meet and the phi_a-integral has a weak (second-derivative) singularity.
+ * Returns the number of sub-intervals ne; e[0..ne], kind[0..ne-1] (1: left
+ * end is a critical slope, t^2 substitution). */
+BT_INLINE int on_theta_breaks(const on_geom* g, REAL sigma, REAL* e, int* kind)
 {
-    REAL gx[ON_MAX_NODES], gw[ON_MAX_NODES];
-    bt_gauss_legendre_rule(n, gx, gw);
     REAL T = fmin(BT_HALF_PI, R(8.0) * sigma);
-    /* theta_a breakpoints: 0, 3 sigma (the Gaussian's bulk), the critical
-     * slopes pi/2 - theta_d where the phi_a kinks of d appear (substituted,
-     * see header), and the slopes where those kinks cross the fixed X = Y
-     * azimuth phi_x: cos(phi_x - phi_d) = +-1/(tan theta_a tan theta_d).
-     * There three branches of the min() in F1 meet and the phi_a-integral
-     * has a weak (second-derivative) singularity. */
-    REAL e[8];
-    int kind[8]; /* 1: left end is a critical slope (t^2 substitution) */
     int ne = 0;
     e[ne] = R(0.0);
     kind[ne++] = 0;
@@ -362,31 +436,67 @@ BT_INLINE void on_gauss_quadrature(const on_geom* g, REAL sigma, int want, int n
         ++ne;
     }
     e[ne] = T;
+    return ne;
+}
+
+/* The theta_a node of GL node x on sub-interval [lo, lo + L] (t^2
+ * substitution where kind != 0). */
+BT_INLINE REAL on_theta_node_angle(REAL lo, REAL L, int kind, REAL x)
+{
+    REAL t = R(0.5) * (x + R(1.0));
+    return kind ? lo + L * t * t : lo + L * t;
+}
+
+/* The theta_a node of GL node (x, w) on sub-interval [lo, lo + L] and its
+ * weight wp = w' jac p(theta_a) Z (eq. 26 before the normalisation). */
+BT_INLINE void on_theta_node(REAL lo, REAL L, int kind, REAL x, REAL w, REAL inv2s2, REAL* theta,
+                             REAL* wp)
+{
+    REAL t = R(0.5) * (x + R(1.0)), wt = R(0.5) * w;
+    REAL th = on_theta_node_angle(lo, L, kind, x);
+    REAL jac = kind ? R(2.0) * L * t : L;
+    *theta = th;
+    *wp = wt * jac * bt_exp(-th * th * inv2s2) * bt_sin(th);
+}
+
+/* The outer sum's step: z, s1, s2 in acc[0..2]. */
+BT_INLINE void on_theta_add(REAL wp, REAL d1, REAL d2, REAL* acc)
+{
+    acc[0] += wp;
+    acc[1] += wp * d1;
+    acc[2] += wp * d2;
+}
+
+BT_INLINE void on_theta_finish(const REAL* acc, REAL* r1, REAL* r2)
+{
+    REAL z = acc[0];
+    *r1 = z > R(0.0) ? acc[1] / z : R(0.0);
+    *r2 = z > R(0.0) ? acc[2] / z : R(0.0);
+}
+
+/* Gaussian slope integral (eq. 25 with eq. 26) by the tensor rule. */
+BT_INLINE void on_gauss_quadrature(const on_geom* g, REAL sigma, int want, int n, REAL* r1,
+                                   REAL* r2)
+{
+    REAL gx[ON_MAX_NODES], gw[ON_MAX_NODES];
+    bt_gauss_legendre_rule(n, gx, gw);
+    REAL e[8];
+    int kind[8];
+    int ne = on_theta_breaks(g, sigma, e, kind);
     REAL inv2s2 = R(0.5) / (sigma * sigma);
-    REAL z = R(0.0), s1 = R(0.0), s2 = R(0.0);
+    REAL acc[3] = {R(0.0), R(0.0), R(0.0)};
     for (int k = 0; k < ne; ++k) {
         REAL lo = e[k], L = e[k + 1] - lo;
         if (!(L > R(0.0))) continue;
         for (int j = 0; j < n; ++j) {
-            REAL t = R(0.5) * (gx[j] + R(1.0)), wt = R(0.5) * gw[j];
-            REAL th, jac;
-            if (kind[k]) {
-                th = lo + L * t * t;
-                jac = R(2.0) * L * t;
-            } else {
-                th = lo + L * t;
-                jac = L;
-            }
-            REAL wp = wt * jac * bt_exp(-th * th * inv2s2) * bt_sin(th);
+            REAL th, wp;
+            on_theta_node(lo, L, kind[k], gx[j], gw[j], inv2s2, &th, &wp);
             REAL d1, d2;
             on_phi_integral(g, th, want, n, gx, gw, &d1, &d2);
-            z += wp;
-            s1 += wp * d1;
-            s2 += wp * d2;
+            on_theta_add(wp, d1, d2, acc);
         }
     }
-    *r1 = z > R(0.0) ? s1 / z : R(0.0);
-    *r2 = z > R(0.0) ? s2 / z : R(0.0);
+    on_theta_finish(acc, r1, r2);
 }
 
 /* ------------------------------------------------------------ sampling */
@@ -602,6 +712,36 @@ BT_INLINE REAL on_avg_theta(const bt_sampler* s)
     return bt_acos(fmin(mu, R(1.0)));
 }
 
+/* The parts of eq. 25 that quantities brdf, brdf_direct,
+ * brdf_interreflection and approx_error need. */
+BT_INLINE int on_want(int quantity)
+{
+    if (quantity == ON_Q_BRDF_DIRECT) return ON_WANT_DIRECT;
+    if (quantity == ON_Q_BRDF_INTER) return ON_WANT_INTER;
+    return ON_WANT_DIRECT | ON_WANT_INTER;
+}
+
+/* The value of those quantities from eq. 25's direct (r1, per rho) and
+ * two-bounce (r2, per rho^2) parts, directions above the surface. */
+BT_INLINE REAL on_gaussian_result(const REAL* p, const int* o, int quantity, const bt_sampler* s,
+                                  REAL r1, REAL r2)
+{
+    REAL rho = p[ON_PARAM_RHO];
+    if (quantity == ON_Q_BRDF_DIRECT) return r1;
+    if (quantity == ON_Q_BRDF_INTER) return r2;
+    REAL exact = rho * r1 + rho * rho * r2;
+    if (quantity != ON_Q_APPROX_ERROR) return exact;
+    REAL approx = on_approximation(p, o);
+    if (o[ON_OPT_ERROR] == 1) return approx - exact;
+    /* Relative error.  Under quadrature `exact` is the rule's value; under
+     * sampling methods the ratio would be biased, so the estimator is
+     * linearised around the approximation: (approx - exact)/approx
+     * (documented in docs/models/oren-nayar.md). */
+    if (s->method == BT_METHOD_QUADRATURE)
+        return exact > R(0.0) ? approx / exact - R(1.0) : R(0.0);
+    return approx > R(0.0) ? (approx - exact) / approx : R(0.0);
+}
+
 /* The model's sample function (estimator.h signature). */
 BT_INLINE REAL oren_nayar_sample(const REAL* p, const int* o, int quantity, const bt_sampler* s)
 {
@@ -611,17 +751,12 @@ BT_INLINE REAL oren_nayar_sample(const REAL* p, const int* o, int quantity, cons
     REAL phi = p[3] - p[1];
     switch (quantity) {
     case ON_Q_BRDF:
-        if (below) return R(0.0);
-        on_gaussian(p, s, ON_WANT_DIRECT | ON_WANT_INTER, &r1, &r2);
-        return rho * r1 + rho * rho * r2;
     case ON_Q_BRDF_DIRECT:
-        if (below) return R(0.0);
-        on_gaussian(p, s, ON_WANT_DIRECT, &r1, &r2);
-        return r1;
     case ON_Q_BRDF_INTER:
+    case ON_Q_APPROX_ERROR:
         if (below) return R(0.0);
-        on_gaussian(p, s, ON_WANT_INTER, &r1, &r2);
-        return r2;
+        on_gaussian(p, s, on_want(quantity), &r1, &r2);
+        return on_gaussian_result(p, o, quantity, s, r1, r2);
     case ON_Q_UNI_SLOPE: {
         /* eq. 22: mean of the two facet types of the aligned cavities */
         if (below) return R(0.0);
@@ -651,20 +786,6 @@ BT_INLINE REAL oren_nayar_sample(const REAL* p, const int* o, int quantity, cons
     case ON_Q_QUALITATIVE:
         if (below) return R(0.0);
         return on_qualitative(p[0], p[2], phi, p[ON_PARAM_SIGMA], rho, o[ON_OPT_QUALITATIVE_A]);
-    case ON_Q_APPROX_ERROR: {
-        if (below) return R(0.0);
-        on_gaussian(p, s, ON_WANT_DIRECT | ON_WANT_INTER, &r1, &r2);
-        REAL exact = rho * r1 + rho * rho * r2;
-        REAL approx = on_approximation(p, o);
-        if (o[ON_OPT_ERROR] == 1) return approx - exact;
-        /* Relative error.  Under quadrature `exact` is the rule's value; under
-         * sampling methods the ratio would be biased, so the estimator is
-         * linearised around the approximation: (approx - exact)/approx
-         * (documented in docs/models/oren-nayar.md). */
-        if (s->method == BT_METHOD_QUADRATURE)
-            return exact > R(0.0) ? approx / exact - R(1.0) : R(0.0);
-        return approx > R(0.0) ? (approx - exact) / approx : R(0.0);
-    }
     case ON_Q_ALBEDO:
         if (p[0] > BT_HALF_PI) return R(0.0);
         return on_albedo_sample(p[0], p[ON_PARAM_SIGMA], rho, rho * rho, s);
@@ -683,6 +804,223 @@ BT_INLINE REAL oren_nayar_sample(const REAL* p, const int* o, int quantity, cons
     default:
         return R(0.0);
     }
+}
+
+/* ------------------------------------------------ node-parallel quadrature */
+/* The node functions of the Gaussian-surface quadrature (quantities brdf,
+ * brdf_direct, brdf_interreflection, approx_error under
+ * BT_METHOD_QUADRATURE) for the engine's nested node-parallel path
+ * (kernels/common/node_parallel.h, BT_DEFINE_NESTED_NODE_PARALLEL_KERNELS;
+ * registered in host/models/oren_nayar.cpp).  A work item's groups are the
+ * theta_a nodes of on_gauss_quadrature (in its order), a group's nodes the
+ * phi_a nodes of its on_phi_integral (n per part of a sub-interval, in
+ * order, zero-length parts included); a node's terms are F1 and F2.  The
+ * group sum adds them with the very steps of on_phi_integral (on_phi_add)
+ * and the theta_a step (on_theta_add), so the result is oren_nayar_sample's
+ * bit for bit.
+ * Item state (ON_NODE_ITEM_STATE): the geometry, n, the non-empty theta_a
+ * sub-intervals (lo, L, kind) and the GL rule.  Group state
+ * (ON_NODE_GROUP_STATE): theta_a, wp, sin and cos theta_a, nb, d(1, 1),
+ * b[0..nb]. */
+#define ON_NODE_GEOM 12
+#define ON_NODE_I_N (ON_NODE_GEOM)
+#define ON_NODE_I_INV2S2 (ON_NODE_GEOM + 1)
+#define ON_NODE_I_INV_N (ON_NODE_GEOM + 2)
+#define ON_NODE_I_LO (ON_NODE_GEOM + 3)
+#define ON_NODE_I_L (ON_NODE_I_LO + 7)
+#define ON_NODE_I_KIND (ON_NODE_I_L + 7)
+#define ON_NODE_I_GX (ON_NODE_I_KIND + 7)
+#define ON_NODE_I_GW (ON_NODE_I_GX + ON_MAX_NODES)
+#define ON_NODE_ITEM_STATE (ON_NODE_I_GW + ON_MAX_NODES)
+#define ON_NODE_G_THETA 0
+#define ON_NODE_G_WP 1
+#define ON_NODE_G_SIN 2
+#define ON_NODE_G_COS 3
+#define ON_NODE_G_NB 4
+#define ON_NODE_G_D11 5
+#define ON_NODE_G_B 6
+#define ON_NODE_GROUP_STATE (ON_NODE_G_B + ON_MAX_BREAKS + 1)
+#define ON_NODE_TERMS 2
+#define ON_NODE_ACC 3
+/* Groups of one work item at most: 6 theta_a sub-intervals of n nodes. */
+#define ON_NODE_MAX_GROUPS (6 * ON_MAX_NODES)
+
+BT_INLINE on_geom on_node_load_geom(BT_GLOBAL const REAL* st)
+{
+    on_geom g;
+    g.s = bt_v3(st[0], st[1], st[2]);
+    g.v = bt_v3(st[3], st[4], st[5]);
+    g.phi_s = st[6];
+    g.phi_v = st[7];
+    g.tan_s = st[8];
+    g.tan_v = st[9];
+    g.phi_x = st[10];
+    g.has_x = st[11] != R(0.0);
+    return g;
+}
+
+/* Whether the work item sums nodes at all: quadrature of a rough surface
+ * above the horizon (otherwise oren_nayar_sample's value is cheap). */
+BT_INLINE int on_node_nested(const REAL* p, int quantity, const bt_sampler* s)
+{
+    if (quantity != ON_Q_BRDF && quantity != ON_Q_BRDF_DIRECT && quantity != ON_Q_BRDF_INTER &&
+        quantity != ON_Q_APPROX_ERROR)
+        return 0;
+    if (p[0] > BT_HALF_PI || p[2] > BT_HALF_PI) return 0;
+    if (!(p[ON_PARAM_SIGMA] > R(1e-6))) return 0;
+    return s->method == BT_METHOD_QUADRATURE;
+}
+
+/* Groups: n theta_a nodes per non-empty sub-interval; 0 where the sample
+ * function computes the value itself. */
+BT_INLINE int oren_nayar_node_count(const REAL* p, const int* o, int quantity, const bt_sampler* s)
+{
+    (void)o;
+    if (!on_node_nested(p, quantity, s)) return 0;
+    on_geom g = on_make_geom(p);
+    REAL e[8];
+    int kind[8];
+    int ne = on_theta_breaks(&g, p[ON_PARAM_SIGMA], e, kind);
+    int m = 0;
+    for (int k = 0; k < ne; ++k) {
+        REAL lo = e[k], L = e[k + 1] - lo;
+        if (L > R(0.0)) ++m;
+    }
+    return m * on_quad_nodes(p, s);
+}
+
+BT_INLINE void oren_nayar_node_prepare(const REAL* p, const int* o, int quantity,
+                                       const bt_sampler* s, REAL* st)
+{
+    (void)o;
+    for (int i = 0; i < ON_NODE_ITEM_STATE; ++i) st[i] = R(0.0);
+    if (!on_node_nested(p, quantity, s)) return;
+    on_geom g = on_make_geom(p);
+    st[0] = g.s.x;
+    st[1] = g.s.y;
+    st[2] = g.s.z;
+    st[3] = g.v.x;
+    st[4] = g.v.y;
+    st[5] = g.v.z;
+    st[6] = g.phi_s;
+    st[7] = g.phi_v;
+    st[8] = g.tan_s;
+    st[9] = g.tan_v;
+    st[10] = g.phi_x;
+    st[11] = g.has_x ? R(1.0) : R(0.0);
+    REAL sigma = p[ON_PARAM_SIGMA];
+    int n = on_quad_nodes(p, s);
+    st[ON_NODE_I_N] = (REAL)n;
+    st[ON_NODE_I_INV2S2] = R(0.5) / (sigma * sigma);
+    st[ON_NODE_I_INV_N] = R(1.0) / (REAL)n;
+    REAL e[8];
+    int kind[8];
+    int ne = on_theta_breaks(&g, sigma, e, kind);
+    int m = 0;
+    for (int k = 0; k < ne; ++k) {
+        REAL lo = e[k], L = e[k + 1] - lo;
+        if (!(L > R(0.0))) continue;
+        st[ON_NODE_I_LO + m] = lo;
+        st[ON_NODE_I_L + m] = L;
+        st[ON_NODE_I_KIND + m] = kind[k] ? R(1.0) : R(0.0);
+        ++m;
+    }
+    REAL gx[ON_MAX_NODES], gw[ON_MAX_NODES];
+    bt_gauss_legendre_rule(n, gx, gw);
+    for (int j = 0; j < n; ++j) {
+        st[ON_NODE_I_GX + j] = gx[j];
+        st[ON_NODE_I_GW + j] = gw[j];
+    }
+}
+
+/* Group g of a work item: theta_a node j of non-empty sub-interval g / n;
+ * returns its node count (on_phi_integral's n per part of a sub-interval). */
+BT_INLINE int oren_nayar_node_group(BT_GLOBAL const REAL* item, const int* o, int quantity, int g,
+                                    REAL* gs)
+{
+    (void)o;
+    on_geom geo = on_node_load_geom(item);
+    int n = (int)item[ON_NODE_I_N];
+    if (n < 1) { /* a work item the device does not sum (count 0) */
+        for (int i = 0; i < ON_NODE_GROUP_STATE; ++i) gs[i] = R(0.0);
+        return 0;
+    }
+    int k = g / n, j = g - k * n;
+    k = k < 6 ? k : 5; /* a group the host counted beyond the device's */
+    REAL th, wp;
+    on_theta_node(item[ON_NODE_I_LO + k], item[ON_NODE_I_L + k], item[ON_NODE_I_KIND + k] != R(0.0),
+                  item[ON_NODE_I_GX + j], item[ON_NODE_I_GW + j], item[ON_NODE_I_INV2S2], &th, &wp);
+    REAL b[ON_MAX_BREAKS + 1];
+    int nb = on_phi_breaks(&geo, th, on_want(quantity), b);
+    gs[ON_NODE_G_THETA] = th;
+    gs[ON_NODE_G_WP] = wp;
+    gs[ON_NODE_G_SIN] = bt_sin(th);
+    gs[ON_NODE_G_COS] = bt_cos(th);
+    gs[ON_NODE_G_NB] = (REAL)nb;
+    gs[ON_NODE_G_D11] = on_d11(gs[ON_NODE_G_COS]);
+    for (int i = 0; i <= ON_MAX_BREAKS; ++i) gs[ON_NODE_G_B + i] = i <= nb ? b[i] : R(0.0);
+    return nb * on_phi_parts(nb) * n;
+}
+
+/* Node k of a group: F1 and F2 at phi_a node k % n of part k / n
+ * (on_phi_node, as in on_phi_integral; a zero-length part's nodes are
+ * computed too, and the group sum skips them).  No division (x86 has no
+ * vector integer one, and a REAL one is slow): k / n as (k + 1/2) (1/n) in
+ * REAL, whose floor is exact since k < 2^13 and (k + 1/2)/n is at least
+ * 1/(2n) from an integer; parts is 1 or 2. */
+BT_INLINE void oren_nayar_node_term(BT_GLOBAL const REAL* item, BT_GLOBAL const REAL* gs,
+                                    const int* o, int quantity, int k, REAL* out)
+{
+    (void)o;
+    on_geom geo = on_node_load_geom(item);
+    int n = (int)item[ON_NODE_I_N];
+    int nb = (int)gs[ON_NODE_G_NB];
+    int parts = on_phi_parts(nb);
+    int part = (int)(((REAL)k + R(0.5)) * item[ON_NODE_I_INV_N]), j = k - part * n;
+    int iv = part >> (parts - 1), q = part & (parts - 1);
+    REAL hl, mid;
+    on_phi_interval(gs[ON_NODE_G_B + iv], gs[ON_NODE_G_B + iv + 1], parts, q, &hl, &mid);
+    REAL f1, f2;
+    on_phi_node(&geo, gs[ON_NODE_G_SIN], gs[ON_NODE_G_COS], gs[ON_NODE_G_D11], mid, hl,
+                item[ON_NODE_I_GX + j],
+                on_want(quantity), &f1, &f2);
+    out[0] = f1;
+    out[1] = f2;
+}
+
+/* A group's share of the theta_a sum: its phi_a nodes' terms added as
+ * on_phi_integral adds them, then the theta_a step. */
+BT_INLINE void oren_nayar_node_group_sum(BT_GLOBAL const REAL* item, BT_GLOBAL const REAL* gs,
+                                         const int* o, int quantity, BT_GLOBAL const REAL* terms,
+                                         REAL* acc)
+{
+    (void)o;
+    (void)quantity;
+    int n = (int)item[ON_NODE_I_N];
+    int nb = (int)gs[ON_NODE_G_NB];
+    int parts = on_phi_parts(nb);
+    REAL s1 = R(0.0), s2 = R(0.0);
+    for (int k = 0; k < nb; ++k) {
+        for (int q = 0; q < parts; ++q) {
+            REAL hl, mid;
+            on_phi_interval(gs[ON_NODE_G_B + k], gs[ON_NODE_G_B + k + 1], parts, q, &hl, &mid);
+            if (!(hl > R(0.0))) continue;
+            BT_GLOBAL const REAL* t = terms + (size_t)ON_NODE_TERMS * (size_t)((k * parts + q) * n);
+            for (int j = 0; j < n; ++j)
+                on_phi_add(item[ON_NODE_I_GW + j], hl, t[ON_NODE_TERMS * j],
+                           t[ON_NODE_TERMS * j + 1], &s1, &s2);
+        }
+    }
+    REAL d1 = s1 / BT_TWO_PI, d2 = s2 / BT_TWO_PI;
+    on_theta_add(gs[ON_NODE_G_WP], d1, d2, acc);
+}
+
+BT_INLINE REAL oren_nayar_node_finish(const REAL* p, const int* o, int quantity, const bt_sampler* s,
+                                      const REAL* acc)
+{
+    REAL r1, r2;
+    on_theta_finish(acc, &r1, &r2);
+    return on_gaussian_result(p, o, quantity, s, r1, r2);
 }
 
 #endif /* BRDFTAB_OREN_NAYAR_H */
