@@ -13,37 +13,14 @@
 #include <vector>
 
 #include "host/engine/engine.h"
+#include "test_support.h"
 #include "host/models/registry.h"
 
 using namespace brdftab;
 
 namespace {
 
-// Sets an environment variable for the lifetime of the object (the engine
-// reads BRDFTAB_SAMPLE_PARALLEL* at every launch).
-class ScopedEnv {
-public:
-    ScopedEnv(const char* name, const char* value) : name_(name) {
-        const char* old = std::getenv(name);
-        had_ = old != nullptr;
-        if (had_) old_ = old;
-        if (value)
-            ::setenv(name, value, 1);
-        else
-            ::unsetenv(name);
-    }
-    ~ScopedEnv() {
-        if (had_)
-            ::setenv(name_, old_.c_str(), 1);
-        else
-            ::unsetenv(name_);
-    }
-
-private:
-    const char* name_;
-    bool had_ = false;
-    std::string old_;
-};
+using brdftab::test::ScopedEnv;
 
 // A few cells of a quantity: directions spread over the hemisphere, every
 // parameter at its default or in the middle of its range.

@@ -139,11 +139,12 @@ bool sample_parallel_by_default(const ModelInfo& model, const QuantityInfo& quan
                                 Method method, const std::vector<int>& options);
 
 // Node-parallel quadrature (OpenCL backend only): a quantity that names node
-// functions (QuantityInfo::node_parallel, host/models/registry.h; today
-// hfunction's H) runs its quadrature batches as one work item per node of a
-// node kernel and one work item per batch of a sum kernel that adds the terms
-// in node order (kernels/common/node_parallel.h), instead of one work item
-// looping over the nodes; results are bit-identical either way.  On by
+// functions (QuantityInfo::node_parallel, host/models/registry.h: hfunction's
+// H; oren-nayar's Gaussian-surface quadratures, as nested sums over theta_a
+// nodes of their phi_a nodes) runs its quadrature batches as one work item per
+// node of a node kernel and one work item per batch of a sum kernel that adds
+// the terms in node order (kernels/common/node_parallel.h), instead of one
+// work item looping over the nodes; results are bit-identical either way.  On by
 // default where node_parallel_by_default() says so (measured,
 // docs/benchmarks.md "Node-parallel quadrature"); BRDFTAB_NODE_PARALLEL=0
 // turns it off, =1 forces it on.  BRDFTAB_NODE_PARALLEL_SCRATCH=N caps a
