@@ -298,7 +298,9 @@ TEST_CASE("device (double and float) and host agree through estimate()") {
         PointBuilder builder(model, q);
         std::vector<std::map<std::string, double>> pts;
         for (double c : {0.0, 0.5, 1.0})
-            for (double mu : {0.0, 1e-5, 0.5, 1.0, 1e6})
+            // 1e-13 and 1e-200: below the rule's reach in float and in
+            // double (H = 1 there; it was NaN).
+            for (double mu : {0.0, 1e-200, 1e-13, 1e-5, 0.5, 1.0, 1e6})
                 pts.push_back({{"mu", mu}, {"c", c}, {"n", 2}});
         for (int psi = 0; psi < 4; ++psi) {
             std::vector<int> opts = {psi};

@@ -67,8 +67,15 @@
 #define HF_NCOEF 4
 #define HF_T_SERIES R(0.5)
 #define HF_H_FINE R(0.25)
-/* H(mu) = 1 to double precision below this mu (hf_h_nodes). */
+/* H(mu) = 1 to the working precision below this mu (hf_h_nodes): the
+ * correction O(mu log(1/mu)) is below 1e-97 there in double and below 3e-9
+ * (a fortieth of float's ulp at 1) in float, whose t^2 overflows below mu
+ * ~ 4e-12. */
+#if BT_DEVICE && defined(BT_REAL_IS_FLOAT) && BT_REAL_IS_FLOAT
+#define HF_MU_TINY R(1e-10)
+#else
 #define HF_MU_TINY R(1e-100)
+#endif
 #define HF_SERIES_TERMS 40
 
 /* Fixed-count loops are unrolled on the device (as BT_MATH_UNROLL in
@@ -266,9 +273,10 @@ BT_INLINE int hf_h_nodes(const hf_psi* P, REAL mu, int coarse, REAL* s_lo, REAL*
     if (!(mu > R(0.0)) || P->k0 < R(0.0)) return 0;
     /* Below HF_MU_TINY no nodes: the empty sum makes hf_h_finish return
      * factor * exp(0) = 1 (mu vanishes next to sqrt(beta) in the factor),
-     * and H(mu) = 1 + O(mu log(1/mu)) is 1 to double precision there (the
-     * correction is below 1e-97).  The rule below would reach t = e^18/mu,
-     * whose square overflows for mu below ~5e-147 (H was NaN there). */
+     * and H(mu) = 1 + O(mu log(1/mu)) is 1 to the working precision there
+     * (HF_MU_TINY).  The rule below would reach t = e^18/mu, whose square
+     * overflows for mu below ~5e-147 in double, ~4e-12 in float (H was NaN
+     * there). */
     if (mu < HF_MU_TINY) return 0;
     /* Integration limits in s = log t (note 3): the integrand is ~ mu b t^3
      * below t ~ 1/mu and ~ 1/(mu t^2) above max(1, 1/mu). */
