@@ -223,8 +223,7 @@ public:
                              runtime_.device_info().has_fp64 && !use_sample_parallel(l) &&
                              !use_node_parallel(l);
         if (!overlap) {
-            while (!unfinished_.empty()) finish();
-            enqueue_launch(l, mean, m2, nullptr);
+            run(l, mean, m2);
             unfinished_.push_back(cl::Event());  // already complete
             return;
         }
@@ -391,6 +390,14 @@ private:
         kernel.setArg(a++, cells_);
         kernel.setArg(a++, batches_);
         return a;
+    }
+
+    // The three arguments the node-parallel node and group kernels take
+    // first (kernels/common/node_parallel.h): options, n_options, quantity.
+    void set_option_args(cl::Kernel& kernel, const BatchLaunch& l) {
+        kernel.setArg(0, options_);
+        kernel.setArg(1, static_cast<cl_uint>(l.options.size()));
+        kernel.setArg(2, static_cast<cl_int>(l.quantity));
     }
 
     // A launch of `items` work items is padded to whole work groups (the
@@ -617,9 +624,7 @@ private:
         k.prepare.setArg(prepare_first_arg + 2, node_state_);
         // options, n_options, quantity, node_item, node_offset, first_work,
         // first_node, n_nodes, state, scratch
-        k.node.setArg(0, options_);
-        k.node.setArg(1, static_cast<cl_uint>(l.options.size()));
-        k.node.setArg(2, static_cast<cl_int>(l.quantity));
+        set_option_args(k.node, l);
         k.node.setArg(3, node_item_);
         k.node.setArg(4, node_offset_);
         k.node.setArg(8, node_state_);
@@ -737,9 +742,7 @@ private:
                                            local);
                 // options, n_options, quantity, group_item, item_group, n_groups,
                 // item_state, group_state, group_nodes
-                k.group.setArg(0, options_);
-                k.group.setArg(1, static_cast<cl_uint>(l.options.size()));
-                k.group.setArg(2, static_cast<cl_int>(l.quantity));
+                set_option_args(k.group, l);
                 k.group.setArg(3, nested_group_item_);
                 k.group.setArg(4, nested_item_group_);
                 k.group.setArg(5, static_cast<cl_uint>(total_groups));
@@ -781,9 +784,7 @@ private:
                                                cl::NDRange(padded_global(total_groups)), local);
                     // options, n_options, quantity, node_group, group_node,
                     // group_item, n_nodes, item_state, group_state, scratch
-                    k.node.setArg(0, options_);
-                    k.node.setArg(1, static_cast<cl_uint>(l.options.size()));
-                    k.node.setArg(2, static_cast<cl_int>(l.quantity));
+                    set_option_args(k.node, l);
                     k.node.setArg(3, nested_chunk_group_);
                     k.node.setArg(4, nested_group_node_);
                     k.node.setArg(5, nested_group_item_);

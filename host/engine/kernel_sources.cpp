@@ -232,6 +232,20 @@ std::string sample_parallel_kernel_source(const std::string& kernel_header,
     return source;
 }
 
+namespace {
+// The start of both node-parallel programs: forced inlining unless the build
+// options decide (a call left in the node kernel keeps its work-item loop
+// scalar: measured on hfunction's H, docs/benchmarks.md), the estimator, the
+// model's header and the node-parallel entry-point macros.
+std::string node_parallel_prologue(const std::string& kernel_header, const std::string& kernel_dir) {
+    std::string source = "#if !defined(BT_FORCE_INLINE)\n#define BT_FORCE_INLINE 1\n#endif\n";
+    source += load_kernel_source("common/estimator.h", kernel_dir);
+    source += load_kernel_source(kernel_header, kernel_dir);
+    source += load_kernel_source("common/node_parallel.h", kernel_dir);
+    return source;
+}
+}  // namespace
+
 std::string node_parallel_kernel_source(const std::string& kernel_header,
                                         const std::string& state_size,
                                         const std::string& count_function,
@@ -239,13 +253,7 @@ std::string node_parallel_kernel_source(const std::string& kernel_header,
                                         const std::string& term_function,
                                         const std::string& finish_function,
                                         const std::string& kernel_dir) {
-    // Forced inlining (kernels/common/estimator.h) unless the build options
-    // decide: a call left in the node kernel keeps its work-item loop scalar
-    // (measured on hfunction's H, docs/benchmarks.md).
-    std::string source = "#if !defined(BT_FORCE_INLINE)\n#define BT_FORCE_INLINE 1\n#endif\n";
-    source += load_kernel_source("common/estimator.h", kernel_dir);
-    source += load_kernel_source(kernel_header, kernel_dir);
-    source += load_kernel_source("common/node_parallel.h", kernel_dir);
+    std::string source = node_parallel_prologue(kernel_header, kernel_dir);
     source += "#line 1 \"generated node-parallel entry points for " + kernel_header + "\"\n";
     source += "BT_DEFINE_NODE_PARALLEL_KERNELS(" + std::string(kNodePrepareKernelName) + ", " +
               kNodeKernelName + ", " + kNodeSumKernelName + ", " + state_size + ", " +
@@ -257,11 +265,7 @@ std::string node_parallel_kernel_source(const std::string& kernel_header,
 std::string nested_node_parallel_kernel_source(const std::string& kernel_header,
                                                const NestedNodeParallelNames& f,
                                                const std::string& kernel_dir) {
-    // Forced inlining, as in node_parallel_kernel_source().
-    std::string source = "#if !defined(BT_FORCE_INLINE)\n#define BT_FORCE_INLINE 1\n#endif\n";
-    source += load_kernel_source("common/estimator.h", kernel_dir);
-    source += load_kernel_source(kernel_header, kernel_dir);
-    source += load_kernel_source("common/node_parallel.h", kernel_dir);
+    std::string source = node_parallel_prologue(kernel_header, kernel_dir);
     source += "#line 1 \"generated nested node-parallel entry points for " + kernel_header + "\"\n";
     source += "BT_DEFINE_NESTED_NODE_PARALLEL_KERNELS(" + std::string(kNodePrepareKernelName) +
               ", " + kNodeGroupKernelName + ", " + kNodeChunkKernelName + ", " + kNodeKernelName + ", " + kNodeSumKernelName +

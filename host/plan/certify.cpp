@@ -248,9 +248,7 @@ Certificate certify_impl(const TableData& stored, Backend& backend, const Certif
         auto add_block = [&](const std::vector<std::size_t>& lo, const std::vector<std::size_t>& hi) {
             std::vector<std::size_t> at = lo;  // odometer over the block
             for (bool more = true; more;) {
-                std::size_t flat = 0;
-                for (std::size_t a = 0; a < dims; ++a) flat = flat * t.axes[a].count + at[a];
-                floor_cells.push_back(flat);
+                floor_cells.push_back(t.flat_index(at));
                 more = false;
                 for (std::size_t a = dims; a-- > 0;) {
                     if (at[a] < hi[a]) {

@@ -56,9 +56,15 @@
 #include "estimator.h"
 
 #if BT_DEVICE
-#define BT_DEFINE_NODE_PARALLEL_KERNELS(prepare_kernel, node_kernel,           \
-                                        sum_kernel, state_size, count_fn,      \
-                                        prepare_fn, term_fn, finish_fn)        \
+/* The prepare kernel of both launches: one work item per work item w of a
+ * sub-launch stores prepare_fn's state_size values at
+ * state[(w - first_work) * state_size + ...].  unroll_copy (0 or 1) unrolls
+ * the copy (the flat launch's, as measured; the nested one's state is
+ * larger and is copied in a loop). */
+#define BT_NODE_COPY_UNROLL_0_
+#define BT_NODE_COPY_UNROLL_1_ _Pragma("unroll")
+#define BT_DEFINE_NODE_PREPARE_KERNEL_(prepare_kernel, state_size, prepare_fn,  \
+                                       unroll_copy)                            \
     __kernel void prepare_kernel(                                              \
         __global const REAL* points, uint stride, __global const int* options, \
         uint n_options, int quantity, uint method, uint key0, uint key1,       \
@@ -72,10 +78,15 @@
         s.sample = 0u;                                                         \
         REAL st[state_size];                                                   \
         prepare_fn(p, o, BT_KERNEL_QUANTITY_(quantity), &s, st);               \
-        _Pragma("unroll")                                                      \
+        BT_NODE_COPY_UNROLL_##unroll_copy##_                                   \
         for (uint i = 0; i < (uint)(state_size); ++i)                          \
             state[(size_t)gid * (state_size) + i] = st[i];                     \
-    }                                                                          \
+    }
+
+#define BT_DEFINE_NODE_PARALLEL_KERNELS(prepare_kernel, node_kernel,           \
+                                        sum_kernel, state_size, count_fn,      \
+                                        prepare_fn, term_fn, finish_fn)        \
+    BT_DEFINE_NODE_PREPARE_KERNEL_(prepare_kernel, state_size, prepare_fn, 1) \
     __kernel void node_kernel(                                                 \
         __global const int* options, uint n_options, int quantity,             \
         __global const uint* node_item, __global const uint* node_offset,      \
@@ -185,22 +196,7 @@
         for (uint k = group_node[g]; k < group_node[g + 1u]; ++k)              \
             node_group[k] = g;                                                 \
     }                                                                          \
-    __kernel void prepare_kernel(                                              \
-        __global const REAL* points, uint stride, __global const int* options, \
-        uint n_options, int quantity, uint method, uint key0, uint key1,       \
-        __global const uint* work_cell, __global const uint* work_batch,       \
-        uint first_work, uint n_work, __global REAL* item_state)               \
-    {                                                                          \
-        const uint gid = (uint)get_global_id(0);                               \
-        if (gid >= n_work) return;                                             \
-        const uint w = first_work + gid;                                       \
-        BT_KERNEL_LOAD_WORK_(w)                                                \
-        s.sample = 0u;                                                         \
-        REAL st[item_state_size];                                              \
-        prepare_fn(p, o, BT_KERNEL_QUANTITY_(quantity), &s, st);               \
-        for (uint i = 0; i < (uint)(item_state_size); ++i)                     \
-            item_state[(size_t)gid * (item_state_size) + i] = st[i];           \
-    }                                                                          \
+    BT_DEFINE_NODE_PREPARE_KERNEL_(prepare_kernel, item_state_size, prepare_fn, 0) \
     __kernel void group_kernel(                                                \
         __global const int* options, uint n_options, int quantity,             \
         __global const uint* group_item, __global const uint* item_group,      \
