@@ -124,6 +124,41 @@ expect_exit 2 "generate phong alpha up to 1.5" -- "$BT" generate phong.toml -q
 expect_grep "alpha = 1 is out of range for distribution = phong" err.txt \
   "generate names the first Phong cell out of range"
 expect_no_file phong.h5 "no Phong table written"
+expect_grep "phong.toml: table 'albedo_avg': alpha = 1 is out of range" err.txt \
+  "the refusal names the spec file and the table"
+expect_no_file phong.h5.checkpoint "a refused cell leaves no checkpoint behind"
+# The same for a closed form, whose cells are checked while its launches are
+# built (after the output's checkpoint exists), and with the checkpoint of an
+# earlier refused run absent, a later run reports no old checkpoint.
+cat >phong-bsdf.toml <<'EOF'
+model = "rough-dielectric"
+[parameters]
+eta = 1.5
+distribution = "phong"
+[[axes]]
+name = "theta_i"
+range = [0, 80]
+count = 3
+[[axes]]
+name = "theta_o"
+range = [0, 80]
+count = 3
+[[axes]]
+name = "alpha"
+range = [0.5, 1.5]
+count = 3
+[[tables]]
+quantity = "bsdf"
+[output]
+path = "phong.h5"
+EOF
+expect_exit 2 "generate phong bsdf, alpha up to 1.5" -- "$BT" generate phong-bsdf.toml -q
+expect_grep "phong-bsdf.toml: table 'bsdf': alpha = 1 is out of range" err.txt \
+  "closed form: the refusal names the spec file and the table"
+expect_no_file phong.h5 "closed form: no Phong table written"
+expect_no_file phong.h5.checkpoint "closed form: a refused cell leaves no checkpoint behind"
+expect_exit 2 "generate phong bsdf again" -- "$BT" generate phong-bsdf.toml -q
+if grep -q "add --resume" err.txt; then bad "a second refused run found a checkpoint of the first"; else ok; fi
 # validate recomputes through the same engine: a file claiming Phong at
 # alpha = 1 (a GGX table relabelled) is refused as well.
 cat >ggx.toml <<'EOF'

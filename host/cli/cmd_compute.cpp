@@ -328,6 +328,24 @@ bool parse_layout(const std::string& text, std::size_t& chunk_cells, int& ranks)
     return true;
 }
 
+// A run that stops on bad input found while computing (a cell the model
+// refuses, e.g. a Phong alpha axis that reaches 1) leaves nothing worth
+// resuming: the same spec stops at the same cell, and a corrected spec has
+// another checkpoint key, which --resume refuses.  So the checkpoint this run
+// created is removed before the error is reported; one it resumed holds an
+// earlier run's work and is left alone.  Other failures (a kill, a device
+// error, a full disk) keep the checkpoint for --resume.
+template <typename Fn>
+auto discarding_checkpoint_on_input_error(Checkpoint* checkpoint, bool created_here, Fn&& fn)
+    -> decltype(fn()) {
+    try {
+        return fn();
+    } catch (const InputError&) {
+        if (checkpoint && created_here) checkpoint->remove();
+        throw;
+    }
+}
+
 void finish_output(const GenerateSetup& g, Checkpoint* checkpoint) {
     std::cout << "wrote " << g.out_path << "\n";
     if (checkpoint) {
@@ -341,6 +359,7 @@ void finish_output(const GenerateSetup& g, Checkpoint* checkpoint) {
 void run_generate(const GenerateArgs& st) {
     GenerateSetup g = set_up_generate(st, true, "");
     announce(st, g, 1);
+    const bool checkpoint_is_new = checkpoint_presence(g.out_path) == CheckpointPresence::None;
     std::unique_ptr<Checkpoint> checkpoint = open_checkpoint(st, g);
     StreamOptions options;
     options.chunk_cells = st.chunk_cells;
@@ -356,8 +375,11 @@ void run_generate(const GenerateArgs& st) {
             checkpoint->record_layout(layout_text(options.chunk_cells, options.ranks));
     }
     TableProgress progress(st.quiet);
-    std::vector<GeneratedTable> tables = generate_to_file(g.spec, *g.backend, g.settings,
-                                                          g.out_path, progress.callback(), options);
+    std::vector<GeneratedTable> tables =
+        discarding_checkpoint_on_input_error(checkpoint.get(), checkpoint_is_new, [&] {
+            return generate_to_file(g.spec, *g.backend, g.settings, g.out_path,
+                                    progress.callback(), options);
+        });
     progress.finish();
     finish_output(g, checkpoint.get());
     print_summary(tables);
@@ -429,7 +451,10 @@ void run_certified_generate(const GenerateArgs& st) {
         stream.chunk_cells = st.chunk_cells;
         stream.checkpoint = checkpoint.get();
         TableProgress progress(st.quiet, "round " + std::to_string(round) + ": ");
-        tables = generate_to_file(planned, *backend, settings, path, progress.callback(), stream);
+        tables = discarding_checkpoint_on_input_error(
+            checkpoint.get(), presence == CheckpointPresence::None, [&] {
+                return generate_to_file(planned, *backend, settings, path, progress.callback(), stream);
+            });
         progress.finish();
         if (checkpoint) checkpoint->remove();
     };
@@ -522,6 +547,7 @@ void run_generate_mpi(const GenerateArgs& st) {
     const std::string who = "brdftab: rank " + std::to_string(rank) + ": ";
     GenerateSetup g;
     std::unique_ptr<Checkpoint> checkpoint;
+    bool checkpoint_is_new = false;  // created by this run (rank 0)
     std::string layout;
     auto agree = [&](const std::function<void()>& step) {
         int code = 0;
@@ -549,6 +575,7 @@ void run_generate_mpi(const GenerateArgs& st) {
     });
     agree([&] {
         if (rank != 0) return;
+        checkpoint_is_new = checkpoint_presence(g.out_path) == CheckpointPresence::None;
         checkpoint = open_checkpoint(st, g);
         std::size_t chunk_cells = st.chunk_cells;
         int ranks = size;
@@ -590,8 +617,11 @@ void run_generate_mpi(const GenerateArgs& st) {
             options.sharing = &sharing;
             options.temporary_created = remove_temporaries_on_termination;
             TableProgress progress(st.quiet);
-            std::vector<GeneratedTable> tables = generate_to_file(
-                g.spec, *g.backend, g.settings, g.out_path, progress.callback(), options);
+            std::vector<GeneratedTable> tables =
+                discarding_checkpoint_on_input_error(checkpoint.get(), checkpoint_is_new, [&] {
+                    return generate_to_file(g.spec, *g.backend, g.settings, g.out_path,
+                                            progress.callback(), options);
+                });
             progress.finish();
             finish_output(g, checkpoint.get());
             print_summary(tables);

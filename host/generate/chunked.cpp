@@ -124,10 +124,17 @@ ChunkResult ChunkComputer::compute(const CellChunk& chunk, Checkpoint* checkpoin
     const std::string& name = impl_->spec.tables[chunk.table].name;
     EstimateCheckpoint stored;
     if (checkpoint) stored = checkpoint->chunk(chunk.table, name, chunk.first, chunk.count, n);
-    EstimateResult r = estimate(
-        impl_->backend, impl_->model, *t.quantity, t.options, chunk.count,
-        [&](std::size_t cell, double* p) { points.point(chunk.first + cell, p); }, settings,
-        after_launch, checkpoint ? &stored : nullptr);
+    // A cell the model refuses (check_cell) is found only here: the message
+    // names the spec file and the table, as the set-up's messages do.
+    EstimateResult r;
+    try {
+        r = estimate(
+            impl_->backend, impl_->model, *t.quantity, t.options, chunk.count,
+            [&](std::size_t cell, double* p) { points.point(chunk.first + cell, p); }, settings,
+            after_launch, checkpoint ? &stored : nullptr);
+    } catch (const InputError& e) {
+        throw InputError(impl_->spec.file + ": table '" + name + "': " + e.what());
+    }
     ChunkResult out;
     out.chunk = chunk;
     out.value = std::move(r.value);
