@@ -577,6 +577,10 @@ TablePilot run_pilot(const Spec& spec, std::size_t table_index, Backend& backend
                                          stage(ts.name + ": interpolation pilot"));
     pilot.pilot_evaluations = named.size();
     const bool noisy = r.method != Method::ClosedForm;
+    // Only a sampled reference's stderr is its noise; a quadrature's is the
+    // difference of two rules (an overestimate of its error, which must not
+    // be subtracted from the line errors: LevelErrors::denoised_*).
+    const bool sampled = r.method == Method::MonteCarlo || r.method == Method::Rqmc;
     pilot.min_value = std::numeric_limits<double>::infinity();
     pilot.signed_min = r.value.empty() ? 0.0 : r.value.front();
     pilot.signed_max = pilot.signed_min;
@@ -609,7 +613,7 @@ TablePilot run_pilot(const Spec& spec, std::size_t table_index, Backend& backend
                 LevelErrors e;
                 e.count = n;
                 e.h = 1.0 / static_cast<double>(n - 1);
-                std::vector<double> abs_err, rel_err;
+                std::vector<double> abs_err, rel_err, abs_denoised, rel_denoised;
                 for (const LineBlock& blk : blocks) {
                     if (blk.axis != a || blk.level != l) continue;
                     const std::vector<double> nodes(r.value.begin() + blk.first_node,
@@ -627,10 +631,21 @@ TablePilot run_pilot(const Spec& spec, std::size_t table_index, Backend& backend
                         }
                         pilot.placement_lines[a].push_back(std::move(pl));
                     }
+                    double node_noise = 0;  // the line's largest node stderr
+                    if (sampled)
+                        for (std::size_t k = blk.first_node; k < blk.first_node + n; ++k)
+                            node_noise = std::max(node_noise, r.stderr_[k]);
                     for (std::size_t k = 0; k < probes.size(); ++k) {
                         const double want = r.value[blk.first_probe + k];
+                        const double scale = std::max(std::fabs(want), pilot.rel_floor);
                         abs_err.push_back(got[k] - want);
-                        rel_err.push_back((got[k] - want) / std::max(std::fabs(want), pilot.rel_floor));
+                        rel_err.push_back((got[k] - want) / scale);
+                        const double probe_noise = sampled ? r.stderr_[blk.first_probe + k] : 0.0;
+                        const double d = got[k] - want;
+                        const double kept = std::sqrt(std::max(
+                            0.0, d * d - (probe_noise * probe_noise + node_noise * node_noise)));
+                        abs_denoised.push_back(kept);
+                        rel_denoised.push_back(kept / scale);
                     }
                     if (noisy)
                         for (std::size_t k = blk.first_node; k < blk.first_probe + probes.size(); ++k)
@@ -638,6 +653,9 @@ TablePilot run_pilot(const Spec& spec, std::size_t table_index, Backend& backend
                 }
                 const ErrorStats sa = error_stats(abs_err), sr = error_stats(rel_err);
                 e.max_abs = sa.max, e.rms_abs = sa.rms, e.max_rel = sr.max, e.rms_rel = sr.rms;
+                const ErrorStats da = error_stats(abs_denoised), dr = error_stats(rel_denoised);
+                e.denoised_max_abs = da.max, e.denoised_rms_abs = da.rms;
+                e.denoised_max_rel = dr.max, e.denoised_rms_rel = dr.rms;
                 fits[a].levels.push_back(e);
             }
             fit_axis(fits[a], m == 0 ? 2.0 : 3.0);
@@ -826,6 +844,22 @@ TablePilot run_pilot(const Spec& spec, std::size_t table_index, Backend& backend
             }
             pilot.integration.push_back(f);
         }
+        // Rare events: a budget at which no pilot cell saw two different
+        // sample values (stderr exactly 0 everywhere, while the values are
+        // not all 0) means the stderrs measure too few events to be trusted
+        // as the noise (lambert-sphere-brdf `brdf_mc_remainder`, the tail of
+        // the walks beyond order 1000).  The line errors are then used as
+        // measured, noise included (LevelErrors::denoised_* = the raw ones).
+        for (const IntegrationFit& f : pilot.integration)
+            for (double m : f.max_abs)
+                if (f.method != Method::Quadrature && m == 0 && pilot.max_value > 0) pilot.variance_unseen = true;
+        if (pilot.variance_unseen)
+            for (int m = 0; m < 2; ++m)
+                for (AxisFit& fit : m == 0 ? pilot.linear : pilot.cubic)
+                    for (LevelErrors& l : fit.levels) {
+                        l.denoised_max_abs = l.max_abs, l.denoised_rms_abs = l.rms_abs;
+                        l.denoised_max_rel = l.max_rel, l.denoised_rms_rel = l.rms_rel;
+                    }
     }
     // ---- PoCL's large-grid kernel variant (kLargeGridWorkItems).
     // generate's launches grow towards 0.5 s each, up to 131072 work items;
@@ -863,13 +897,23 @@ const AxisFit& axis_fit(const TablePilot& p, const PlanTarget& t, std::size_t a)
 const PowerFit& max_fit(const AxisFit& f, const PlanTarget& t) { return t.absolute ? f.max_abs : f.max_rel; }
 const PowerFit& rms_fit(const AxisFit& f, const PlanTarget& t) { return t.absolute ? f.rms_abs : f.rms_rel; }
 
-// The error of an axis at h: the fit, or without one (every level exact or
-// below the reference noise) the finest level's measurement, a constant.
+// The error of an axis at h: the fit, or without one (an explicit axis,
+// every level exact or below the reference noise) the finest level's
+// measurement, a constant.  That measurement is taken with the noise of the
+// pilot's Monte Carlo values removed (LevelErrors::denoised_*): the noise of
+// the table's own cells is the integration term, and counting the pilot's
+// again here over-predicted 3x where every axis is explicit
+// (lambert-sphere-modes `ms_mc`, docs/planning.md).
 void axis_error(const AxisFit& f, const PlanTarget& t, double h, double& max_e, double& rms_e) {
     const PowerFit &fm = max_fit(f, t), &fr = rms_fit(f, t);
     const LevelErrors& finest = f.levels.back();
-    max_e = f.planned && fm.valid ? fm.eval(h) : (t.absolute ? finest.max_abs : finest.max_rel);
-    rms_e = f.planned && fr.valid ? fr.eval(h) : (t.absolute ? finest.rms_abs : finest.rms_rel);
+    const bool noisy = finest.noise > 0;
+    const double finest_max = t.absolute ? (noisy ? finest.denoised_max_abs : finest.max_abs)
+                                         : (noisy ? finest.denoised_max_rel : finest.max_rel);
+    const double finest_rms = t.absolute ? (noisy ? finest.denoised_rms_abs : finest.rms_abs)
+                                         : (noisy ? finest.denoised_rms_rel : finest.rms_rel);
+    max_e = f.planned && fm.valid ? fm.eval(h) : finest_max;
+    rms_e = f.planned && fr.valid ? fr.eval(h) : finest_rms;
 }
 
 }  // namespace
@@ -1411,7 +1455,9 @@ nlohmann::json pilot_json(const TablePilot& p) {
             for (const LevelErrors& l : f.levels)
                 levels.push_back({{"count", l.count}, {"h", l.h}, {"max_abs", l.max_abs},
                                   {"rms_abs", l.rms_abs}, {"max_rel", l.max_rel},
-                                  {"rms_rel", l.rms_rel}, {"noise", l.noise}});
+                                  {"rms_rel", l.rms_rel}, {"noise", l.noise},
+                                  {"denoised_max_abs", l.denoised_max_abs},
+                                  {"denoised_max_rel", l.denoised_max_rel}});
             j[m == 0 ? "linear" : "cubic"] = {{"levels", levels},
                                               {"max_abs", fit_json(f.max_abs)},
                                               {"rms_abs", fit_json(f.rms_abs)},
@@ -1444,7 +1490,7 @@ nlohmann::json pilot_json(const TablePilot& p) {
         integ.push_back(j);
     }
     return {{"table", p.table}, {"quantity", p.quantity}, {"max_value", p.max_value}, {"min_value", p.min_value},
-            {"relative_floor", p.rel_floor}, {"axes", axes}, {"integration", integ},
+            {"relative_floor", p.rel_floor}, {"variance_unseen", p.variance_unseen}, {"axes", axes}, {"integration", integ},
             {"overhead_seconds", p.overhead_seconds}, {"startup_seconds", p.startup_seconds},
             {"pilot_seconds", p.pilot_seconds},
             {"pilot_evaluations", p.pilot_evaluations}};

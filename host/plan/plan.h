@@ -83,6 +83,13 @@ struct LevelErrors {
     double h = 0;           // 1 / (count - 1)
     double max_abs = 0, rms_abs = 0, max_rel = 0, rms_rel = 0;
     double noise = 0;       // largest reference stderr among the probes and nodes (0: closed form)
+    // The same four measures with each probe's error shrunk towards 0 by
+    // twice its noise, (|d| - 2 sigma)+ with sigma^2 the probe's stderr^2 plus
+    // the line's largest node stderr^2: what is left of the error once the
+    // noise that the integration term already counts is taken out.  Used
+    // only where no fit exists (explicit axes, every level below 3 x noise);
+    // equal to the raw measures for closed forms.
+    double denoised_max_abs = 0, denoised_rms_abs = 0, denoised_max_rel = 0, denoised_rms_rel = 0;
 };
 
 // The fitted interpolation error of one axis for one interpolation:
@@ -167,6 +174,10 @@ struct TablePilot {
     double rel_floor = 0;          // relative errors divide by max(|value|, rel_floor)
     std::vector<AxisFit> linear, cubic;  // per axis
     std::vector<IntegrationFit> integration;  // closed form: one entry with the cost per cell
+    // A Monte Carlo budget of the integration pilot saw no variance in any
+    // cell although the values are not all 0: too few events for the
+    // stderrs to measure the noise (plan.cpp; the line errors keep it).
+    bool variance_unseen = false;
     double overhead_seconds = 0;   // fixed cost of one engine run (one launch)
     double startup_seconds = 0;    // the first run: kernel build or cache load, which
                                    // a `generate` process pays again: part of the prediction
