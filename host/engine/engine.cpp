@@ -913,9 +913,12 @@ private:
         // the work items of a group as SIMD lanes.  Not for every model:
         // with it, lambert-sphere tables came out wrong and PoCL crashed
         // (SIGSEGV) on its Horak-Chandrasekhar constants.  BRDFTAB_KERNEL_OPTIONS
-        // naming BT_FORCE_INLINE decides instead.
+        // naming BT_FORCE_INLINE decides instead.  interfaced-lambertian: body
+        // and vcavity 1.6x and 1.2x per CPU-second, presets bit-identical
+        // (docs/benchmarks.md, "Session 10"), though its sample loops stay scalar.
         if (!generic && extra.find("BT_FORCE_INLINE") == std::string::npos &&
-            (model.name == "rough-dielectric" || model.name == "micrograin"))
+            (model.name == "rough-dielectric" || model.name == "micrograin" ||
+             model.name == "interfaced-lambertian"))
             options += " -D BT_FORCE_INLINE=1";
         options += extra;
         return options;
