@@ -44,8 +44,8 @@
 #if !defined(BT_FORCE_INLINE)
 #define BT_FORCE_INLINE BT_SAMPLE_BARRIER
 #endif
-/* The engine passes -D BT_FORCE_INLINE=1 for rough-dielectric and micrograin
- * (host/engine/engine.cpp): measured faster there, and their preset tables
+/* The engine passes -D BT_FORCE_INLINE=1 for rough-dielectric, micrograin and
+ * interfaced-lambertian (host/engine/engine.cpp): measured faster there, and their preset tables
  * bit-identical.  Not for every model: lambert-sphere tables came out wrong and
  * PoCL crashed with it (docs/benchmarks.md). */
 #if BT_DEVICE && BT_FORCE_INLINE && !defined(BT_NO_FORCE_INLINE)
