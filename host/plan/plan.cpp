@@ -899,15 +899,19 @@ const PowerFit& rms_fit(const AxisFit& f, const PlanTarget& t) { return t.absolu
 
 // The error of an axis at h: the fit, or without one (an explicit axis,
 // every level exact or below the reference noise) the finest level's
-// measurement, a constant.  That measurement is taken with the noise of the
-// pilot's Monte Carlo values removed (LevelErrors::denoised_*): the noise of
-// the table's own cells is the integration term, and counting the pilot's
-// again here over-predicted 3x where every axis is explicit
-// (lambert-sphere-modes `ms_mc`, docs/planning.md).
+// measurement, a constant.  Where that measurement is below 3 x its
+// reference's noise (the rule that keeps a level out of the fits: its error
+// is mostly the noise's), it is taken with the noise of the pilot's Monte
+// Carlo values removed (LevelErrors::denoised_*): the noise of the table's
+// own cells is the integration term, and counting the pilot's again here
+// over-predicted 3x where every axis is explicit (lambert-sphere-modes
+// `ms_mc`, docs/planning.md).  Above 3 x the noise the raw measurement
+// stands: removing the noise there took real error away at a narrow peak
+// (micrograin-slice86 `diffuse_explicit`, 3.6 x its noise).
 void axis_error(const AxisFit& f, const PlanTarget& t, double h, double& max_e, double& rms_e) {
     const PowerFit &fm = max_fit(f, t), &fr = rms_fit(f, t);
     const LevelErrors& finest = f.levels.back();
-    const bool noisy = finest.noise > 0;
+    const bool noisy = finest.noise > 0 && finest.max_abs < 3 * finest.noise;
     const double finest_max = t.absolute ? (noisy ? finest.denoised_max_abs : finest.max_abs)
                                          : (noisy ? finest.denoised_max_rel : finest.max_rel);
     const double finest_rms = t.absolute ? (noisy ? finest.denoised_rms_abs : finest.rms_abs)

@@ -87,8 +87,9 @@ struct LevelErrors {
     // twice its noise, (|d| - 2 sigma)+ with sigma^2 the probe's stderr^2 plus
     // the line's largest node stderr^2: what is left of the error once the
     // noise that the integration term already counts is taken out.  Used
-    // only where no fit exists (explicit axes, every level below 3 x noise);
-    // equal to the raw measures for closed forms.
+    // only where no fit exists (explicit axes, every level below 3 x noise)
+    // and the level itself is below 3 x its noise; equal to the raw measures
+    // for closed forms and quadrature.
     double denoised_max_abs = 0, denoised_rms_abs = 0, denoised_max_rel = 0, denoised_rms_rel = 0;
 };
 
