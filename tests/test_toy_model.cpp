@@ -36,6 +36,25 @@ EstimateResult run(Backend& backend, const std::string& quantity,
                     settings);
 }
 
+// The pilot of `plan` (256 reference samples per probe) on an albedo table
+// with explicit theta_i and albedo axes.
+// `spec` receives the parsed spec.
+TablePilot explicit_axes_pilot(const std::string& sampling, const std::string& theta_values,
+                               Spec* spec_out = nullptr) {
+    const std::string text = "model = \"toy-lambert\"\n[parameters]\nsampling = \"" + sampling +
+                             "\"\n[[axes]]\nname = \"theta_i\"\nspacing = \"explicit\"\nvalues = " +
+                             theta_values +
+                             "\n[[axes]]\nname = \"albedo\"\nspacing = \"explicit\"\n"
+                             "values = [0.2, 0.5, 0.8]\n[[tables]]\nname = \"albedo\"\n"
+                             "quantity = \"albedo\"\n[integration]\nmethod = \"mc\"\nsamples = 4096\n";
+    const Spec spec = parse_spec_string(text, "toy-" + sampling + ".toml");
+    if (spec_out) *spec_out = spec;
+    auto backend = make_backend("host", Precision::Double);
+    PilotOptions options;
+    options.reference_samples = 256;
+    return run_pilot(spec, 0, *backend, options);
+}
+
 }  // namespace
 
 TEST_CASE("the toy model is registered and listed last") {
@@ -100,28 +119,8 @@ TEST_CASE("the toy model generates a table from a spec") {
 // measure without the subtraction gives 1); and it is what an explicit axis
 // predicts (axis_error).
 TEST_CASE("pilot: on explicit axes the noise of the pilot's values is taken out") {
-    const std::string text = R"(
-model = "toy-lambert"
-[[axes]]
-name = "theta_i"
-spacing = "explicit"
-values = [0.0, 30.0, 60.0, 85.0]
-[[axes]]
-name = "albedo"
-spacing = "explicit"
-values = [0.2, 0.5, 0.8]
-[[tables]]
-name = "albedo"
-quantity = "albedo"
-[integration]
-method = "mc"
-samples = 4096
-)";
-    const Spec spec = parse_spec_string(text, "toy-noise.toml");
-    auto backend = make_backend("host", Precision::Double);
-    PilotOptions options;
-    options.reference_samples = 256;
-    const TablePilot p = run_pilot(spec, 0, *backend, options);
+    Spec spec;
+    const TablePilot p = explicit_axes_pilot("uniform", "[0.0, 30.0, 60.0, 85.0]", &spec);
     REQUIRE(p.linear.size() == 2);
     for (const AxisFit& f : p.linear) {
         CAPTURE(f.axis);
@@ -152,29 +151,7 @@ samples = 4096
 // too few rare events) has no noise measurement to take out: the line errors
 // are kept as measured.
 TEST_CASE("pilot: a budget without variance keeps the line errors as measured") {
-    const std::string text = R"(
-model = "toy-lambert"
-[parameters]
-sampling = "cosine"
-[[axes]]
-name = "theta_i"
-spacing = "explicit"
-values = [0.0, 40.0, 80.0]
-[[axes]]
-name = "albedo"
-spacing = "explicit"
-values = [0.2, 0.5, 0.8]
-[[tables]]
-name = "albedo"
-quantity = "albedo"
-[integration]
-method = "mc"
-)";
-    const Spec spec = parse_spec_string(text, "toy-exact.toml");
-    auto backend = make_backend("host", Precision::Double);
-    PilotOptions options;
-    options.reference_samples = 256;
-    const TablePilot p = run_pilot(spec, 0, *backend, options);
+    const TablePilot p = explicit_axes_pilot("cosine", "[0.0, 40.0, 80.0]");
     CHECK(p.variance_unseen);
     for (const AxisFit& f : p.linear) {
         REQUIRE(f.levels.size() == 1);
