@@ -348,9 +348,10 @@ private:
     void enqueue_launch(const BatchLaunch& l, std::vector<double>& mean,
                         std::vector<double>& m2, cl::Event* done) {
         const std::size_t n = l.work_items();
+        const bool accum_double = runtime_.device_info().has_fp64;
         // Every entry is overwritten by the read below: no zero-fill.
         if (!l.mean_out) mean.resize(n);
-        m2.resize(n);
+        if (l.need_m2 || !accum_double) m2.resize(n);  // else left as it is: never read
         if (n == 0) return;
         double* const mean_out = l.mean_out ? l.mean_out : mean.data();
         const bool sample_parallel = use_sample_parallel(l);
@@ -361,7 +362,6 @@ private:
         cl::Kernel* kernel_ptr = sample_parallel || node_parallel ? nullptr : &kernel_for(l);
         SampleParallelKernels* pair = sample_parallel ? &sample_parallel_kernels_for(l) : nullptr;
         const bool real_float = precision_ == Precision::Float;
-        const bool accum_double = runtime_.device_info().has_fp64;
         try {
             cl::CommandQueue& queue = runtime_.queue();
             const std::size_t real_size = real_float ? sizeof(float) : sizeof(double);
@@ -1162,10 +1162,12 @@ void assign_large(std::vector<T>& v, std::size_t n, T fill) {
     constexpr std::size_t kHuge = std::size_t{2} << 20;
     if (n * sizeof(T) >= 2 * kHuge && v.capacity() < n) {
         std::vector<T>().swap(v);
-        v.reserve(n);  // allocated, not yet touched
+        // Allocated, not yet touched; 2 MiB more, so that the huge page
+        // holding the array's end lies inside the allocation.
+        v.reserve(n + kHuge / sizeof(T));
         const auto begin = reinterpret_cast<std::uintptr_t>(v.data());
         const std::uintptr_t first = (begin + kHuge - 1) / kHuge * kHuge;
-        const std::uintptr_t last = (begin + n * sizeof(T)) / kHuge * kHuge;
+        const std::uintptr_t last = (begin + n * sizeof(T) + kHuge - 1) / kHuge * kHuge;
         if (last > first)
             madvise(reinterpret_cast<void*>(first), last - first, MADV_HUGEPAGE);  // a hint
     }
@@ -1363,7 +1365,10 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
     prog.cells_total = cell_count;
     // The figures every path derives from the per-cell results in the same
     // way: the worst relative error, unconverged cells, the last progress.
-    auto finish = [&](double elapsed_before_run) {
+    // errors_all_zero: every stderr is 0 (closed forms), so every cell's
+    // relative error is 0 or NaN (0 / 0), which std::max below ignores:
+    // the worst is 0, and the loop and its divisions are skipped.
+    auto finish = [&](double elapsed_before_run, bool errors_all_zero) {
         double worst = 0;
         std::size_t unconverged = 0;
         // Relative error with the absolute floor folded in: under a tolerance
@@ -1371,7 +1376,7 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
         // figure is comparable with the requested tolerance.
         const double floor_value =
             adaptive ? settings.abs_floor / settings.tolerance : settings.abs_floor;
-        for (std::size_t c = 0; c < cell_count; ++c) {
+        for (std::size_t c = 0; c < cell_count && !(errors_all_zero && !adaptive); ++c) {
             const double rel = result.stderr_[c] / std::max(std::fabs(result.value[c]), floor_value);
             worst = std::max(worst, rel);
             if (adaptive && result.stderr_[c] > std::max(settings.tolerance * std::fabs(result.value[c]),
@@ -1590,7 +1595,7 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
         while (unfinished > 0) merge_oldest();
         abandon_guard.armed = false;
         result.total_samples = total_work;  // batch_size is 1
-        finish(0.0);
+        finish(0.0, !quadrature);
         return result;
     }
 
@@ -1726,7 +1731,7 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
         result.samples[c] = quadrature ? 1u : static_cast<std::uint32_t>(std::min<std::uint64_t>(s.samples, 0xFFFFFFFFu));
         result.total_samples += s.samples;
     }
-    finish(elapsed_before);
+    finish(elapsed_before, false);
     return result;
 }
 

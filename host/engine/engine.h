@@ -76,7 +76,7 @@ struct BatchLaunch {
     std::uint32_t batch_size = 1;
     // false: the caller reads no m2 (the direct path of closed forms and
     // quadratures, whose one-sample batches have m2 = 0), and a backend
-    // may leave m2 unset.
+    // may leave the m2 vector as it is (not even resized).
     bool need_m2 = true;
     // true: the caller built the launch's points, cells and batches
     // (staged_items work items) in the memory Backend::stage() gave it, and
