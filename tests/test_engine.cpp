@@ -10,6 +10,7 @@
 #include <random>
 
 #include "host/engine/engine.h"
+#include "kernels/common/sampler.h"
 #include "host/core/error.h"
 #include "host/models/registry.h"
 #include "test_support.h"
@@ -583,4 +584,82 @@ TEST_CASE("cell_base: a run over a table's tail draws the samples of the whole t
         s.cell_base = 0xFFFFFFFFull - tail.size() + 1;  // one past the last cell id
         CHECK_THROWS_AS(f.run(*dev, "albedo_r", tail, s), InputError);
     }
+}
+
+TEST_CASE("staged launches: inputs built in the backend's memory give run()'s bits") {
+    // Backend::stage lends memory for the next start()'s inputs (on PoCL's
+    // CPU device the launch's buffers are that memory: no copy).  Launches
+    // staged and started in turn (two in flight, the buffer sets
+    // alternating, the memory growing), with their means read into a
+    // caller's array (BatchLaunch::mean_out), must give the bits of the same
+    // launches run from BatchLaunch's vectors; a float backend and the host
+    // lend nothing.
+    Fixture f;
+    const QuantityInfo& q = f.model.quantity("bsdf");
+    const auto pts = f.random_points(700, true);
+    PointBuilder builder(f.model, q);
+    const std::size_t stride = f.model.point_stride();
+    BatchLaunch base;
+    base.model = &f.model;
+    base.quantity = q.id;
+    base.options = f.options("beckmann");
+    base.method = BT_METHOD_CLOSED;
+    base.key0 = 3;
+    base.stride = stride;
+    base.need_m2 = false;
+    // Launch k: cells [first, first + size) of pts, in vectors or staged.
+    auto fill = [&](double* points, std::uint32_t* cells, std::uint32_t* batches,
+                    std::size_t first, std::size_t size) {
+        for (std::size_t w = 0; w < size; ++w) {
+            builder.build(pts[first + w], points + w * stride);
+            cells[w] = static_cast<std::uint32_t>(first + w);
+            batches[w] = 0;
+        }
+    };
+    const std::vector<std::pair<std::size_t, std::size_t>> launches = {
+        {0, 5}, {5, 64}, {69, 3}, {72, 300}, {372, 328}};
+    auto dev = device();
+    std::vector<double> expected(pts.size());
+    for (const auto& [first, size] : launches) {
+        BatchLaunch l = base;
+        l.points.resize(size * stride);
+        l.cells.resize(size);
+        l.batches.resize(size);
+        fill(l.points.data(), l.cells.data(), l.batches.data(), first, size);
+        std::vector<double> mean, m2;
+        dev->run(l, mean, m2);
+        REQUIRE(mean.size() == size);
+        std::copy(mean.begin(), mean.end(), expected.begin() + static_cast<std::ptrdiff_t>(first));
+    }
+    auto staged_dev = device();
+    std::vector<double> got(pts.size(), -1.0);
+    BatchLaunch slots[2] = {base, base};
+    std::vector<double> unused_mean[2], m2[2];
+    std::size_t in_flight = 0, next = 0;
+    for (const auto& [first, size] : launches) {
+        if (in_flight == 2) {
+            staged_dev->finish();
+            --in_flight;
+        }
+        BatchLaunch& l = slots[next];
+        LaunchStaging to;
+        REQUIRE(staged_dev->stage(l, size, to));
+        fill(to.points, to.cells, to.batches, first, size);
+        l.staged = true;
+        l.staged_items = size;
+        l.mean_out = got.data() + first;
+        staged_dev->start(l, unused_mean[next], m2[next]);
+        ++in_flight;
+        next ^= 1;
+    }
+    while (in_flight > 0) {
+        staged_dev->finish();
+        --in_flight;
+    }
+    CHECK(got == expected);
+    CHECK(unused_mean[0].empty());  // the means went to mean_out only
+    CHECK(unused_mean[1].empty());
+    LaunchStaging to;
+    CHECK_FALSE(make_backend("host", Precision::Double)->stage(base, 4, to));
+    CHECK_FALSE(device(Precision::Float)->stage(base, 4, to));
 }

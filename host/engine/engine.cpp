@@ -8,8 +8,14 @@
 #include <deque>
 #include <cmath>
 #include <map>
+#include <memory>
 #include <mutex>
+#include <new>
 #include <thread>
+
+#if defined(__linux__)
+#include <sys/mman.h>
+#endif
 
 #include "kernels/common/estimator.h"
 #include "host/core/error.h"
@@ -70,9 +76,9 @@ public:
     void run(const BatchLaunch& l, std::vector<double>& mean,
              std::vector<double>& m2) override {
         const std::size_t n = l.cells.size();
-        mean.resize(n);  // every entry is written
+        if (!l.mean_out) mean.resize(n);  // every entry is written
         m2.resize(n);
-        run_host_items(l, 0, n, mean.data(), m2.data());
+        run_host_items(l, 0, n, l.mean_out ? l.mean_out : mean.data(), m2.data());
     }
 };
 
@@ -92,11 +98,12 @@ public:
     void run(const BatchLaunch& l, std::vector<double>& mean,
              std::vector<double>& m2) override {
         const std::size_t n = l.cells.size();
-        mean.assign(n, 0.0);
+        if (!l.mean_out) mean.assign(n, 0.0);
         m2.assign(n, 0.0);
+        double* const mean_out = l.mean_out ? l.mean_out : mean.data();
         const std::size_t parts = std::min<std::size_t>(threads_, n);
         if (parts <= 1) {
-            run_host_items(l, 0, n, mean.data(), m2.data());
+            run_host_items(l, 0, n, mean_out, m2.data());
             return;
         }
         std::vector<std::thread> pool;
@@ -105,7 +112,7 @@ public:
             const std::size_t begin = n * t / parts, end = n * (t + 1) / parts;
             pool.emplace_back([&, t, begin, end] {
                 try {
-                    run_host_items(l, begin, end, mean.data(), m2.data());
+                    run_host_items(l, begin, end, mean_out, m2.data());
                 } catch (...) {
                     errors[t] = std::current_exception();
                 }
@@ -204,6 +211,10 @@ public:
 
     void run(const BatchLaunch& l, std::vector<double>& mean,
              std::vector<double>& m2) override {
+        // A launch staged while another was unfinished is in the other
+        // set's memory, which only start() switches to.
+        if (l.staged && !unfinished_.empty())
+            throw Error("OpenCL backend: run() of a launch staged for start()");
         while (!unfinished_.empty()) finish();
         enqueue_launch(l, mean, m2, nullptr);
     }
@@ -219,10 +230,8 @@ public:
                std::vector<double>& m2) override {
         if (unfinished_.size() >= 2)
             throw Error("OpenCL backend: start() with two launches unfinished");
-        const bool overlap = precision_ == Precision::Double &&
-                             runtime_.device_info().has_fp64 && !use_sample_parallel(l) &&
-                             !use_node_parallel(l);
-        if (!overlap) {
+        if (!overlaps(l)) {
+            if (l.staged) throw Error("OpenCL backend: a staged launch that does not overlap");
             run(l, mean, m2);
             unfinished_.push_back(cl::Event());  // already complete
             return;
@@ -254,17 +263,97 @@ public:
         unfinished_.clear();
     }
 
+    // The staged inputs live in host memory of the buffer set the launch
+    // will use (start(): the active set when nothing is unfinished, else the
+    // idle one), wrapped by CL_MEM_USE_HOST_PTR buffers.  On PoCL's CPU
+    // device such a buffer's storage is that memory, and the write that
+    // hands it over (enqueue_launch) is no copy: the caller's one copy of a
+    // point into its work item's slot is the only one (before: a second,
+    // PoCL's, of the whole launch; docs/benchmarks.md, session 10).  The
+    // memory is kept from launch to launch: no page faults after the first.
+    bool stage(const BatchLaunch& l, std::size_t items, LaunchStaging& staging) override {
+        if (items == 0 || unfinished_.size() >= 2 || !overlaps(l)) return false;
+        StagedInputs& target = unfinished_.empty() ? staged_ : idle_.staged;
+        const std::size_t point_doubles = items * l.stride;
+        try {
+            if (items > target.items || point_doubles > target.point_doubles) {
+                // Grown geometrically as launches grow; never while a launch
+                // uses this set (start() alternates the sets).
+                cl::Context& ctx = runtime_.context();
+                const std::size_t want_items = std::max(items, 2 * target.items);
+                const std::size_t want_doubles = std::max(point_doubles, 2 * target.point_doubles);
+                target.points = target.cells = target.batches = cl::Buffer();
+                target = StagedInputs{};
+                target.points_host = HostMemory(want_doubles * sizeof(double));
+                target.cells_host = HostMemory(want_items * sizeof(std::uint32_t));
+                target.batches_host = HostMemory(want_items * sizeof(std::uint32_t));
+                const cl_mem_flags flags = CL_MEM_READ_ONLY | CL_MEM_USE_HOST_PTR;
+                target.points = cl::Buffer(ctx, flags, want_doubles * sizeof(double),
+                                           target.points_host.get());
+                target.cells = cl::Buffer(ctx, flags, want_items * sizeof(std::uint32_t),
+                                          target.cells_host.get());
+                target.batches = cl::Buffer(ctx, flags, want_items * sizeof(std::uint32_t),
+                                            target.batches_host.get());
+                target.items = want_items;
+                target.point_doubles = want_doubles;
+            }
+        } catch (const cl::Error& e) {
+            throw OpenCLError(e.what(), e.err(), "while creating the launch's input buffers");
+        }
+        staging.points = static_cast<double*>(target.points_host.get());
+        staging.cells = static_cast<std::uint32_t*>(target.cells_host.get());
+        staging.batches = static_cast<std::uint32_t*>(target.batches_host.get());
+        return true;
+    }
+
 private:
+    // Page-aligned host memory (CL_MEM_USE_HOST_PTR wants the device's base
+    // alignment; a page covers every device's).
+    class HostMemory {
+    public:
+        HostMemory() = default;
+        explicit HostMemory(std::size_t bytes) {
+            constexpr std::size_t kPage = 4096;
+            const std::size_t rounded = std::max<std::size_t>(kPage, (bytes + kPage - 1) / kPage * kPage);
+            data_.reset(std::aligned_alloc(kPage, rounded));
+            if (!data_) throw std::bad_alloc();
+        }
+        void* get() const { return data_.get(); }
+
+    private:
+        struct Free {
+            void operator()(void* p) const { std::free(p); }
+        };
+        std::unique_ptr<void, Free> data_;
+    };
+    // One buffer set's staged inputs (stage()): the host memory and the
+    // buffers over it.  The buffers are declared after the memory, so they
+    // are released before it is freed.
+    struct StagedInputs {
+        HostMemory points_host, cells_host, batches_host;
+        cl::Buffer points, cells, batches;
+        std::size_t items = 0, point_doubles = 0;
+    };
+
+    // Whether start() enqueues this launch without blocking (and stage()
+    // lends memory for it): double on a device with fp64, the usual kernel.
+    bool overlaps(const BatchLaunch& l) const {
+        return precision_ == Precision::Double && runtime_.device_info().has_fp64 &&
+               !use_sample_parallel(l) && !use_node_parallel(l);
+    }
+
     // One launch's writes, kernel and reads on the active buffer set.  With
     // `done` null every call blocks until the results are in `mean`/`m2`;
     // otherwise nothing blocks and `done` is the event of the last read.
     void enqueue_launch(const BatchLaunch& l, std::vector<double>& mean,
                         std::vector<double>& m2, cl::Event* done) {
-        const std::size_t n = l.cells.size();
+        const std::size_t n = l.work_items();
+        const bool accum_double = runtime_.device_info().has_fp64;
         // Every entry is overwritten by the read below: no zero-fill.
-        mean.resize(n);
-        m2.resize(n);
+        if (!l.mean_out) mean.resize(n);
+        if (l.need_m2 || !accum_double) m2.resize(n);  // else left as it is: never read
         if (n == 0) return;
+        double* const mean_out = l.mean_out ? l.mean_out : mean.data();
         const bool sample_parallel = use_sample_parallel(l);
         // Node-parallel quadrature (lays out the nodes on the host first).
         const bool node_parallel = !sample_parallel && use_node_parallel(l) &&
@@ -273,7 +362,6 @@ private:
         cl::Kernel* kernel_ptr = sample_parallel || node_parallel ? nullptr : &kernel_for(l);
         SampleParallelKernels* pair = sample_parallel ? &sample_parallel_kernels_for(l) : nullptr;
         const bool real_float = precision_ == Precision::Float;
-        const bool accum_double = runtime_.device_info().has_fp64;
         try {
             cl::CommandQueue& queue = runtime_.queue();
             const std::size_t real_size = real_float ? sizeof(float) : sizeof(double);
@@ -282,7 +370,19 @@ private:
             // The writes need not block: the in-order queue runs them before
             // the kernel, and their sources (the launch, points_f_) are not
             // touched before the blocking read at the end.
-            if (real_float) {
+            if (l.staged) {
+                // From the buffers' own host memory (stage()): what the
+                // specification asks before a kernel reads memory the host
+                // wrote, and no copy on PoCL's CPU device.
+                if (!overlaps(l) || n > staged_.items || n * l.stride > staged_.point_doubles)
+                    throw Error("OpenCL backend: staged launch does not fit its buffers");
+                queue.enqueueWriteBuffer(staged_.points, CL_FALSE, 0, n * l.stride * sizeof(double),
+                                         staged_.points_host.get());
+                queue.enqueueWriteBuffer(staged_.cells, CL_FALSE, 0, n * sizeof(std::uint32_t),
+                                         staged_.cells_host.get());
+                queue.enqueueWriteBuffer(staged_.batches, CL_FALSE, 0, n * sizeof(std::uint32_t),
+                                         staged_.batches_host.get());
+            } else if (real_float) {
                 points_f_.assign(l.points.begin(), l.points.end());
                 queue.enqueueWriteBuffer(points_, CL_FALSE, 0, points_f_.size() * sizeof(float),
                                          points_f_.data());
@@ -298,10 +398,12 @@ private:
                 options_written_ = l.options;
                 options_known_ = true;
             }
-            queue.enqueueWriteBuffer(cells_, CL_FALSE, 0, n * sizeof(std::uint32_t),
-                                     l.cells.data());
-            queue.enqueueWriteBuffer(batches_, CL_FALSE, 0, n * sizeof(std::uint32_t),
-                                     l.batches.data());
+            if (!l.staged) {
+                queue.enqueueWriteBuffer(cells_, CL_FALSE, 0, n * sizeof(std::uint32_t),
+                                         l.cells.data());
+                queue.enqueueWriteBuffer(batches_, CL_FALSE, 0, n * sizeof(std::uint32_t),
+                                         l.batches.data());
+            }
             if (sample_parallel) {
                 enqueue_sample_parallel(l, *pair, accum_size);
             } else if (node_parallel && node_functions(l)->nested()) {
@@ -321,11 +423,11 @@ private:
             if (accum_double) {
                 const cl_bool block = done ? CL_FALSE : CL_TRUE;
                 if (l.need_m2) {
-                    queue.enqueueReadBuffer(out_mean_, CL_FALSE, 0, n * sizeof(double), mean.data());
+                    queue.enqueueReadBuffer(out_mean_, CL_FALSE, 0, n * sizeof(double), mean_out);
                     queue.enqueueReadBuffer(out_m2_, block, 0, n * sizeof(double), m2.data(),
                                             nullptr, done);
                 } else {
-                    queue.enqueueReadBuffer(out_mean_, block, 0, n * sizeof(double), mean.data(),
+                    queue.enqueueReadBuffer(out_mean_, block, 0, n * sizeof(double), mean_out,
                                             nullptr, done);
                 }
             } else {
@@ -333,7 +435,7 @@ private:
                 tmp.resize(2 * n);
                 queue.enqueueReadBuffer(out_mean_, CL_FALSE, 0, n * sizeof(float), tmp.data());
                 queue.enqueueReadBuffer(out_m2_, CL_TRUE, 0, n * sizeof(float), tmp.data() + n);
-                std::copy_n(tmp.begin(), n, mean.begin());
+                std::copy_n(tmp.begin(), n, mean_out);
                 std::copy_n(tmp.begin() + static_cast<std::ptrdiff_t>(n), n, m2.begin());
             }
         } catch (const cl::Error& e) {
@@ -379,7 +481,7 @@ private:
     // of the next argument.
     int set_work_args(cl::Kernel& kernel, const BatchLaunch& l) {
         int a = 0;
-        kernel.setArg(a++, points_);
+        kernel.setArg(a++, l.staged ? staged_.points : points_);
         kernel.setArg(a++, static_cast<cl_uint>(l.stride));
         kernel.setArg(a++, options_);
         kernel.setArg(a++, static_cast<cl_uint>(l.options.size()));
@@ -387,8 +489,8 @@ private:
         kernel.setArg(a++, static_cast<cl_uint>(l.method));
         kernel.setArg(a++, static_cast<cl_uint>(l.key0));
         kernel.setArg(a++, static_cast<cl_uint>(l.key1));
-        kernel.setArg(a++, cells_);
-        kernel.setArg(a++, batches_);
+        kernel.setArg(a++, l.staged ? staged_.cells : cells_);
+        kernel.setArg(a++, l.staged ? staged_.batches : batches_);
         return a;
     }
 
@@ -995,12 +1097,15 @@ private:
     std::size_t buffer_items_ = 0, buffer_point_bytes_ = 0, buffer_accum_size_ = 0;
     // The second set of per-launch buffers (start(): one launch computes on
     // one set while the next is written to the other), swapped in and out.
+    StagedInputs staged_;  // the active set's staged inputs (stage())
     struct BufferSet {
         cl::Buffer points, cells, batches, out_mean, out_m2;
         std::size_t items = 0, point_bytes = 0, accum_size = 0;
+        StagedInputs staged;
     };
     BufferSet idle_;
     void swap_buffer_sets() {
+        std::swap(staged_, idle_.staged);
         std::swap(points_, idle_.points);
         std::swap(cells_, idle_.cells);
         std::swap(batches_, idle_.batches);
@@ -1046,6 +1151,31 @@ double cell_stderr(const CellState& c, bool rqmc) {
     }
     if (c.samples < 2) return INFINITY;
     return std::sqrt(c.m2 / static_cast<double>(c.samples - 1) / static_cast<double>(c.samples));
+}
+
+// v = n copies of `fill`, for the result arrays of large runs: where the
+// kernel allows, the fresh memory is asked to be backed by transparent huge
+// pages first (madvise), so that filling it takes a page fault per 2 MiB
+// instead of per 4 KiB.  Measured on 4 M closed-form cells: the faults of the
+// three result arrays took about a sixth of the process's time
+// (docs/benchmarks.md, session 10).  Only the mapping changes, not a value.
+template <typename T>
+void assign_large(std::vector<T>& v, std::size_t n, T fill) {
+#if defined(__linux__) && defined(MADV_HUGEPAGE)
+    constexpr std::size_t kHuge = std::size_t{2} << 20;
+    if (n * sizeof(T) >= 2 * kHuge && v.capacity() < n) {
+        std::vector<T>().swap(v);
+        // Allocated, not yet touched; 2 MiB more, so that the huge page
+        // holding the array's end lies inside the allocation.
+        v.reserve(n + kHuge / sizeof(T));
+        const auto begin = reinterpret_cast<std::uintptr_t>(v.data());
+        const std::uintptr_t first = (begin + kHuge - 1) / kHuge * kHuge;
+        const std::uintptr_t last = (begin + n * sizeof(T) + kHuge - 1) / kHuge * kHuge;
+        if (last > first)
+            madvise(reinterpret_cast<void*>(first), last - first, MADV_HUGEPAGE);  // a hint
+    }
+#endif
+    v.assign(n, fill);
 }
 
 std::uint32_t floor_pow2(std::uint64_t x) {
@@ -1238,7 +1368,10 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
     prog.cells_total = cell_count;
     // The figures every path derives from the per-cell results in the same
     // way: the worst relative error, unconverged cells, the last progress.
-    auto finish = [&](double elapsed_before_run) {
+    // errors_all_zero: every stderr is 0 (closed forms), so every cell's
+    // relative error is 0 or NaN (0 / 0), which std::max below ignores:
+    // the worst is 0, and the loop and its divisions are skipped.
+    auto finish = [&](double elapsed_before_run, bool errors_all_zero) {
         double worst = 0;
         std::size_t unconverged = 0;
         // Relative error with the absolute floor folded in: under a tolerance
@@ -1246,7 +1379,7 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
         // figure is comparable with the requested tolerance.
         const double floor_value =
             adaptive ? settings.abs_floor / settings.tolerance : settings.abs_floor;
-        for (std::size_t c = 0; c < cell_count; ++c) {
+        for (std::size_t c = 0; c < cell_count && !(errors_all_zero && !adaptive); ++c) {
             const double rel = result.stderr_[c] / std::max(std::fabs(result.value[c]), floor_value);
             worst = std::max(worst, rel);
             if (adaptive && result.stderr_[c] > std::max(settings.tolerance * std::fabs(result.value[c]),
@@ -1269,10 +1402,12 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
     // first_batch + 1, ... (take of them) of one cell: its point is built
     // straight into the first item's slot and copied to the others.  Both
     // paths below fill their launches with it.
-    auto add_items_to = [&](BatchLaunch& launch, std::size_t cell, std::uint32_t first_batch,
+    // The inputs are written through `to`: a launch's vectors, or memory the
+    // backend lends (Backend::stage).
+    const std::size_t stride = launch.stride;
+    auto add_items_to = [&](const LaunchStaging& to, std::size_t cell, std::uint32_t first_batch,
                             std::uint32_t take, std::size_t& items) {
-        const std::size_t stride = launch.stride;
-        double* const first_point = launch.points.data() + items * stride;
+        double* const first_point = to.points + items * stride;
         point_of(cell, first_point);
         if (check_while_building && model.check_cell) {
             const std::string problem = model.check_cell(quantity, first_point, options);
@@ -1280,13 +1415,22 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
         }
         if (derivation.slots > 0) derivation.fill(first_point);
         for (std::uint32_t k = 0; k < take; ++k, ++items) {
-            if (k) std::copy_n(first_point, stride, launch.points.data() + items * stride);
-            launch.cells[items] = cell_base + static_cast<std::uint32_t>(cell);
-            launch.batches[items] = first_batch + k;
+            if (k) std::copy_n(first_point, stride, to.points + items * stride);
+            to.cells[items] = cell_base + static_cast<std::uint32_t>(cell);
+            to.batches[items] = first_batch + k;
         }
     };
+    auto vectors_of = [](BatchLaunch& l) {
+        LaunchStaging to;
+        to.points = l.points.data();
+        to.cells = l.cells.data();
+        to.batches = l.batches.data();
+        return to;
+    };
     auto add_items = [&](std::size_t cell, std::uint32_t first_batch, std::uint32_t take,
-                         std::size_t& items) { add_items_to(launch, cell, first_batch, take, items); };
+                         std::size_t& items) {
+        add_items_to(vectors_of(launch), cell, first_batch, take, items);
+    };
 
     // Closed forms and quadratures without a checkpoint: every cell runs its
     // fixed one (closed form) or two (quadrature: accurate and coarse rule)
@@ -1298,10 +1442,9 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
     // session 6).  The values are those the general path below computes.
     const bool direct = closed && !(checkpoint && (checkpoint->save || checkpoint->resume));
     if (direct) {
-        result.value.resize(cell_count);
-        result.stderr_.assign(cell_count, 0.0);
-        result.samples.assign(cell_count, 1u);
-        const std::size_t stride = launch.stride;
+        assign_large(result.value, cell_count, 0.0);
+        assign_large(result.stderr_, cell_count, 0.0);
+        assign_large(result.samples, cell_count, 1u);
         std::size_t cell_cursor = 0;
         std::uint32_t batch_cursor = 0;  // next batch of cell_cursor
         std::uint64_t work_done = 0;
@@ -1317,6 +1460,8 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
             std::vector<double> mean, m2;
             double started = 0;
             std::size_t items = 0, cells_complete = 0;
+            std::size_t first_cell = 0;       // the launch's first work item's
+            std::uint32_t first_batch = 0;    // cell and batch
         };
         Slot slots[2];
         for (Slot& slot : slots) {
@@ -1344,19 +1489,29 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
             // the one before it, whichever came later.
             resize_slab(slot.items, now - std::max(slot.started, last_finish));
             last_finish = now;
-            const BatchLaunch& l = slot.launch;
-            for (std::size_t w = 0; w < slot.items; ++w) {
-                const std::size_t c = l.cells[w] - cell_base;
-                const double x = slot.mean[w];
-                if (!quadrature) {
-                    // merge_batch's first merge: 0 + (x - 0) * 1 / 1, which
-                    // turns -0 into +0; the rest of it is exact.
-                    result.value[c] = 0.0 + x;
-                } else if (l.batches[w] == 0) {
-                    result.value[c] = x;  // the accurate rule, taken as it is
-                } else {
-                    // Batch 0 of this cell came first (same or earlier launch).
-                    result.stderr_[c] = std::fabs(result.value[c] - x);
+            if (!quadrature) {
+                // One work item per cell, in cell order; the means are in
+                // the result array already (BatchLaunch::mean_out).
+                // merge_batch's first merge: 0 + (x - 0) * 1 / 1, which
+                // turns -0 into +0; the rest of it is exact.
+                double* const value = result.value.data() + slot.first_cell;
+                for (std::size_t w = 0; w < slot.items; ++w) value[w] = 0.0 + value[w];
+            } else {
+                // Work items (cell, batch) in order from the launch's first.
+                std::size_t c = slot.first_cell;
+                std::uint32_t b = slot.first_batch;
+                for (std::size_t w = 0; w < slot.items; ++w) {
+                    const double x = slot.mean[w];
+                    if (b == 0) {
+                        result.value[c] = x;  // the accurate rule, taken as it is
+                    } else {
+                        // Batch 0 of this cell came first (same or earlier launch).
+                        result.stderr_[c] = std::fabs(result.value[c] - x);
+                    }
+                    if (++b == first_batches) {
+                        ++c;
+                        b = 0;
+                    }
                 }
             }
             work_done += slot.items;
@@ -1374,23 +1529,59 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
         while (cell_cursor < cell_count) {
             Slot& slot = slots[next];
             BatchLaunch& l = slot.launch;
-            l.cells.resize(slab);
-            l.batches.resize(slab);
-            l.points.resize(slab * stride);
+            slot.first_cell = cell_cursor;
+            slot.first_batch = batch_cursor;
+            // Built where the backend reads it (no copy on PoCL's CPU
+            // device), or in the launch's vectors.
+            LaunchStaging to;
+            l.staged = false;
+            l.mean_out = nullptr;
+            if (backend.stage(l, slab, to)) {
+                l.staged = true;
+                l.cells.clear();
+                l.batches.clear();
+                l.points.clear();
+            } else {
+                l.cells.resize(slab);
+                l.batches.resize(slab);
+                l.points.resize(slab * stride);
+                to = vectors_of(l);
+            }
             std::size_t items = 0;
+            if (first_batches == 1 && derivation.slots == 0) {
+                // Closed forms: one work item per cell (add_items_to, without
+                // its per-cell loop over batches).
+                const bool check = check_while_building && model.check_cell;
+                const std::size_t end = std::min(cell_count, cell_cursor + slab);
+                for (; cell_cursor < end; ++cell_cursor, ++items) {
+                    double* const point = to.points + items * stride;
+                    point_of(cell_cursor, point);
+                    if (check) {
+                        const std::string problem = model.check_cell(quantity, point, options);
+                        if (!problem.empty()) throw InputError(problem);
+                    }
+                    to.cells[items] = cell_base + static_cast<std::uint32_t>(cell_cursor);
+                    to.batches[items] = 0;
+                }
+            }
             while (cell_cursor < cell_count && items < slab) {
                 const std::uint32_t take = static_cast<std::uint32_t>(
                     std::min<std::size_t>(first_batches - batch_cursor, slab - items));
-                add_items_to(l, cell_cursor, batch_cursor, take, items);
+                add_items_to(to, cell_cursor, batch_cursor, take, items);
                 batch_cursor += take;
                 if (batch_cursor == first_batches) {
                     ++cell_cursor;
                     batch_cursor = 0;
                 }
             }
-            l.cells.resize(items);
-            l.batches.resize(items);
-            l.points.resize(items * stride);
+            if (l.staged) {
+                l.staged_items = items;
+            } else {
+                l.cells.resize(items);
+                l.batches.resize(items);
+                l.points.resize(items * stride);
+            }
+            if (!quadrature) l.mean_out = result.value.data() + slot.first_cell;
             slot.items = items;
             slot.cells_complete = cell_cursor;
             slot.started = elapsed();
@@ -1407,7 +1598,7 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
         while (unfinished > 0) merge_oldest();
         abandon_guard.armed = false;
         result.total_samples = total_work;  // batch_size is 1
-        finish(0.0);
+        finish(0.0, !quadrature);
         return result;
     }
 
@@ -1454,7 +1645,6 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
         while (cell_cursor < cell_count) {
             // The launch's arrays are written in place (they keep their
             // capacity from launch to launch).
-            const std::size_t stride = launch.stride;
             launch.cells.resize(slab);
             launch.batches.resize(slab);
             launch.points.resize(slab * stride);
@@ -1544,7 +1734,7 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
         result.samples[c] = quadrature ? 1u : static_cast<std::uint32_t>(std::min<std::uint64_t>(s.samples, 0xFFFFFFFFu));
         result.total_samples += s.samples;
     }
-    finish(elapsed_before);
+    finish(elapsed_before, false);
     return result;
 }
 

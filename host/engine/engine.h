@@ -76,8 +76,27 @@ struct BatchLaunch {
     std::uint32_t batch_size = 1;
     // false: the caller reads no m2 (the direct path of closed forms and
     // quadratures, whose one-sample batches have m2 = 0), and a backend
-    // may leave m2 unset.
+    // may leave the m2 vector as it is (not even resized).
     bool need_m2 = true;
+    // true: the caller built the launch's points, cells and batches
+    // (staged_items work items) in the memory Backend::stage() gave it, and
+    // the three vectors above stay empty.
+    bool staged = false;
+    std::size_t staged_items = 0;
+    // Where the means go (work_items() doubles), instead of the `mean`
+    // vector, which then stays untouched: the direct path of closed forms
+    // reads them straight into the result array.  Null: into `mean`.
+    double* mean_out = nullptr;
+    std::size_t work_items() const { return staged ? staged_items : cells.size(); }
+};
+
+// Memory for one launch's inputs that a backend lends its caller
+// (Backend::stage): work item w's point at points + w * stride, its cell and
+// batch at cells[w], batches[w].
+struct LaunchStaging {
+    double* points = nullptr;
+    std::uint32_t* cells = nullptr;
+    std::uint32_t* batches = nullptr;
 };
 
 class Backend {
@@ -102,6 +121,20 @@ public:
     }
     virtual void finish() {}
     virtual void abandon() noexcept {}
+    // Memory in which the caller may build the inputs of the launch it
+    // starts next (`launch` as it will be started, `items` work items at
+    // most), instead of in BatchLaunch's vectors: it sets launch.staged and
+    // launch.staged_items and leaves the memory untouched until the launch
+    // is finished.  The backend reads the inputs there without a copy where
+    // it can (PoCL's CPU device: the launch's buffers are this memory).
+    // Returns false where it lends none (this backend, or this launch's
+    // kind): the caller fills the vectors.  The default lends none.
+    virtual bool stage(const BatchLaunch& launch, std::size_t items, LaunchStaging& staging) {
+        (void)launch;
+        (void)items;
+        (void)staging;
+        return false;
+    }
     // Suggested work items per launch.
     virtual std::size_t preferred_slab() const = 0;
 };
