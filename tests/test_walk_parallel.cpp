@@ -103,7 +103,8 @@ TEST_CASE("walk-parallel launches give the usual kernel's bits on lambert-sphere
             }
             ScopedEnv on("BRDFTAB_WALK_PARALLEL", nullptr);
             check_same_bits(usual, run(*device, m, q, options, cells, s));
-            for (std::size_t c = 0; c < usual.value.size(); ++c) CHECK(usual.samples[c] == 111u);
+            if (method == Method::MonteCarlo)  // RQMC rounds the sample count up
+                for (std::size_t c = 0; c < usual.value.size(); ++c) CHECK(usual.samples[c] == 111u);
         }
     }
 }
