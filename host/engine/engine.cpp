@@ -328,8 +328,13 @@ private:
                 kernel.setArg(a++, static_cast<cl_uint>(l.batch_size));
                 kernel.setArg(a++, out_mean_);
                 kernel.setArg(a++, out_m2_);
-                queue.enqueueNDRangeKernel(kernel, cl::NullRange, cl::NDRange(padded_global(n)),
-                                           local_range());
+                if (use_walk_parallel(l))  // its own work-group size (walk_group())
+                    queue.enqueueNDRangeKernel(kernel, cl::NullRange,
+                                               cl::NDRange((n + walk_group() - 1) / walk_group() * walk_group()),
+                                               cl::NDRange(walk_group()));
+                else
+                    queue.enqueueNDRangeKernel(kernel, cl::NullRange, cl::NDRange(padded_global(n)),
+                                               local_range());
             }
             if (accum_double) {
                 const cl_bool block = done ? CL_FALSE : CL_TRUE;
@@ -513,6 +518,21 @@ private:
         const char* env = std::getenv("BRDFTAB_WALK_PARALLEL");
         if (env && std::string(env) == "0") return false;
         return walk_parallel_case(l) != nullptr;
+    }
+    // The work-group size of walk-parallel launches: 4 (one SIMD vector of
+    // doubles as PoCL vectorised the round: width 4), or
+    // BRDFTAB_WALK_LOCAL_SIZE (1..256, for experiments).  A group runs as many
+    // rounds as its busiest work item, so small groups waste fewer lanes on
+    // the long walks' tails: measured 4 > 8 > 16 > 64, and 1 or 2 (no SIMD)
+    // slower (docs/benchmarks.md, "Session 10: lambert-sphere brdf_mc").
+    std::size_t walk_group() const {
+        static const long chosen = [] {
+            const char* env = std::getenv("BRDFTAB_WALK_LOCAL_SIZE");
+            return env && *env ? std::atol(env) : 4L;
+        }();
+        const long group = chosen >= 1 && chosen <= 256 ? chosen : 4L;
+        return std::min<std::size_t>(static_cast<std::size_t>(group),
+                                     runtime_.device_info().max_work_group_size);
     }
     cl::Kernel& walk_parallel_kernel_for(const BatchLaunch& l) {
         const ModelInfo& model = *l.model;
