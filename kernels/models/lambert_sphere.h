@@ -239,8 +239,8 @@ typedef struct {
 
 BT_INLINE void ls_collision_draw(const bt_sampler* s, uint dim, ls_collision_words* r)
 {
-    if (s->method != BT_METHOD_MC) {
-        for (int j = 0; j < 6; ++j) r->w[j] = 0u;
+    if (s->method != BT_METHOD_MC) { /* unused; set, written out (no loop in the round) */
+        r->w[0] = r->w[1] = r->w[2] = r->w[3] = r->w[4] = r->w[5] = 0u;
         return;
     }
     uint a[4], b[4];
