@@ -149,8 +149,8 @@ const std::vector<SampleParallelCase>& sample_parallel_default_cases() {
 }
 
 // The random-walk quantities with a walk-parallel kernel (engine.h,
-// kernels/common/walk_parallel.h), run that way for every Monte Carlo / RQMC
-// launch unless BRDFTAB_WALK_PARALLEL=0: measured faster per CPU-second than
+// kernels/common/walk_parallel.h), run that way for every Monte Carlo launch
+// unless BRDFTAB_WALK_PARALLEL=0: measured faster per CPU-second than
 // the usual kernel (docs/benchmarks.md, "Session 10: lambert-sphere
 // brdf_mc"), bit-identical to it (tests/test_walk_parallel.cpp).
 const std::vector<WalkParallelCase>& walk_parallel_cases() {
@@ -513,8 +513,11 @@ private:
         }
         return nullptr;
     }
+    // Monte Carlo only: with RQMC the round runs the first collision's
+    // Sobol' draws (if-converted) for every lane in every round, and the
+    // launch measured no faster than the usual kernel (docs/benchmarks.md).
     static bool use_walk_parallel(const BatchLaunch& l) {
-        if (l.method != BT_METHOD_MC && l.method != BT_METHOD_RQMC) return false;
+        if (l.method != BT_METHOD_MC) return false;
         const char* env = std::getenv("BRDFTAB_WALK_PARALLEL");
         if (env && std::string(env) == "0") return false;
         return walk_parallel_case(l) != nullptr;

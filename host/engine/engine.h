@@ -139,7 +139,7 @@ bool sample_parallel_by_default(const ModelInfo& model, const QuantityInfo& quan
                                 Method method, const std::vector<int>& options);
 
 // Walk-parallel launches (OpenCL backend only, kernels/common/walk_parallel.h):
-// a random-walk quantity listed here runs its Monte Carlo / RQMC batches on a
+// a random-walk quantity listed here runs its Monte Carlo batches on a
 // kernel that advances every work item's walk one collision per round and
 // starts a batch's next sample as soon as a walk ends, bit-identical to the
 // usual kernel.  BRDFTAB_WALK_PARALLEL=0 runs the usual kernel instead.

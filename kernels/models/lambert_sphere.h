@@ -230,16 +230,17 @@ BT_INLINE int ls_tally(int order, int k, int max_order, int want_brdf)
  * Monte Carlo: the words of the two Philox blocks that hold them (counters
  * (cell, batch, sample, dim / 4) and the next), each block computed once
  * instead of once per word as bt_uniform does: the same words (sampler.h),
- * a third of the Philox rounds.  RQMC: bt_uniform's own words are not
- * Philox's for dims < BT_SOBOL_DIMS, so w[] is unused and ls_collision_u
- * calls bt_uniform. */
+ * a third of the Philox rounds.  RQMC: the same from dimension
+ * BT_SOBOL_DIMS on (collisions k >= 2), where bt_uniform falls back to
+ * Philox; below it (collision 1) w[] is unused and ls_collision_u calls
+ * bt_uniform (Sobol'). */
 typedef struct {
     uint w[6];
 } ls_collision_words;
 
 BT_INLINE void ls_collision_draw(const bt_sampler* s, uint dim, ls_collision_words* r)
 {
-    if (s->method != BT_METHOD_MC) { /* unused; set, written out (no loop in the round) */
+    if (s->method != BT_METHOD_MC && dim < BT_SOBOL_DIMS) { /* unused; set, written out */
         r->w[0] = r->w[1] = r->w[2] = r->w[3] = r->w[4] = r->w[5] = 0u;
         return;
     }
@@ -266,7 +267,7 @@ BT_INLINE void ls_collision_draw(const bt_sampler* s, uint dim, ls_collision_wor
 /* Uniform j (0..5) of the collision: bt_uniform(s, dim + j). */
 BT_INLINE REAL ls_collision_u(const bt_sampler* s, uint dim, const ls_collision_words* r, uint j)
 {
-    if (s->method == BT_METHOD_MC) return bt_u32_to_unit(r->w[j]);
+    if (s->method == BT_METHOD_MC || dim >= BT_SOBOL_DIMS) return bt_u32_to_unit(r->w[j]);
     return bt_uniform(s, dim + j);
 }
 
