@@ -155,6 +155,19 @@ const std::vector<SampleParallelCase>& sample_parallel_default_cases() {
     return cases;
 }
 
+// The random-walk quantities with a walk-parallel kernel (engine.h,
+// kernels/common/walk_parallel.h), run that way for every Monte Carlo launch
+// unless BRDFTAB_WALK_PARALLEL=0: measured faster per CPU-second than
+// the usual kernel (docs/benchmarks.md, "Session 10: lambert-sphere
+// brdf_mc"), bit-identical to it (tests/test_walk_parallel.cpp).
+const std::vector<WalkParallelCase>& walk_parallel_cases() {
+    static const std::vector<WalkParallelCase> cases = {
+        {"lambert-sphere", "brdf_mc", "ls_brdf_mc_state", "ls_brdf_mc_setup", "ls_brdf_mc_begin",
+         "ls_brdf_mc_step", "ls_brdf_mc_value"},
+    };
+    return cases;
+}
+
 // Node-parallel quadrature by default (engine.h): measured faster per
 // CPU-second on hfunction H (2.8x r9's kernel, 1.8x the usual kernel of the
 // same build; docs/benchmarks.md "Node-parallel quadrature") and, as nested
@@ -417,8 +430,13 @@ private:
                 kernel.setArg(a++, static_cast<cl_uint>(l.batch_size));
                 kernel.setArg(a++, out_mean_);
                 kernel.setArg(a++, out_m2_);
-                queue.enqueueNDRangeKernel(kernel, cl::NullRange, cl::NDRange(padded_global(n)),
-                                           local_range());
+                if (use_walk_parallel(l))  // its own work-group size (walk_group())
+                    queue.enqueueNDRangeKernel(kernel, cl::NullRange,
+                                               cl::NDRange((n + walk_group() - 1) / walk_group() * walk_group()),
+                                               cl::NDRange(walk_group()));
+                else
+                    queue.enqueueNDRangeKernel(kernel, cl::NullRange, cl::NDRange(padded_global(n)),
+                                               local_range());
             }
             if (accum_double) {
                 const cl_bool block = done ? CL_FALSE : CL_TRUE;
@@ -582,6 +600,67 @@ private:
             return sample_parallel_kernels_.emplace(key, std::move(k)).first->second;
         } catch (const cl::Error& e) {
             throw OpenCLError(e.what(), e.err(), "sample-parallel entry points of model '" +
+                                                     model.name + "' (kernels/" +
+                                                     model.kernel_header + ")");
+        }
+    }
+
+    // ------------------------------------------------ walk-parallel launch
+    // (kernels/common/walk_parallel.h; the cases: walk_parallel_cases()).
+    static const WalkParallelCase* walk_parallel_case(const BatchLaunch& l) {
+        for (const WalkParallelCase& c : walk_parallel_cases()) {
+            if (l.model->name != c.model) continue;
+            for (const QuantityInfo& q : l.model->quantities)
+                if (q.id == l.quantity && q.name == c.quantity) return &c;
+        }
+        return nullptr;
+    }
+    // Monte Carlo only: with RQMC the round runs the first collision's
+    // Sobol' draws (if-converted) for every lane in every round, and the
+    // launch measured no faster than the usual kernel (docs/benchmarks.md).
+    static bool use_walk_parallel(const BatchLaunch& l) {
+        if (l.method != BT_METHOD_MC) return false;
+        const char* env = std::getenv("BRDFTAB_WALK_PARALLEL");
+        if (env && std::string(env) == "0") return false;
+        return walk_parallel_case(l) != nullptr;
+    }
+    // The work-group size of walk-parallel launches: 4 (one SIMD vector of
+    // doubles as PoCL vectorised the round: width 4), or
+    // BRDFTAB_WALK_LOCAL_SIZE (1..256, for experiments).  A group runs as many
+    // rounds as its busiest work item, so small groups waste fewer lanes on
+    // the long walks' tails: measured 4 > 8 > 16 > 64, and 1 or 2 (no SIMD)
+    // slower (docs/benchmarks.md, "Session 10: lambert-sphere brdf_mc").
+    std::size_t walk_group() const {
+        static const long chosen = [] {
+            const char* env = std::getenv("BRDFTAB_WALK_LOCAL_SIZE");
+            return env && *env ? std::atol(env) : 4L;
+        }();
+        const long group = chosen >= 1 && chosen <= 256 ? chosen : 4L;
+        return std::min<std::size_t>(static_cast<std::size_t>(group),
+                                     runtime_.device_info().max_work_group_size);
+    }
+    cl::Kernel& walk_parallel_kernel_for(const BatchLaunch& l) {
+        const ModelInfo& model = *l.model;
+        const std::string options = build_options(l);
+        const std::string key = model.name + "\n" + options;
+        auto it = walk_parallel_kernels_.find(key);
+        if (it != walk_parallel_kernels_.end()) return it->second;
+        const WalkParallelCase& c = *walk_parallel_case(l);
+        // Forced inlining unless the build options decide: a call left in
+        // the round keeps the work-item loop scalar.
+        std::string source = "#if !defined(BT_FORCE_INLINE)\n#define BT_FORCE_INLINE 1\n#endif\n";
+        source += load_kernel_source("common/estimator.h", kernel_dir_);
+        source += load_kernel_source(model.kernel_header, kernel_dir_);
+        source += load_kernel_source("common/walk_parallel.h", kernel_dir_);
+        source += "#line 1 \"generated walk-parallel entry point for " + model.kernel_header + "\"\n";
+        source += "BT_DEFINE_WALK_PARALLEL_KERNEL(bt_estimate_walk, " + c.state + ", " +
+                  c.setup + ", " + c.begin + ", " + c.step + ", " + c.value + ")\n";
+        cl::Program program = cached_program(runtime_, source, options);
+        try {
+            return walk_parallel_kernels_.emplace(key, cl::Kernel(program, "bt_estimate_walk"))
+                .first->second;
+        } catch (const cl::Error& e) {
+            throw OpenCLError(e.what(), e.err(), "walk-parallel entry point of model '" +
                                                      model.name + "' (kernels/" +
                                                      model.kernel_header + ")");
         }
@@ -975,6 +1054,7 @@ private:
     // generic source built with them as compile-time constants
     // (kernels/common/estimator.h, "Specialisation").
     cl::Kernel& kernel_for(const BatchLaunch& l) {
+        if (use_walk_parallel(l)) return walk_parallel_kernel_for(l);
         // Consecutive launches of one estimate() use the same kernel: skip
         // building its key (strings, a map look-up) then.
         if (last_kernel_ && last_model_ == l.model && last_quantity_ == l.quantity &&
@@ -1078,6 +1158,7 @@ private:
     std::string kernel_dir_;
     std::map<std::string, cl::Kernel> kernels_;
     std::map<std::string, SampleParallelKernels> sample_parallel_kernels_;
+    std::map<std::string, cl::Kernel> walk_parallel_kernels_;  // walk-parallel launch
     cl::Buffer scratch_;  // sample-parallel path: one sub-launch's samples
     std::size_t scratch_bytes_ = 0;
     // Node-parallel path: the layout (host copies and buffers) and one

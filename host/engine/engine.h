@@ -171,6 +171,18 @@ const std::vector<SampleParallelCase>& sample_parallel_default_cases();
 bool sample_parallel_by_default(const ModelInfo& model, const QuantityInfo& quantity,
                                 Method method, const std::vector<int>& options);
 
+// Walk-parallel launches (OpenCL backend only, kernels/common/walk_parallel.h):
+// a random-walk quantity listed here runs its Monte Carlo batches on a
+// kernel that advances every work item's walk one collision per round and
+// starts a batch's next sample as soon as a walk ends, bit-identical to the
+// usual kernel.  BRDFTAB_WALK_PARALLEL=0 runs the usual kernel instead.
+// state, setup, begin, step, value: the model's names (kernel header) for the walk.
+struct WalkParallelCase {
+    std::string model, quantity;
+    std::string state, setup, begin, step, value;
+};
+const std::vector<WalkParallelCase>& walk_parallel_cases();
+
 // Node-parallel quadrature (OpenCL backend only): a quantity that names node
 // functions (QuantityInfo::node_parallel, host/models/registry.h: hfunction's
 // H; oren-nayar's Gaussian-surface quadratures, as nested sums over theta_a

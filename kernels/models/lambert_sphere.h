@@ -215,63 +215,153 @@ BT_INLINE bt_vec3 ls_rotate(bt_vec3 d, REAL mu, REAL u)
  * truncation (ls_walk); the BRDF tallies the orders after max_order. */
 BT_INLINE int ls_tally(int order, int k, int max_order, int want_brdf)
 {
-    if (order == 0) return 1;
-    if (order == LS_ORDER_REMAINDER) return want_brdf && k > max_order;
-    if (order < 0) return k >= 2;
-    return k == order;
+    /* order 0: all; -2: remainder; other negative: k >= 2; positive: k alone.
+     * Written without branches: a chain of tests on order became a switch,
+     * which keeps the walk-parallel kernel's work-item loop scalar. */
+    int remainder = order == LS_ORDER_REMAINDER;
+    return (order == 0) | (remainder & (want_brdf != 0) & (k > max_order)) |
+           ((order < 0) & !remainder & (k >= 2)) | ((order > 0) & (k == order));
 }
 
 /* ---------------------------------------------------------- random walk */
 
-/* One walk from direction i (light arrives along -i).
+/* The six random words of the collision whose first dimension is `dim`
+ * (dims dim .. dim + 5; dim = 2 + 6 (k - 1) is even), for bt_u32_to_unit.
+ * Monte Carlo: the words of the two Philox blocks that hold them (counters
+ * (cell, batch, sample, dim / 4) and the next), each block computed once
+ * instead of once per word as bt_uniform does: the same words (sampler.h),
+ * a third of the Philox rounds.  RQMC: the same from dimension
+ * BT_SOBOL_DIMS on (collisions k >= 2), where bt_uniform falls back to
+ * Philox; below it (collision 1) w[] is unused and ls_collision_u calls
+ * bt_uniform (Sobol'). */
+typedef struct {
+    uint w[6];
+} ls_collision_words;
+
+BT_INLINE void ls_collision_draw(const bt_sampler* s, uint dim, ls_collision_words* r)
+{
+    if (s->method != BT_METHOD_MC && dim < BT_SOBOL_DIMS) { /* unused; set, written out */
+        r->w[0] = r->w[1] = r->w[2] = r->w[3] = r->w[4] = r->w[5] = 0u;
+        return;
+    }
+    uint a[4], b[4];
+    bt_philox4x32_10(s->cell, s->batch, s->sample, dim >> 2, s->key0, s->key1, a);
+    bt_philox4x32_10(s->cell, s->batch, s->sample, (dim >> 2) + 1u, s->key0, s->key1, b);
+    if (dim & 2u) { /* dim = 4 n + 2: words 2, 3 of block n, then block n + 1 */
+        r->w[0] = a[2];
+        r->w[1] = a[3];
+        r->w[2] = b[0];
+        r->w[3] = b[1];
+        r->w[4] = b[2];
+        r->w[5] = b[3];
+    } else {
+        r->w[0] = a[0];
+        r->w[1] = a[1];
+        r->w[2] = a[2];
+        r->w[3] = a[3];
+        r->w[4] = b[0];
+        r->w[5] = b[1];
+    }
+}
+
+/* Uniform j (0..5) of the collision: bt_uniform(s, dim + j). */
+BT_INLINE REAL ls_collision_u(const bt_sampler* s, uint dim, const ls_collision_words* r, uint j)
+{
+    if (s->method == BT_METHOD_MC || dim >= BT_SOBOL_DIMS) return bt_u32_to_unit(r->w[j]);
+    return bt_uniform(s, dim + j);
+}
+
+/* One walk from direction i (light arrives along -i), as a state machine so
+ * that a walk can advance one collision at a time (the walk-parallel kernel,
+ * kernels/common/walk_parallel.h, interleaves the walks of a work group that
+ * way); ls_walk below runs it to the end.
  * want_brdf != 0: next-event estimate of f(i, o) summed over the tallied
  * orders; else the escape tally (albedo).  tail_order: last order of the
- * BRDF remainder (want_brdf, order = -2; must exceed max_order).  Returns
- * the sample. */
+ * BRDF remainder (want_brdf, order = -2; must exceed max_order).
+ * `total` is the sample once the walk has ended; `weight` multiplies it
+ * (brdf_mc's Fourier weight, ls_brdf_mc_begin). */
+typedef struct {
+    bt_vec3 d;   /* direction of flight */
+    REAL mu_o;   /* cos theta_o, floored at LS_MIN_MU */
+    REAL w;      /* product of the signed 3-term weights (phase3 only) */
+    REAL ck;     /* c^k, until Russian roulette takes over */
+    REAL tau;    /* depth of the current collision */
+    REAL total;  /* the tally so far */
+    REAL weight; /* factor of the sample (brdf_mc) */
+    int k;       /* the next collision's order */
+    int last;    /* the last order the walk may reach */
+} ls_walk_state;
+
+/* Starts the walk: the first free path (dimension 1). */
+BT_INLINE void ls_walk_begin(ls_walk_state* st, bt_vec3 i, bt_vec3 o, int order, int max_order,
+                             int tail_order, int want_brdf, const bt_sampler* s)
+{
+    st->mu_o = fmax(o.z, LS_MIN_MU);
+    st->d = bt_v3_neg(i);
+    st->w = R(1.0);
+    st->ck = R(1.0);
+    st->tau = -bt_log(R(1.0) - bt_uniform(s, 1u)) * (-st->d.z);
+    st->total = R(0.0);
+    st->weight = R(1.0);
+    st->last = order > 0 ? order : max_order;
+    if (want_brdf && order == LS_ORDER_REMAINDER) st->last = tail_order; /* continue the walk */
+    st->k = 1;
+}
+
+/* Collision st->k of the walk (dimensions 2 + 6 (k - 1) .. + 5): returns 1
+ * when the walk has ended (absorbed, escaped or truncated), else 0 with
+ * st->k the next collision. */
+BT_INLINE int ls_walk_step(ls_walk_state* st, bt_vec3 o, REAL c, int order, int max_order,
+                           int phase3, int want_brdf, const bt_sampler* s)
+{
+    const int k = st->k;
+    const int last = st->last;
+    if (k > last) return 1;
+    uint dim = 2u + 6u * (uint)(k - 1);
+    ls_collision_words r;
+    ls_collision_draw(s, dim, &r);
+    if (order <= 0 && st->ck < LS_RR_WEIGHT) {
+        if (ls_collision_u(s, dim, &r, 5u) >= c) return 1; /* absorbed */
+    } else {
+        st->ck *= c;
+    }
+    if (want_brdf && ls_tally(order, k, max_order, 1)) {
+        REAL mu = bt_v3_dot(st->d, o);
+        REAL p = phase3 ? ls_phase3(mu) : ls_phase(mu);
+        st->total += st->w * st->ck * p * bt_exp(-st->tau / st->mu_o) / st->mu_o;
+    }
+    if (want_brdf && k == last) return 1;
+    REAL mu_s;
+    if (phase3) {
+        mu_s = R(1.0) - R(2.0) * ls_collision_u(s, dim, &r, 0u);
+        st->w *= R(4.0) * BT_PI * ls_phase3(mu_s);
+    } else {
+        mu_s = ls_sample_exact(ls_collision_u(s, dim, &r, 0u), ls_collision_u(s, dim, &r, 1u),
+                               ls_collision_u(s, dim, &r, 2u)); /* eq. 5 */
+    }
+    st->d = ls_rotate(st->d, mu_s, ls_collision_u(s, dim, &r, 3u));
+    st->tau -= -bt_log(R(1.0) - ls_collision_u(s, dim, &r, 4u)) * st->d.z;
+    if (st->tau < R(0.0)) { /* escaped after scattering k */
+        if (!want_brdf && ls_tally(order, k, max_order, 0)) st->total += st->w * st->ck;
+        return 1;
+    }
+    if (k == last) { /* albedo: still inside after the last order */
+        if (!want_brdf && order == LS_ORDER_REMAINDER) st->total += st->w * st->ck;
+        return 1;
+    }
+    st->k = k + 1;
+    return 0;
+}
+
+/* The whole walk; returns the sample (without st.weight). */
 BT_INLINE REAL ls_walk(bt_vec3 i, bt_vec3 o, REAL c, int order, int max_order, int tail_order,
                        int phase3, int want_brdf, const bt_sampler* s)
 {
-    REAL mu_o = fmax(o.z, LS_MIN_MU);
-    bt_vec3 d = bt_v3_neg(i);
-    REAL w = R(1.0); /* product of the signed 3-term weights (phase3 only) */
-    REAL ck = R(1.0);
-    REAL tau = -bt_log(R(1.0) - bt_uniform(s, 1u)) * (-d.z);
-    REAL total = R(0.0);
-    int last = order > 0 ? order : max_order;
-    if (want_brdf && order == LS_ORDER_REMAINDER) last = tail_order; /* continue the walk */
-    for (int k = 1; k <= last; ++k) {
-        uint dim = 2u + 6u * (uint)(k - 1);
-        if (order <= 0 && ck < LS_RR_WEIGHT) {
-            if (bt_uniform(s, dim + 5u) >= c) break; /* absorbed */
-        } else {
-            ck *= c;
-        }
-        if (want_brdf && ls_tally(order, k, max_order, 1)) {
-            REAL mu = bt_v3_dot(d, o);
-            REAL p = phase3 ? ls_phase3(mu) : ls_phase(mu);
-            total += w * ck * p * bt_exp(-tau / mu_o) / mu_o;
-        }
-        if (want_brdf && k == last) break;
-        REAL mu_s;
-        if (phase3) {
-            mu_s = R(1.0) - R(2.0) * bt_uniform(s, dim);
-            w *= R(4.0) * BT_PI * ls_phase3(mu_s);
-        } else {
-            mu_s = ls_sample_exact(bt_uniform(s, dim), bt_uniform(s, dim + 1u),
-                                   bt_uniform(s, dim + 2u)); /* eq. 5 */
-        }
-        d = ls_rotate(d, mu_s, bt_uniform(s, dim + 3u));
-        tau -= -bt_log(R(1.0) - bt_uniform(s, dim + 4u)) * d.z;
-        if (tau < R(0.0)) { /* escaped after scattering k */
-            if (!want_brdf && ls_tally(order, k, max_order, 0)) total += w * ck;
-            break;
-        }
-        if (k == last) { /* albedo: still inside after the last order */
-            if (!want_brdf && order == LS_ORDER_REMAINDER) total += w * ck;
-            break;
-        }
+    ls_walk_state st;
+    ls_walk_begin(&st, i, o, order, max_order, tail_order, want_brdf, s);
+    while (!ls_walk_step(&st, o, c, order, max_order, phase3, want_brdf, s)) {
     }
-    return total;
+    return st.total;
 }
 
 /* ------------------------------------------------------ analytic model */
@@ -546,6 +636,78 @@ BT_INLINE REAL ls_wrap_phi(REAL phi)
     return phi > BT_PI ? phi - BT_TWO_PI : phi;
 }
 
+/* ------------------------------------------- brdf_mc, one collision at a time */
+
+/* brdf_mc's sample as setup / begin / step / value, the form the
+ * walk-parallel kernel (kernels/common/walk_parallel.h) runs;
+ * lambert_sphere_sample runs the same functions in a loop, so both give the
+ * same bits.  setup reads the point once per work item (whole-number
+ * parameters, the incident direction); begin and step run per sample and
+ * per collision. */
+typedef struct {
+    ls_walk_state walk;
+    bt_vec3 i0;     /* incident direction at phi_i = 0 */
+    bt_vec3 o;      /* the outgoing direction of this sample */
+    REAL c;
+    int order, max_order, mode, tail_order;
+    int known;      /* 1: every sample is 0 (below the horizon) or NaN (invalid range) */
+} ls_brdf_mc_state;
+
+BT_INLINE void ls_brdf_mc_setup(const REAL* p, const int* o, int quantity, ls_brdf_mc_state* st)
+{
+    (void)o;
+    (void)quantity;
+    st->c = p[LS_PARAM_C];
+    st->order = (int)floor(p[LS_PARAM_ORDER] + R(0.5));
+    st->max_order = (int)floor(p[LS_PARAM_MAX_ORDER] + R(0.5));
+    st->mode = (int)floor(p[LS_PARAM_MODE] + R(0.5));
+    st->tail_order = (int)floor(p[LS_PARAM_TAIL_ORDER] + R(0.5));
+    st->i0 = bt_from_spherical(p[0], R(0.0));
+    /* phi_o - phi_i fixed (mode -1): the outgoing direction of every sample */
+    st->o = bt_from_spherical(p[2], ls_wrap_phi(p[3] - p[1]));
+    /* Reflection only: directions below the horizon give 0. */
+    st->known = p[0] > BT_HALF_PI || p[2] > BT_HALF_PI ||
+                (st->order == LS_ORDER_REMAINDER && st->tail_order <= st->max_order);
+}
+
+/* Starts sample s->sample; returns 1 when the sample is known already
+ * (directions below the horizon: 0; invalid remainder range: NaN). */
+BT_INLINE int ls_brdf_mc_begin(const REAL* p, const int* o, int quantity, const bt_sampler* s,
+                               ls_brdf_mc_state* st)
+{
+    (void)o;
+    (void)quantity;
+    if (st->known) {
+        st->walk.weight = R(1.0);
+        st->walk.total = p[0] > BT_HALF_PI || p[2] > BT_HALF_PI ? R(0.0) : R(0.0) / R(0.0);
+        return 1;
+    }
+    REAL weight = R(1.0);
+    if (st->mode >= 0) { /* Fourier coefficient: phi uniform on [0, pi] */
+        REAL phi = BT_PI * bt_uniform(s, 0u);
+        weight = st->mode == 0 ? R(1.0) : R(2.0) * bt_cos((REAL)st->mode * phi);
+        st->o = bt_from_spherical(p[2], phi);
+    }
+    ls_walk_begin(&st->walk, st->i0, st->o, st->order, st->max_order, st->tail_order, 1, s);
+    st->walk.weight = weight;
+    return 0;
+}
+
+/* The next collision of the walk ls_brdf_mc_begin started; 1 when it ended. */
+BT_INLINE int ls_brdf_mc_step(const REAL* p, const int* o, int quantity, const bt_sampler* s,
+                              ls_brdf_mc_state* st)
+{
+    (void)p;
+    (void)quantity;
+    return ls_walk_step(&st->walk, st->o, st->c, st->order, st->max_order, o[LS_OPT_PHASE_MC], 1, s);
+}
+
+/* The sample, once the walk has ended. */
+BT_INLINE REAL ls_brdf_mc_value(const ls_brdf_mc_state* st)
+{
+    return st->walk.weight * st->walk.total;
+}
+
 /* ------------------------------------------------------------ sample fn */
 BT_INLINE REAL lambert_sphere_sample(const REAL* p, const int* o, int quantity,
                                      const bt_sampler* s)
@@ -576,16 +738,12 @@ BT_INLINE REAL lambert_sphere_sample(const REAL* p, const int* o, int quantity,
     if (p[2] > BT_HALF_PI) return R(0.0);
     REAL phi = ls_wrap_phi(p[3] - p[1]);
     if (quantity == LS_Q_BRDF_MC) {
-        if (order == LS_ORDER_REMAINDER && tail_order <= max_order)
-            return R(0.0) / R(0.0); /* invalid remainder range: NaN */
-        REAL weight = R(1.0);
-        if (mode >= 0) { /* Fourier coefficient: phi uniform on [0, pi] */
-            phi = BT_PI * bt_uniform(s, 0u);
-            weight = mode == 0 ? R(1.0) : R(2.0) * bt_cos((REAL)mode * phi);
-        }
-        bt_vec3 i0 = bt_from_spherical(p[0], R(0.0));
-        bt_vec3 oo = bt_from_spherical(p[2], phi);
-        return weight * ls_walk(i0, oo, c, order, max_order, tail_order, o[LS_OPT_PHASE_MC], 1, s);
+        ls_brdf_mc_state st;
+        ls_brdf_mc_setup(p, o, quantity, &st);
+        if (!ls_brdf_mc_begin(p, o, quantity, s, &st))
+            while (!ls_brdf_mc_step(p, o, quantity, s, &st)) {
+            }
+        return ls_brdf_mc_value(&st);
     }
     /* side from theta (above), cosines floored as in ls_single */
     REAL mi = ls_mu_of(p[0]), mo = ls_mu_of(p[2]);
