@@ -1094,7 +1094,9 @@ private:
         // (docs/benchmarks.md, "What vectorises, and why"): it lets PoCL run
         // the work items of a group as SIMD lanes.  Not for every model:
         // with it, lambert-sphere tables came out wrong and PoCL crashed
-        // (SIGSEGV) on its Horak-Chandrasekhar constants.  BRDFTAB_KERNEL_OPTIONS
+        // (SIGSEGV) on its Horak-Chandrasekhar constants (in session 10 only
+        // the in-kernel solve of lambert-sphere-constants still crashed:
+        // docs/contributing.md).  BRDFTAB_KERNEL_OPTIONS
         // naming BT_FORCE_INLINE decides instead.  interfaced-lambertian: body
         // and vcavity 1.6x and 1.2x per CPU-second, presets bit-identical
         // (docs/benchmarks.md, "Session 10"), though its sample loops stay scalar.

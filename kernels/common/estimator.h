@@ -47,7 +47,8 @@
 /* The engine passes -D BT_FORCE_INLINE=1 for rough-dielectric, micrograin and
  * interfaced-lambertian (host/engine/engine.cpp): measured faster there, and their preset tables
  * bit-identical.  Not for every model: lambert-sphere tables came out wrong and
- * PoCL crashed with it (docs/benchmarks.md). */
+ * PoCL crashed with it (docs/benchmarks.md); in session 10's recheck only the
+ * in-kernel Horak-Chandrasekhar solve (lambert-sphere-constants) still crashed. */
 #if BT_DEVICE && BT_FORCE_INLINE && !defined(BT_NO_FORCE_INLINE)
 /* With the sample-loop barrier (below), or with -D BT_FORCE_INLINE=1, force
  * inlining of every shared function into the kernel.  PoCL's inliner otherwise keeps larger helpers
