@@ -122,4 +122,37 @@ expect_grep "spacing = .explicit." placed.toml "explicit nodes written"
 expect_exit 0 "generate the placed plan" -- "$BT" generate placed.toml -o placed.h5 -q
 expect_exit 2 "--place-nodes with cubic" -- "$BT" plan "$SPEC" --accuracy 1e-2 --place-nodes --interpolation cubic
 
+# ---- rare events: the remainder of Lambert-sphere walks beyond order 1000 is
+# a handful of events per 10^4 walks, so at 1024 samples no pilot cell sees
+# any variance; plan says so (and keeps the explicit axes' line errors as
+# measured).  The walks of every order are not rare: no warning there.
+cat >rare.toml <<'EOF'
+model = "lambert-sphere"
+[parameters]
+c = 0.99
+[[axes]]
+name = "theta_i"
+spacing = "explicit"
+values = [0.0, 40.0, 80.0]
+[[axes]]
+name = "theta_o"
+spacing = "explicit"
+values = [0.0, 40.0, 80.0]
+[[tables]]
+name = "remainder"
+quantity = "brdf_mc"
+[tables.parameters]
+order = -2
+max_order = 1000
+tail_order = 100000
+[integration]
+samples = 16384
+EOF
+expect_exit 0 "plan a rare-event table" -- "$BT" plan rare.toml --as-written --no-verify -q
+expect_grep "warning: at some pilot budget every cell's samples were all equal" out.txt \
+  "plan warns about rare events"
+sed -e 's/order = -2/order = 0/' -e '/tail_order/d' rare.toml >common.toml
+expect_exit 0 "plan a table of common events" -- "$BT" plan common.toml --as-written --no-verify -q
+if grep -q "samples were all equal" out.txt; then bad "a warning about rare events on every order's walks"; else ok; fi
+
 cli_summary

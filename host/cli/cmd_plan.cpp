@@ -410,7 +410,14 @@ void run_plan(const PlanArgs& pa) {
                 std::cout << ": max " << measure << " error";
                 for (const LevelErrors& l : f.levels)
                     std::cout << " " << sci(target.absolute ? l.max_abs : l.max_rel);
-                std::cout << "  -> " << fit_text(target.absolute ? f.max_abs : f.max_rel) << "\n";
+                std::cout << "  -> " << fit_text(target.absolute ? f.max_abs : f.max_rel);
+                // An explicit axis whose measurement is mostly the pilot's
+                // noise is predicted without it (plan.cpp, axis_error).
+                const LevelErrors& finest = f.levels.back();
+                if (!f.planned && !p.variance_unseen && finest.noise > 0 && finest.max_abs < 3 * finest.noise)
+                    std::cout << " (below 3x the pilot's noise " << sci(finest.noise) << "; without it "
+                              << sci(target.absolute ? finest.denoised_max_abs : finest.denoised_max_rel) << ")";
+                std::cout << "\n";
             }
             for (const IntegrationFit& f : p.integration) {
                 if (f.method == Method::ClosedForm) {
@@ -433,6 +440,11 @@ void run_plan(const PlanArgs& pa) {
                               << sci(f.seconds_per_sample) << " s per sample\n";
                 }
             }
+            if (p.variance_unseen)
+                std::cout << "  warning: at some pilot budget every cell's samples were all equal (stderr 0) "
+                             "although the values are not all 0: rare events, too few for the standard "
+                             "errors to measure the noise; the integration term may be far too small "
+                             "(docs/planning.md)\n";
         }
         // A small table: about 12 rows spread over the front, the first and
         // last, and the choice with its neighbours (--json lists every plan).
