@@ -167,17 +167,21 @@
         s.batch = work_batch[w];                                               \
         s.method = BT_KERNEL_METHOD_(method);
 
+/* The arguments of the usual kernel, which every kernel launched alike takes
+ * (the walk-parallel kernel of walk_parallel.h too). */
+#define BT_ESTIMATE_KERNEL_PARAMS                                              \
+        __global const REAL* points, uint stride, __global const int* options, \
+        uint n_options, int quantity, uint method, uint key0, uint key1,       \
+        __global const uint* work_cell, __global const uint* work_batch,       \
+        uint n_work, uint batch_size, __global ACCUM* out_mean,                \
+        __global ACCUM* out_m2
+
 /* The point load is unrolled: left as a loop, clang vectorised it as a 4-wide
  * inner loop before PoCL wrapped the body in its work-item loop, which was then
  * not innermost and stayed scalar (measured on the rough-dielectric bsdf
  * kernel, docs/contributing.md "What keeps PoCL's work-item loop scalar"). */
 #define BT_DEFINE_ESTIMATE_KERNEL(kernel_name, sample_fn)                      \
-    __kernel void kernel_name(                                                 \
-        __global const REAL* points, uint stride, __global const int* options, \
-        uint n_options, int quantity, uint method, uint key0, uint key1,       \
-        __global const uint* work_cell, __global const uint* work_batch,       \
-        uint n_work, uint batch_size, __global ACCUM* out_mean,                \
-        __global ACCUM* out_m2)                                                \
+    __kernel void kernel_name(BT_ESTIMATE_KERNEL_PARAMS)                       \
     {                                                                          \
         const uint gid = (uint)get_global_id(0);                               \
         BT_KERNEL_PADDING_EXIT_(gid, n_work);                                  \

@@ -48,12 +48,7 @@
 #if BT_DEVICE
 #define BT_DEFINE_WALK_PARALLEL_KERNEL(kernel_name, walk_state, walk_setup,    \
                                        walk_begin, walk_step, walk_value)      \
-    __kernel void kernel_name(                                                 \
-        __global const REAL* points, uint stride, __global const int* options, \
-        uint n_options, int quantity, uint method, uint key0, uint key1,       \
-        __global const uint* work_cell, __global const uint* work_batch,       \
-        uint n_work, uint batch_size, __global ACCUM* out_mean,                \
-        __global ACCUM* out_m2)                                                \
+    __kernel void kernel_name(BT_ESTIMATE_KERNEL_PARAMS)                       \
     {                                                                          \
         __local int busy_[3];                                                  \
         const uint gid = (uint)get_global_id(0);                               \
