@@ -474,8 +474,10 @@ TEST_CASE("oren-nayar's node functions compose to its sample function (host buil
                                 const int nodes = oren_nayar_node_group(item.data(), o, quantity, g, gs.data());
                                 REQUIRE(nodes >= 2 * (batch == 0 ? 9 : 5));
                                 std::vector<double> terms(static_cast<std::size_t>(nodes) * ON_NODE_TERMS);
+                                std::vector<double> phi(static_cast<std::size_t>(nodes));
+                                oren_nayar_node_term_setup(item.data(), gs.data(), phi.data());
                                 for (int k = 0; k < nodes; ++k)
-                                    oren_nayar_node_term(item.data(), gs.data(), o, quantity, k,
+                                    oren_nayar_node_term(item.data(), gs.data(), o, quantity, phi[static_cast<std::size_t>(k)],
                                                          &terms[static_cast<std::size_t>(k) * ON_NODE_TERMS]);
                                 oren_nayar_node_group_sum(item.data(), gs.data(), o, quantity, terms.data(), acc);
                             }

@@ -957,14 +957,21 @@ private:
                     grow(nested_chunk_group_, nested_chunk_group_bytes_, total_nodes * 4,
                          CL_MEM_READ_WRITE);
                     grow(node_scratch_, node_scratch_bytes_, total_nodes * term_bytes, CL_MEM_READ_WRITE);
-                    // group_node, n_groups, node_group
+                    grow(nested_node_x_, nested_node_x_bytes_, total_nodes * real_size,
+                         CL_MEM_READ_WRITE);
+                    // group_node, n_groups, node_group, group_item, item_state,
+                    // group_state, node_x
                     k.chunk.setArg(0, nested_group_node_);
                     k.chunk.setArg(1, static_cast<cl_uint>(total_groups));
                     k.chunk.setArg(2, nested_chunk_group_);
+                    k.chunk.setArg(3, nested_group_item_);
+                    k.chunk.setArg(4, node_state_);
+                    k.chunk.setArg(5, nested_group_state_);
+                    k.chunk.setArg(6, nested_node_x_);
                     queue.enqueueNDRangeKernel(k.chunk, cl::NullRange,
                                                cl::NDRange(padded_global(total_groups)), local);
                     // options, n_options, quantity, node_group, group_node,
-                    // group_item, n_nodes, item_state, group_state, scratch
+                    // group_item, n_nodes, item_state, group_state, scratch, node_x
                     set_option_args(k.node, l);
                     k.node.setArg(3, nested_chunk_group_);
                     k.node.setArg(4, nested_group_node_);
@@ -973,6 +980,7 @@ private:
                     k.node.setArg(7, node_state_);
                     k.node.setArg(8, nested_group_state_);
                     k.node.setArg(9, node_scratch_);
+                    k.node.setArg(10, nested_node_x_);
                     queue.enqueueNDRangeKernel(k.node, cl::NullRange,
                                                cl::NDRange(padded_global(total_nodes)), local);
                 }
@@ -1176,6 +1184,9 @@ private:
     std::size_t nested_item_group_bytes_ = 0, nested_group_item_bytes_ = 0,
                 nested_group_nodes_bytes_ = 0, nested_group_node_bytes_ = 0,
                 nested_group_state_bytes_ = 0, nested_chunk_group_bytes_ = 0;
+    // Every node's own value (oren-nayar: its phi_a), written by the chunk kernel.
+    cl::Buffer nested_node_x_;
+    std::size_t nested_node_x_bytes_ = 0;
     cl::Buffer points_, options_, cells_, batches_, out_mean_, out_m2_;
     std::size_t buffer_items_ = 0, buffer_point_bytes_ = 0, buffer_accum_size_ = 0;
     // The second set of per-launch buffers (start(): one launch computes on

@@ -153,9 +153,15 @@
  *     void prepare_fn      (p, o, quantity, s, REAL* item_state)
  *     int  group_prepare_fn(BT_GLOBAL const REAL* item_state, o, quantity, g,
  *                           REAL* group_state)   returns the group's nodes
+ *     void term_fn##_setup (BT_GLOBAL const REAL* item_state,
+ *                           BT_GLOBAL const REAL* group_state,
+ *                           BT_GLOBAL REAL* node_x)   each of the group's
+ *                           nodes' own value x (oren-nayar: its phi_a), in
+ *                           the group's node order (the name is term_fn's
+ *                           with "_setup" appended)
  *     void term_fn         (BT_GLOBAL const REAL* item_state,
  *                           BT_GLOBAL const REAL* group_state, o, quantity,
- *                           k, REAL* terms)
+ *                           REAL x, REAL* terms)
  *     void group_sum_fn    (item_state, group_state, o, quantity,
  *                           BT_GLOBAL const REAL* terms, REAL* acc)
  *     REAL finish_fn       (p, o, quantity, s, const REAL* acc)
@@ -173,11 +179,13 @@
  *                   state and node count group_nodes[G].
  *   chunk_kernel    one work item per group, after the host has laid out
  *                   the nodes (group_node: the exclusive prefix sum of the
- *                   device's counts): node_group[k] = G for its nodes k.
- *   node_kernel     one work item per node: group G = node_group[gid] (a
- *                   plain load, consecutive in gid), node
- *                   k = gid - group_node[G]; terms at scratch[n_terms * gid].
- *                   Loop-free: vectorises.
+ *                   device's counts): node_group[k] = G for its nodes k,
+ *                   and node_x[k] (term_fn##_setup).
+ *   node_kernel     one work item per node: group G = node_group[gid] and
+ *                   x = node_x[gid] (plain loads, consecutive in gid);
+ *                   terms at scratch[n_terms * gid].  Loop-free: vectorises.
+ *                   (group_node is passed but no longer read: x replaced
+ *                   the node's number, which took more gathers per node.)
  *   sum_kernel      one work item per work item: its groups in order, then
  *                   finish; mean and M2 as in the usual kernel.
  * Every term and every addition is the serial loop's (the model's serial
@@ -189,12 +197,19 @@
     item_state_size, group_state_size, n_terms, acc_size, count_fn,            \
     prepare_fn, group_prepare_fn, term_fn, group_sum_fn, finish_fn, sample_fn) \
     __kernel void chunk_kernel(__global const uint* group_node, uint n_groups, \
-                               __global uint* node_group)                      \
+                               __global uint* node_group,                      \
+                               __global const uint* group_item,                \
+                               __global const REAL* item_state,                \
+                               __global const REAL* group_state,               \
+                               __global REAL* node_x)                          \
     {                                                                          \
         const uint g = (uint)get_global_id(0);                                 \
         if (g >= n_groups) return;                                             \
         for (uint k = group_node[g]; k < group_node[g + 1u]; ++k)              \
             node_group[k] = g;                                                 \
+        term_fn##_setup(item_state + (size_t)group_item[g] * (item_state_size), \
+                        group_state + (size_t)g * (group_state_size),          \
+                        node_x + group_node[g]);                               \
     }                                                                          \
     BT_DEFINE_NODE_PREPARE_KERNEL_(prepare_kernel, item_state_size, prepare_fn, 0) \
     __kernel void group_kernel(                                                \
@@ -219,7 +234,8 @@
         __global const uint* node_group,                                       \
         __global const uint* group_node, __global const uint* group_item,      \
         uint n_nodes, __global const REAL* item_state,                         \
-        __global const REAL* group_state, __global REAL* scratch)              \
+        __global const REAL* group_state, __global REAL* scratch,              \
+        __global const REAL* node_x)                                           \
     {                                                                          \
         const uint gid = (uint)get_global_id(0);                               \
         if (gid >= n_nodes) return;                                            \
@@ -228,7 +244,7 @@
         REAL t[n_terms];                                                       \
         term_fn(item_state + (size_t)group_item[g] * (item_state_size),        \
                 group_state + (size_t)g * (group_state_size), o,               \
-                BT_KERNEL_QUANTITY_(quantity), (int)(gid - group_node[g]), t); \
+                BT_KERNEL_QUANTITY_(quantity), node_x[gid], t);                \
         _Pragma("unroll")                                                      \
         for (uint i = 0; i < (uint)(n_terms); ++i)                             \
             scratch[(size_t)gid * (n_terms) + i] = t[i];                       \

@@ -335,13 +335,12 @@ BT_INLINE void on_phi_interval(REAL lo, REAL hi, int parts, int q, REAL* hl, REA
     *mid = l + *hl;
 }
 
-/* F1, F2 at the GL node x of a sub-interval (mid, hl) at slope theta_a
- * (sin, cos of it given): the integrand of on_phi_integral, shared with the
- * node-parallel kernel (on_node_term). */
-BT_INLINE void on_phi_node(const on_geom* g, REAL sin_a, REAL cos_a, REAL d11, REAL mid, REAL hl,
-                           REAL x, int want, REAL* f1, REAL* f2)
+/* F1, F2 at the phi_a node phi at slope theta_a (sin, cos of it given):
+ * the integrand of on_phi_integral, shared with the node-parallel kernel
+ * (oren_nayar_node_term). */
+BT_INLINE void on_phi_node_at(const on_geom* g, REAL sin_a, REAL cos_a, REAL d11, REAL phi,
+                              int want, REAL* f1, REAL* f2)
 {
-    REAL phi = mid + hl * x;
 #if BT_DEVICE && defined(BT_REAL_IS_FLOAT) && BT_REAL_IS_FLOAT
     REAL cos_phi = bt_cos(phi), sin_phi = bt_sin(phi);
 #else
@@ -352,6 +351,17 @@ BT_INLINE void on_phi_node(const on_geom* g, REAL sin_a, REAL cos_a, REAL d11, R
     REAL sin_phi = bt_sincos(phi, &cos_phi);
 #endif
     on_facet_d11(g, bt_v3(sin_a * cos_phi, sin_a * sin_phi, cos_a), want, 1, d11, f1, f2);
+}
+
+/* The phi_a node at GL abscissa x of a sub-interval (mid, hl): one
+ * expression, evaluated alike (same contraction) wherever it is used. */
+BT_INLINE REAL on_phi_at(REAL mid, REAL hl, REAL x) { return mid + hl * x; }
+
+/* F1, F2 at the GL node x of a sub-interval (mid, hl). */
+BT_INLINE void on_phi_node(const on_geom* g, REAL sin_a, REAL cos_a, REAL d11, REAL mid, REAL hl,
+                           REAL x, int want, REAL* f1, REAL* f2)
+{
+    on_phi_node_at(g, sin_a, cos_a, d11, on_phi_at(mid, hl, x), want, f1, f2);
 }
 
 /* The inner sum's step (one phi_a node of weight w on half-length hl). */
@@ -962,28 +972,38 @@ BT_INLINE int oren_nayar_node_group(BT_GLOBAL const REAL* item, const int* o, in
     return nb * on_phi_parts(nb) * n;
 }
 
-/* Node k of a group: F1 and F2 at phi_a node k % n of part k / n
- * (on_phi_node, as in on_phi_integral; a zero-length part's nodes are
- * computed too, and the group sum skips them).  No division (x86 has no
- * vector integer one, and a REAL one is slow): k / n as (k + 1/2) (1/n) in
- * REAL, whose floor is exact since k < 2^13 and (k + 1/2)/n is at least
- * 1/(2n) from an integer; parts is 1 or 2. */
-BT_INLINE void oren_nayar_node_term(BT_GLOBAL const REAL* item, BT_GLOBAL const REAL* gs,
-                                    const int* o, int quantity, int k, REAL* out)
+/* A group's phi_a nodes, in its node order (phi_a node j of part q of
+ * sub-interval k is node (k parts + q) n + j; zero-length parts included):
+ * written once per group by the chunk kernel, so the node kernel reads its
+ * phi_a with one contiguous load instead of gathering the breakpoints, n
+ * and the rule's node (docs/benchmarks.md, "Session 10: oren-nayar"). */
+BT_INLINE void oren_nayar_node_term_setup(BT_GLOBAL const REAL* item, BT_GLOBAL const REAL* gs,
+                                          BT_GLOBAL REAL* phi)
 {
-    (void)o;
-    on_geom geo = on_node_load_geom(item);
     int n = (int)item[ON_NODE_I_N];
     int nb = (int)gs[ON_NODE_G_NB];
     int parts = on_phi_parts(nb);
-    int part = (int)(((REAL)k + R(0.5)) * item[ON_NODE_I_INV_N]), j = k - part * n;
-    int iv = part >> (parts - 1), q = part & (parts - 1);
-    REAL hl, mid;
-    on_phi_interval(gs[ON_NODE_G_B + iv], gs[ON_NODE_G_B + iv + 1], parts, q, &hl, &mid);
+    for (int k = 0; k < nb; ++k) {
+        for (int q = 0; q < parts; ++q) {
+            REAL hl, mid;
+            on_phi_interval(gs[ON_NODE_G_B + k], gs[ON_NODE_G_B + k + 1], parts, q, &hl, &mid);
+            BT_GLOBAL REAL* out = phi + (k * parts + q) * n;
+            for (int j = 0; j < n; ++j) out[j] = on_phi_at(mid, hl, item[ON_NODE_I_GX + j]);
+        }
+    }
+}
+
+/* A node of a group: F1 and F2 at its phi_a (from
+ * oren_nayar_node_term_setup), as on_phi_integral computes them; a
+ * zero-length part's nodes are computed too, and the group sum skips them. */
+BT_INLINE void oren_nayar_node_term(BT_GLOBAL const REAL* item, BT_GLOBAL const REAL* gs,
+                                    const int* o, int quantity, REAL phi, REAL* out)
+{
+    (void)o;
+    on_geom geo = on_node_load_geom(item);
     REAL f1, f2;
-    on_phi_node(&geo, gs[ON_NODE_G_SIN], gs[ON_NODE_G_COS], gs[ON_NODE_G_D11], mid, hl,
-                item[ON_NODE_I_GX + j],
-                on_want(quantity), &f1, &f2);
+    on_phi_node_at(&geo, gs[ON_NODE_G_SIN], gs[ON_NODE_G_COS], gs[ON_NODE_G_D11], phi,
+                   on_want(quantity), &f1, &f2);
     out[0] = f1;
     out[1] = f2;
 }
