@@ -134,28 +134,44 @@ double median(std::vector<double> v) {
     return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
-BackendTiming measure_backend(Backend& backend, const Workload& w, std::size_t cells,
-                              bool per_cell, unsigned repeats, std::uint64_t& evaluations) {
-    BackendTiming t;
-    t.backend = backend.device_name();
-    std::uint64_t evals = 0;
-    // Warm-up: builds the kernel (and PoCL's work-group specialisation).
-    time_run(backend, w, std::min<std::size_t>(cells, 256), evals);
+// The timings of one backend, filled one repeat at a time (measure_backends).
+struct TimingSeries {
     std::vector<double> seconds, cpu_rates;
+};
+
+// Times every backend on the same workload: a warm-up each (kernel builds,
+// PoCL's work-group specialisation), then `repeats` rounds in which each
+// backend runs once in turn.  Interleaved, so that a slower phase of the
+// machine (other processes, frequency) falls on every backend alike rather
+// than on whichever was running then: the serial host's rate moved by 30 %
+// from one whole series to the next on the project machine (docs/benchmarks.md,
+// "Session 10 build, after the merges").
+std::vector<BackendTiming> measure_backends(const std::vector<Backend*>& backends, const Workload& w,
+                                            std::size_t cells, bool per_cell, unsigned repeats,
+                                            std::uint64_t& evaluations) {
+    std::uint64_t evals = 0;
+    for (Backend* b : backends) time_run(*b, w, std::min<std::size_t>(cells, 256), evals);
+    std::vector<BackendTiming> out(backends.size());
+    std::vector<TimingSeries> series(backends.size());
     for (unsigned r = 0; r < std::max(1u, repeats); ++r) {
-        const double cpu0 = process_cpu_seconds();
-        const double s = time_run(backend, w, cells, evals);
-        const double cpu = process_cpu_seconds() - cpu0;
-        seconds.push_back(s);
-        const double work = per_cell ? static_cast<double>(cells) : static_cast<double>(evals);
-        t.all_rates.push_back(s > 0 ? work / s : 0);
-        cpu_rates.push_back(cpu > 0 ? work / cpu : 0);
+        for (std::size_t k = 0; k < backends.size(); ++k) {
+            const double cpu0 = process_cpu_seconds();
+            const double s = time_run(*backends[k], w, cells, evals);
+            const double cpu = process_cpu_seconds() - cpu0;
+            const double work = per_cell ? static_cast<double>(cells) : static_cast<double>(evals);
+            series[k].seconds.push_back(s);
+            out[k].all_rates.push_back(s > 0 ? work / s : 0);
+            series[k].cpu_rates.push_back(cpu > 0 ? work / cpu : 0);
+        }
     }
     evaluations = evals;
-    t.seconds = median(seconds);
-    t.rate = median(t.all_rates);
-    t.rate_per_cpu_second = median(cpu_rates);
-    return t;
+    for (std::size_t k = 0; k < backends.size(); ++k) {
+        out[k].backend = backends[k]->device_name();
+        out[k].seconds = median(series[k].seconds);
+        out[k].rate = median(out[k].all_rates);
+        out[k].rate_per_cpu_second = median(series[k].cpu_rates);
+    }
+    return out;
 }
 
 }  // namespace
@@ -223,10 +239,12 @@ BenchReport run_bench(Backend& device, const BenchSettings& in, const BenchStart
         r.unit = c.per_cell ? "cells/s" : "evals/s";
         r.cells = cells;
         r.samples_per_cell = integral ? w.settings.samples : 1;
-        r.device = measure_backend(device, w, cells, c.per_cell, settings.repeats, evals);
+        const std::vector<BackendTiming> timings = measure_backends(
+            {&device, host.get(), threads.get()}, w, cells, c.per_cell, settings.repeats, evals);
+        r.device = timings[0];
+        r.host = timings[1];
+        r.host_threads = timings[2];
         r.evaluations = evals;
-        r.host = measure_backend(*host, w, cells, c.per_cell, settings.repeats, evals);
-        r.host_threads = measure_backend(*threads, w, cells, c.per_cell, settings.repeats, evals);
         auto ratio = [](double a, double b) { return b > 0 ? a / b : 0.0; };
         r.device_over_host = ratio(r.device.rate, r.host.rate);
         r.device_over_threads = ratio(r.device.rate, r.host_threads.rate);
