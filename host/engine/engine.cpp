@@ -970,17 +970,16 @@ private:
                     k.chunk.setArg(6, nested_node_x_);
                     queue.enqueueNDRangeKernel(k.chunk, cl::NullRange,
                                                cl::NDRange(padded_global(total_groups)), local);
-                    // options, n_options, quantity, node_group, group_node,
-                    // group_item, n_nodes, item_state, group_state, scratch, node_x
+                    // options, n_options, quantity, node_group, group_item,
+                    // n_nodes, item_state, group_state, scratch, node_x
                     set_option_args(k.node, l);
                     k.node.setArg(3, nested_chunk_group_);
-                    k.node.setArg(4, nested_group_node_);
-                    k.node.setArg(5, nested_group_item_);
-                    k.node.setArg(6, static_cast<cl_uint>(total_nodes));
-                    k.node.setArg(7, node_state_);
-                    k.node.setArg(8, nested_group_state_);
-                    k.node.setArg(9, node_scratch_);
-                    k.node.setArg(10, nested_node_x_);
+                    k.node.setArg(4, nested_group_item_);
+                    k.node.setArg(5, static_cast<cl_uint>(total_nodes));
+                    k.node.setArg(6, node_state_);
+                    k.node.setArg(7, nested_group_state_);
+                    k.node.setArg(8, node_scratch_);
+                    k.node.setArg(9, nested_node_x_);
                     queue.enqueueNDRangeKernel(k.node, cl::NullRange,
                                                cl::NDRange(padded_global(total_nodes)), local);
                 }

@@ -167,14 +167,18 @@
         s.batch = work_batch[w];                                               \
         s.method = BT_KERNEL_METHOD_(method);
 
+/* The first arguments of every kernel that loads work items (what
+ * BT_KERNEL_LOAD_WORK_ reads; the engine's set_work_args sets them): the
+ * usual, walk-parallel, sample-parallel and node-parallel kernels. */
+#define BT_WORK_KERNEL_PARAMS                                                  \
+        __global const REAL* points, uint stride, __global const int* options, \
+        uint n_options, int quantity, uint method, uint key0, uint key1,       \
+        __global const uint* work_cell, __global const uint* work_batch
 /* The arguments of the usual kernel, which every kernel launched alike takes
  * (the walk-parallel kernel of walk_parallel.h too). */
 #define BT_ESTIMATE_KERNEL_PARAMS                                              \
-        __global const REAL* points, uint stride, __global const int* options, \
-        uint n_options, int quantity, uint method, uint key0, uint key1,       \
-        __global const uint* work_cell, __global const uint* work_batch,       \
-        uint n_work, uint batch_size, __global ACCUM* out_mean,                \
-        __global ACCUM* out_m2
+        BT_WORK_KERNEL_PARAMS, uint n_work, uint batch_size,                   \
+        __global ACCUM* out_mean, __global ACCUM* out_m2
 
 /* The point load is unrolled: left as a loop, clang vectorised it as a 4-wide
  * inner loop before PoCL wrapped the body in its work-item loop, which was then
@@ -221,10 +225,7 @@
 #define BT_DEFINE_SAMPLE_PARALLEL_KERNELS(sample_kernel, reduce_kernel,        \
                                           sample_fn)                           \
     __kernel void sample_kernel(                                               \
-        __global const REAL* points, uint stride, __global const int* options, \
-        uint n_options, int quantity, uint method, uint key0, uint key1,       \
-        __global const uint* work_cell, __global const uint* work_batch,       \
-        uint first_work, uint n_samples, uint batch_size,                      \
+        BT_WORK_KERNEL_PARAMS, uint first_work, uint n_samples, uint batch_size, \
         __global ACCUM* scratch)                                               \
     {                                                                          \
         const uint gid = (uint)get_global_id(0);                               \

@@ -66,10 +66,8 @@
 #define BT_DEFINE_NODE_PREPARE_KERNEL_(prepare_kernel, state_size, prepare_fn,  \
                                        unroll_copy)                            \
     __kernel void prepare_kernel(                                              \
-        __global const REAL* points, uint stride, __global const int* options, \
-        uint n_options, int quantity, uint method, uint key0, uint key1,       \
-        __global const uint* work_cell, __global const uint* work_batch,       \
-        uint first_work, uint n_work, __global REAL* state)                     \
+        BT_WORK_KERNEL_PARAMS, uint first_work, uint n_work,                   \
+        __global REAL* state)                                                  \
     {                                                                          \
         const uint gid = (uint)get_global_id(0);                               \
         if (gid >= n_work) return;                                             \
@@ -107,9 +105,7 @@
                                (int)(node - node_offset[w]));                  \
     }                                                                          \
     __kernel void sum_kernel(                                                  \
-        __global const REAL* points, uint stride, __global const int* options, \
-        uint n_options, int quantity, uint method, uint key0, uint key1,       \
-        __global const uint* work_cell, __global const uint* work_batch,       \
+        BT_WORK_KERNEL_PARAMS,                                                 \
         __global const uint* node_offset, uint first_node, uint first_work,    \
         uint n_work, __global const REAL* scratch, __global ACCUM* out_mean,   \
         __global ACCUM* out_m2)                                                \
@@ -184,8 +180,8 @@
  *   node_kernel     one work item per node: group G = node_group[gid] and
  *                   x = node_x[gid] (plain loads, consecutive in gid);
  *                   terms at scratch[n_terms * gid].  Loop-free: vectorises.
- *                   (group_node is passed but no longer read: x replaced
- *                   the node's number, which took more gathers per node.)
+ *                   (x replaced the node's number, k - group_node[G], which
+ *                   took more gathers per node.)
  *   sum_kernel      one work item per work item: its groups in order, then
  *                   finish; mean and M2 as in the usual kernel.
  * Every term and every addition is the serial loop's (the model's serial
@@ -231,8 +227,7 @@
     }                                                                          \
     __kernel void node_kernel(                                                 \
         __global const int* options, uint n_options, int quantity,             \
-        __global const uint* node_group,                                       \
-        __global const uint* group_node, __global const uint* group_item,      \
+        __global const uint* node_group, __global const uint* group_item,      \
         uint n_nodes, __global const REAL* item_state,                         \
         __global const REAL* group_state, __global REAL* scratch,              \
         __global const REAL* node_x)                                           \
@@ -250,9 +245,7 @@
             scratch[(size_t)gid * (n_terms) + i] = t[i];                       \
     }                                                                          \
     __kernel void sum_kernel(                                                  \
-        __global const REAL* points, uint stride, __global const int* options, \
-        uint n_options, int quantity, uint method, uint key0, uint key1,       \
-        __global const uint* work_cell, __global const uint* work_batch,       \
+        BT_WORK_KERNEL_PARAMS,                                                 \
         uint first_work, uint n_work, __global const uint* item_group,         \
         __global const uint* group_node, __global const REAL* item_state,      \
         __global const REAL* group_state, __global const REAL* scratch,        \
