@@ -414,7 +414,7 @@ void run_plan(const PlanArgs& pa) {
                 // An explicit axis whose measurement is mostly the pilot's
                 // noise is predicted without it (plan.cpp, axis_error).
                 const LevelErrors& finest = f.levels.back();
-                if (!f.planned && !p.variance_unseen && finest.noise > 0 && finest.max_abs < 3 * finest.noise)
+                if (!f.planned && !p.variance_unseen && noise_dominated(finest))
                     std::cout << " (below 3x the pilot's noise " << sci(finest.noise) << "; without it "
                               << sci(target.absolute ? finest.denoised_max_abs : finest.denoised_max_rel) << ")";
                 std::cout << "\n";

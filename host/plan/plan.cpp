@@ -141,7 +141,7 @@ void fit_axis(AxisFit& fit, double max_exponent) {
     std::vector<double> h, max_abs, rms_abs, max_rel, rms_rel;
     for (const LevelErrors& l : fit.levels) {
         // Below 3x the reference's noise the measured error is the noise's.
-        if (l.noise > 0 && l.max_abs < 3 * l.noise) continue;
+        if (noise_dominated(l)) continue;
         h.push_back(l.h);
         max_abs.push_back(l.max_abs), rms_abs.push_back(l.rms_abs);
         max_rel.push_back(l.max_rel), rms_rel.push_back(l.rms_rel);
@@ -638,10 +638,10 @@ TablePilot run_pilot(const Spec& spec, std::size_t table_index, Backend& backend
                     for (std::size_t k = 0; k < probes.size(); ++k) {
                         const double want = r.value[blk.first_probe + k];
                         const double scale = std::max(std::fabs(want), pilot.rel_floor);
-                        abs_err.push_back(got[k] - want);
-                        rel_err.push_back((got[k] - want) / scale);
-                        const double probe_noise = sampled ? r.stderr_[blk.first_probe + k] : 0.0;
                         const double d = got[k] - want;
+                        abs_err.push_back(d);
+                        rel_err.push_back(d / scale);
+                        const double probe_noise = sampled ? r.stderr_[blk.first_probe + k] : 0.0;
                         const double kept = std::sqrt(std::max(
                             0.0, d * d - (probe_noise * probe_noise + node_noise * node_noise)));
                         abs_denoised.push_back(kept);
@@ -911,7 +911,7 @@ const PowerFit& rms_fit(const AxisFit& f, const PlanTarget& t) { return t.absolu
 void axis_error(const AxisFit& f, const PlanTarget& t, double h, double& max_e, double& rms_e) {
     const PowerFit &fm = max_fit(f, t), &fr = rms_fit(f, t);
     const LevelErrors& finest = f.levels.back();
-    const bool noisy = finest.noise > 0 && finest.max_abs < 3 * finest.noise;
+    const bool noisy = noise_dominated(finest);
     const double finest_max = t.absolute ? (noisy ? finest.denoised_max_abs : finest.max_abs)
                                          : (noisy ? finest.denoised_max_rel : finest.max_rel);
     const double finest_rms = t.absolute ? (noisy ? finest.denoised_rms_abs : finest.rms_abs)

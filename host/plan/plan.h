@@ -83,15 +83,22 @@ struct LevelErrors {
     double h = 0;           // 1 / (count - 1)
     double max_abs = 0, rms_abs = 0, max_rel = 0, rms_rel = 0;
     double noise = 0;       // largest reference stderr among the probes and nodes (0: closed form)
-    // The same four measures with each probe's error shrunk towards 0 by
-    // twice its noise, (|d| - 2 sigma)+ with sigma^2 the probe's stderr^2 plus
-    // the line's largest node stderr^2: what is left of the error once the
-    // noise that the integration term already counts is taken out.  Used
-    // only where no fit exists (explicit axes, every level below 3 x noise)
-    // and the level itself is below 3 x its noise; equal to the raw measures
-    // for closed forms and quadrature.
+    // The same four measures with the pilot's noise taken out of each
+    // probe's error d: sqrt(max(0, d^2 - sigma^2)), sigma^2 the probe's
+    // stderr^2 plus the line's largest node stderr^2 (E[d^2] = e^2 + sigma^2):
+    // what is left once the noise that the integration term already counts is
+    // removed.  Used only where no fit exists (explicit axes, every level
+    // below 3 x noise) and the level itself is noise_dominated(); equal to
+    // the raw measures for closed forms and quadrature, and where the
+    // integration pilot saw no variance (TablePilot::variance_unseen).
     double denoised_max_abs = 0, denoised_rms_abs = 0, denoised_max_rel = 0, denoised_rms_rel = 0;
 };
+
+// A level whose maximum error is below 3 x its reference's noise: what it
+// measured is mostly that noise.  Such a level is left out of the fits
+// (fit_axis), and where it is all an axis has, its noise-free measures
+// stand for it (LevelErrors::denoised_*).
+inline bool noise_dominated(const LevelErrors& l) { return l.noise > 0 && l.max_abs < 3 * l.noise; }
 
 // The fitted interpolation error of one axis for one interpolation:
 // error(h) = C h^p for each of the four measures.  A level whose maximum
