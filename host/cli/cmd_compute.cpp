@@ -290,10 +290,13 @@ void announce(const GenerateArgs& st, const GenerateSetup& g, int ranks) {
 }
 
 // Checkpoint (host/generate/checkpoint.h): one beside the output, unless an
-// older one is there and --resume was not given.
-std::unique_ptr<Checkpoint> open_checkpoint(const GenerateArgs& st, const GenerateSetup& g) {
+// older one is there and --resume was not given.  `created`: whether this run
+// made the directory (none was there before).
+std::unique_ptr<Checkpoint> open_checkpoint(const GenerateArgs& st, const GenerateSetup& g,
+                                            bool& created) {
     std::unique_ptr<Checkpoint> checkpoint;
     const CheckpointPresence presence = checkpoint_presence(g.out_path);
+    created = presence == CheckpointPresence::None;
     if (presence != CheckpointPresence::None && !st.resume) {
         std::cerr << "brdftab: a checkpoint of "
                   << (presence == CheckpointPresence::InUse ? "a running" : "an interrupted")
@@ -359,8 +362,8 @@ void finish_output(const GenerateSetup& g, Checkpoint* checkpoint) {
 void run_generate(const GenerateArgs& st) {
     GenerateSetup g = set_up_generate(st, true, "");
     announce(st, g, 1);
-    const bool checkpoint_is_new = checkpoint_presence(g.out_path) == CheckpointPresence::None;
-    std::unique_ptr<Checkpoint> checkpoint = open_checkpoint(st, g);
+    bool checkpoint_is_new = false;
+    std::unique_ptr<Checkpoint> checkpoint = open_checkpoint(st, g, checkpoint_is_new);
     StreamOptions options;
     options.chunk_cells = st.chunk_cells;
     options.checkpoint = checkpoint.get();
@@ -575,8 +578,7 @@ void run_generate_mpi(const GenerateArgs& st) {
     });
     agree([&] {
         if (rank != 0) return;
-        checkpoint_is_new = checkpoint_presence(g.out_path) == CheckpointPresence::None;
-        checkpoint = open_checkpoint(st, g);
+        checkpoint = open_checkpoint(st, g, checkpoint_is_new);
         std::size_t chunk_cells = st.chunk_cells;
         int ranks = size;
         if (checkpoint && !checkpoint->layout().empty() &&
