@@ -646,18 +646,11 @@ private:
         auto it = walk_parallel_kernels_.find(key);
         if (it != walk_parallel_kernels_.end()) return it->second;
         const WalkParallelCase& c = *walk_parallel_case(l);
-        // Forced inlining unless the build options decide: a call left in
-        // the round keeps the work-item loop scalar.
-        std::string source = "#if !defined(BT_FORCE_INLINE)\n#define BT_FORCE_INLINE 1\n#endif\n";
-        source += load_kernel_source("common/estimator.h", kernel_dir_);
-        source += load_kernel_source(model.kernel_header, kernel_dir_);
-        source += load_kernel_source("common/walk_parallel.h", kernel_dir_);
-        source += "#line 1 \"generated walk-parallel entry point for " + model.kernel_header + "\"\n";
-        source += "BT_DEFINE_WALK_PARALLEL_KERNEL(bt_estimate_walk, " + c.state + ", " +
-                  c.setup + ", " + c.begin + ", " + c.step + ", " + c.value + ")\n";
+        const std::string source = walk_parallel_kernel_source(
+            model.kernel_header, {c.state, c.setup, c.begin, c.step, c.value}, kernel_dir_);
         cl::Program program = cached_program(runtime_, source, options);
         try {
-            return walk_parallel_kernels_.emplace(key, cl::Kernel(program, "bt_estimate_walk"))
+            return walk_parallel_kernels_.emplace(key, cl::Kernel(program, kWalkKernelName))
                 .first->second;
         } catch (const cl::Error& e) {
             throw OpenCLError(e.what(), e.err(), "walk-parallel entry point of model '" +

@@ -233,18 +233,29 @@ std::string sample_parallel_kernel_source(const std::string& kernel_header,
 }
 
 namespace {
-// The start of both node-parallel programs: forced inlining unless the build
-// options decide (a call left in the node kernel keeps its work-item loop
-// scalar: measured on hfunction's H, docs/benchmarks.md), the estimator, the
-// model's header and the node-parallel entry-point macros.
-std::string node_parallel_prologue(const std::string& kernel_header, const std::string& kernel_dir) {
+// The start of the node-parallel and walk-parallel programs: forced inlining
+// unless the build options decide (a call left in the node kernel or in the
+// walk's round keeps its work-item loop scalar: measured on hfunction's H and
+// lambert-sphere's walk, docs/benchmarks.md), the estimator, the model's
+// header and the entry-point macros (`macros_header`, relative to kernels/).
+std::string forced_inline_prologue(const std::string& kernel_header, const std::string& macros_header,
+                                   const std::string& kernel_dir) {
     std::string source = "#if !defined(BT_FORCE_INLINE)\n#define BT_FORCE_INLINE 1\n#endif\n";
     source += load_kernel_source("common/estimator.h", kernel_dir);
     source += load_kernel_source(kernel_header, kernel_dir);
-    source += load_kernel_source("common/node_parallel.h", kernel_dir);
+    source += load_kernel_source(macros_header, kernel_dir);
     return source;
 }
 }  // namespace
+
+std::string walk_parallel_kernel_source(const std::string& kernel_header, const WalkParallelNames& names,
+                                        const std::string& kernel_dir) {
+    std::string source = forced_inline_prologue(kernel_header, "common/walk_parallel.h", kernel_dir);
+    source += "#line 1 \"generated walk-parallel entry point for " + kernel_header + "\"\n";
+    source += "BT_DEFINE_WALK_PARALLEL_KERNEL(" + std::string(kWalkKernelName) + ", " + names.state + ", " +
+              names.setup + ", " + names.begin + ", " + names.step + ", " + names.value + ")\n";
+    return source;
+}
 
 std::string node_parallel_kernel_source(const std::string& kernel_header,
                                         const std::string& state_size,
@@ -253,7 +264,7 @@ std::string node_parallel_kernel_source(const std::string& kernel_header,
                                         const std::string& term_function,
                                         const std::string& finish_function,
                                         const std::string& kernel_dir) {
-    std::string source = node_parallel_prologue(kernel_header, kernel_dir);
+    std::string source = forced_inline_prologue(kernel_header, "common/node_parallel.h", kernel_dir);
     source += "#line 1 \"generated node-parallel entry points for " + kernel_header + "\"\n";
     source += "BT_DEFINE_NODE_PARALLEL_KERNELS(" + std::string(kNodePrepareKernelName) + ", " +
               kNodeKernelName + ", " + kNodeSumKernelName + ", " + state_size + ", " +
@@ -265,7 +276,7 @@ std::string node_parallel_kernel_source(const std::string& kernel_header,
 std::string nested_node_parallel_kernel_source(const std::string& kernel_header,
                                                const NestedNodeParallelNames& f,
                                                const std::string& kernel_dir) {
-    std::string source = node_parallel_prologue(kernel_header, kernel_dir);
+    std::string source = forced_inline_prologue(kernel_header, "common/node_parallel.h", kernel_dir);
     source += "#line 1 \"generated nested node-parallel entry points for " + kernel_header + "\"\n";
     source += "BT_DEFINE_NESTED_NODE_PARALLEL_KERNELS(" + std::string(kNodePrepareKernelName) +
               ", " + kNodeGroupKernelName + ", " + kNodeChunkKernelName + ", " + kNodeKernelName + ", " + kNodeSumKernelName +

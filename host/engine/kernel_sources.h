@@ -27,6 +27,8 @@ constexpr const char* kNodeSumKernelName = "bt_node_sum";
 // prepare and node-to-group kernels; the other three keep the names above).
 constexpr const char* kNodeGroupKernelName = "bt_node_group";
 constexpr const char* kNodeChunkKernelName = "bt_node_chunk";
+// The entry point walk_parallel_kernel_source() generates.
+constexpr const char* kWalkKernelName = "bt_estimate_walk";
 
 std::vector<std::string> embedded_kernel_files();  // paths relative to kernels/
 std::string load_kernel_source(const std::string& relative_path,
@@ -67,6 +69,15 @@ struct NestedNodeParallelNames {
 std::string nested_node_parallel_kernel_source(const std::string& kernel_header,
                                                const NestedNodeParallelNames& names,
                                                const std::string& kernel_dir = "");
+// The program of a random walk's walk-parallel launch: the model's kernel
+// header and the entry point BT_DEFINE_WALK_PARALLEL_KERNEL(bt_estimate_walk,
+// state, setup, begin, step, value) of kernels/common/walk_parallel.h around
+// the model's walk functions; a separate program, like the ones above.
+struct WalkParallelNames {
+    std::string state, setup, begin, step, value;
+};
+std::string walk_parallel_kernel_source(const std::string& kernel_header, const WalkParallelNames& names,
+                                        const std::string& kernel_dir = "");
 // The -D definitions that specialise the program of estimate_kernel_source()
 // to one quantity, option set, method (BT_METHOD_*) and point stride
 // (kernels/common/estimator.h, "Specialisation"), with a leading space:
