@@ -235,8 +235,11 @@ def level_axes(info, case, level):
             out.append(dict(name=n, range=[float(lo), float(hi)], count=count))
         else:
             ax = dict(name=n, range=[float(x) for x in a["range"]], count=count)
-            if "spacing" in a:
-                ax["spacing"] = a["spacing"]
+            # The spacing and every key that parameterises it (pivot, ...):
+            # a spacing without its parameters may be refused or differ.
+            for k, v in a.items():
+                if k not in ("name", "range", "count", "values"):
+                    ax[k] = v
             out.append(ax)
     return out
 
