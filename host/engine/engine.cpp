@@ -1758,6 +1758,26 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
             launch.points.resize(slab * stride);
             std::size_t items = 0;
             while (cell_cursor < cell_count && items < slab) {
+                if (batch_cursor == 0 && wanted[cell_cursor] == 1 && derivation.slots == 0) {
+                    // A run of cells that want one batch each (closed forms,
+                    // a first round of one batch per cell): one work item
+                    // each, their points asked for in one call, as
+                    // add_items would put them.
+                    std::size_t end = cell_cursor + 1;
+                    while (end < cell_count && end - cell_cursor < slab - items && wanted[end] == 1)
+                        ++end;
+                    const std::size_t count = end - cell_cursor;
+                    double* const points = launch.points.data() + items * stride;
+                    points_of(cell_cursor, count, points);
+                    if (check_while_building && model.check_cell) check_cells(points, count, stride);
+                    for (std::size_t c = cell_cursor; c < end; ++c, ++items) {
+                        launch.cells[items] = cell_base + static_cast<std::uint32_t>(c);
+                        launch.batches[items] = issued[c]++;
+                    }
+                    cell_cursor = end;
+                    advance_to_work();
+                    continue;
+                }
                 // This cell's remaining batches of the round, as many as fit.
                 const std::uint32_t take = static_cast<std::uint32_t>(std::min<std::size_t>(
                     wanted[cell_cursor] - batch_cursor, slab - items));
