@@ -82,7 +82,7 @@ CellPoints::CellPoints(const ModelInfo& model, const QuantityInfo& quantity,
     }
 }
 
-void CellPoints::feed(std::size_t a, double v, double* out, double& phi_d) const {
+inline void CellPoints::feed(std::size_t a, double v, double* out, double& phi_d) const {
     switch (feeds_[a].feed) {
         case Feed::Degrees: out[feeds_[a].slot] = v * kDegToRad; break;
         case Feed::Cosine: out[feeds_[a].slot] = std::acos(v); break;
