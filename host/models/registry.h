@@ -186,9 +186,10 @@ struct ModelInfo {
     // `point` is the kernel point (point_stride() values, parameters by slot,
     // angles in radians), `options` the option indices; returns an error text
     // naming the parameter, its value and the allowed range, or empty.  The
-    // engine (estimate()) runs it on every cell before any kernel launch
-    // (closed forms without a checkpoint: on each cell as its launch is
-    // built), so eval, generate and validate refuse the same cells.
+    // engine (estimate()) checks every cell with it (or with cells_pass,
+    // below) before any kernel launch (closed forms without a checkpoint: on
+    // each launch's cells as the launch is built), so eval, generate and
+    // validate refuse the same cells.
     std::string (*check_cell)(const QuantityInfo& q, const double* point,
                               const std::vector<int>& options) = nullptr;
     // Optional fast form of check_cell over many cells at once: `count`
