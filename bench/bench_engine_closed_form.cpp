@@ -5,10 +5,12 @@
 // nothing, as `brdftab generate` passes one).  docs/benchmarks.md, session 6.
 //
 //   build/bench/bench_engine_closed_form [cells=2000000] [repeats=5] [device] [paths=both]
+//                                        [feed=span]
 //
 // paths: `direct`, `general` or `both` (e.g. `direct` alone under a profiler).
-//
-// Points are held in one array and copied per cell, as `brdftab bench` does.
+// feed: how estimate() gets the points, held in one array: `span` copies a
+// span of cells per call (PointsFn, as `brdftab bench` does since session 11),
+// `cell` one cell per call (PointFn, as before).
 #include <time.h>
 
 #include <algorithm>
@@ -38,10 +40,12 @@ int main(int argc, char** argv) {
     const int repeats = argc > 2 ? std::atoi(argv[2]) : 5;
     const std::string device = argc > 3 ? argv[3] : "";
     const std::string paths = argc > 4 ? argv[4] : "both";
-    if (cells == 0 || repeats < 1 || (paths != "both" && paths != "direct" && paths != "general")) {
+    const std::string feed = argc > 5 ? argv[5] : "span";
+    if (cells == 0 || repeats < 1 || (paths != "both" && paths != "direct" && paths != "general") ||
+        (feed != "span" && feed != "cell")) {
         std::fprintf(stderr,
                      "usage: bench_engine_closed_form [cells >= 1] [repeats >= 1] [device] "
-                     "[direct|general|both]\n");
+                     "[direct|general|both] [span|cell]\n");
         return 2;
     }
     const ModelInfo& model = find_model("rough-dielectric");
@@ -69,9 +73,20 @@ int main(int argc, char** argv) {
     }
     auto backend = make_backend(device, Precision::Double);
     const IntegrationSettings settings;
-    auto point_of = [&](std::size_t c, double* out) { std::copy_n(&points[c * stride], stride, out); };
-    estimate(*backend, model, q, options, std::min<std::size_t>(cells, 256), point_of, settings);
-    std::printf("%s, %zu cells of rough-dielectric bsdf\n", backend->device_name().c_str(), cells);
+    const PointFn point_of = [&](std::size_t c, double* out) {
+        std::copy_n(&points[c * stride], stride, out);
+    };
+    const PointsFn points_of = [&](std::size_t first, std::size_t count, double* out) {
+        std::copy_n(points.data() + first * stride, count * stride, out);
+    };
+    auto run = [&](std::size_t n, EstimateCheckpoint* checkpoint) {
+        return feed == "span"
+                   ? estimate(*backend, model, q, options, n, points_of, settings, nullptr, checkpoint)
+                   : estimate(*backend, model, q, options, n, point_of, settings, nullptr, checkpoint);
+    };
+    run(std::min<std::size_t>(cells, 256), nullptr);
+    std::printf("%s, %zu cells of rough-dielectric bsdf, points by %s\n",
+                backend->device_name().c_str(), cells, feed.c_str());
     for (const bool with_checkpoint : {false, true}) {
         if (paths != "both" && with_checkpoint != (paths == "general")) continue;
         for (int r = 0; r < repeats; ++r) {
@@ -79,9 +94,7 @@ int main(int argc, char** argv) {
             checkpoint.save = [](const EstimateState&, bool) {};
             const double cpu0 = cpu_seconds();
             const auto t0 = std::chrono::steady_clock::now();
-            const EstimateResult result =
-                estimate(*backend, model, q, options, cells, point_of, settings, nullptr,
-                         with_checkpoint ? &checkpoint : nullptr);
+            const EstimateResult result = run(cells, with_checkpoint ? &checkpoint : nullptr);
             const double wall =
                 std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
             const double cpu = cpu_seconds() - cpu0;

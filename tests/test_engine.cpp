@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <functional>
+#include <limits>
 #include <map>
 #include <random>
 
@@ -662,4 +663,187 @@ TEST_CASE("staged launches: inputs built in the backend's memory give run()'s bi
     LaunchStaging to;
     CHECK_FALSE(make_backend("host", Precision::Double)->stage(base, 4, to));
     CHECK_FALSE(device(Precision::Float)->stage(base, 4, to));
+}
+
+namespace {
+
+// Kernel points of `pts`, one after another (model.point_stride() each).
+std::vector<double> flat_points(const ModelInfo& model, const QuantityInfo& q,
+                                const std::vector<std::map<std::string, double>>& pts) {
+    const PointBuilder builder(model, q);
+    const std::size_t stride = model.point_stride();
+    std::vector<double> out(pts.size() * stride);
+    for (std::size_t k = 0; k < pts.size(); ++k) builder.build(pts[k], &out[k * stride]);
+    return out;
+}
+
+std::size_t alpha_slot_of(const ModelInfo& model) {
+    return kDirectionSlots +
+           static_cast<std::size_t>(model.find_parameter("alpha") - model.parameters.data());
+}
+
+}  // namespace
+
+TEST_CASE("points a span of cells at a time (PointsFn) give the per-cell form's bits") {
+    // The oracle is the per-cell form (PointFn), the engine's interface
+    // before spans: the same cells must get the same points, so every
+    // result bit, sample count and figure must match, on the device (direct
+    // path: a launch's points asked for in one call), the host and the
+    // threaded host, for a closed form without and with a checkpoint (the
+    // general rounds) and for a Monte Carlo quantity.
+    Fixture f;
+    auto reflection = f.random_points(700, false);
+    const auto transmission = f.random_points(600, true);
+    reflection.insert(reflection.end(), transmission.begin(), transmission.end());
+    std::vector<std::map<std::string, double>> albedo_points;
+    for (int k = 0; k < 90; ++k)
+        albedo_points.push_back({{"theta_i", 0.95 * k}, {"alpha", 0.05 + 0.01 * k}, {"eta", 1.3}});
+    struct Case {
+        const char* quantity;
+        Method method;
+        const std::vector<std::map<std::string, double>>* points;
+        bool with_checkpoint;
+    };
+    const Case cases[] = {{"bsdf", Method::ClosedForm, &reflection, false},
+                          {"bsdf", Method::ClosedForm, &reflection, true},
+                          {"albedo_r", Method::MonteCarlo, &albedo_points, false}};
+    auto dev = device();
+    auto host = make_backend("host", Precision::Double);
+    auto threads = make_backend("host-threads:2", Precision::Double);
+    for (Backend* backend : {dev.get(), host.get(), threads.get()}) {
+        for (const Case& c : cases) {
+            CAPTURE(backend->device_name());
+            CAPTURE(c.quantity);
+            CAPTURE(c.with_checkpoint);
+            const QuantityInfo& q = f.model.quantity(c.quantity);
+            const std::size_t stride = f.model.point_stride();
+            const std::vector<double> points = flat_points(f.model, q, *c.points);
+            const std::size_t n = c.points->size();
+            IntegrationSettings s;
+            s.method = c.method;
+            s.samples = 64;
+            s.seed = 11;
+            auto run = [&](const auto& feed) {
+                EstimateCheckpoint checkpoint;
+                checkpoint.save = [](const EstimateState&, bool) {};
+                return estimate(*backend, f.model, q, f.options(), n, feed, s, nullptr,
+                                c.with_checkpoint ? &checkpoint : nullptr);
+            };
+            const PointFn point_of = [&](std::size_t cell, double* out) {
+                REQUIRE(cell < n);
+                std::copy_n(&points[cell * stride], stride, out);
+            };
+            // The spans asked for, in order: in the direct path of a closed
+            // form they are whole launches and cover every cell once in order.
+            std::vector<std::pair<std::size_t, std::size_t>> spans;
+            const PointsFn points_of = [&](std::size_t first, std::size_t count, double* out) {
+                REQUIRE(first + count <= n);
+                spans.emplace_back(first, count);
+                std::copy_n(&points[first * stride], count * stride, out);
+            };
+            const EstimateResult per_cell = run(point_of);
+            const EstimateResult by_span = run(points_of);
+            CHECK(by_span.value == per_cell.value);
+            CHECK(by_span.stderr_ == per_cell.stderr_);
+            CHECK(by_span.samples == per_cell.samples);
+            CHECK(by_span.total_samples == per_cell.total_samples);
+            CHECK(by_span.tolerance_achieved == per_cell.tolerance_achieved);
+            CHECK(by_span.method == c.method);
+            if (c.method == Method::ClosedForm && !c.with_checkpoint) {
+                std::size_t next = 0, widest = 0;
+                for (const auto& span : spans) {
+                    CHECK(span.first == next);
+                    next = span.first + span.second;
+                    widest = std::max(widest, span.second);
+                }
+                CHECK(next == n);
+                CHECK(widest >= 256);  // the first launch's size at least
+            }
+        }
+    }
+}
+
+TEST_CASE("cells_pass agrees with check_cell, and a refused span names its first refused cell") {
+    Fixture f;
+    REQUIRE(static_cast<bool>(f.model.cells_pass));
+    const double kInf = std::numeric_limits<double>::infinity();
+    const std::size_t stride = f.model.point_stride();
+    const std::size_t alpha_slot = alpha_slot_of(f.model);
+    // One cell at a time, over the edges of Phong's (0, 1) and the others'
+    // (0, 4] (oracle: check_cell, whose messages the earlier case checks).
+    for (const char* dist : {"phong", "ggx", "beckmann"}) {
+        for (const char* quantity : {"bsdf", "albedo_avg"}) {
+            const QuantityInfo& q = f.model.quantity(quantity);
+            for (double alpha : {-1.0, 0.0, 1e-300, 0.3, 0.999999, 1.0, 1.0000001, 4.0,
+                                 std::nan(""), kInf, -kInf}) {
+                CAPTURE(dist);
+                CAPTURE(alpha);
+                std::vector<double> point(stride, 0.5);
+                point[alpha_slot] = alpha;
+                const bool pass = f.model.check_cell(q, point.data(), f.options(dist)).empty();
+                CHECK(f.model.cells_pass(q, point.data(), 1, stride, f.options(dist)) == pass);
+            }
+        }
+    }
+    // A span: refused by Phong as soon as one cell is, whatever its place;
+    // the other distributions accept it.
+    const QuantityInfo& q = f.model.quantity("bsdf");
+    std::vector<std::map<std::string, double>> pts;
+    for (int k = 0; k < 1000; ++k)
+        pts.push_back({{"theta_i", 0.08 * k}, {"theta_o", 30 + 0.05 * k}, {"alpha", 0.2 + 0.0007 * k},
+                       {"eta", 1.5}});
+    std::vector<double> points = flat_points(f.model, q, pts);
+    CHECK(f.model.cells_pass(q, points.data(), pts.size(), stride, f.options("phong")));
+    points[999 * stride + alpha_slot] = 1.0;
+    CHECK_FALSE(f.model.cells_pass(q, points.data(), pts.size(), stride, f.options("phong")));
+    CHECK(f.model.cells_pass(q, points.data(), 999, stride, f.options("phong")));
+    CHECK(f.model.cells_pass(q, points.data(), pts.size(), stride, f.options("ggx")));
+
+    // Through estimate(): cells 600 (alpha 1.5) and 800 (alpha 2) refused; the
+    // message is check_cell's for cell 600, the first, with either form of
+    // point function, on the direct path (spans of whole launches), on the
+    // general one (a checkpoint: every cell checked first) and for a Monte
+    // Carlo quantity, and nothing is launched on the general paths.
+    auto bad = pts;
+    bad[600]["alpha"] = 1.5;
+    bad[800]["alpha"] = 2.0;
+    const std::vector<double> bad_points = flat_points(f.model, q, bad);
+    const std::string expected =
+        f.model.check_cell(q, &bad_points[600 * stride], f.options("phong"));
+    REQUIRE(expected.find("alpha = 1.5 ") == 0);
+    auto dev = device();
+    for (const char* quantity : {"bsdf", "albedo_r"}) {
+        const QuantityInfo& qq = f.model.quantity(quantity);
+        for (bool with_checkpoint : {false, true}) {
+            for (bool spans : {false, true}) {
+                CAPTURE(quantity);
+                CAPTURE(with_checkpoint);
+                CAPTURE(spans);
+                IntegrationSettings s;
+                s.samples = 16;
+                EstimateCheckpoint checkpoint;
+                checkpoint.save = [](const EstimateState&, bool) {};
+                EstimateCheckpoint* cp = with_checkpoint ? &checkpoint : nullptr;
+                const PointFn point_of = [&](std::size_t cell, double* out) {
+                    std::copy_n(&bad_points[cell * stride], stride, out);
+                };
+                const PointsFn points_of = [&](std::size_t first, std::size_t count, double* out) {
+                    std::copy_n(&bad_points[first * stride], count * stride, out);
+                };
+                CountingBackend counting;
+                const bool direct = std::string(quantity) == "bsdf" && !with_checkpoint;
+                Backend& backend = direct ? static_cast<Backend&>(*dev) : counting;
+                const std::string m = input_error_text([&] {
+                    if (spans)
+                        estimate(backend, f.model, qq, f.options("phong"), bad.size(), points_of, s,
+                                 nullptr, cp);
+                    else
+                        estimate(backend, f.model, qq, f.options("phong"), bad.size(), point_of, s,
+                                 nullptr, cp);
+                });
+                CHECK(m == expected);
+                if (!direct) CHECK(counting.launches == 0);
+            }
+        }
+    }
 }

@@ -1,6 +1,7 @@
 // generate_tables: spec -> tables, cell coordinates, provenance, file round trip.
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -36,6 +37,53 @@ TEST_CASE("cell points follow the axes (mu -> theta, phi defaults, parameters)")
     cp.point(29, p.data());
     CHECK(p[0] == doctest::Approx(0.0).epsilon(1e-12));  // mu = 1
     CHECK(p[2] == doctest::Approx(test::kPi));
+}
+
+TEST_CASE("CellPoints::points gives point()'s values for every span") {
+    // Oracle: point(), cell by cell (divisions from the cell number), against
+    // the span form's stepped multi-index, over spans that start and end
+    // anywhere, so every axis wraps inside some span; mu_i (acos), degrees
+    // and phi_d (phi_o from phi_i + phi_d) feeds.
+    const ModelInfo& model = find_model("rough-dielectric");
+    Spec mu = parse_spec_string(test::fixture_text("rough_dielectric_bsdf_mu.toml"), "mem.toml");
+    Spec phi = parse_spec_string(R"(
+model = "rough-dielectric"
+[parameters]
+eta = 1.5
+[[axes]]
+name = "theta_i"
+range = [0, 80]
+count = 3
+[[axes]]
+name = "phi_d"
+range = [0, 180]
+count = 4
+[[axes]]
+name = "alpha"
+range = [0.1, 0.9]
+count = 2
+[[tables]]
+name = "f"
+quantity = "bsdf"
+[tables.parameters]
+theta_o = 40
+)",
+                                 "mem.toml");
+    for (const Spec* spec : {&mu, &phi}) {
+        CellPoints cp(model, model.quantity("bsdf"), spec->tables.at(0));
+        const std::size_t n = cp.cell_count(), stride = model.point_stride();
+        std::vector<double> one(n * stride);
+        for (std::size_t c = 0; c < n; ++c) cp.point(c, &one[c * stride]);
+        for (std::size_t first = 0; first < n; ++first) {
+            for (std::size_t count = 0; first + count <= n; count += 7) {
+                CAPTURE(first);
+                CAPTURE(count);
+                std::vector<double> span(count * stride, -99.0);
+                cp.points(first, count, span.data());
+                CHECK(std::equal(span.begin(), span.end(), one.begin() + first * stride));
+            }
+        }
+    }
 }
 
 TEST_CASE("generated table equals direct evaluation and round-trips through HDF5") {

@@ -1328,6 +1328,18 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
                         const std::vector<int>& options, std::size_t cell_count,
                         const PointFn& point_of, const IntegrationSettings& settings,
                         const ProgressFn& progress, EstimateCheckpoint* checkpoint) {
+    const std::size_t point_stride = model.point_stride();
+    const PointsFn points_of = [&](std::size_t first_cell, std::size_t count, double* points) {
+        for (std::size_t k = 0; k < count; ++k) point_of(first_cell + k, points + k * point_stride);
+    };
+    return estimate(backend, model, quantity, options, cell_count, points_of, settings, progress,
+                    checkpoint);
+}
+
+EstimateResult estimate(Backend& backend, const ModelInfo& model, const QuantityInfo& quantity,
+                        const std::vector<int>& options, std::size_t cell_count,
+                        const PointsFn& points_of, const IntegrationSettings& settings,
+                        const ProgressFn& progress, EstimateCheckpoint* checkpoint) {
     if (!model.host_fn) throw Error("model '" + model.name + "' has no sample function");
     check_settings(settings);
     if (cell_count > 0xFFFFFFFFull)
@@ -1347,12 +1359,25 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
     const Method method_resolved = resolve_method(quantity, settings.method);
     const bool check_while_building =
         method_resolved == Method::ClosedForm && !(checkpoint && (checkpoint->save || checkpoint->resume));
-    if (model.check_cell && !check_while_building) {
-        std::vector<double> cell_point(model.point_stride());
-        for (std::size_t c = 0; c < cell_count; ++c) {
-            point_of(c, cell_point.data());
-            const std::string problem = model.check_cell(quantity, cell_point.data(), options);
+    // The check of `count` cells' points (point k at points + k * pitch):
+    // the model's fast form first (ModelInfo::cells_pass), and its message-
+    // building check_cell, cell by cell, only where that refuses the span,
+    // so the first refused cell is reported as a check of every cell would.
+    auto check_cells = [&](const double* points, std::size_t count, std::size_t pitch) {
+        if (model.cells_pass && model.cells_pass(quantity, points, count, pitch, options)) return;
+        for (std::size_t k = 0; k < count; ++k) {
+            const std::string problem = model.check_cell(quantity, points + k * pitch, options);
             if (!problem.empty()) throw InputError(problem);
+        }
+    };
+    if (model.check_cell && !check_while_building) {
+        constexpr std::size_t kCheckSpan = 1024;  // cells per points_of call
+        const std::size_t pitch = model.point_stride();
+        std::vector<double> span_points(std::min(cell_count, kCheckSpan) * pitch);
+        for (std::size_t first = 0; first < cell_count; first += kCheckSpan) {
+            const std::size_t count = std::min(kCheckSpan, cell_count - first);
+            points_of(first, count, span_points.data());
+            check_cells(span_points.data(), count, pitch);
         }
     }
     const auto start = std::chrono::steady_clock::now();
@@ -1494,11 +1519,8 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
     auto add_items_to = [&](const LaunchStaging& to, std::size_t cell, std::uint32_t first_batch,
                             std::uint32_t take, std::size_t& items) {
         double* const first_point = to.points + items * stride;
-        point_of(cell, first_point);
-        if (check_while_building && model.check_cell) {
-            const std::string problem = model.check_cell(quantity, first_point, options);
-            if (!problem.empty()) throw InputError(problem);
-        }
+        points_of(cell, 1, first_point);
+        if (check_while_building && model.check_cell) check_cells(first_point, 1, stride);
         if (derivation.slots > 0) derivation.fill(first_point);
         for (std::uint32_t k = 0; k < take; ++k, ++items) {
             if (k) std::copy_n(first_point, stride, to.points + items * stride);
@@ -1636,19 +1658,19 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
             std::size_t items = 0;
             if (first_batches == 1 && derivation.slots == 0) {
                 // Closed forms: one work item per cell (add_items_to, without
-                // its per-cell loop over batches).
-                const bool check = check_while_building && model.check_cell;
-                const std::size_t end = std::min(cell_count, cell_cursor + slab);
-                for (; cell_cursor < end; ++cell_cursor, ++items) {
-                    double* const point = to.points + items * stride;
-                    point_of(cell_cursor, point);
-                    if (check) {
-                        const std::string problem = model.check_cell(quantity, point, options);
-                        if (!problem.empty()) throw InputError(problem);
-                    }
-                    to.cells[items] = cell_base + static_cast<std::uint32_t>(cell_cursor);
-                    to.batches[items] = 0;
+                // its per-cell loop over batches), the launch's points asked
+                // for in one call and checked as one span (the stride is the
+                // model's: no derived slots).
+                const std::size_t count = std::min(cell_count - cell_cursor, slab);
+                points_of(cell_cursor, count, to.points);
+                if (check_while_building && model.check_cell) check_cells(to.points, count, stride);
+                const std::uint32_t first = cell_base + static_cast<std::uint32_t>(cell_cursor);
+                for (std::size_t w = 0; w < count; ++w) {
+                    to.cells[w] = first + static_cast<std::uint32_t>(w);
+                    to.batches[w] = 0;
                 }
+                cell_cursor += count;
+                items = count;
             }
             while (cell_cursor < cell_count && items < slab) {
                 const std::uint32_t take = static_cast<std::uint32_t>(
@@ -1736,6 +1758,26 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
             launch.points.resize(slab * stride);
             std::size_t items = 0;
             while (cell_cursor < cell_count && items < slab) {
+                if (batch_cursor == 0 && wanted[cell_cursor] == 1 && derivation.slots == 0) {
+                    // A run of cells that want one batch each (closed forms,
+                    // a first round of one batch per cell): one work item
+                    // each, their points asked for in one call, as
+                    // add_items would put them.
+                    std::size_t end = cell_cursor + 1;
+                    while (end < cell_count && end - cell_cursor < slab - items && wanted[end] == 1)
+                        ++end;
+                    const std::size_t count = end - cell_cursor;
+                    double* const points = launch.points.data() + items * stride;
+                    points_of(cell_cursor, count, points);
+                    if (check_while_building && model.check_cell) check_cells(points, count, stride);
+                    for (std::size_t c = cell_cursor; c < end; ++c, ++items) {
+                        launch.cells[items] = cell_base + static_cast<std::uint32_t>(c);
+                        launch.batches[items] = issued[c]++;
+                    }
+                    cell_cursor = end;
+                    advance_to_work();
+                    continue;
+                }
                 // This cell's remaining batches of the round, as many as fit.
                 const std::uint32_t take = static_cast<std::uint32_t>(std::min<std::size_t>(
                     wanted[cell_cursor] - batch_cursor, slab - items));

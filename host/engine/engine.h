@@ -222,6 +222,15 @@ struct EstimateResult {
 
 // Supplies the kernel point of a cell (stride = model.point_stride()).
 using PointFn = std::function<void(std::size_t cell, double* point)>;
+// Supplies the kernel points of `count` consecutive cells from first_cell
+// on: cell first_cell + k's point at points + k * model.point_stride().
+// estimate() asks for whole launches' worth of cells at a time where it can
+// (closed forms without a checkpoint: every launch's cells in one call), so
+// a caller that holds its points in one array copies them with one copy per
+// launch instead of a call and a copy per cell (docs/benchmarks.md, session
+// 11); elsewhere it asks for one cell at a time.  The same cells get the
+// same points either way, so results do not depend on which form is used.
+using PointsFn = std::function<void(std::size_t first_cell, std::size_t count, double* points)>;
 
 // Running statistics of one cell across batches (merged in batch order).
 struct CellState {
@@ -256,6 +265,14 @@ struct EstimateCheckpoint {
 EstimateResult estimate(Backend& backend, const ModelInfo& model,
                         const QuantityInfo& quantity, const std::vector<int>& options,
                         std::size_t cell_count, const PointFn& point_of,
+                        const IntegrationSettings& settings,
+                        const ProgressFn& progress = nullptr,
+                        EstimateCheckpoint* checkpoint = nullptr);
+// The same with the points supplied a span of cells at a time (PointsFn);
+// the form above asks its point_of for each cell of every span in turn.
+EstimateResult estimate(Backend& backend, const ModelInfo& model,
+                        const QuantityInfo& quantity, const std::vector<int>& options,
+                        std::size_t cell_count, const PointsFn& points_of,
                         const IntegrationSettings& settings,
                         const ProgressFn& progress = nullptr,
                         EstimateCheckpoint* checkpoint = nullptr);

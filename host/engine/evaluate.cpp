@@ -62,12 +62,11 @@ EstimateResult estimate_at(Backend& backend, const ModelInfo& model,
                            const std::vector<double>& kernel_points,
                            const IntegrationSettings& settings, const ProgressFn& progress) {
     const std::size_t stride = model.point_stride();
-    return estimate(
-        backend, model, quantity, options, kernel_points.size() / stride,
-        [&](std::size_t cell, double* out) {
-            std::copy_n(&kernel_points[cell * stride], stride, out);
-        },
-        settings, progress);
+    const PointsFn points_of = [&](std::size_t first, std::size_t count, double* out) {
+        std::copy_n(kernel_points.data() + first * stride, count * stride, out);
+    };
+    return estimate(backend, model, quantity, options, kernel_points.size() / stride, points_of,
+                    settings, progress);
 }
 
 }  // namespace brdftab

@@ -130,7 +130,10 @@ ChunkResult ChunkComputer::compute(const CellChunk& chunk, Checkpoint* checkpoin
     try {
         r = estimate(
             impl_->backend, impl_->model, *t.quantity, t.options, chunk.count,
-            [&](std::size_t cell, double* p) { points.point(chunk.first + cell, p); }, settings,
+            [&](std::size_t first, std::size_t count, double* p) {
+                points.points(chunk.first + first, count, p);
+            },
+            settings,
             after_launch, checkpoint ? &stored : nullptr);
     } catch (const InputError& e) {
         throw InputError(impl_->spec.file + ": table '" + name + "': " + e.what());

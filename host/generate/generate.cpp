@@ -82,18 +82,52 @@ CellPoints::CellPoints(const ModelInfo& model, const QuantityInfo& quantity,
     }
 }
 
+inline void CellPoints::feed(std::size_t a, double v, double* out, double& phi_d) const {
+    switch (feeds_[a].feed) {
+        case Feed::Degrees: out[feeds_[a].slot] = v * kDegToRad; break;
+        case Feed::Cosine: out[feeds_[a].slot] = std::acos(v); break;
+        case Feed::AzimuthOffset: phi_d = v * kDegToRad; break;
+        case Feed::Plain: out[feeds_[a].slot] = v; break;
+    }
+}
+
+void CellPoints::points(std::size_t first, std::size_t count, double* out) const {
+    const std::size_t stride = base_.size();
+    const std::vector<Axis>& axes = grid_.axes();
+    bool independent = !axes.empty() && axes.size() == feeds_.size() &&
+                       first <= grid_.cell_count() && count <= grid_.cell_count() - first;
+    for (std::size_t a = 0; independent && a < axes.size(); ++a)
+        independent = grid_.dependency(a) < 0;
+    if (!independent) {
+        for (std::size_t k = 0; k < count; ++k) point(first + k, out + k * stride);
+        return;
+    }
+    // The multi-index of `first` (row-major, last axis fastest), then one
+    // step per cell; each point gets the values point() gives it, fed in the
+    // same order.
+    std::vector<std::size_t> index(axes.size());
+    std::size_t rest = first;
+    for (std::size_t a = axes.size(); a-- > 0;) {
+        index[a] = rest % axes[a].count;
+        rest /= axes[a].count;
+    }
+    for (std::size_t k = 0; k < count; ++k) {
+        double* const p = out + k * stride;
+        std::copy(base_.begin(), base_.end(), p);
+        double phi_d = fixed_phi_d_;
+        for (std::size_t a = axes.size(); a-- > 0;) feed(a, axes[a].values[index[a]], p, phi_d);
+        if (phi_o_from_phi_d_) p[3] = p[1] + phi_d;
+        for (std::size_t a = axes.size(); a-- > 0;) {
+            if (++index[a] < axes[a].count) break;
+            index[a] = 0;
+        }
+    }
+}
+
 void CellPoints::point(std::size_t cell, double* out) const {
     std::copy(base_.begin(), base_.end(), out);
     double phi_d = fixed_phi_d_;
-    // Axis a's value v into its kernel slot (or phi_d).
-    auto feed = [&](std::size_t a, double v) {
-        switch (feeds_[a].feed) {
-            case Feed::Degrees: out[feeds_[a].slot] = v * kDegToRad; break;
-            case Feed::Cosine: out[feeds_[a].slot] = std::acos(v); break;
-            case Feed::AzimuthOffset: phi_d = v * kDegToRad; break;
-            case Feed::Plain: out[feeds_[a].slot] = v; break;
-        }
-    };
+    auto feed = [&](std::size_t a, double v) { this->feed(a, v, out, phi_d); };
     // Without dependent axes a cell's axis values are the nodes at its
     // multi-index, as Grid::coordinates gives them, found here without the
     // two vectors that call allocates: this runs once or twice per cell and
@@ -325,7 +359,8 @@ std::vector<GeneratedTable> generate_tables(const Spec& spec, Backend& backend,
         if (checkpoint) stored = checkpoint->table(t, ts.name, points.cell_count());
         EstimateResult r = estimate(
             backend, model, q, options, points.cell_count(),
-            [&](std::size_t cell, double* p) { points.point(cell, p); }, table_settings, cb,
+            [&](std::size_t first, std::size_t count, double* p) { points.points(first, count, p); },
+            table_settings, cb,
             checkpoint ? &stored : nullptr);
 
         GeneratedTable g;

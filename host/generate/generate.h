@@ -102,6 +102,10 @@ public:
     CellPoints(const ModelInfo& model, const QuantityInfo& quantity, const TableSpec& table);
     std::size_t cell_count() const { return grid_.cell_count(); }
     void point(std::size_t cell, double* out) const;
+    // The points of cells first .. first + count - 1, point k at
+    // out + k * model.point_stride(): point()'s values, found by stepping
+    // the grid's multi-index from cell to cell instead of dividing per cell.
+    void points(std::size_t first, std::size_t count, double* out) const;
 
 private:
     // How an axis value reaches its kernel slot (CoordinateEncoding for
@@ -111,6 +115,8 @@ private:
         Feed feed;
         std::size_t slot;
     };
+    // Axis a's value v into its kernel slot of `out` (or into phi_d).
+    void feed(std::size_t a, double v, double* out, double& phi_d) const;
     Grid grid_;
     std::vector<double> base_;      // point at the first node of every axis
     std::vector<AxisFeed> feeds_;   // one per axis

@@ -246,6 +246,12 @@ ModelBuilder& ModelBuilder::check_cell(
     model_.check_cell = fn;
     return *this;
 }
+ModelBuilder& ModelBuilder::cells_pass(bool (*fn)(const QuantityInfo&, const double*,
+                                                  std::size_t, std::size_t,
+                                                  const std::vector<int>&)) {
+    model_.cells_pass = fn;
+    return *this;
+}
 ModelBuilder& ModelBuilder::derive(
     CellDerivation (*fn)(const QuantityInfo&, const std::vector<int>&)) {
     model_.derive = fn;
@@ -312,6 +318,8 @@ ModelInfo ModelBuilder::build() const {
     if (name.empty()) throw std::logic_error("a model has no name");
     if (m.kernel_header.empty() || m.sample_function.empty() || !m.host_fn)
         fail("kernel() must give the kernel header, its sample function and the host function");
+    if (m.cells_pass && !m.check_cell)
+        fail("cells_pass() is the fast form of check_cell(), which must be given too");
     m.parameters = order_by_slot(name, "parameter", parameter_slots_, model_.parameters,
                                  kDirectionSlots, declared_parameters_, BT_MAX_POINT);
     m.options = order_by_slot(name, "option", option_slots_, model_.options, 0,

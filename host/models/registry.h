@@ -186,11 +186,21 @@ struct ModelInfo {
     // `point` is the kernel point (point_stride() values, parameters by slot,
     // angles in radians), `options` the option indices; returns an error text
     // naming the parameter, its value and the allowed range, or empty.  The
-    // engine (estimate()) runs it on every cell before any kernel launch
-    // (closed forms without a checkpoint: on each cell as its launch is
-    // built), so eval, generate and validate refuse the same cells.
+    // engine (estimate()) checks every cell with it (or with cells_pass,
+    // below) before any kernel launch (closed forms without a checkpoint: on
+    // each launch's cells as the launch is built), so eval, generate and
+    // validate refuse the same cells.
     std::string (*check_cell)(const QuantityInfo& q, const double* point,
                               const std::vector<int>& options) = nullptr;
+    // Optional fast form of check_cell over many cells at once: `count`
+    // kernel points, point k at points + k * stride; true when check_cell
+    // accepts every one of them.  It must agree with check_cell (build()
+    // refuses it without one).  The engine asks it first, once per span of
+    // cells, and calls check_cell, which builds the message, only on a span
+    // it refuses, to find that span's first refused cell: the same cell and
+    // message as a check of every cell, without a std::string per cell.
+    bool (*cells_pass)(const QuantityInfo& q, const double* points, std::size_t count,
+                       std::size_t stride, const std::vector<int>& options) = nullptr;
     // Optional per-cell invariants hoisted out of the kernel: values that
     // depend on a cell's parameters alone and cost far more than the rest of
     // the cell (lambert-sphere: the exact Horak-Chandrasekhar constants, a
@@ -248,6 +258,8 @@ public:
                                                 const std::map<std::string, double>&));
     ModelBuilder& check_cell(std::string (*fn)(const QuantityInfo&, const double*,
                                                const std::vector<int>&));
+    ModelBuilder& cells_pass(bool (*fn)(const QuantityInfo&, const double*, std::size_t,
+                                        std::size_t, const std::vector<int>&));
     ModelBuilder& derive(CellDerivation (*fn)(const QuantityInfo&, const std::vector<int>&));
     // The quantity registered under `id` (to adjust it after a shared factory).
     QuantityInfo& quantity_by_id(int id);

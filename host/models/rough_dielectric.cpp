@@ -26,6 +26,20 @@ std::string check_phong_alpha(const QuantityInfo&, const double* point,
            "2/alpha^2 - 2 must be > 0; beckmann and ggx allow (0, 4])";
 }
 
+// check_phong_alpha over a span of cells (ModelInfo::cells_pass): the same
+// test, without a message, so that the engine's per-cell check costs a
+// comparison; NaN fails both.
+bool phong_alpha_cells_pass(const QuantityInfo&, const double* points, std::size_t count,
+                            std::size_t stride, const std::vector<int>& options) {
+    if (options.size() <= RD_OPT_DISTRIBUTION || options[RD_OPT_DISTRIBUTION] != BT_MF_PHONG)
+        return true;
+    for (std::size_t k = 0; k < count; ++k) {
+        const double alpha = points[k * stride + RD_PARAM_ALPHA];
+        if (!(alpha > 0 && alpha < 1)) return false;
+    }
+    return true;
+}
+
 ModelInfo rough_dielectric_model() {
     ModelBuilder b("rough-dielectric", 10);
     b.citation(
@@ -148,6 +162,7 @@ ModelInfo rough_dielectric_model() {
                         kAlbedoEqs, {},
                         {"distribution", "g1", "shadowing", "lobe", "side", "sampling"}, 3));
     b.check_cell(&check_phong_alpha);
+    b.cells_pass(&phong_alpha_cells_pass);
     return b.build();
 }
 
