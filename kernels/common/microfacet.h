@@ -418,7 +418,7 @@ BT_INLINE REAL bt_mf_solve_log_cdf(REAL a, REAL b, REAL target, REAL lo, REAL hi
     const REAL k = R(1.12837916709551257390) * a; /* 2a / sqrt(pi) */
     for (int it = 0; it < BT_MF_SOLVE_ITERS; ++it) {
         REAL e = bt_exp(-x * x);
-        REAL c = a * erfc(-x) + b * e;
+        REAL c = a * bt_erfc(-x) + b * e;
         REAL g = bt_log(c) - target;
         if (g == R(0.0)) return x;
         if (g > R(0.0)) hi = x; else lo = x;
@@ -463,7 +463,7 @@ BT_INLINE REAL bt_mf_erfinv_unit(REAL u)
 BT_INLINE REAL bt_beckmann_visible_slope_x(REAL mu, REAL u)
 {
     REAL a = R(0.5) * BT_SQRT_PI * mu;
-    REAL total = a * erfc(-mu) + R(0.5) * bt_exp(-mu * mu); /* C(mu) */
+    REAL total = a * bt_erfc(-mu) + R(0.5) * bt_exp(-mu * mu); /* C(mu) */
     REAL q = fmax(u, R(1e-30));
     REAL target = bt_log(q) + bt_log(total);
     REAL hi = fmin(mu, BT_MF_SLOPE_MAX), lo = -BT_MF_SLOPE_MAX;
