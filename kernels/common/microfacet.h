@@ -153,11 +153,16 @@ BT_INLINE int bt_mf_visible(bt_vec3 v, bt_vec3 m) { return bt_v3_dot(v, m) * v.z
  *   G1 = 2 / (1 + erf(a) + exp(-a^2)/(a sqrt(pi)))
  * multiplied through by a sqrt(pi):
  *   G1 = 2 a sqrt(pi) / (a sqrt(pi) (1 + erf a) + exp(-a^2)),
- * finite for a = 0 (grazing -> 0) and a -> inf (-> 1). */
+ * finite for a = 0 (grazing -> 0) and a -> inf (-> 1).  1 + erf a is
+ * computed as 2 - erfc a (a >= 0, so it lies in [1, 2] and nothing
+ * cancels): bt_erfc is one polynomial, where bt_erf evaluates a 36-term
+ * series and a 30-level continued fraction (30 dependent divisions) and
+ * selects one; measured, the switch made the Beckmann+Smith body kernel
+ * faster (docs/benchmarks.md, session 11). */
 BT_INLINE REAL bt_beckmann_g1_exact_a(REAL a)
 {
     REAL as = a * BT_SQRT_PI;
-    return R(2.0) * as / (as * (R(1.0) + bt_erf(a)) + bt_exp(-a * a));
+    return R(2.0) * as / (as * (R(2.0) - bt_erfc(a)) + bt_exp(-a * a));
 }
 
 /* Walter's rational fit to eq. 26 (eq. 27). */
