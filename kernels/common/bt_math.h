@@ -3,7 +3,7 @@
  * transcendental functions the kernels call in their hot loops:
  *
  *   bt_sin, bt_cos, bt_sincos, bt_tan, bt_exp, bt_log, bt_log1p,
- *   bt_atan, bt_atan2, bt_asin, bt_acos, bt_erf
+ *   bt_atan, bt_atan2, bt_asin, bt_acos, bt_erf, bt_erfc
  *
  * Why: PoCL (measured, docs/contributing.md "bt_math") calls its double
  * sin/cos/acos/atan2/log out of line, one lane at a time, so a kernel whose
@@ -38,6 +38,9 @@
  *   atan, atan2         every double, signed zeros and infinities as C99.
  *   asin, acos          [-1, 1] (outside: a number, not NaN; callers clamp).
  *   erf                 every double; erf(+-inf) = +-1, NaN passes through.
+ *   erfc                every double; erfc(+inf) = 0, erfc(-inf) = 2, NaN
+ *                       passes through; denormal results below 2.2e-308;
+ *                       within 2.4 ulp of the exact value (measured).
  *
  * Float: with BT_REAL_IS_FLOAT (`--precision float`, and every device
  * without cl_khr_fp64) the names map to the OpenCL built-ins instead.  The
@@ -73,6 +76,7 @@
 #define bt_asin(x) asin(x)
 #define bt_acos(x) acos(x)
 #define bt_erf(x) erf(x)
+#define bt_erfc(x) erfc(x)
 
 #else /* double */
 
@@ -449,6 +453,127 @@ BT_MATH_INLINE double bt_erf(double x)
     double r = a < 2.5 ? series : tail;
     r = copysign(r, x);
     return x != x ? x : r;
+}
+
+/* ----------------------------------------------------------------- erfc
+ * PoCL's double erfc (Sleef_erfc_u15) is an out-of-line call ("too costly
+ * to inline", docs/benchmarks.md, session 10) and was the biggest single
+ * cost of the Beckmann visible-normal sampler.  This one is branch-free
+ * arithmetic with one polynomial for the whole half-line and no table.
+ * With a = |x| and the substitution of Shepherd and Laframboise (Math. Comp.
+ * 36, 1981),
+ *   f(a) = (1 + 2a) exp(a^2) erfc a,   t = (a - 3) / (a + 3),
+ *   erfc a = exp(-a^2) f / (1 + 2a),
+ * f runs smoothly from f(0) = 1 to 2/sqrt(pi) = 1.128 as a -> inf, and t
+ * maps [0, 28] onto [-1, 0.806].  f is written 1 + (1 + t) h(t), so f - 1
+ * (which vanishes at a = 0) keeps its relative precision, and h is the
+ * degree-24 polynomial interpolating (f - 1)/(1 + t) at 25 Chebyshev points
+ * of that t range (coefficients computed for this file in 60-digit
+ * arithmetic and rounded to double): interpolation error below 0.13 * 2^-53
+ * of f, so rounding sets the accuracy.  1 + t is formed as 2a / (a + 3),
+ * not from a rounded t, which would cost f - 1 its relative precision near
+ * a = 0.
+ * exp(-a^2) needs a^2 to more than double precision (a^2 ~ 700 near the
+ * underflow, where one rounding of a^2 alone would cost up to 5.7e-14
+ * relative, hundreds of ulp).
+ * a^2 = hi + lo with hi = z^2, z = a with its low 27 significand bits
+ * cleared (26 left, so z^2 is exact), lo = (a - z)(a + z) (|lo| < 2^-24
+ * a^2, its own rounding negligible); then bt_exp's reduction and Taylor
+ * polynomial with lo carried into the reduced argument r, and exp r kept as
+ * 1 + w, w = exp r - 1, so that no intermediate is rounded just above 1.
+ * Near zero (a < 15/32, erfc a > 0.5, where n = 0 below) the result is
+ * formed as 1 - delta, delta = (1 + 2a - (1 + w) f) / (1 + 2a)
+ *   = (2a - (f - 1) - w f) / (1 + 2a),
+ * which has no cancellation there and whose rounding is scaled by delta.
+ * erfc rounds to 0 from a = 27.23 on (erfc 27.25 = 6.7e-325, below half
+ * the smallest denormal), so a is clamped at 28; x < 0 uses erfc x = 2 - erfc(-x) (>= 1: no
+ * cancellation).  Measured against glibc's long double erfcl and 36-digit
+ * references in tests/test_bt_erfc.cpp: within 2.4 ulp, host and device. */
+#define BT_ERFC_K 3.0
+#define BT_ERFC_A_MAX 28.0
+#define BT_ERFC_NEAR_ZERO 0.46875
+
+BT_MATH_INLINE double bt_erfc_scaled_poly(double t)
+{
+    /* Estrin's scheme: the same polynomial as Horner's rule, in five levels
+     * of independent products instead of a chain of 24 dependent ones.
+     * Measured (docs/benchmarks.md, session 11): with Horner's rule the
+     * chain's latency made the serial host slower than with glibc's erfc,
+     * and the device gained less. */
+    double t2 = t * t, t4 = t2 * t2, t8 = t4 * t4, t16 = t8 * t8;
+    double c0 = 0.25300805826972966 - 0.38862916439431083 * t;
+    double c1 = 0.34106687004085967 - 0.21142171133809767 * t;
+    double c2 = 0.09214804792282201 - 0.023840020578874244 * t;
+    double c3 = 6.950565925160184e-05 + 0.0024598861569852504 * t;
+    double c4 = -0.000571195783818694 - 0.00020863648652590645 * t;
+    double c5 = 0.00010347657473545704 + 2.1622746739099145e-05 * t;
+    double c6 = -1.6672711775565187e-05 - 3.42765423906889e-06 * t;
+    double c7 = 2.694395094163832e-06 + 7.772634166366107e-07 * t;
+    double c8 = -4.1674496140417014e-07 - 1.9811902397061218e-07 * t;
+    double c9 = 5.1411688427551114e-08 + 4.774131982870251e-08 * t;
+    double c10 = -1.4278670018172534e-09 - 9.303009750699454e-09 * t;
+    double c11 = -1.4941481580841011e-09 + 1.06161474927946e-09 * t;
+    double c12 = 3.4111508280225094e-10;
+    double d0 = c0 + c1 * t2;
+    double d1 = c2 + c3 * t2;
+    double d2 = c4 + c5 * t2;
+    double d3 = c6 + c7 * t2;
+    double d4 = c8 + c9 * t2;
+    double d5 = c10 + c11 * t2;
+    double d6 = c12;
+    double e0 = d0 + d1 * t4;
+    double e1 = d2 + d3 * t4;
+    double e2 = d4 + d5 * t4;
+    double e3 = d6;
+    double g0 = e0 + e1 * t8, g1 = e2 + e3 * t8;
+    return g0 + g1 * t16;
+}
+
+BT_MATH_INLINE double bt_erfc(double x)
+{
+    double a = fmin(fabs(x), BT_ERFC_A_MAX); /* NaN: 28, replaced below */
+    double one_plus_t = 2.0 * a / (a + BT_ERFC_K);
+    double t = one_plus_t - 1.0;
+    double f_minus_1 = one_plus_t * bt_erfc_scaled_poly(t);
+    double f = 1.0 + f_minus_1;
+    /* exp(-(hi + lo)) = 2^n exp(r): n * BT_LN2_HI is exact (32-bit
+     * constant, |n| < 2^11) and so is -hi - n * BT_LN2_HI (Sterbenz: both
+     * within a factor 2 once n != 0). */
+    double z = bt_double_of(bt_bits_of(a) & (bt_i64)0xfffffffff8000000LL);
+    double hi = z * z;
+    double lo = (a - z) * (a + z);
+    double n = bt_round_small(-(hi + lo) * BT_LOG2_E);
+    double r = (-hi - n * BT_LN2_HI) - (lo + n * BT_LN2_LO);
+    /* exp(r) - 1 = r + r^2 (1/2! + r/3! + ... + r^11/13!), bt_exp's Taylor
+     * polynomial, by Estrin's scheme (shorter latency than Horner's rule). */
+    double r2 = r * r, r4 = r2 * r2, r8 = r4 * r4;
+    double q0 = 1.0 / 2.0 + (1.0 / 6.0) * r;
+    double q1 = 1.0 / 24.0 + (1.0 / 120.0) * r;
+    double q2 = 1.0 / 720.0 + (1.0 / 5040.0) * r;
+    double q3 = 1.0 / 40320.0 + (1.0 / 362880.0) * r;
+    double q4 = 1.0 / 3628800.0 + (1.0 / 39916800.0) * r;
+    double q5 = 1.0 / 479001600.0 + (1.0 / 6227020800.0) * r;
+    double q = (q0 + q1 * r2) + (q2 + q3 * r2) * r4 + (q4 + q5 * r2) * r8;
+    double w = r + r2 * q;                       /* exp(r) - 1 */
+    int near_zero = a < BT_ERFC_NEAR_ZERO;
+    double d = 1.0 + 2.0 * a;
+    double num = near_zero ? (2.0 * a - f_minus_1) - w * f : 1.0 + (f_minus_1 + w * f);
+    /* Divide by 1 + 2a exactly: d + d_lo = 1 + 2a (Fast2Sum, the larger
+     * addend first), and (num/d)(1 - d_lo/d) is the quotient up to a term
+     * of order 2^-106 (measured: this takes the worst error from 2.9 to 2.2
+     * ulp on [1, 3]). */
+    double d_lo = a < 0.5 ? (1.0 - d) + 2.0 * a : (2.0 * a - d) + 1.0;
+    double m0 = num / d;
+    double m = m0 - m0 * (d_lo / d);
+    /* 2^n as two factors after the (normal) mantissa, so that a denormal
+     * result is rounded once. */
+    int k = (int)n;
+    int k1 = k >> 1;
+    double v = m * bt_pow2i(k1) * bt_pow2i(k - k1);
+    double positive = near_zero ? 1.0 - m : v;
+    double negative = near_zero ? 1.0 + m : 2.0 - v;
+    double result = x < 0.0 ? negative : positive;
+    return x != x ? x : result;
 }
 
 #endif /* double */
