@@ -24,33 +24,15 @@
 #include "host/engine/kernel_sources.h"
 #include "host/engine/opencl_runtime.h"
 #include "kernels/common/bt_math.h"
+#include "test_support.h"
 
 using namespace brdftab;
+using brdftab::test::ulp_error;
 namespace fs = std::filesystem;
 
 namespace {
 
-const bool pocl_cache_ready = [] {
-    if (!std::getenv("POCL_CACHE_DIR")) {
-        const std::string dir = std::string(BT_BINARY_DIR) + "/pocl-cache";
-        fs::create_directories(dir);
-        setenv("POCL_CACHE_DIR", dir.c_str(), 1);
-    }
-    return true;
-}();
-
-long double ulp_at(long double v) {
-    const double d = std::fabs((double)v);
-    if (d < DBL_MIN) return std::ldexp(1.0L, -1074);
-    int e;
-    std::frexp(d, &e); // d = m 2^e, m in [0.5, 1)
-    return std::ldexp(1.0L, e - 53);
-}
-
-double ulp_error(double y, long double v) {
-    if (std::isnan(y) || std::isnan((double)v)) return std::isnan(y) && std::isnan((double)v) ? 0 : 1e30;
-    return (double)(std::fabs((long double)y - v) / ulp_at(v));
-}
+const bool pocl_cache_ready = test::default_pocl_cache(BT_BINARY_DIR);
 
 // Bound over every input below, host and device (the device contracts
 // a * b + c into FMAs, which changes the last bits).  Measured maxima:

@@ -25,6 +25,7 @@
 
 #include "host/engine/kernel_sources.h"
 #include "host/engine/opencl_runtime.h"
+#include "test_support.h"
 
 // One marker per generated C++ unit, X(symbol); the symbol holds the path of
 // the header that unit includes, relative to the repository root.
@@ -39,14 +40,7 @@ namespace {
 
 // CTest sets POCL_CACHE_DIR; when the binary is run by hand, point PoCL at
 // the build tree (it fails on an unwritable default cache directory).
-const bool pocl_cache_ready = [] {
-    if (!std::getenv("POCL_CACHE_DIR")) {
-        const std::string dir = std::string(BT_BINARY_DIR) + "/pocl-cache";
-        fs::create_directories(dir);
-        setenv("POCL_CACHE_DIR", dir.c_str(), 1);
-    }
-    return true;
-}();
+const bool pocl_cache_ready = test::default_pocl_cache(BT_BINARY_DIR);
 
 // Headers of kernels/common and kernels/models on disk, relative to kernels/.
 std::set<std::string> headers_on_disk() {

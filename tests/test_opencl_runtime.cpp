@@ -32,14 +32,7 @@ namespace {
 // PoCL crashes on an unwritable cache directory.  CTest
 // sets POCL_CACHE_DIR; when the binary is run by hand, point it at the build
 // tree before the first OpenCL call.
-const bool pocl_cache_ready = [] {
-    if (!std::getenv("POCL_CACHE_DIR")) {
-        std::string dir = std::string(BT_BINARY_DIR) + "/pocl-cache";
-        fs::create_directories(dir);
-        setenv("POCL_CACHE_DIR", dir.c_str(), 1);
-    }
-    return true;
-}();
+const bool pocl_cache_ready = test::default_pocl_cache(BT_BINARY_DIR);
 
 std::string read_file(const fs::path& p) {
     std::ifstream in(p, std::ios::binary);

@@ -3,6 +3,7 @@
 // tests that use them stay oracles.
 #pragma once
 
+#include <cfloat>
 #include <cmath>
 #include <cstddef>
 #include <cstdlib>
@@ -178,6 +179,38 @@ inline void gauss_legendre(int n, std::vector<double>& x, std::vector<double>& w
         x[k] = static_cast<double>(z);
         w[k] = static_cast<double>(2 / ((1 - z * z) * dp * dp));
     }
+}
+
+// Error of a double result y in units in the last place of the exact value
+// v (given as long double): |y - v| / ulp(v), with the spacing of doubles at
+// |v| (the subnormal spacing below DBL_MIN).  NaN against NaN and equal
+// infinities count 0; any other NaN or infinity counts 1e30.
+inline long double ulp_at(long double v) {
+    const double d = std::fabs(static_cast<double>(v));
+    if (d < DBL_MIN) return std::ldexp(1.0L, -1074);
+    int e;
+    std::frexp(d, &e);  // d = m 2^e, m in [0.5, 1)
+    return std::ldexp(1.0L, e - 53);
+}
+
+inline double ulp_error(double y, long double v) {
+    const double vd = static_cast<double>(v);
+    if (std::isnan(y) || std::isnan(vd)) return std::isnan(y) && std::isnan(vd) ? 0 : 1e30;
+    if (std::isinf(vd) || std::isinf(y)) return vd == y ? 0 : 1e30;
+    return static_cast<double>(std::fabs(static_cast<long double>(y) - v) / ulp_at(v));
+}
+
+// Points PoCL's kernel cache at BUILD_DIR/pocl-cache unless POCL_CACHE_DIR is
+// already set, so that a test binary run by hand does not write to the
+// user's own cache.  Returns true, for a namespace-scope initialiser that
+// runs before the first test.
+inline bool default_pocl_cache(const std::string& build_dir) {
+    if (!std::getenv("POCL_CACHE_DIR")) {
+        const std::string dir = build_dir + "/pocl-cache";
+        std::filesystem::create_directories(dir);
+        ::setenv("POCL_CACHE_DIR", dir.c_str(), 1);
+    }
+    return true;
 }
 
 }  // namespace brdftab::test
