@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "host/engine/engine.h"
+#include "test_launch_support.h"
 #include "test_support.h"
 #include "host/models/registry.h"
 
@@ -20,6 +21,8 @@ using namespace brdftab;
 
 namespace {
 
+using brdftab::test::check_same_bits;
+using brdftab::test::estimate_cells;
 using brdftab::test::ScopedEnv;
 
 // A few cells of a quantity: directions spread over the hemisphere, every
@@ -40,28 +43,6 @@ std::vector<std::map<std::string, double>> test_cells(const ModelInfo& m, const 
         cells.push_back(v);
     }
     return cells;
-}
-
-EstimateResult run(Backend& backend, const ModelInfo& m, const QuantityInfo& q,
-                   const std::vector<std::map<std::string, double>>& cells,
-                   const IntegrationSettings& s) {
-    PointBuilder builder(m, q);
-    const std::vector<int> options = resolve_options(m, nlohmann::json::object(), "test");
-    return estimate(
-        backend, m, q, options, cells.size(),
-        [&](std::size_t c, double* out) { builder.build(cells[c], out); }, s);
-}
-
-void check_same_bits(const EstimateResult& a, const EstimateResult& b) {
-    REQUIRE(a.value.size() == b.value.size());
-    for (std::size_t c = 0; c < a.value.size(); ++c) {
-        CAPTURE(c);
-        // Bitwise: == on doubles, and no NaN in these tables.
-        CHECK(a.value[c] == b.value[c]);
-        CHECK(a.stderr_[c] == b.stderr_[c]);
-        CHECK(a.samples[c] == b.samples[c]);
-    }
-    CHECK(a.total_samples == b.total_samples);
 }
 
 }  // namespace
@@ -95,14 +76,14 @@ TEST_CASE("sample-parallel launches give the usual kernel's bits on every MC/RQM
                 EstimateResult usual, parallel, split, over_cap;
                 {
                     ScopedEnv off("BRDFTAB_SAMPLE_PARALLEL", "0");
-                    usual = run(*device, m, q, cells, s);
+                    usual = estimate_cells(*device, m, q, cells, s);
                 }
                 {
                     ScopedEnv on("BRDFTAB_SAMPLE_PARALLEL", "1");
-                    parallel = run(*device, m, q, cells, s);
+                    parallel = estimate_cells(*device, m, q, cells, s);
                     // Sub-launches of 2 work items (40 samples / 16): 6 of them.
                     ScopedEnv cap("BRDFTAB_SAMPLE_PARALLEL_SCRATCH", "40");
-                    split = run(*device, m, q, cells, s);
+                    split = estimate_cells(*device, m, q, cells, s);
                 }
                 check_same_bits(usual, parallel);
                 check_same_bits(usual, split);
@@ -129,13 +110,13 @@ TEST_CASE("sample-parallel: splits, odd batch sizes, caps below a batch and adap
     EstimateResult usual;
     {
         ScopedEnv off("BRDFTAB_SAMPLE_PARALLEL", "0");
-        usual = run(*device, m, q, cells, s);
+        usual = estimate_cells(*device, m, q, cells, s);
     }
     ScopedEnv on("BRDFTAB_SAMPLE_PARALLEL", "1");
     for (const char* cap : {"36", "37", "74", "100", "259", "4194304"}) {
         CAPTURE(cap);
         ScopedEnv scratch("BRDFTAB_SAMPLE_PARALLEL_SCRATCH", cap);
-        check_same_bits(usual, run(*device, m, q, cells, s));
+        check_same_bits(usual, estimate_cells(*device, m, q, cells, s));
     }
     // Adaptive RQMC: rounds of different batch counts per cell.
     IntegrationSettings a;
@@ -146,9 +127,9 @@ TEST_CASE("sample-parallel: splits, odd batch sizes, caps below a batch and adap
     EstimateResult adaptive_usual;
     {
         ScopedEnv off("BRDFTAB_SAMPLE_PARALLEL", "0");
-        adaptive_usual = run(*device, m, q, cells, a);
+        adaptive_usual = estimate_cells(*device, m, q, cells, a);
     }
-    check_same_bits(adaptive_usual, run(*device, m, q, cells, a));
+    check_same_bits(adaptive_usual, estimate_cells(*device, m, q, cells, a));
 }
 
 TEST_CASE("sample-parallel defaults name existing Monte Carlo / RQMC quantities and options") {

@@ -16,36 +16,24 @@
 
 #include "host/engine/engine.h"
 #include "host/models/registry.h"
+#include "test_launch_support.h"
 #include "test_support.h"
 
 using namespace brdftab;
 
 namespace {
 
+using brdftab::test::estimate_cells;
 using brdftab::test::ScopedEnv;
 
-EstimateResult run(Backend& backend, const ModelInfo& m, const QuantityInfo& q,
-                   const nlohmann::json& given_options,
-                   const std::vector<std::map<std::string, double>>& cells,
-                   const IntegrationSettings& s) {
-    PointBuilder builder(m, q);
-    const std::vector<int> options = resolve_options(m, given_options, "test");
-    return estimate(
-        backend, m, q, options, cells.size(),
-        [&](std::size_t c, double* out) { builder.build(cells[c], out); }, s);
-}
-
+// The shared bit-for-bit comparison, and every value finite (no NaN or
+// infinity in these tables, so == is a bitwise test).
 void check_same_bits(const EstimateResult& a, const EstimateResult& b) {
-    REQUIRE(a.value.size() == b.value.size());
     for (std::size_t c = 0; c < a.value.size(); ++c) {
         CAPTURE(c);
-        // Bitwise: == on doubles; no NaN in these tables.
         CHECK(std::isfinite(a.value[c]));
-        CHECK(a.value[c] == b.value[c]);
-        CHECK(a.stderr_[c] == b.stderr_[c]);
-        CHECK(a.samples[c] == b.samples[c]);
     }
-    CHECK(a.total_samples == b.total_samples);
+    brdftab::test::check_same_bits(a, b);
 }
 
 // Cells over the hemisphere (theta_i up to 85 degrees, both sides of phi_d),
@@ -99,10 +87,10 @@ TEST_CASE("walk-parallel launches give the usual kernel's bits on lambert-sphere
             EstimateResult usual;
             {
                 ScopedEnv off("BRDFTAB_WALK_PARALLEL", "0");
-                usual = run(*device, m, q, options, cells, s);
+                usual = estimate_cells(*device, m, q, cells, s, options);
             }
             ScopedEnv on("BRDFTAB_WALK_PARALLEL", nullptr);
-            check_same_bits(usual, run(*device, m, q, options, cells, s));
+            check_same_bits(usual, estimate_cells(*device, m, q, cells, s, options));
             for (std::size_t c = 0; c < usual.value.size(); ++c) CHECK(usual.samples[c] == 111u);
         }
     }
@@ -130,10 +118,10 @@ TEST_CASE("walk-parallel: launches of a few work items, one-sample batches, adap
         EstimateResult usual;
         {
             ScopedEnv off("BRDFTAB_WALK_PARALLEL", "0");
-            usual = run(*device, m, q, options, cells, settings[k]);
+            usual = estimate_cells(*device, m, q, cells, settings[k], options);
         }
         ScopedEnv on("BRDFTAB_WALK_PARALLEL", nullptr);
-        check_same_bits(usual, run(*device, m, q, options, cells, settings[k]));
+        check_same_bits(usual, estimate_cells(*device, m, q, cells, settings[k], options));
     }
 }
 
