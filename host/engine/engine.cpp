@@ -640,23 +640,13 @@ private:
                                      runtime_.device_info().max_work_group_size);
     }
     cl::Kernel& walk_parallel_kernel_for(const BatchLaunch& l) {
-        const ModelInfo& model = *l.model;
-        const std::string options = build_options(l);
-        const std::string key = model.name + "\n" + options;
-        auto it = walk_parallel_kernels_.find(key);
-        if (it != walk_parallel_kernels_.end()) return it->second;
-        const WalkParallelCase& c = *walk_parallel_case(l);
-        const std::string source = walk_parallel_kernel_source(
-            model.kernel_header, {c.state, c.setup, c.begin, c.step, c.value}, kernel_dir_);
-        cl::Program program = cached_program(runtime_, source, options);
-        try {
-            return walk_parallel_kernels_.emplace(key, cl::Kernel(program, kWalkKernelName))
-                .first->second;
-        } catch (const cl::Error& e) {
-            throw OpenCLError(e.what(), e.err(), "walk-parallel entry point of model '" +
-                                                     model.name + "' (kernels/" +
-                                                     model.kernel_header + ")");
-        }
+        return cached_kernel(walk_parallel_kernels_, l, kWalkKernelName,
+                             "walk-parallel entry point", [&] {
+                                 const WalkParallelCase& c = *walk_parallel_case(l);
+                                 return walk_parallel_kernel_source(
+                                     l.model->kernel_header,
+                                     {c.state, c.setup, c.begin, c.step, c.value}, kernel_dir_);
+                             });
     }
 
     // ------------------------------------------- node-parallel quadrature
@@ -1109,18 +1099,29 @@ private:
     }
 
     cl::Kernel& lookup_kernel(const BatchLaunch& l) {
+        return cached_kernel(kernels_, l, kEstimateKernelName, "entry point", [&] {
+            return estimate_kernel_source(l.model->kernel_header, l.model->sample_function,
+                                          kernel_dir_);
+        });
+    }
+
+    // The kernel `entry` of the program that source_of() returns, built with
+    // l's build options: from `cache`, keyed by model and options, or built
+    // (source_of called only then) and stored there.  `what` names the entry
+    // point in the error when the program has no such kernel.
+    template <class SourceFn>
+    cl::Kernel& cached_kernel(std::map<std::string, cl::Kernel>& cache, const BatchLaunch& l,
+                              const char* entry, const char* what, SourceFn&& source_of) {
         const ModelInfo& model = *l.model;
         const std::string options = build_options(l);
         const std::string key = model.name + "\n" + options;
-        auto it = kernels_.find(key);
-        if (it != kernels_.end()) return it->second;
-        const std::string source =
-            estimate_kernel_source(model.kernel_header, model.sample_function, kernel_dir_);
-        cl::Program program = cached_program(runtime_, source, options);
+        auto it = cache.find(key);
+        if (it != cache.end()) return it->second;
+        cl::Program program = cached_program(runtime_, source_of(), options);
         try {
-            return kernels_.emplace(key, cl::Kernel(program, kEstimateKernelName)).first->second;
+            return cache.emplace(key, cl::Kernel(program, entry)).first->second;
         } catch (const cl::Error& e) {
-            throw OpenCLError(e.what(), e.err(), "entry point of model '" + model.name +
+            throw OpenCLError(e.what(), e.err(), std::string(what) + " of model '" + model.name +
                                                      "' (kernels/" + model.kernel_header + ")");
         }
     }
