@@ -28,6 +28,7 @@ packages=(
   libhdf5-dev hdf5-tools                                    # tables
   libopenexr-dev                                            # EXR export (and Imath half)
   libpng-dev                                                # `brdftab plot`
+  libpugixml-dev                                            # Mitsuba scene files (`brdftab scene`)
   doctest-dev libtomlplusplus-dev libcli11-dev nlohmann-json3-dev
   python3-h5py python3-numpy                                # format tests read files with h5py
   python3-dev pybind11-dev python3-pybind11 python3-pytest   # Python module brdftab and its tests
