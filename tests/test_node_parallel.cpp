@@ -364,8 +364,9 @@ TEST_CASE("node-parallel oren-nayar: the usual kernel's bits for every quadratur
         {
             ScopedEnv on("BRDFTAB_NODE_PARALLEL", "1");
             node = run(*device, x.launch);
-            // One work item per sub-launch (the group cap is the scratch
-            // cap / 512, at least 1).
+            // One work item per block (scratch cap / 256 -> 1) and
+            // sub-launches of at most 18 nodes (scratch cap / 16), or of one
+            // group with more.
             ScopedEnv cap("BRDFTAB_NODE_PARALLEL_SCRATCH", "300");
             split = run(*device, x.launch);
         }
@@ -430,8 +431,9 @@ TEST_CASE("node-parallel oren-nayar through estimate(): the default, same values
 
 TEST_CASE("oren-nayar's node functions compose to its sample function (host build)") {
     // The nested contract of kernels/common/node_parallel.h on the C++ build
-    // of the header: count, prepare, every group's prepare, its terms, the
-    // group sums in order and finish give oren_nayar_sample bit for bit.
+    // of the header: count, prepare, every group's prepare, its terms, its
+    // reduction and addition in order, and finish give oren_nayar_sample bit
+    // for bit.
     const double thetas_i[] = {0.0, 0.3, 1.2, 1.5706, BT_HALF_PI};
     const double thetas_o[] = {0.0, 0.8, 1.55, BT_HALF_PI};
     const double phis_d[] = {0.0, BT_PI, 2.0};
@@ -479,7 +481,9 @@ TEST_CASE("oren-nayar's node functions compose to its sample function (host buil
                                 for (int k = 0; k < nodes; ++k)
                                     oren_nayar_node_term(item.data(), gs.data(), o, quantity, phi[static_cast<std::size_t>(k)],
                                                          &terms[static_cast<std::size_t>(k) * ON_NODE_TERMS]);
-                                oren_nayar_node_group_sum(item.data(), gs.data(), o, quantity, terms.data(), acc);
+                                double partial[ON_NODE_PARTIALS] = {0, 0};
+                                oren_nayar_node_group_reduce(item.data(), gs.data(), o, quantity, terms.data(), partial);
+                                oren_nayar_node_group_add(item.data(), gs.data(), o, quantity, partial, acc);
                             }
                             const double composed = oren_nayar_node_finish(p, o, quantity, &s, acc);
                             CHECK(same_bits(composed, expected));

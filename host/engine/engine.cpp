@@ -654,7 +654,7 @@ private:
     // (model, quantity, options, method).
     struct NodeParallelKernels {
         cl::Kernel prepare, node, sum;
-        cl::Kernel group = {}, chunk = {};  // nested sums only
+        cl::Kernel group = {}, chunk = {}, reduce = {};  // nested sums only
     };
 
     static const NodeParallelFunctions* node_functions(const BatchLaunch& l) {
@@ -821,12 +821,15 @@ private:
     }
 
     // Nested sums (kernels/common/node_parallel.h, "Nested sums"): every
-    // work item's groups from the host count function; per sub-launch of
-    // whole work items (group_cap below; a work item with more groups
-    // alone), the prepare and group kernels, a read of
-    // the device's node counts and their offsets, then the chunk (node to
-    // group), node and sum kernels.  The launch's inputs are already written;
-    // the outputs are read by run().
+    // work item's groups from the host count function; per block of whole
+    // work items (at most node_parallel_scratch_nodes() / 64 groups and / 256
+    // work items; a work item with more groups alone), the prepare and group
+    // kernels, a read of the device's node counts and their offsets, then
+    // per sub-launch of whole groups (at most node_parallel_scratch_nodes() /
+    // 16 nodes; a group with more alone) the chunk (node to group), node and
+    // reduce kernels, and the block's sum kernel.  Only the read waits: a
+    // block's sub-launches and sum are queued behind one another.  The
+    // launch's inputs are already written; the outputs are read by run().
     void enqueue_nested_node_parallel(const BatchLaunch& l, NodeParallelKernels& k,
                                       std::size_t real_size) {
         cl::CommandQueue& queue = runtime_.queue();
@@ -841,49 +844,73 @@ private:
         s.key1 = l.key1;
         s.method = l.method;
         s.sample = 0;
-        std::vector<std::uint32_t>& groups = node_offset_host_;  // groups of each work item
-        groups.resize(n);
-        for (std::size_t w = 0; w < n; ++w) {
+        // A work item's groups, counted on the host as its block is formed:
+        // while the previous block's kernels run (about 4 % of a launch's
+        // time on oren-nayar when counted up front with the device idle).
+        auto groups_of = [&](std::size_t w) {
             std::copy_n(&l.points[w * l.stride], l.stride, point);
             s.cell = l.cells[w];
             s.batch = l.batches[w];
             const int count = f.host_count(point, opts, l.quantity, &s);
-            groups[w] = static_cast<std::uint32_t>(std::clamp(count, 0, std::max(f.max_groups, 0)));
-        }
-        // Groups per sub-launch: first node_parallel_scratch_nodes() / 512,
-        // then as many as the mean node count of the groups so far puts at
-        // node_parallel_scratch_nodes() / 16 nodes (2^18 by default; the
-        // scratch holds `terms` values per node, and oren-nayar at 64 nodes
-        // has up to 3200 per group).  Measured on oren-nayar's brdf at 12
-        // nodes: the same speed within the noise with a target of 1/4 and of
-        // all of node_parallel_scratch_nodes(), 1/16 marginally ahead.
+            return static_cast<std::uint32_t>(std::clamp(count, 0, std::max(f.max_groups, 0)));
+        };
+        std::vector<std::uint32_t>& groups = node_offset_host_;  // groups of the block's work items
+        // Nodes per sub-launch: node_parallel_scratch_nodes() / 16 (2^18 by
+        // default; the scratch holds `terms` values per node).  Measured on
+        // oren-nayar's brdf at 12 nodes: the same speed within the noise with
+        // a target of 1/4 and of all of node_parallel_scratch_nodes(), 1/16
+        // marginally ahead.  Groups per block: / 64 (2^16 by default, about
+        // 30 MB of oren-nayar's group state); work items per block: / 256
+        // (2^14, about 21 MB of its item state).
         const std::size_t node_cap = node_parallel_scratch_nodes();
         const std::size_t node_target = std::max<std::size_t>(node_cap / 16, 1);
-        std::size_t group_cap = std::max<std::size_t>(node_cap / 512, 1);
-        std::size_t groups_seen = 0, nodes_seen = 0;
+        const std::size_t block_groups = std::max<std::size_t>(node_cap / 64, 1);
+        const std::size_t block_items = std::max<std::size_t>(node_cap / 256, 1);
         const std::size_t item_bytes = static_cast<std::size_t>(std::max(f.state_size, 1)) * real_size;
         const std::size_t group_bytes =
             static_cast<std::size_t>(std::max(f.group_state_size, 1)) * real_size;
         const std::size_t term_bytes = static_cast<std::size_t>(std::max(f.terms, 1)) * real_size;
+        const std::size_t partial_bytes = static_cast<std::size_t>(std::max(f.partials, 1)) * real_size;
         auto grow = [&](cl::Buffer& buffer, std::size_t& have, std::size_t need, cl_mem_flags flags) {
             need = std::max<std::size_t>(need, 1);
             if (need <= have) return;
             have = std::max(need, 2 * have);
             buffer = cl::Buffer(ctx, flags, have);
         };
-        std::vector<std::uint32_t> item_group, group_item, group_node;
+        // Two sets of the block's item and group layout, by block parity:
+        // their writes do not wait, and a set is rewritten only after the
+        // read of the block after its own, which waits for its writes.
+        std::vector<std::uint32_t> item_groups[2], group_items[2], group_node;
         std::vector<cl_int> group_nodes;
+        std::size_t block = 0;
+        bool have_next = false;
+        std::uint32_t next_groups = 0;
+        std::vector<std::pair<std::size_t, std::size_t>> subs;  // [first group, last group)
         const cl::NDRange local = local_range();
         for (std::size_t first = 0; first < n;) {
             std::size_t last = first, total_groups = 0;
-            while (last < n && (last == first || total_groups + groups[last] <= group_cap))
-                total_groups += groups[last++];
+            groups.clear();
+            while (last < n) {
+                const std::uint32_t g = have_next ? next_groups : groups_of(last);
+                have_next = false;
+                if (last > first && (total_groups + g > block_groups || last - first >= block_items)) {
+                    have_next = true;  // the next block's first work item, counted
+                    next_groups = g;
+                    break;
+                }
+                groups.push_back(g);
+                total_groups += g;
+                ++last;
+            }
             const std::size_t items = last - first;
+            std::vector<std::uint32_t>& item_group = item_groups[block % 2];
+            std::vector<std::uint32_t>& group_item = group_items[block % 2];
+            ++block;
             item_group.assign(items + 1, 0);
             group_item.resize(total_groups);
             for (std::size_t i = 0, g = 0; i < items; ++i) {
                 item_group[i] = static_cast<std::uint32_t>(g);
-                for (std::uint32_t j = 0; j < groups[first + i]; ++j) group_item[g++] = static_cast<std::uint32_t>(i);
+                for (std::uint32_t j = 0; j < groups[i]; ++j) group_item[g++] = static_cast<std::uint32_t>(i);
             }
             item_group[items] = static_cast<std::uint32_t>(total_groups);
             grow(nested_item_group_, nested_item_group_bytes_, (items + 1) * 4, CL_MEM_READ_ONLY);
@@ -893,10 +920,14 @@ private:
             grow(node_state_, node_state_bytes_, items * item_bytes, CL_MEM_READ_WRITE);
             grow(nested_group_state_, nested_group_state_bytes_, total_groups * group_bytes,
                  CL_MEM_READ_WRITE);
-            queue.enqueueWriteBuffer(nested_item_group_, CL_TRUE, 0, (items + 1) * 4, item_group.data());
-            std::size_t total_nodes = 0;
+            grow(nested_group_partial_, nested_group_partial_bytes_, total_groups * partial_bytes,
+                 CL_MEM_READ_WRITE);
+            // Without groups the block has no read: its write waits, so that
+            // no write is pending when a set is rewritten or this returns.
+            queue.enqueueWriteBuffer(nested_item_group_, total_groups == 0 ? CL_TRUE : CL_FALSE, 0,
+                                     (items + 1) * 4, item_group.data());
             if (total_groups > 0) {
-                queue.enqueueWriteBuffer(nested_group_item_, CL_TRUE, 0, total_groups * 4,
+                queue.enqueueWriteBuffer(nested_group_item_, CL_FALSE, 0, total_groups * 4,
                                          group_item.data());
                 int a = set_work_args(k.prepare, l);  // first_work, n_work, item_state
                 k.prepare.setArg(a++, static_cast<cl_uint>(first));
@@ -918,69 +949,86 @@ private:
                 group_nodes.resize(total_groups);
                 queue.enqueueReadBuffer(nested_group_nodes_, CL_TRUE, 0, total_groups * 4,
                                         group_nodes.data());
-                // Node offsets.
+                // Node offsets, and the sub-launches of whole groups.
                 group_node.resize(total_groups + 1);
+                std::size_t total_nodes = 0;
                 for (std::size_t g = 0; g < total_groups; ++g) {
                     group_node[g] = static_cast<std::uint32_t>(total_nodes);
                     total_nodes += static_cast<std::size_t>(std::max(group_nodes[g], 0));
+                    if (total_nodes > 0xFFFFFFFFull)
+                        throw Error("node-parallel: more than 2^32 nodes in one block");
                 }
-                if (total_nodes > 0xFFFFFFFFull) throw Error("node-parallel: more than 2^32 nodes in one sub-launch");
                 group_node[total_groups] = static_cast<std::uint32_t>(total_nodes);
-                groups_seen += total_groups;
-                nodes_seen += total_nodes;
-                if (nodes_seen > 0)
-                    group_cap = std::max<std::size_t>(
-                        static_cast<std::size_t>(static_cast<double>(node_target) *
-                                                 static_cast<double>(groups_seen) /
-                                                 static_cast<double>(nodes_seen)),
-                        1);
+                subs.clear();
+                std::size_t most_nodes = 1;
+                for (std::size_t g0 = 0; g0 < total_groups;) {
+                    std::size_t g1 = g0 + 1;
+                    while (g1 < total_groups && group_node[g1 + 1] - group_node[g0] <= node_target) ++g1;
+                    subs.emplace_back(g0, g1);
+                    most_nodes = std::max<std::size_t>(most_nodes, group_node[g1] - group_node[g0]);
+                    g0 = g1;
+                }
+                // Blocking: group_node changes for the next block (after its
+                // read, which waits for this block's kernels anyway).
                 queue.enqueueWriteBuffer(nested_group_node_, CL_TRUE, 0, (total_groups + 1) * 4,
                                          group_node.data());
-                if (total_nodes > 0) {
-                    grow(nested_chunk_group_, nested_chunk_group_bytes_, total_nodes * 4,
-                         CL_MEM_READ_WRITE);
-                    grow(node_scratch_, node_scratch_bytes_, total_nodes * term_bytes, CL_MEM_READ_WRITE);
-                    grow(nested_node_x_, nested_node_x_bytes_, total_nodes * real_size,
-                         CL_MEM_READ_WRITE);
-                    // group_node, n_groups, node_group, group_item, item_state,
-                    // group_state, node_x
-                    k.chunk.setArg(0, nested_group_node_);
-                    k.chunk.setArg(1, static_cast<cl_uint>(total_groups));
-                    k.chunk.setArg(2, nested_chunk_group_);
-                    k.chunk.setArg(3, nested_group_item_);
-                    k.chunk.setArg(4, node_state_);
-                    k.chunk.setArg(5, nested_group_state_);
-                    k.chunk.setArg(6, nested_node_x_);
-                    queue.enqueueNDRangeKernel(k.chunk, cl::NullRange,
-                                               cl::NDRange(padded_global(total_groups)), local);
-                    // options, n_options, quantity, node_group, group_item,
-                    // n_nodes, item_state, group_state, scratch, node_x
-                    set_option_args(k.node, l);
-                    k.node.setArg(3, nested_chunk_group_);
-                    k.node.setArg(4, nested_group_item_);
-                    k.node.setArg(5, static_cast<cl_uint>(total_nodes));
-                    k.node.setArg(6, node_state_);
-                    k.node.setArg(7, nested_group_state_);
-                    k.node.setArg(8, node_scratch_);
-                    k.node.setArg(9, nested_node_x_);
-                    queue.enqueueNDRangeKernel(k.node, cl::NullRange,
-                                               cl::NDRange(padded_global(total_nodes)), local);
+                grow(nested_chunk_group_, nested_chunk_group_bytes_, most_nodes * 4, CL_MEM_READ_WRITE);
+                grow(node_scratch_, node_scratch_bytes_, most_nodes * term_bytes, CL_MEM_READ_WRITE);
+                grow(nested_node_x_, nested_node_x_bytes_, most_nodes * real_size, CL_MEM_READ_WRITE);
+                // group_node, first_group, n_groups, node_group, group_item,
+                // item_state, group_state, node_x
+                k.chunk.setArg(0, nested_group_node_);
+                k.chunk.setArg(3, nested_chunk_group_);
+                k.chunk.setArg(4, nested_group_item_);
+                k.chunk.setArg(5, node_state_);
+                k.chunk.setArg(6, nested_group_state_);
+                k.chunk.setArg(7, nested_node_x_);
+                // options, n_options, quantity, node_group, group_item,
+                // n_nodes, item_state, group_state, scratch, node_x
+                set_option_args(k.node, l);
+                k.node.setArg(3, nested_chunk_group_);
+                k.node.setArg(4, nested_group_item_);
+                k.node.setArg(6, node_state_);
+                k.node.setArg(7, nested_group_state_);
+                k.node.setArg(8, node_scratch_);
+                k.node.setArg(9, nested_node_x_);
+                // options, n_options, quantity, group_node, first_group,
+                // n_groups, group_item, item_state, group_state, scratch,
+                // group_partial
+                set_option_args(k.reduce, l);
+                k.reduce.setArg(3, nested_group_node_);
+                k.reduce.setArg(6, nested_group_item_);
+                k.reduce.setArg(7, node_state_);
+                k.reduce.setArg(8, nested_group_state_);
+                k.reduce.setArg(9, node_scratch_);
+                k.reduce.setArg(10, nested_group_partial_);
+                for (const auto& [g0, g1] : subs) {
+                    const std::size_t nodes = group_node[g1] - group_node[g0];
+                    const std::size_t sub_groups = g1 - g0;
+                    if (nodes > 0) {
+                        k.chunk.setArg(1, static_cast<cl_uint>(g0));
+                        k.chunk.setArg(2, static_cast<cl_uint>(sub_groups));
+                        queue.enqueueNDRangeKernel(k.chunk, cl::NullRange,
+                                                   cl::NDRange(padded_global(sub_groups)), local);
+                        k.node.setArg(5, static_cast<cl_uint>(nodes));
+                        queue.enqueueNDRangeKernel(k.node, cl::NullRange,
+                                                   cl::NDRange(padded_global(nodes)), local);
+                    }
+                    k.reduce.setArg(4, static_cast<cl_uint>(g0));
+                    k.reduce.setArg(5, static_cast<cl_uint>(sub_groups));
+                    queue.enqueueNDRangeKernel(k.reduce, cl::NullRange,
+                                               cl::NDRange(padded_global(sub_groups)), local);
                 }
-            } else {
-                group_node.assign(1, 0);
-                queue.enqueueWriteBuffer(nested_group_node_, CL_TRUE, 0, 4, group_node.data());
             }
-            grow(node_scratch_, node_scratch_bytes_, term_bytes, CL_MEM_READ_WRITE);
-            // first_work, n_work, item_group, group_node, item_state,
-            // group_state, scratch, out_mean, out_m2
+            // first_work, n_work, item_group, item_state, group_state,
+            // group_partial, out_mean, out_m2
             int a = set_work_args(k.sum, l);
             k.sum.setArg(a++, static_cast<cl_uint>(first));
             k.sum.setArg(a++, static_cast<cl_uint>(items));
             k.sum.setArg(a++, nested_item_group_);
-            k.sum.setArg(a++, nested_group_node_);
             k.sum.setArg(a++, node_state_);
             k.sum.setArg(a++, nested_group_state_);
-            k.sum.setArg(a++, node_scratch_);
+            k.sum.setArg(a++, nested_group_partial_);
             k.sum.setArg(a++, out_mean_);
             k.sum.setArg(a++, out_m2_);
             queue.enqueueNDRangeKernel(k.sum, cl::NullRange, cl::NDRange(padded_global(items)), local);
@@ -1000,8 +1048,9 @@ private:
                 ? nested_node_parallel_kernel_source(
                       model.kernel_header,
                       {std::to_string(f.state_size), std::to_string(f.group_state_size),
-                       std::to_string(f.terms), std::to_string(f.acc_size), f.count, f.prepare,
-                       f.group_prepare, f.term, f.group_sum, f.finish, f.sample},
+                       std::to_string(f.terms), std::to_string(f.partials),
+                       std::to_string(f.acc_size), f.count, f.prepare, f.group_prepare, f.term,
+                       f.group_reduce, f.group_add, f.finish, f.sample},
                       kernel_dir_)
                 : node_parallel_kernel_source(model.kernel_header, std::to_string(f.state_size),
                                               f.count, f.prepare, f.term, f.finish, kernel_dir_);
@@ -1013,6 +1062,7 @@ private:
             if (f.nested()) {
                 k.group = cl::Kernel(program, kNodeGroupKernelName);
                 k.chunk = cl::Kernel(program, kNodeChunkKernelName);
+                k.reduce = cl::Kernel(program, kNodeReduceKernelName);
             }
             return node_parallel_kernels_.emplace(key, std::move(k)).first->second;
         } catch (const cl::Error& e) {
@@ -1177,6 +1227,8 @@ private:
     std::size_t nested_item_group_bytes_ = 0, nested_group_item_bytes_ = 0,
                 nested_group_nodes_bytes_ = 0, nested_group_node_bytes_ = 0,
                 nested_group_state_bytes_ = 0, nested_chunk_group_bytes_ = 0;
+    cl::Buffer nested_group_partial_;
+    std::size_t nested_group_partial_bytes_ = 0;
     // Every node's own value (oren-nayar: its phi_a), written by the chunk kernel.
     cl::Buffer nested_node_x_;
     std::size_t nested_node_x_bytes_ = 0;

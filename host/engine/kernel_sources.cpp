@@ -279,10 +279,11 @@ std::string nested_node_parallel_kernel_source(const std::string& kernel_header,
     std::string source = forced_inline_prologue(kernel_header, "common/node_parallel.h", kernel_dir);
     source += "#line 1 \"generated nested node-parallel entry points for " + kernel_header + "\"\n";
     source += "BT_DEFINE_NESTED_NODE_PARALLEL_KERNELS(" + std::string(kNodePrepareKernelName) +
-              ", " + kNodeGroupKernelName + ", " + kNodeChunkKernelName + ", " + kNodeKernelName + ", " + kNodeSumKernelName +
-              ", " + f.item_state_size + ", " + f.group_state_size + ", " + f.terms + ", " +
-              f.acc_size + ", " + f.count + ", " + f.prepare + ", " + f.group_prepare + ", " +
-              f.term + ", " + f.group_sum + ", " + f.finish + ", " + f.sample + ")\n";
+              ", " + kNodeGroupKernelName + ", " + kNodeChunkKernelName + ", " + kNodeKernelName +
+              ", " + kNodeReduceKernelName + ", " + kNodeSumKernelName + ", " + f.item_state_size +
+              ", " + f.group_state_size + ", " + f.terms + ", " + f.partials + ", " + f.acc_size +
+              ", " + f.count + ", " + f.prepare + ", " + f.group_prepare + ", " + f.term + ", " +
+              f.group_reduce + ", " + f.group_add + ", " + f.finish + ", " + f.sample + ")\n";
     return source;
 }
 

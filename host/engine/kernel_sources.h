@@ -27,6 +27,7 @@ constexpr const char* kNodeSumKernelName = "bt_node_sum";
 // prepare and node-to-group kernels; the other three keep the names above).
 constexpr const char* kNodeGroupKernelName = "bt_node_group";
 constexpr const char* kNodeChunkKernelName = "bt_node_chunk";
+constexpr const char* kNodeReduceKernelName = "bt_node_reduce";
 // The entry point walk_parallel_kernel_source() generates.
 constexpr const char* kWalkKernelName = "bt_estimate_walk";
 
@@ -63,8 +64,8 @@ std::string node_parallel_kernel_source(const std::string& kernel_header,
 // bt_node_group, bt_node_chunk, bt_node, bt_node_sum, ...) of kernels/common/node_parallel.h
 // around the model's node functions (QuantityInfo::node_parallel, nested()).
 struct NestedNodeParallelNames {
-    std::string item_state_size, group_state_size, terms, acc_size;
-    std::string count, prepare, group_prepare, term, group_sum, finish, sample;
+    std::string item_state_size, group_state_size, terms, partials, acc_size;
+    std::string count, prepare, group_prepare, term, group_reduce, group_add, finish, sample;
 };
 std::string nested_node_parallel_kernel_source(const std::string& kernel_header,
                                                const NestedNodeParallelNames& names,

@@ -179,10 +179,12 @@ ModelInfo oren_nayar_model() {
         f.state_size = ON_NODE_ITEM_STATE;
         f.host_count = &oren_nayar_node_count;
         f.group_prepare = "oren_nayar_node_group";
-        f.group_sum = "oren_nayar_node_group_sum";
+        f.group_reduce = "oren_nayar_node_group_reduce";
+        f.group_add = "oren_nayar_node_group_add";
         f.sample = "oren_nayar_sample";
         f.group_state_size = ON_NODE_GROUP_STATE;
         f.terms = ON_NODE_TERMS;
+        f.partials = ON_NODE_PARTIALS;
         f.acc_size = ON_NODE_ACC;
         f.max_groups = ON_NODE_MAX_GROUPS;
     }

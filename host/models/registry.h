@@ -67,11 +67,13 @@ struct NodeParallelFunctions {
     HostNodeCountFn host_count = nullptr;
     // Nested sums (kernels/common/node_parallel.h, "Nested sums"; set
     // group_prepare to use them): host_count counts a work item's groups,
-    // the device each group's nodes.  The group functions, the model's
-    // sample function, the group state's size, the terms per node, the
-    // accumulators of the group sum and the most groups of a work item.
-    std::string group_prepare = {}, group_sum = {}, sample = {};
-    int group_state_size = 0, terms = 1, acc_size = 1, max_groups = 0;
+    // the device each group's nodes.  The group functions (prepare, reduce
+    // its nodes' terms to partial sums, add those to the accumulators), the
+    // model's sample function, the group state's size, the terms per node,
+    // the partial sums per group, the accumulators and the most groups of a
+    // work item.
+    std::string group_prepare = {}, group_reduce = {}, group_add = {}, sample = {};
+    int group_state_size = 0, terms = 1, partials = 1, acc_size = 1, max_groups = 0;
     // Whether it runs with BRDFTAB_NODE_PARALLEL unset (and
     // node_parallel_by_default()); false: only with BRDFTAB_NODE_PARALLEL=1.
     bool by_default = true;

@@ -142,8 +142,10 @@
  * data-dependent breakpoints on both levels (oren-nayar's theta_a nodes, each
  * with its own phi_a sub-intervals) is a sum of *groups* (outer nodes) of
  * nodes: value = finish(acc), where acc (acc_size values, from 0) takes
- * group_sum(g) for g = 0, 1, ..., count - 1 in order, and group_sum adds its
- * nodes' terms (n_terms values each) in its own order.  The model names:
+ * group g's contribution for g = 0, 1, ..., count - 1 in order.  A group's
+ * contribution is in two steps: group_reduce adds its nodes' terms (n_terms
+ * values each) in its own order into n_partial values, and group_add adds
+ * those to acc.  The model names:
  *     int  count_fn        (p, o, quantity, s)  groups; 0: no nested sum
  *                          (the sum kernel then returns sample_fn's value)
  *     void prepare_fn      (p, o, quantity, s, REAL* item_state)
@@ -158,8 +160,10 @@
  *     void term_fn         (BT_GLOBAL const REAL* item_state,
  *                           BT_GLOBAL const REAL* group_state, o, quantity,
  *                           REAL x, REAL* terms)
- *     void group_sum_fn    (item_state, group_state, o, quantity,
- *                           BT_GLOBAL const REAL* terms, REAL* acc)
+ *     void group_reduce_fn (item_state, group_state, o, quantity,
+ *                           BT_GLOBAL const REAL* terms, REAL* partial)
+ *     void group_add_fn    (item_state, group_state, o, quantity,
+ *                           BT_GLOBAL const REAL* partial, REAL* acc)
  *     REAL finish_fn       (p, o, quantity, s, const REAL* acc)
  *     REAL sample_fn       (p, o, quantity, s)  the model's sample function
  * The host lays out every work item's groups from the count function
@@ -168,44 +172,62 @@
  * counts back and lays the nodes out (prefix sums; the chunk kernel writes
  * every node's group).  A work item whose device group count
  * differs from the host's (rounding, in float) runs sample_fn instead.
- * Indices of work items, groups and nodes are local to a sub-launch:
- *   prepare_kernel  one work item per work item: item state.
- *   group_kernel    one work item per group G of work item
+ * The host splits a launch into *blocks* of whole work items (their item
+ * and group states), and a block's nodes into *sub-launches* of whole
+ * groups (the node scratch).  Indices of work items and groups are local to
+ * a block, indices of nodes to a sub-launch:
+ *   prepare_kernel  one work item per work item of the block: item state.
+ *   group_kernel    one work item per group G of the block, of work item
  *                   i = group_item[G], its number G - item_group[i]: group
  *                   state and node count group_nodes[G].
- *   chunk_kernel    one work item per group, after the host has laid out
- *                   the nodes (group_node: the exclusive prefix sum of the
- *                   device's counts): node_group[k] = G for its nodes k,
- *                   and node_x[k] (term_fn##_setup).
- *   node_kernel     one work item per node: group G = node_group[gid] and
- *                   x = node_x[gid] (plain loads, consecutive in gid);
- *                   terms at scratch[n_terms * gid].  Loop-free: vectorises.
- *                   (x replaced the node's number, k - group_node[G], which
- *                   took more gathers per node.)
- *   sum_kernel      one work item per work item: its groups in order, then
- *                   finish; mean and M2 as in the usual kernel.
+ *   chunk_kernel    one work item per group G of a sub-launch (G from
+ *                   first_group), after the host has laid out the nodes
+ *                   (group_node: the exclusive prefix sum of the block's
+ *                   device counts): node_group[k] = G for its nodes k,
+ *                   and node_x[k] (term_fn##_setup), k counted from the
+ *                   sub-launch's first node group_node[first_group].
+ *   node_kernel     one work item per node of a sub-launch: group
+ *                   G = node_group[gid] and x = node_x[gid] (plain loads,
+ *                   consecutive in gid); terms at scratch[n_terms * gid].
+ *                   Loop-free: vectorises.  (x replaced the node's number,
+ *                   k - group_node[G], which took more gathers per node.)
+ *   reduce_kernel   one work item per group of a sub-launch: its partial
+ *                   sums from its nodes' terms, at group_partial[n_partial * G].
+ *   sum_kernel      one work item per work item of the block: acc from its
+ *                   groups' partial sums in order, then finish; mean and M2
+ *                   as in the usual kernel.
+ * Only the group kernel's counts come back to the host (one read per block);
+ * a block's sub-launches and its sum are queued without waiting.  The
+ * per-group reduction used to be the first part of the sum kernel's loop: as a
+ * kernel over groups it runs on every core even when a sub-launch holds few
+ * work items (docs/benchmarks.md, "Session 12: oren-nayar in blocks").
  * Every term and every addition is the serial loop's (the model's serial
- * code must call the same functions), so the bits are the usual kernel's.
+ * code must call the same functions), and partial sums are stored exactly
+ * (REAL), so the bits are the usual kernel's.
  */
 #if BT_DEVICE
 #define BT_DEFINE_NESTED_NODE_PARALLEL_KERNELS(                                \
-    prepare_kernel, group_kernel, chunk_kernel, node_kernel, sum_kernel,       \
-    item_state_size, group_state_size, n_terms, acc_size, count_fn,            \
-    prepare_fn, group_prepare_fn, term_fn, group_sum_fn, finish_fn, sample_fn) \
-    __kernel void chunk_kernel(__global const uint* group_node, uint n_groups, \
+    prepare_kernel, group_kernel, chunk_kernel, node_kernel, reduce_kernel,    \
+    sum_kernel, item_state_size, group_state_size, n_terms, n_partial,         \
+    acc_size, count_fn, prepare_fn, group_prepare_fn, term_fn,                 \
+    group_reduce_fn, group_add_fn, finish_fn, sample_fn)                       \
+    __kernel void chunk_kernel(__global const uint* group_node,                \
+                               uint first_group, uint n_groups,                \
                                __global uint* node_group,                      \
                                __global const uint* group_item,                \
                                __global const REAL* item_state,                \
                                __global const REAL* group_state,               \
                                __global REAL* node_x)                          \
     {                                                                          \
-        const uint g = (uint)get_global_id(0);                                 \
-        if (g >= n_groups) return;                                             \
+        const uint gid = (uint)get_global_id(0);                               \
+        if (gid >= n_groups) return;                                           \
+        const uint g = first_group + gid;                                      \
+        const uint base = group_node[first_group];                             \
         for (uint k = group_node[g]; k < group_node[g + 1u]; ++k)              \
-            node_group[k] = g;                                                 \
+            node_group[k - base] = g;                                          \
         term_fn##_setup(item_state + (size_t)group_item[g] * (item_state_size), \
                         group_state + (size_t)g * (group_state_size),          \
-                        node_x + group_node[g]);                               \
+                        node_x + (group_node[g] - base));                      \
     }                                                                          \
     BT_DEFINE_NODE_PREPARE_KERNEL_(prepare_kernel, item_state_size, prepare_fn, 0) \
     __kernel void group_kernel(                                                \
@@ -244,12 +266,34 @@
         for (uint i = 0; i < (uint)(n_terms); ++i)                             \
             scratch[(size_t)gid * (n_terms) + i] = t[i];                       \
     }                                                                          \
+    __kernel void reduce_kernel(                                               \
+        __global const int* options, uint n_options, int quantity,             \
+        __global const uint* group_node, uint first_group, uint n_groups,      \
+        __global const uint* group_item, __global const REAL* item_state,      \
+        __global const REAL* group_state, __global const REAL* scratch,        \
+        __global REAL* group_partial)                                          \
+    {                                                                          \
+        const uint gid = (uint)get_global_id(0);                               \
+        if (gid >= n_groups) return;                                           \
+        const uint g = first_group + gid;                                      \
+        BT_KERNEL_LOAD_OPTIONS_(o, options, n_options)                         \
+        REAL partial[n_partial];                                               \
+        group_reduce_fn(item_state + (size_t)group_item[g] * (item_state_size), \
+                        group_state + (size_t)g * (group_state_size), o,       \
+                        BT_KERNEL_QUANTITY_(quantity),                         \
+                        scratch + (size_t)(group_node[g] - group_node[first_group]) * \
+                                      (n_terms),                               \
+                        partial);                                              \
+        _Pragma("unroll")                                                      \
+        for (uint i = 0; i < (uint)(n_partial); ++i)                           \
+            group_partial[(size_t)g * (n_partial) + i] = partial[i];           \
+    }                                                                          \
     __kernel void sum_kernel(                                                  \
         BT_WORK_KERNEL_PARAMS,                                                 \
         uint first_work, uint n_work, __global const uint* item_group,         \
-        __global const uint* group_node, __global const REAL* item_state,      \
-        __global const REAL* group_state, __global const REAL* scratch,        \
-        __global ACCUM* out_mean, __global ACCUM* out_m2)                      \
+        __global const REAL* item_state, __global const REAL* group_state,     \
+        __global const REAL* group_partial, __global ACCUM* out_mean,          \
+        __global ACCUM* out_m2)                                                \
     {                                                                          \
         const uint gid = (uint)get_global_id(0);                               \
         if (gid >= n_work) return;                                             \
@@ -266,10 +310,9 @@
             REAL acc[acc_size];                                                \
             for (uint i = 0; i < (uint)(acc_size); ++i) acc[i] = R(0.0);       \
             for (uint g = first; g < first + (uint)n; ++g)                     \
-                group_sum_fn(item_state + (size_t)gid * (item_state_size),     \
+                group_add_fn(item_state + (size_t)gid * (item_state_size),     \
                              group_state + (size_t)g * (group_state_size), o,  \
-                             q_, scratch + (size_t)group_node[g] * (n_terms),  \
-                             acc);                                             \
+                             q_, group_partial + (size_t)g * (n_partial), acc); \
             value = finish_fn(p, o, q_, &s, acc);                              \
         }                                                                      \
         ACCUM x = (ACCUM)value;                                                \

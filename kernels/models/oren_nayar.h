@@ -825,9 +825,9 @@ BT_INLINE REAL oren_nayar_sample(const REAL* p, const int* o, int quantity, cons
  * theta_a nodes of on_gauss_quadrature (in its order), a group's nodes the
  * phi_a nodes of its on_phi_integral (n per part of a sub-interval, in
  * order, zero-length parts included); a node's terms are F1 and F2.  The
- * group sum adds them with the very steps of on_phi_integral (on_phi_add)
- * and the theta_a step (on_theta_add), so the result is oren_nayar_sample's
- * bit for bit.
+ * group's reduction adds them with the very steps of on_phi_integral
+ * (on_phi_add, then / 2 pi), its addition is the theta_a step
+ * (on_theta_add), so the result is oren_nayar_sample's bit for bit.
  * Item state (ON_NODE_ITEM_STATE): the geometry, n, the non-empty theta_a
  * sub-intervals (lo, L, kind) and the GL rule.  Group state
  * (ON_NODE_GROUP_STATE): theta_a, wp, sin and cos theta_a, nb, d(1, 1),
@@ -851,6 +851,7 @@ BT_INLINE REAL oren_nayar_sample(const REAL* p, const int* o, int quantity, cons
 #define ON_NODE_G_B 6
 #define ON_NODE_GROUP_STATE (ON_NODE_G_B + ON_MAX_BREAKS + 1)
 #define ON_NODE_TERMS 2
+#define ON_NODE_PARTIALS 2
 #define ON_NODE_ACC 3
 /* Groups of one work item at most: 6 theta_a sub-intervals of n nodes. */
 #define ON_NODE_MAX_GROUPS (6 * ON_MAX_NODES)
@@ -995,7 +996,8 @@ BT_INLINE void oren_nayar_node_term_setup(BT_GLOBAL const REAL* item, BT_GLOBAL 
 
 /* A node of a group: F1 and F2 at its phi_a (from
  * oren_nayar_node_term_setup), as on_phi_integral computes them; a
- * zero-length part's nodes are computed too, and the group sum skips them. */
+ * zero-length part's nodes are computed too, and the group's reduction
+ * skips them. */
 BT_INLINE void oren_nayar_node_term(BT_GLOBAL const REAL* item, BT_GLOBAL const REAL* gs,
                                     const int* o, int quantity, REAL phi, REAL* out)
 {
@@ -1008,11 +1010,12 @@ BT_INLINE void oren_nayar_node_term(BT_GLOBAL const REAL* item, BT_GLOBAL const 
     out[1] = f2;
 }
 
-/* A group's share of the theta_a sum: its phi_a nodes' terms added as
- * on_phi_integral adds them, then the theta_a step. */
-BT_INLINE void oren_nayar_node_group_sum(BT_GLOBAL const REAL* item, BT_GLOBAL const REAL* gs,
-                                         const int* o, int quantity, BT_GLOBAL const REAL* terms,
-                                         REAL* acc)
+/* A group's phi_a integral (its partial sums, ON_NODE_PARTIALS): its phi_a
+ * nodes' terms added as on_phi_integral adds them, divided by 2 pi as
+ * there. */
+BT_INLINE void oren_nayar_node_group_reduce(BT_GLOBAL const REAL* item, BT_GLOBAL const REAL* gs,
+                                            const int* o, int quantity,
+                                            BT_GLOBAL const REAL* terms, REAL* partial)
 {
     (void)o;
     (void)quantity;
@@ -1031,8 +1034,20 @@ BT_INLINE void oren_nayar_node_group_sum(BT_GLOBAL const REAL* item, BT_GLOBAL c
                            t[ON_NODE_TERMS * j + 1], &s1, &s2);
         }
     }
-    REAL d1 = s1 / BT_TWO_PI, d2 = s2 / BT_TWO_PI;
-    on_theta_add(gs[ON_NODE_G_WP], d1, d2, acc);
+    partial[0] = s1 / BT_TWO_PI;
+    partial[1] = s2 / BT_TWO_PI;
+}
+
+/* A group's share of the theta_a sum: the theta_a step with its phi_a
+ * integral. */
+BT_INLINE void oren_nayar_node_group_add(BT_GLOBAL const REAL* item, BT_GLOBAL const REAL* gs,
+                                         const int* o, int quantity,
+                                         BT_GLOBAL const REAL* partial, REAL* acc)
+{
+    (void)item;
+    (void)o;
+    (void)quantity;
+    on_theta_add(gs[ON_NODE_G_WP], partial[0], partial[1], acc);
 }
 
 BT_INLINE REAL oren_nayar_node_finish(const REAL* p, const int* o, int quantity, const bt_sampler* s,
