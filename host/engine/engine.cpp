@@ -190,6 +190,12 @@ bool sample_parallel_by_default(const ModelInfo& model, const QuantityInfo& quan
 
 namespace {
 
+// Sets kernel arguments first, first + 1, ... to `args` in turn.
+template <typename... Args>
+void set_args_from(cl::Kernel& kernel, cl_uint first, const Args&... args) {
+    (kernel.setArg(first++, args), ...);
+}
+
 // Built programs of this process, keyed by context, build options and source.
 // A program holds a reference to its context, so a context's handle cannot be
 // reused for another one while an entry names it.  PoCL's disk cache still
@@ -975,33 +981,26 @@ private:
                 grow(nested_chunk_group_, nested_chunk_group_bytes_, most_nodes * 4, CL_MEM_READ_WRITE);
                 grow(node_scratch_, node_scratch_bytes_, most_nodes * term_bytes, CL_MEM_READ_WRITE);
                 grow(nested_node_x_, nested_node_x_bytes_, most_nodes * real_size, CL_MEM_READ_WRITE);
-                // group_node, first_group, n_groups, node_group, group_item,
-                // item_state, group_state, node_x
+                // The arguments that stay for the block; the sub-launch's
+                // first group, group and node counts are set per sub-launch.
+                // chunk: group_node, first_group, n_groups, node_group,
+                // group_item, item_state, group_state, node_x
                 k.chunk.setArg(0, nested_group_node_);
-                k.chunk.setArg(3, nested_chunk_group_);
-                k.chunk.setArg(4, nested_group_item_);
-                k.chunk.setArg(5, node_state_);
-                k.chunk.setArg(6, nested_group_state_);
-                k.chunk.setArg(7, nested_node_x_);
-                // options, n_options, quantity, node_group, group_item,
+                set_args_from(k.chunk, 3, nested_chunk_group_, nested_group_item_, node_state_,
+                              nested_group_state_, nested_node_x_);
+                // node: options, n_options, quantity, node_group, group_item,
                 // n_nodes, item_state, group_state, scratch, node_x
                 set_option_args(k.node, l);
-                k.node.setArg(3, nested_chunk_group_);
-                k.node.setArg(4, nested_group_item_);
-                k.node.setArg(6, node_state_);
-                k.node.setArg(7, nested_group_state_);
-                k.node.setArg(8, node_scratch_);
-                k.node.setArg(9, nested_node_x_);
-                // options, n_options, quantity, group_node, first_group,
+                set_args_from(k.node, 3, nested_chunk_group_, nested_group_item_);
+                set_args_from(k.node, 6, node_state_, nested_group_state_, node_scratch_,
+                              nested_node_x_);
+                // reduce: options, n_options, quantity, group_node, first_group,
                 // n_groups, group_item, item_state, group_state, scratch,
                 // group_partial
                 set_option_args(k.reduce, l);
                 k.reduce.setArg(3, nested_group_node_);
-                k.reduce.setArg(6, nested_group_item_);
-                k.reduce.setArg(7, node_state_);
-                k.reduce.setArg(8, nested_group_state_);
-                k.reduce.setArg(9, node_scratch_);
-                k.reduce.setArg(10, nested_group_partial_);
+                set_args_from(k.reduce, 6, nested_group_item_, node_state_, nested_group_state_,
+                              node_scratch_, nested_group_partial_);
                 for (const auto& [g0, g1] : subs) {
                     const std::size_t nodes = group_node[g1] - group_node[g0];
                     const std::size_t sub_groups = g1 - g0;
