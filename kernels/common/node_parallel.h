@@ -150,7 +150,8 @@
  *                          (the sum kernel then returns sample_fn's value)
  *     void prepare_fn      (p, o, quantity, s, REAL* item_state)
  *     int  group_prepare_fn(BT_GLOBAL const REAL* item_state, o, quantity, g,
- *                           REAL* group_state)   returns the group's nodes
+ *                           BT_GLOBAL REAL* group_state)   returns the group's
+ *                           nodes; writes what its nodes read (in place)
  *     void term_fn##_setup (BT_GLOBAL const REAL* item_state,
  *                           BT_GLOBAL const REAL* group_state,
  *                           BT_GLOBAL REAL* node_x)   each of the group's
@@ -240,12 +241,10 @@
         if (gid >= n_groups) return;                                           \
         const uint item = group_item[gid];                                     \
         BT_KERNEL_LOAD_OPTIONS_(o, options, n_options)                         \
-        REAL gs[group_state_size];                                             \
         group_nodes[gid] = group_prepare_fn(                                   \
             item_state + (size_t)item * (item_state_size), o,                  \
-            BT_KERNEL_QUANTITY_(quantity), (int)(gid - item_group[item]), gs); \
-        for (uint i = 0; i < (uint)(group_state_size); ++i)                    \
-            group_state[(size_t)gid * (group_state_size) + i] = gs[i];         \
+            BT_KERNEL_QUANTITY_(quantity), (int)(gid - item_group[item]),      \
+            group_state + (size_t)gid * (group_state_size));                   \
     }                                                                          \
     __kernel void node_kernel(                                                 \
         __global const int* options, uint n_options, int quantity,             \

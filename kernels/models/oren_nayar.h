@@ -947,7 +947,7 @@ BT_INLINE void oren_nayar_node_prepare(const REAL* p, const int* o, int quantity
 /* Group g of a work item: theta_a node j of non-empty sub-interval g / n;
  * returns its node count (on_phi_integral's n per part of a sub-interval). */
 BT_INLINE int oren_nayar_node_group(BT_GLOBAL const REAL* item, const int* o, int quantity, int g,
-                                    REAL* gs)
+                                    BT_GLOBAL REAL* gs)
 {
     (void)o;
     on_geom geo = on_node_load_geom(item);
@@ -969,7 +969,8 @@ BT_INLINE int oren_nayar_node_group(BT_GLOBAL const REAL* item, const int* o, in
     gs[ON_NODE_G_COS] = bt_cos(th);
     gs[ON_NODE_G_NB] = (REAL)nb;
     gs[ON_NODE_G_D11] = on_d11(gs[ON_NODE_G_COS]);
-    for (int i = 0; i <= ON_MAX_BREAKS; ++i) gs[ON_NODE_G_B + i] = i <= nb ? b[i] : R(0.0);
+    /* b[0..nb] only: the chunk, reduce and sum kernels read no further. */
+    for (int i = 0; i <= nb; ++i) gs[ON_NODE_G_B + i] = b[i];
     return nb * on_phi_parts(nb) * n;
 }
 
