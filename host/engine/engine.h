@@ -193,7 +193,9 @@ const std::vector<WalkParallelCase>& walk_parallel_cases();
 // default where node_parallel_by_default() says so (measured,
 // docs/benchmarks.md "Node-parallel quadrature"); BRDFTAB_NODE_PARALLEL=0
 // turns it off, =1 forces it on.  BRDFTAB_NODE_PARALLEL_SCRATCH=N caps a
-// sub-launch at N nodes (default 2^22); BRDFTAB_NODE_PARALLEL_LAYOUT_CAP=N
+// sub-launch at N nodes (default 2^22; nested sums: N/16 nodes per
+// sub-launch, blocks of at most N/64 groups and N/256 work items, each with
+// a reduce kernel per group); BRDFTAB_NODE_PARALLEL_LAYOUT_CAP=N
 // (tests) lays out at most N nodes per batch, the sum kernel computing the rest.
 bool node_parallel_by_default();
 
