@@ -356,7 +356,7 @@ TEST_CASE("node-parallel oren-nayar: the usual kernel's bits for every quadratur
         REQUIRE(q.node_parallel.enabled());
         REQUIRE(q.node_parallel.nested());
         const OnLaunch x = on_launch(quantity, options);
-        Outputs usual, node, split;
+        Outputs usual, node, split, blocks;
         {
             ScopedEnv off("BRDFTAB_NODE_PARALLEL", "0");
             usual = run(*device, x.launch);
@@ -364,14 +364,23 @@ TEST_CASE("node-parallel oren-nayar: the usual kernel's bits for every quadratur
         {
             ScopedEnv on("BRDFTAB_NODE_PARALLEL", "1");
             node = run(*device, x.launch);
-            // One work item per block (scratch cap / 256 -> 1) and
-            // sub-launches of at most 18 nodes (scratch cap / 16), or of one
-            // group with more.
-            ScopedEnv cap("BRDFTAB_NODE_PARALLEL_SCRATCH", "300");
-            split = run(*device, x.launch);
+            {
+                // One work item per block (scratch cap / 256 -> 1) and
+                // sub-launches of at most 18 nodes (scratch cap / 16), or of
+                // one group with more.
+                ScopedEnv cap("BRDFTAB_NODE_PARALLEL_SCRATCH", "300");
+                split = run(*device, x.launch);
+            }
+            // Blocks of at most 1024 groups (cap / 64), so a few dozen work
+            // items each, those without groups (sigma 0, below the horizon)
+            // among them, and many sub-launches of at most 4096 nodes per
+            // block.
+            ScopedEnv cap("BRDFTAB_NODE_PARALLEL_SCRATCH", "65536");
+            blocks = run(*device, x.launch);
         }
         check_on_same_bits(x, usual, node);
         check_on_same_bits(x, usual, split);
+        check_on_same_bits(x, usual, blocks);
         // Not a vacuous comparison: a positive, finite BRDF everywhere (it
         // grows like 1/cos when both directions graze: up to ~5e4 here).
         if (quantity == "brdf")
