@@ -142,8 +142,9 @@ struct TimingSeries {
 };
 
 // Times every backend on the same workload: a warm-up each (kernel builds,
-// PoCL's work-group specialisation), then `repeats` rounds in which each
-// backend runs once in turn.  Interleaved, so that a slower phase of the
+// PoCL's work-group specialisation; the device, backends[0], at the full
+// size, whose large launches need PoCL's general work-group variant, which
+// small launches do not build), then `repeats` rounds in which each backend runs once in turn.  Interleaved, so that a slower phase of the
 // machine (other processes, frequency) falls on every backend alike rather
 // than on whichever was running then: the serial host's rate moved by 30 %
 // from one whole series to the next on the project machine (docs/benchmarks.md,
@@ -152,7 +153,8 @@ std::vector<BackendTiming> measure_backends(const std::vector<Backend*>& backend
                                             std::size_t cells, bool per_cell, unsigned repeats,
                                             std::uint64_t& evaluations) {
     std::uint64_t evals = 0;
-    for (Backend* b : backends) time_run(*b, w, std::min<std::size_t>(cells, 256), evals);
+    for (std::size_t k = 0; k < backends.size(); ++k)
+        time_run(*backends[k], w, k == 0 ? cells : std::min<std::size_t>(cells, 256), evals);
     std::vector<BackendTiming> out(backends.size());
     std::vector<TimingSeries> series(backends.size());
     for (unsigned r = 0; r < std::max(1u, repeats); ++r) {
