@@ -196,6 +196,27 @@ void set_args_from(cl::Kernel& kernel, cl_uint first, const Args&... args) {
     (kernel.setArg(first++, args), ...);
 }
 
+// Runs [first, last) of whole entries 0 .. count - 1, given the exclusive
+// prefix sums offset[0 .. count] of their sizes: each as long as its size
+// stays at most `cap` (an entry larger than that alone), in order; with the
+// largest size and the most entries of any run (at least 1 each).
+struct EntryRuns {
+    std::vector<std::pair<std::size_t, std::size_t>> runs;
+    std::size_t most_size = 1, most_entries = 1;
+};
+EntryRuns runs_within(const std::vector<std::uint32_t>& offset, std::size_t count, std::size_t cap) {
+    EntryRuns out;
+    for (std::size_t first = 0; first < count;) {
+        std::size_t last = first + 1;
+        while (last < count && offset[last + 1] - offset[first] <= cap) ++last;
+        out.runs.emplace_back(first, last);
+        out.most_size = std::max<std::size_t>(out.most_size, offset[last] - offset[first]);
+        out.most_entries = std::max(out.most_entries, last - first);
+        first = last;
+    }
+    return out;
+}
+
 // Built programs of this process, keyed by context, build options and source.
 // A program holds a reference to its context, so a context's handle cannot be
 // reused for another one while an entry names it.  PoCL's disk cache still
@@ -749,17 +770,8 @@ private:
         const std::size_t n = l.cells.size();
         const std::vector<std::uint32_t>& offset = node_offset_host_;
         // Sub-launches [first, last) of whole work items.
-        const std::size_t cap = node_parallel_scratch_nodes();
-        std::vector<std::pair<std::size_t, std::size_t>> subs;
-        std::size_t most_nodes = 1, most_items = 1;
-        for (std::size_t first = 0; first < n;) {
-            std::size_t last = first + 1;
-            while (last < n && offset[last + 1] - offset[first] <= cap) ++last;
-            subs.emplace_back(first, last);
-            most_nodes = std::max<std::size_t>(most_nodes, offset[last] - offset[first]);
-            most_items = std::max(most_items, last - first);
-            first = last;
-        }
+        const EntryRuns sub_launches = runs_within(offset, n, node_parallel_scratch_nodes());
+        const std::size_t most_nodes = sub_launches.most_size, most_items = sub_launches.most_entries;
         const NodeParallelFunctions& f = *node_functions(l);
         // Buffers grown geometrically and kept (reserve_buffers); the
         // scratch once per launch: the in-order queue runs a sub-launch's
@@ -805,7 +817,7 @@ private:
         k.sum.setArg(sum_first_arg + 5, out_mean_);
         k.sum.setArg(sum_first_arg + 6, out_m2_);
         const cl::NDRange local = local_range();
-        for (const auto& [first, last] : subs) {
+        for (const auto& [first, last] : sub_launches.runs) {
             const std::size_t nodes = offset[last] - offset[first];
             if (nodes > 0) {
                 k.prepare.setArg(prepare_first_arg, static_cast<cl_uint>(first));
@@ -891,7 +903,6 @@ private:
         std::size_t block = 0;
         bool have_next = false;
         std::uint32_t next_groups = 0;
-        std::vector<std::pair<std::size_t, std::size_t>> subs;  // [first group, last group)
         const cl::NDRange local = local_range();
         for (std::size_t first = 0; first < n;) {
             std::size_t last = first, total_groups = 0;
@@ -965,17 +976,12 @@ private:
                         throw Error("node-parallel: more than 2^32 nodes in one block");
                 }
                 group_node[total_groups] = static_cast<std::uint32_t>(total_nodes);
-                subs.clear();
-                std::size_t most_nodes = 1;
-                for (std::size_t g0 = 0; g0 < total_groups;) {
-                    std::size_t g1 = g0 + 1;
-                    while (g1 < total_groups && group_node[g1 + 1] - group_node[g0] <= node_target) ++g1;
-                    subs.emplace_back(g0, g1);
-                    most_nodes = std::max<std::size_t>(most_nodes, group_node[g1] - group_node[g0]);
-                    g0 = g1;
-                }
-                // Blocking: group_node changes for the next block (after its
-                // read, which waits for this block's kernels anyway).
+                // Sub-launches [first group, last group) of whole groups.
+                const EntryRuns subs = runs_within(group_node, total_groups, node_target);
+                const std::size_t most_nodes = subs.most_size;
+                // Blocking: group_node is this function's own and is rewritten
+                // for the next block; the last block's write must not still
+                // be reading it after the return.
                 queue.enqueueWriteBuffer(nested_group_node_, CL_TRUE, 0, (total_groups + 1) * 4,
                                          group_node.data());
                 grow(nested_chunk_group_, nested_chunk_group_bytes_, most_nodes * 4, CL_MEM_READ_WRITE);
@@ -1001,7 +1007,7 @@ private:
                 k.reduce.setArg(3, nested_group_node_);
                 set_args_from(k.reduce, 6, nested_group_item_, node_state_, nested_group_state_,
                               node_scratch_, nested_group_partial_);
-                for (const auto& [g0, g1] : subs) {
+                for (const auto& [g0, g1] : subs.runs) {
                     const std::size_t nodes = group_node[g1] - group_node[g0];
                     const std::size_t sub_groups = g1 - g0;
                     if (nodes > 0) {
