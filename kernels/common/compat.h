@@ -46,6 +46,23 @@ typedef float ACCUM;
 #define BT_GLOBAL __global
 #define BT_CONSTANT __constant
 #define BT_TABLE __constant
+/* BT_SLP_SPLIT(x) is x, bit for bit (x + -0.0 == x for every x, -0 and NaN
+ * included), written so that PoCL's compiler cannot prove it.  Why: PoCL
+ * optimises the program twice (when it is built, and again when it makes the
+ * work-group function), and both rounds run clang's SLP vectoriser before
+ * LLVM's loop vectoriser sees the work-item loop.  SLP packs two alike scalar
+ * chains (x and y of a vector, the i and o directions, two divisions whose
+ * results meet) into <2 x double>, and the loop vectoriser then refuses the
+ * whole work-item loop ("instruction return type cannot be vectorized").
+ * A pair whose members differ by one operation is no longer isomorphic, so
+ * shared code wraps one member of each pair that PoCL packed.
+ * The added term must stay opaque through both rounds: a constant, or a
+ * condition on get_local_size / get_local_id (which PoCL fixes for the
+ * work-group function), folds away before the second round's SLP runs and
+ * the pair is packed again (measured); the number of work groups is known
+ * only at run time.  Cost: one add of a loop-invariant value.  Found and
+ * checked with `scripts/slp-pairs.sh --pocl` (docs/contributing.md). */
+#define BT_SLP_SPLIT(x) ((x) + (get_num_groups(0) == 0 ? R(1.0) : R(-0.0)))
 
 #else
 /* ------------------------------------------------------------------ C++ */
@@ -61,6 +78,7 @@ typedef std::uint64_t ulong;
 #define BT_CONSTANT
 /* static: the header can be included from several translation units. */
 #define BT_TABLE static const
+#define BT_SLP_SPLIT(x) (x) /* a device-only concern (see above) */
 using std::acos;
 using std::atan;
 using std::atan2;

@@ -118,7 +118,7 @@
 /* i' = E i / |E i| (§4.2). */
 BT_INLINE bt_vec3 mg_to_sphere_dir(bt_vec3 v, REAL bx, REAL by)
 {
-    return bt_v3_normalize(bt_v3(bx * v.x, by * v.y, v.z));
+    return bt_v3_normalize(bt_v3(bx * v.x, BT_SLP_SPLIT(by * v.y), v.z)); /* compat.h */
 }
 
 /* h' = n.m', m' = E^-1 m / |E^-1 m| (§4.2). */
@@ -215,11 +215,11 @@ BT_INLINE REAL mg_disc_left(REAL u0)
 BT_INLINE REAL mg_shadow_area_sphere(bt_vec3 v, REAL h)
 {
     REAL ct = fmax(v.z, MG_MIN_COS);
-    REAL st = sqrt(v.x * v.x + v.y * v.y);
+    REAL st = sqrt(v.x * v.x + BT_SLP_SPLIT(v.y * v.y)); /* splits: compat.h */
     if (!(h < st) || !(h < R(1.0))) return R(0.0);
     REAL rho = sqrt(fmax(R(1.0) - h * h, R(0.0)));
     REAL ell = mg_disc_left(-h / st) / ct;               /* sigma_e - |e_x q_y| - ... */
-    REAL cphi = -(h / rho) * (ct / st);                  /* cos phi_q */
+    REAL cphi = -(h / rho) * BT_SLP_SPLIT(BT_SLP_SPLIT(ct / st)); /* cos phi_q */
     REAL circ = rho * rho * mg_disc_left(cphi);          /* sigma_c - triangle */
     return fmax(ell - circ, R(0.0));
 }
@@ -276,70 +276,93 @@ BT_INLINE REAL mg_wrap_pi(REAL a)
     return a;
 }
 
+/* One piece [a, b] of the common arc (angles relative to cen_i): the sweep of
+ * whichever ellipse is inner at the piece's middle (case 2 when one wins the
+ * whole arc), less the circle sector of radius rho.  An empty piece (b <= a)
+ * adds exactly +0. */
+BT_INLINE REAL mg_overlap_piece(bt_vec3 vi, bt_vec3 vo, REAL h, REAL rho, REAL cen_i, REAL a,
+                                REAL b)
+{
+    if (!BT_DEVICE && !(b > a)) return R(0.0); /* host: skip the empty piece */
+    REAL mid = cen_i + R(0.5) * (a + b);
+    REAL ri = mg_ellipse_radius(vi, h, bt_cos(mid), bt_sin(mid));
+    REAL ro = mg_ellipse_radius(vo, h, bt_cos(mid), bt_sin(mid));
+    bt_vec3 inner = ri <= ro ? vi : vo;
+    REAL piece = mg_ellipse_sweep(inner, h, cen_i + a, cen_i + b) - R(0.5) * rho * rho * (b - a);
+    return b > a ? piece : R(0.0);
+}
+
 /* sigma_cap(i, o, h) for the unit sphere (Appendix B; see the header comment
  * for the decomposition).  The shadow of v at height h occupies, in polar
  * coordinates about the axis, the arc of half-width w = pi - phi_q centred on
  * phi_v + pi and radii rho < r < R_v(psi) (the chord of Appendix A never
- * crosses the crescent, so each ray from the axis is all shadow or none). */
+ * crosses the crescent, so each ray from the axis is all shadow or none).
+ *
+ * Written as one straight path, so that PoCL's work-item loop vectorises
+ * (docs/benchmarks.md, "Session 13"): the common arc [lo, hi] is cut at the
+ * (at most two) split angles that fall inside it, a missing cut is placed at
+ * hi, where it sorts last and leaves an empty piece, and the three pieces are
+ * summed in order; the early returns are selects at the end.  The arithmetic
+ * of every term is the former loop's, so the value is the same bit for bit
+ * (area starts at +0 and so never is -0, and adding an empty piece's +0
+ * leaves it unchanged).  The host, which runs one direction pair at a time,
+ * still returns as soon as the value is known (`!BT_DEVICE && ...`: the same
+ * results, and the serial path keeps its speed).  The BT_SLP_SPLIT calls
+ * (compat.h) keep the x/y and i/o pairs of the geometry apart. */
 BT_INLINE REAL mg_overlap_area_sphere(bt_vec3 vi, bt_vec3 vo, REAL h)
 {
     REAL ci_ = fmax(vi.z, MG_MIN_COS), co_ = fmax(vo.z, MG_MIN_COS);
-    REAL si = sqrt(vi.x * vi.x + vi.y * vi.y), so = sqrt(vo.x * vo.x + vo.y * vo.y);
-    if (!(h < si) || !(h < so) || !(h < R(1.0))) return R(0.0); /* case 1: a shadow absent */
+    REAL si = sqrt(vi.x * vi.x + BT_SLP_SPLIT(vi.y * vi.y));
+    REAL so = BT_SLP_SPLIT(sqrt(vo.x * vo.x + BT_SLP_SPLIT(vo.y * vo.y)));
+    int absent = !(h < si) || !(h < so) || !(h < R(1.0)); /* case 1: a shadow absent */
+    if (!BT_DEVICE && absent) return R(0.0);
     REAL rho = sqrt(fmax(R(1.0) - h * h, R(0.0)));
-    REAL wi = bt_safe_acos((h / rho) * (ci_ / si)); /* pi - phi_q */
-    REAL wo = bt_safe_acos((h / rho) * (co_ / so));
+    /* Two splits: with one, SLP still pairs the divisions through the
+     * product's other operand (it also tries an operand's operands). */
+    REAL wi = bt_safe_acos((h / rho) * BT_SLP_SPLIT(BT_SLP_SPLIT(ci_ / si))); /* pi - phi_q */
+    REAL wo = bt_safe_acos((h / rho) * BT_SLP_SPLIT(BT_SLP_SPLIT(co_ / so)));
     REAL cen_i = bt_atan2(vi.y, vi.x) + BT_PI;
-    REAL d = mg_wrap_pi(bt_atan2(vo.y, vo.x) + BT_PI - cen_i);
+    REAL d = mg_wrap_pi(BT_SLP_SPLIT(bt_atan2(vo.y, vo.x)) + BT_PI - cen_i);
     REAL lo = fmax(-wi, d - wo), hi = fmin(wi, d + wo);
-    if (!(hi > lo)) return R(0.0); /* case 1: disjoint arcs, no overlap */
+    int disjoint = !(hi > lo); /* case 1: disjoint arcs, no overlap */
+    if (!BT_DEVICE && disjoint) return R(0.0);
     /* Split angles: where L_h = {p : p.(i - o) = 0} meets E_h(i) (on L_h
      * both ellipses have the same radius).  Line: g . p_xy = c. */
-    REAL cuts[4];
-    int ncut = 0;
-    cuts[ncut++] = lo;
-    REAL gx = vi.x - vo.x, gy = vi.y - vo.y, g2 = gx * gx + gy * gy;
-    if (g2 > R(1e-24)) {
-        REAL c = -h * (vi.z - vo.z);
-        REAL px = gx * c / g2, py = gy * c / g2;  /* foot of the line */
-        REAL dx = -gy / sqrt(g2), dy = gx / sqrt(g2);
-        /* |p|^2 - (p.vi)^2 = 1 with p = (px + s dx, py + s dy, h). */
-        REAL pv = px * vi.x + py * vi.y + h * vi.z, dv = dx * vi.x + dy * vi.y;
-        REAL qa = R(1.0) - dv * dv;
-        REAL qb = R(2.0) * ((px * dx + py * dy) - pv * dv);
-        REAL qc = px * px + py * py + h * h - pv * pv - R(1.0);
-        REAL disc = qb * qb - R(4.0) * qa * qc;
-        if (disc > R(0.0) && qa > R(1e-30)) {
-            REAL sq = sqrt(disc);
-            for (int k = 0; k < 2; ++k) {
-                REAL s = (-qb + (k ? sq : -sq)) / (R(2.0) * qa);
-                REAL ang = mg_wrap_pi(bt_atan2(py + s * dy, px + s * dx) - cen_i);
-                if (ang > lo && ang < hi) cuts[ncut++] = ang;
-            }
-        }
+    REAL gx = vi.x - vo.x, gy = BT_SLP_SPLIT(vi.y - vo.y), g2 = gx * gx + BT_SLP_SPLIT(gy * gy);
+    REAL c = -h * (vi.z - vo.z);
+    REAL px = gx * c / g2, py = BT_SLP_SPLIT(gy * c / g2); /* foot of the line */
+    REAL dx = -gy / sqrt(g2), dy = BT_SLP_SPLIT(gx / sqrt(g2));
+    /* |p|^2 - (p.vi)^2 = 1 with p = (px + s dx, py + s dy, h). */
+    REAL pv = px * vi.x + BT_SLP_SPLIT(py * vi.y) + h * vi.z;
+    REAL dv = dx * vi.x + BT_SLP_SPLIT(dy * vi.y);
+    REAL qa = R(1.0) - dv * dv;
+    REAL qb = R(2.0) * ((px * dx + BT_SLP_SPLIT(py * dy)) - pv * dv);
+    REAL qc = px * px + BT_SLP_SPLIT(py * py) + h * h - pv * pv - R(1.0);
+    REAL disc = qb * qb - R(4.0) * qa * qc;
+    int roots = g2 > R(1e-24) && disc > R(0.0) && qa > R(1e-30);
+    REAL sq = sqrt(disc);
+    REAL s0 = (-qb + -sq) / (R(2.0) * qa), s1 = (-qb + sq) / (R(2.0) * qa);
+    REAL ang0 = hi, ang1 = hi;
+    if (BT_DEVICE || roots) {
+        ang0 = mg_wrap_pi(bt_atan2(py + s0 * dy, px + s0 * dx) - cen_i);
+        ang1 = mg_wrap_pi(BT_SLP_SPLIT(bt_atan2(py + s1 * dy, px + s1 * dx)) - cen_i);
     }
-    if (ncut == 3 && cuts[2] < cuts[1]) {
-        REAL tmp = cuts[1];
-        cuts[1] = cuts[2];
-        cuts[2] = tmp;
-    }
-    cuts[ncut++] = hi;
+    /* Cuts inside (lo, hi), in increasing order; a missing one is hi. */
+    REAL m0 = roots && ang0 > lo && ang0 < hi ? ang0 : hi;
+    REAL m1 = roots && ang1 > lo && ang1 < hi ? ang1 : hi;
+    int swap = m1 < m0;
+    REAL c0 = swap ? m1 : m0, c1 = swap ? m0 : m1;
     REAL area = R(0.0);
-    for (int k = 0; k + 1 < ncut; ++k) {
-        REAL a = cuts[k], b = cuts[k + 1];
-        if (!(b > a)) continue;
-        REAL mid = cen_i + R(0.5) * (a + b);
-        REAL ri = mg_ellipse_radius(vi, h, bt_cos(mid), bt_sin(mid));
-        REAL ro = mg_ellipse_radius(vo, h, bt_cos(mid), bt_sin(mid));
-        bt_vec3 inner = ri <= ro ? vi : vo; /* case 2 when one wins the whole arc */
-        area += mg_ellipse_sweep(inner, h, cen_i + a, cen_i + b) - R(0.5) * rho * rho * (b - a);
-    }
+    area += mg_overlap_piece(vi, vo, h, rho, cen_i, lo, c0);
+    area += mg_overlap_piece(vi, vo, h, rho, cen_i, c0, c1);
+    area += mg_overlap_piece(vi, vo, h, rho, cen_i, c1, hi);
     /* The overlap never exceeds either shadow.  The clamp only bites within
      * ~1e-6 rad of grazing, where the ellipses are ~1/cos long and the sweep
      * loses all digits to cancellation; it keeps G_dist <= min(G1(i), G1(o))
      * there (-> 0, the correct limit) instead of returning noise. */
-    REAL cap = fmin(mg_shadow_area_sphere(vi, h), mg_shadow_area_sphere(vo, h));
-    return bt_clamp(area, R(0.0), cap);
+    REAL cap = fmin(mg_shadow_area_sphere(vi, h), BT_SLP_SPLIT(mg_shadow_area_sphere(vo, h)));
+    REAL overlap = bt_clamp(area, R(0.0), cap);
+    return absent || disjoint ? R(0.0) : overlap;
 }
 
 /* -------------------------------------------- GAF terms, eqs. 16-19, 23 */
@@ -367,7 +390,7 @@ BT_INLINE REAL mg_g1_dist(bt_vec3 i, REAL h, REAL tau0, REAL bx, REAL by)
 BT_INLINE REAL mg_g_dist(bt_vec3 i, bt_vec3 o, REAL h, REAL tau0, REAL bx, REAL by, int corr)
 {
     bt_vec3 ip = mg_to_sphere_dir(i, bx, by), op = mg_to_sphere_dir(o, bx, by);
-    REAL a = mg_shadow_area_sphere(ip, h) + mg_shadow_area_sphere(op, h);
+    REAL a = mg_shadow_area_sphere(ip, h) + BT_SLP_SPLIT(mg_shadow_area_sphere(op, h));
     if (corr == MG_CORR_DIRECTION) a -= mg_overlap_area_sphere(ip, op, h); /* eq. 18 */
     return bt_exp(mg_log1m(tau0) * BT_INV_PI * fmax(a, R(0.0)));
 }
