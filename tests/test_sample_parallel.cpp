@@ -7,7 +7,12 @@
 // of the models whose integrals the engine runs sample-parallel.
 #include <doctest/doctest.h>
 
+#include <cmath>
 #include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <unistd.h>
 #include <map>
 #include <string>
 #include <vector>
@@ -94,6 +99,79 @@ TEST_CASE("sample-parallel launches give the usual kernel's bits on every MC/RQM
     }
 }
 
+TEST_CASE("fixed-step searches: every unfinished sample is redone, the bits are the usual kernel's") {
+    // interfaced-lambertian's body with Beckmann visible normals runs its
+    // sample-parallel kernels with microfacet.h's fixed-step search
+    // (BT_MF_SOLVE_STEPS) and a redo kernel for the samples whose search had
+    // not ended.  With one step each (BRDFTAB_FIXED_SOLVER_STEPS=1,1) nearly
+    // every sample takes the redo; with the defaults (4, 3) a few do.  Both
+    // must give the bits of the usual kernel, which always runs the loop.
+    auto device = make_backend("", Precision::Double);
+    const ModelInfo& m = find_model("interfaced-lambertian");
+    const QuantityInfo& q = m.quantity("body");
+    for (const char* distribution : {"beckmann-smith", "beckmann-ts"}) {
+        for (Method method : {Method::MonteCarlo, Method::Rqmc}) {
+            const std::string method_name = to_string(method);
+            CAPTURE(distribution);
+            CAPTURE(method_name);
+            auto cells = test_cells(m, q, 4);
+            IntegrationSettings s;
+            s.method = method;
+            s.samples = 256;
+            s.batch_size = 64;
+            s.seed = 5;
+            const nlohmann::json given = {{"distribution", distribution}, {"sampling", "visible"}};
+            EstimateResult usual;
+            {
+                ScopedEnv off("BRDFTAB_SAMPLE_PARALLEL", "0");
+                usual = estimate_cells(*device, m, q, cells, s, given);
+            }
+            ScopedEnv on("BRDFTAB_SAMPLE_PARALLEL", "1");
+            for (const std::string steps : {"1,1", "2,1", "default"}) {
+                CAPTURE(steps);
+                ScopedEnv fixed("BRDFTAB_FIXED_SOLVER_STEPS",
+                                steps == "default" ? nullptr : steps.c_str());
+                check_same_bits(usual, estimate_cells(*device, m, q, cells, s, given));
+            }
+        }
+    }
+}
+
+TEST_CASE("fixed-step searches: without the redo kernel, unfinished samples show (the test bites)") {
+    // The same kernels from a copy of kernels/ whose redo kernel does
+    // nothing: with one step per search many samples are unfinished (NaN),
+    // and so are the values of the cells that hold one.  Shows that the launches above do take
+    // the fixed-step path and that the redo kernel is what repairs it.
+    namespace fs = std::filesystem;
+    const fs::path dir = fs::temp_directory_path() / ("bt_test_redo_" + std::to_string(::getpid()));
+    fs::remove_all(dir);
+    fs::copy(fs::path(BT_SOURCE_DIR) / "kernels", dir, fs::copy_options::recursive);
+    {
+        const fs::path estimator = dir / "common" / "estimator.h";
+        std::ifstream in(estimator);
+        std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+        const std::string guard = "if ((redo) && scratch[gid] == scratch[gid]) return;";
+        const auto at = text.find(guard);
+        REQUIRE(at != std::string::npos);
+        text.replace(at, guard.size(), "if (redo) return;");
+        std::ofstream(estimator) << text;
+    }
+    auto device = make_backend("", Precision::Double, dir.string());
+    const ModelInfo& m = find_model("interfaced-lambertian");
+    const QuantityInfo& q = m.quantity("body");
+    IntegrationSettings s;
+    s.method = Method::MonteCarlo;
+    s.samples = 256;
+    s.batch_size = 64;
+    ScopedEnv on("BRDFTAB_SAMPLE_PARALLEL", "1");
+    ScopedEnv fixed("BRDFTAB_FIXED_SOLVER_STEPS", "1,1");
+    const EstimateResult r = estimate_cells(*device, m, q, test_cells(m, q, 4), s);
+    std::size_t nan_cells = 0;
+    for (double v : r.value) nan_cells += std::isnan(v) ? 1 : 0;
+    CHECK(nan_cells > 0);  // 3 of the 4 cells, measured
+    fs::remove_all(dir);
+}
+
 TEST_CASE("sample-parallel: splits, odd batch sizes, caps below a batch and adaptive runs") {
     // rough-dielectric albedo_r: MC batches of 37 samples (a group of 64
     // work items spans two cells), many sub-launch sizes, and a cap below one
@@ -144,11 +222,11 @@ TEST_CASE("sample-parallel defaults name existing Monte Carlo / RQMC quantities 
         CHECK(q.kind != QuantityKind::ClosedForm);
         CHECK((c.method == Method::MonteCarlo || c.method == Method::Rqmc));
         nlohmann::json given = nlohmann::json::object();
-        if (!c.option.empty()) {
-            const OptionInfo* o = m.find_option(c.option);
+        for (const auto& [name, choice] : c.options) {
+            const OptionInfo* o = m.find_option(name);
             REQUIRE(o != nullptr);
-            CHECK(o->index_of(c.choice) >= 0);
-            given[c.option] = c.choice;
+            CHECK(o->index_of(choice) >= 0);
+            given[name] = choice;
         }
         const std::vector<int> options = resolve_options(m, given, "test");
         CHECK(sample_parallel_by_default(m, q, c.method, options));
@@ -157,7 +235,7 @@ TEST_CASE("sample-parallel defaults name existing Monte Carlo / RQMC quantities 
         bool other_listed = false;
         for (const SampleParallelCase& d : sample_parallel_default_cases())
             other_listed |= d.model == c.model && d.quantity == c.quantity && d.method == other &&
-                            d.option == c.option && d.choice == c.choice;
+                            d.options == c.options;
         CHECK(sample_parallel_by_default(m, q, other, options) == other_listed);
     }
     // Measured slower, so not by default (docs/benchmarks.md).
@@ -169,9 +247,19 @@ TEST_CASE("sample-parallel defaults name existing Monte Carlo / RQMC quantities 
     // RQMC by default where its sampler vectorises across work items (GGX).
     CHECK(sample_parallel_by_default(rd, rd.quantity("albedo_t"), Method::Rqmc,
                                      resolve_options(rd, {{"distribution", "ggx"}}, "")));
+    // interfaced-lambertian's body: its defaults (Beckmann-Smith, visible
+    // normals) and GGX-Smith, not the other pairs (session 13).
     const ModelInfo& il = find_model("interfaced-lambertian");
-    CHECK_FALSE(sample_parallel_by_default(il, il.quantity("body"), Method::Rqmc,
-                                           resolve_options(il, nlohmann::json::object(), "")));
+    const QuantityInfo& body = il.quantity("body");
+    CHECK(sample_parallel_by_default(il, body, Method::Rqmc,
+                                     resolve_options(il, nlohmann::json::object(), "")));
+    CHECK_FALSE(sample_parallel_by_default(il, body, Method::Rqmc,
+                                           resolve_options(il, {{"sampling", "distribution"}}, "")));
+    CHECK(sample_parallel_by_default(il, body, Method::MonteCarlo,
+                                     resolve_options(il, {{"distribution", "ggx-smith"}, {"sampling", "distribution"}}, "")));
+    for (const char* other : {"beckmann-ts", "gaussian-ts"})
+        CHECK_FALSE(sample_parallel_by_default(il, body, Method::MonteCarlo,
+                                               resolve_options(il, {{"distribution", other}}, "")));
     const ModelInfo& mg = find_model("micrograin");
     CHECK_FALSE(sample_parallel_by_default(mg, mg.quantity("brdf"), Method::Rqmc,
                                            resolve_options(mg, nlohmann::json::object(), "")));

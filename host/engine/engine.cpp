@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdio>
 #include <cstdlib>
 #include <deque>
 #include <cmath>
@@ -141,16 +142,27 @@ private:
 // (0.6-1.0x): every RQMC case (the scrambled Sobol sampler keeps the loop
 // scalar), Beckmann and Phong albedos, interfaced-lambertian body and vcavity,
 // lambert-sphere brdf_mc, micrograin brdf (calls, loops of data-dependent
-// length or inner sums in the sample function).
+// length or inner sums in the sample function).  Since then: RQMC for GGX
+// albedos (session 8) and interfaced-lambertian's body (session 13) with
+// Beckmann-Smith visible normals (a fixed-step search, uses_fixed_step_solver;
+// 2.2x less CPU time) and with GGX-Smith (1.2-1.4x); not with Beckmann-TS,
+// Gaussian-TS or Beckmann normals sampled from the distribution (measured
+// 1.4-1.9x slower; "Session 13: interfaced-lambertian's body").
 const std::vector<SampleParallelCase>& sample_parallel_default_cases() {
     static const std::vector<SampleParallelCase> cases = {
-        {"rough-dielectric", "albedo_r", Method::MonteCarlo, "distribution", "ggx"},
-        {"rough-dielectric", "albedo_t", Method::MonteCarlo, "distribution", "ggx"},
-        {"rough-dielectric", "albedo_avg", Method::MonteCarlo, "distribution", "ggx"},
+        {"rough-dielectric", "albedo_r", Method::MonteCarlo, {{"distribution", "ggx"}}},
+        {"rough-dielectric", "albedo_t", Method::MonteCarlo, {{"distribution", "ggx"}}},
+        {"rough-dielectric", "albedo_avg", Method::MonteCarlo, {{"distribution", "ggx"}}},
         // RQMC since the sampler vectorises across work items (kernels/common/sobol.h).
-        {"rough-dielectric", "albedo_r", Method::Rqmc, "distribution", "ggx"},
-        {"rough-dielectric", "albedo_t", Method::Rqmc, "distribution", "ggx"},
-        {"rough-dielectric", "albedo_avg", Method::Rqmc, "distribution", "ggx"},
+        {"rough-dielectric", "albedo_r", Method::Rqmc, {{"distribution", "ggx"}}},
+        {"rough-dielectric", "albedo_t", Method::Rqmc, {{"distribution", "ggx"}}},
+        {"rough-dielectric", "albedo_avg", Method::Rqmc, {{"distribution", "ggx"}}},
+        {"interfaced-lambertian", "body", Method::MonteCarlo,
+         {{"distribution", "beckmann-smith"}, {"sampling", "visible"}}},
+        {"interfaced-lambertian", "body", Method::Rqmc,
+         {{"distribution", "beckmann-smith"}, {"sampling", "visible"}}},
+        {"interfaced-lambertian", "body", Method::MonteCarlo, {{"distribution", "ggx-smith"}}},
+        {"interfaced-lambertian", "body", Method::Rqmc, {{"distribution", "ggx-smith"}}},
     };
     return cases;
 }
@@ -180,10 +192,15 @@ bool sample_parallel_by_default(const ModelInfo& model, const QuantityInfo& quan
                                 Method method, const std::vector<int>& options) {
     for (const SampleParallelCase& c : sample_parallel_default_cases()) {
         if (c.model != model.name || c.quantity != quantity.name || c.method != method) continue;
-        if (c.option.empty()) return true;
-        for (std::size_t k = 0; k < model.options.size() && k < options.size(); ++k)
-            if (model.options[k].name == c.option)
-                return options[k] == model.options[k].index_of(c.choice);
+        bool all = true;
+        for (const auto& [name, choice] : c.options) {
+            bool set = false;
+            for (std::size_t k = 0; k < model.options.size() && k < options.size(); ++k)
+                if (model.options[k].name == name)
+                    set = options[k] == model.options[k].index_of(choice);
+            all = all && set;
+        }
+        if (all) return true;
     }
     return false;
 }
@@ -500,9 +517,34 @@ private:
     // The sample-parallel pair of kernels (kernels/common/estimator.h,
     // BT_DEFINE_SAMPLE_PARALLEL_KERNELS) of one (model, quantity, options,
     // method).
+    // With `redo`: the sample and reduce kernels come from a fixed-step
+    // build (uses_fixed_step_solver), and redo, from the usual build,
+    // computes again every sample that build left as NaN.
     struct SampleParallelKernels {
-        cl::Kernel sample, reduce;
+        cl::Kernel sample, reduce, redo;
+        bool has_redo = false;
     };
+
+    // Launches whose sample-parallel kernels use microfacet.h's fixed-step
+    // search (BT_MF_SOLVE_STEPS: interfaced-lambertian's body with Beckmann
+    // normals, double precision): the search's loop is what kept the work-item
+    // loop scalar; with a fixed number of steps it vectorises, and the rare
+    // sample whose search has not ended is redone with the loop, so the
+    // values are the usual kernel's (docs/benchmarks.md, "Session 13").
+    bool uses_fixed_step_solver(const BatchLaunch& l) const {
+        if (precision_ != Precision::Double || !runtime_.device_info().has_fp64) return false;
+        const ModelInfo& m = *l.model;
+        if (m.name != "interfaced-lambertian") return false;
+        bool body = false;
+        for (const QuantityInfo& q : m.quantities)
+            if (q.id == l.quantity) body = q.name == "body";
+        if (!body) return false;
+        for (std::size_t k = 0; k < m.options.size() && k < l.options.size(); ++k)
+            if (m.options[k].name == "distribution")
+                return l.options[k] == m.options[k].index_of("beckmann-smith") ||
+                       l.options[k] == m.options[k].index_of("beckmann-ts");
+        return false;
+    }
 
     // Whether this launch runs sample-parallel: only Monte Carlo / RQMC
     // batches of several samples that fit the scratch cap, and then as
@@ -595,6 +637,11 @@ private:
         const int sample_first_arg = set_work_args(k.sample, l);  // first_work, n_samples
         k.sample.setArg(sample_first_arg + 2, static_cast<cl_uint>(batch));
         k.sample.setArg(sample_first_arg + 3, scratch_);
+        if (k.has_redo) {  // the sample kernel's arguments
+            set_work_args(k.redo, l);
+            k.redo.setArg(sample_first_arg + 2, static_cast<cl_uint>(batch));
+            k.redo.setArg(sample_first_arg + 3, scratch_);
+        }
         k.reduce.setArg(0, scratch_);
         k.reduce.setArg(3, static_cast<cl_uint>(batch));
         k.reduce.setArg(4, out_mean_);
@@ -606,6 +653,11 @@ private:
             k.sample.setArg(sample_first_arg, static_cast<cl_uint>(first));
             k.sample.setArg(sample_first_arg + 1, static_cast<cl_uint>(samples));
             queue.enqueueNDRangeKernel(k.sample, cl::NullRange, cl::NDRange(padded_global(samples)), local);
+            if (k.has_redo) {
+                k.redo.setArg(sample_first_arg, static_cast<cl_uint>(first));
+                k.redo.setArg(sample_first_arg + 1, static_cast<cl_uint>(samples));
+                queue.enqueueNDRangeKernel(k.redo, cl::NullRange, cl::NDRange(padded_global(samples)), local);
+            }
             k.reduce.setArg(1, static_cast<cl_uint>(first));
             k.reduce.setArg(2, static_cast<cl_uint>(count));
             queue.enqueueNDRangeKernel(k.reduce, cl::NullRange, cl::NDRange(padded_global(count)), local);
@@ -615,15 +667,36 @@ private:
     SampleParallelKernels& sample_parallel_kernels_for(const BatchLaunch& l) {
         const ModelInfo& model = *l.model;
         const std::string options = build_options(l);
-        const std::string key = model.name + "\n" + options;
+        const bool fixed = uses_fixed_step_solver(l);
+        std::string fixed_options;
+        if (fixed) {
+            fixed_options = options + " -D BT_MF_SOLVE_STEPS=1";
+            // BRDFTAB_FIXED_SOLVER_STEPS="X,Y": other step counts for the x
+            // and y searches (tests: 1,1 makes most samples take the redo).
+            const char* env = std::getenv("BRDFTAB_FIXED_SOLVER_STEPS");
+            int sx = 0, sy = 0;
+            if (env && std::sscanf(env, "%d,%d", &sx, &sy) == 2 && sx > 0 && sy > 0)
+                fixed_options += " -D BT_MF_SOLVE_STEPS_X=" + std::to_string(sx) +
+                                 " -D BT_MF_SOLVE_STEPS_Y=" + std::to_string(sy);
+        }
+        const std::string key = model.name + "\n" + options + "\n" + fixed_options;
         auto it = sample_parallel_kernels_.find(key);
         if (it != sample_parallel_kernels_.end()) return it->second;
         const std::string source =
             sample_parallel_kernel_source(model.kernel_header, model.sample_function, kernel_dir_);
         cl::Program program = cached_program(runtime_, source, options);
         try {
-            SampleParallelKernels k{cl::Kernel(program, kSampleKernelName),
-                                    cl::Kernel(program, kReduceKernelName)};
+            SampleParallelKernels k;
+            if (fixed) {
+                cl::Program fixed_program = cached_program(runtime_, source, fixed_options);
+                k.sample = cl::Kernel(fixed_program, kSampleKernelName);
+                k.reduce = cl::Kernel(fixed_program, kReduceKernelName);
+                k.redo = cl::Kernel(program, kRedoKernelName);
+                k.has_redo = true;
+            } else {
+                k.sample = cl::Kernel(program, kSampleKernelName);
+                k.reduce = cl::Kernel(program, kReduceKernelName);
+            }
             return sample_parallel_kernels_.emplace(key, std::move(k)).first->second;
         } catch (const cl::Error& e) {
             throw OpenCLError(e.what(), e.err(), "sample-parallel entry points of model '" +

@@ -156,14 +156,18 @@ std::unique_ptr<Backend> make_backend(const std::string& device_selector,
 // lists (measured faster, docs/benchmarks.md); the environment variable
 // BRDFTAB_SAMPLE_PARALLEL=1 forces it for every Monte Carlo / RQMC launch of
 // more than one sample per batch, =0 turns it off.
+// interfaced-lambertian's body with Beckmann normals runs a build whose
+// visible-normal searches take a fixed number of steps, and a redo kernel
+// for the samples whose search had not ended (BRDFTAB_FIXED_SOLVER_STEPS=
+// "X,Y" sets other step counts, for tests; engine.cpp, uses_fixed_step_solver).
 // BRDFTAB_SAMPLE_PARALLEL_SCRATCH=N caps a sub-launch at N samples (default
 // 2^22; a batch larger than the cap runs the usual kernel).  Quadratures have
 // their own switch, BRDFTAB_NODE_PARALLEL (node-parallel launches, below).
 struct SampleParallelCase {
     std::string model, quantity;
     Method method;       // MonteCarlo or Rqmc
-    std::string option;  // "" = any options; else only with option == choice
-    std::string choice;
+    // Only with every listed option set to its choice (none: any options).
+    std::vector<std::pair<std::string, std::string>> options;
 };
 const std::vector<SampleParallelCase>& sample_parallel_default_cases();
 // Whether a launch of `quantity` of `model` by `method` with these option

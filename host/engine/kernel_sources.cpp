@@ -228,7 +228,7 @@ std::string sample_parallel_kernel_source(const std::string& kernel_header,
     source += load_kernel_source(kernel_header, kernel_dir);
     source += "#line 1 \"generated sample-parallel entry points for " + kernel_header + "\"\n";
     source += "BT_DEFINE_SAMPLE_PARALLEL_KERNELS(" + std::string(kSampleKernelName) + ", " +
-              kReduceKernelName + ", " + sample_function + ")\n";
+              kReduceKernelName + ", " + kRedoKernelName + ", " + sample_function + ")\n";
     return source;
 }
 

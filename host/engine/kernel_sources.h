@@ -19,6 +19,7 @@ constexpr const char* kEstimateKernelName = "bt_estimate";
 // The two entry points sample_parallel_kernel_source() generates.
 constexpr const char* kSampleKernelName = "bt_sample";
 constexpr const char* kReduceKernelName = "bt_reduce";
+constexpr const char* kRedoKernelName = "bt_sample_redo";
 // The three entry points node_parallel_kernel_source() generates.
 constexpr const char* kNodePrepareKernelName = "bt_node_prepare";
 constexpr const char* kNodeKernelName = "bt_node";
@@ -40,8 +41,9 @@ std::string load_kernel_source(const std::string& relative_path,
 std::string estimate_kernel_source(const std::string& kernel_header,
                                    const std::string& sample_function,
                                    const std::string& kernel_dir = "");
-// The same program with the sample-parallel pair of entry points instead
-// (BT_DEFINE_SAMPLE_PARALLEL_KERNELS(bt_sample, bt_reduce, sample_function)):
+// The same program with the sample-parallel entry points instead
+// (BT_DEFINE_SAMPLE_PARALLEL_KERNELS(bt_sample, bt_reduce, bt_sample_redo,
+// sample_function)):
 // a separate program, so that the usual one keeps its source (and PoCL's
 // cache entries) and its build time.
 std::string sample_parallel_kernel_source(const std::string& kernel_header,

@@ -70,6 +70,7 @@
 #define bt_tan(x) tan(x)
 #define bt_exp(x) exp(x)
 #define bt_log(x) log(x)
+#define bt_log_split(x) log(x)
 #define bt_log1p(x) log1p(x)
 #define bt_atan(x) atan(x)
 #define bt_atan2(y, x) atan2((y), (x))
@@ -278,13 +279,14 @@ BT_MATH_INLINE double bt_exp(double x)
  * Written as f - s (f - R), R = 2 (s^2/3 + ...), because 2s = f - s f: the
  * exact f carries the result and the correction is at most 0.17 f.  Then
  * log x = k LN2_HI + (log(1 + f) + k LN2_LO), k LN2_HI exact. */
-BT_MATH_INLINE double bt_log(double x)
+BT_MATH_INLINE double bt_log_impl(double x, int split)
 {
     int tiny = x < 2.2250738585072014e-308; /* denormal (or <= 0) */
     double xs = tiny ? x * 18014398509481984.0 : x; /* 2^54 */
     bt_i64 bits = bt_bits_of(xs);
     int k = (int)((bits >> 52) & 0x7ff) - 1023 - (tiny ? 54 : 0);
     double m = bt_double_of((bits & 0x000fffffffffffffLL) | 0x3ff0000000000000LL);
+    m = split ? BT_SLP_SPLIT(m) : m;
     int big = m > 1.41421356237309504880;
     m = big ? 0.5 * m : m;
     k += big;
@@ -308,6 +310,11 @@ BT_MATH_INLINE double bt_log(double x)
     double special = x == 0.0 ? -inf : (x == inf ? inf : BT_M_NAN);
     return ((x > 0.0) & (x < inf)) ? v : special;
 }
+
+BT_MATH_INLINE double bt_log(double x) { return bt_log_impl(x, 0); }
+/* The same value as bt_log; for the second of two logs that clang's SLP
+ * vectoriser would otherwise pack (compat.h, BT_SLP_SPLIT). */
+BT_MATH_INLINE double bt_log_split(double x) { return bt_log_impl(x, 1); }
 
 /* log(1 + x) for x >= -1: with u = 1 + x rounded, log u - ((u - 1) - x) / u
  * corrects the first-order effect of the rounding of u (the error left is

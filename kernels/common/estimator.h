@@ -221,22 +221,25 @@
  * the Welford updates run in the same order on the same values, so mean and
  * M2 are bit for bit those of bt_estimate (tests/test_sample_parallel.cpp
  * checks it on every Monte Carlo quantity).  The sample kernel's body has no
- * loop around the sample function, so the work-item loop is innermost. */
+ * loop around the sample function, so the work-item loop is innermost.
+ *   redo_kernel    the sample kernel again, for the slots that hold NaN only.
+ * The engine runs it, from the usual build, after the sample kernel of a
+ * build whose searches take a fixed number of steps (BT_MF_SOLVE_STEPS,
+ * microfacet.h: a search that has not ended then makes its sample NaN), so
+ * that every slot ends up with the usual build's value. */
 #define BT_DEFINE_SAMPLE_PARALLEL_KERNELS(sample_kernel, reduce_kernel,        \
-                                          sample_fn)                           \
+                                          redo_kernel, sample_fn)              \
     __kernel void sample_kernel(                                               \
         BT_WORK_KERNEL_PARAMS, uint first_work, uint n_samples, uint batch_size, \
         __global ACCUM* scratch)                                               \
     {                                                                          \
-        const uint gid = (uint)get_global_id(0);                               \
-        if (gid >= n_samples) return;                                          \
-        const uint batch_size_ = BT_KERNEL_BATCH_SIZE_(batch_size);            \
-        const uint item = gid / batch_size_;                                   \
-        const uint w = first_work + item;                                      \
-        BT_KERNEL_LOAD_WORK_(w)                                                \
-        s.sample = gid - item * batch_size_;                                   \
-        scratch[gid] =                                                         \
-            (ACCUM)sample_fn(p, o, BT_KERNEL_QUANTITY_(quantity), &s);         \
+        BT_SAMPLE_PARALLEL_BODY_(sample_fn, 0)                                 \
+    }                                                                          \
+    __kernel void redo_kernel(                                                 \
+        BT_WORK_KERNEL_PARAMS, uint first_work, uint n_samples, uint batch_size, \
+        __global ACCUM* scratch)                                               \
+    {                                                                          \
+        BT_SAMPLE_PARALLEL_BODY_(sample_fn, 1)                                 \
     }                                                                          \
     __kernel void reduce_kernel(__global const ACCUM* scratch,                 \
                                 uint first_work, uint n_work,                  \
@@ -252,6 +255,19 @@
         out_mean[first_work + item] = mean;                                    \
         out_m2[first_work + item] = m2;                                        \
     }
+/* The sample kernel's body; with redo = 1 only the slots that hold NaN are
+ * computed again (the redo kernel: see BT_MF_SOLVE_STEPS in microfacet.h). */
+#define BT_SAMPLE_PARALLEL_BODY_(sample_fn, redo)                              \
+        const uint gid = (uint)get_global_id(0);                               \
+        if (gid >= n_samples) return;                                          \
+        if ((redo) && scratch[gid] == scratch[gid]) return;                    \
+        const uint batch_size_ = BT_KERNEL_BATCH_SIZE_(batch_size);            \
+        const uint item = gid / batch_size_;                                   \
+        const uint w = first_work + item;                                      \
+        BT_KERNEL_LOAD_WORK_(w)                                                \
+        s.sample = gid - item * batch_size_;                                   \
+        scratch[gid] =                                                         \
+            (ACCUM)sample_fn(p, o, BT_KERNEL_QUANTITY_(quantity), &s);
 #else
 typedef REAL (*bt_sample_fn)(const REAL* point, const int* options,
                              int quantity, const bt_sampler* sampler);

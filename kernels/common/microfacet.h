@@ -340,14 +340,14 @@ BT_INLINE REAL bt_mf_g_over_g1(const bt_microfacet* mf, REAL gv, bt_vec3 o, bt_v
 /* Stretched view (V1), with a strictly positive z. */
 BT_INLINE bt_vec3 bt_mf_stretch_view(bt_vec3 v, REAL ax, REAL ay)
 {
-    return bt_v3_normalize(bt_v3(ax * v.x, ay * v.y, fmax(v.z, R(1e-30))));
+    return bt_v3_normalize(bt_v3(ax * v.x, BT_SLP_SPLIT(ay * v.y), fmax(v.z, R(1e-30))));
 }
 
 /* Unstretch a unit-width normal; the z clamp keeps a rounding-level negative
  * z from flipping the facet. */
 BT_INLINE bt_vec3 bt_mf_unstretch_normal(bt_vec3 mt, REAL ax, REAL ay)
 {
-    return bt_v3_normalize(bt_v3(ax * mt.x, ay * mt.y, fmax(mt.z, R(0.0))));
+    return bt_v3_normalize(bt_v3(ax * mt.x, BT_SLP_SPLIT(ay * mt.y), fmax(mt.z, R(0.0))));
 }
 
 /* ---------------- GGX (Heitz 2018, JCGT 7(4))
@@ -418,35 +418,94 @@ BT_INLINE bt_vec3 bt_ggx_sample_visible(bt_vec3 v, REAL ax, REAL ay, REAL u0, RE
 #endif
 #define BT_MF_SLOPE_MAX R(7.0)
 #define BT_MF_SOLVE_ITERS 80
+/* Steps of the fixed-step form (BT_MF_SOLVE_STEPS builds, below), chosen by
+ * measurement.  Steps the loop takes (2 million uniform u on the 2^-32 grid,
+ * mu = cot theta log-uniform in [1e-3, 1e3], host): the y search 1-3 (mean
+ * 2.23), the x search 2-4 for 99.9 % (mean 3.16; 5-12 for 2331 of them).
+ * interfaced-lambertian's body (`brdftab bench`), device per CPU-second over
+ * the serial host's, two rounds: (x, y) = (4, 3) 3.65-3.82, (5, 3) 3.37-3.44,
+ * (6, 3) 3.09-3.20, (3, 3) 2.06-2.10, (4, 2) 2.11-2.15 (fewer steps: more
+ * samples redone; the usual kernel: 1.66-1.72). */
+#ifndef BT_MF_SOLVE_STEPS_X
+#define BT_MF_SOLVE_STEPS_X 4
+#endif
+#ifndef BT_MF_SOLVE_STEPS_Y
+#define BT_MF_SOLVE_STEPS_Y 3
+#endif
+
+/* One step of the search: Halley on L with the bracket [lo, hi].  Returns 1
+ * when the search has ended, with the answer in *x. */
+BT_INLINE int bt_mf_solve_step(REAL a, REAL b, REAL target, REAL* lo, REAL* hi, REAL* x)
+{
+    const REAL k = R(1.12837916709551257390) * a; /* 2a / sqrt(pi) */
+    REAL xc = *x;
+    REAL e = bt_exp(-xc * xc);
+    REAL c = a * bt_erfc(-xc) + b * e;
+    REAL g = bt_log(c) - target;
+    if (g == R(0.0)) return 1;
+    if (g > R(0.0)) *hi = xc; else *lo = xc;
+    REAL d1 = e * (k - R(2.0) * b * xc) / c;                           /* L' >= 0 for x <= mu */
+    REAL d2 = e * (-R(2.0) * b - R(2.0) * xc * (k - R(2.0) * b * xc)) / c - d1 * d1; /* L'' */
+    /* Halley's step (cubic convergence; Newton's when L'' = 0). */
+    REAL den = R(2.0) * d1 * d1 - g * d2;
+    REAL xn = den > R(0.0) ? xc - R(2.0) * g * d1 / den : R(0.5) * (*lo + *hi);
+    /* A converged step may land on the bracket's end: once the correction
+     * is below half an ulp, xn == x, and x has just become lo or hi.
+     * That ends the search here; the test below would reject it as
+     * outside and bisect, and every later Halley step would land on the
+     * same end again: bisection alone then shrank the bracket, 8 to 34
+     * steps in all for about 3 % of the x solves (measured over uniform
+     * u and directions: mean 3.68 steps per x solve before, 3.34 after,
+     * at most 12). */
+    *x = xn;
+    if (fabs(xn - xc) <= BT_MF_SOLVE_TOL * (R(1.0) + fabs(xn)) && xn >= *lo && xn <= *hi) return 1;
+    if (!(xn > *lo && xn < *hi)) xn = R(0.5) * (*lo + *hi); /* also catches NaN */
+    *x = xn;
+    REAL tol = BT_MF_SOLVE_TOL * (R(1.0) + fabs(xn));
+    return fabs(xn - xc) <= tol || *hi - *lo <= tol;
+}
+
+#if BT_DEVICE && defined(BT_MF_SOLVE_STEPS) && !(defined(BT_REAL_IS_FLOAT) && BT_REAL_IS_FLOAT)
+#define BT_MF_FIXED_STEPS 1
+#else
+#define BT_MF_FIXED_STEPS 0
+#endif
+#if BT_MF_FIXED_STEPS
+/* Device builds with BT_MF_SOLVE_STEPS (the engine's sample-parallel kernels
+ * of interfaced-lambertian's body): exactly `steps` steps, a lane that has
+ * ended keeps its answer through selects, so the work-item loop has no loop
+ * of its own and vectorises; a search that has not ended by then returns NaN,
+ * and the engine's redo kernel computes that sample again with the loop
+ * below (kernels/common/estimator.h), so every sample is the loop's value. */
+BT_INLINE REAL bt_mf_solve_log_cdf_steps(REAL a, REAL b, REAL target, REAL lo, REAL hi, REAL x,
+                                         int steps)
+{
+    int done = 0;
+    BT_MATH_UNROLL
+    for (int it = 0; it < steps; ++it) {
+        REAL l = lo, h = hi, xs = x;
+        int ended = bt_mf_solve_step(a, b, target, &l, &h, &xs);
+        lo = done ? lo : l;
+        hi = done ? hi : h;
+        x = done ? x : xs;
+        done = done | ended;
+    }
+    return done ? x : (REAL)NAN;
+}
+#define BT_MF_SOLVE(a, b, target, lo, hi, x, steps) \
+    bt_mf_solve_log_cdf_steps((a), (b), (target), (lo), (hi), (x), (steps))
+/* m from bt_mf_sample_visible is NaN: a search has not ended (redo). */
+#define BT_MF_UNFINISHED(m) ((m).z != (m).z)
+#else
+#define BT_MF_SOLVE(a, b, target, lo, hi, x, steps) \
+    bt_mf_solve_log_cdf((a), (b), (target), (lo), (hi), (x))
+#define BT_MF_UNFINISHED(m) 0
+#endif
 
 BT_INLINE REAL bt_mf_solve_log_cdf(REAL a, REAL b, REAL target, REAL lo, REAL hi, REAL x)
 {
-    const REAL k = R(1.12837916709551257390) * a; /* 2a / sqrt(pi) */
-    for (int it = 0; it < BT_MF_SOLVE_ITERS; ++it) {
-        REAL e = bt_exp(-x * x);
-        REAL c = a * bt_erfc(-x) + b * e;
-        REAL g = bt_log(c) - target;
-        if (g == R(0.0)) return x;
-        if (g > R(0.0)) hi = x; else lo = x;
-        REAL d1 = e * (k - R(2.0) * b * x) / c;                          /* L' >= 0 for x <= mu */
-        REAL d2 = e * (-R(2.0) * b - R(2.0) * x * (k - R(2.0) * b * x)) / c - d1 * d1; /* L'' */
-        /* Halley's step (cubic convergence; Newton's when L'' = 0). */
-        REAL den = R(2.0) * d1 * d1 - g * d2;
-        REAL xn = den > R(0.0) ? x - R(2.0) * g * d1 / den : R(0.5) * (lo + hi);
-        /* A converged step may land on the bracket's end: once the correction
-         * is below half an ulp, xn == x, and x has just become lo or hi.
-         * That ends the search here; the test below would reject it as
-         * outside and bisect, and every later Halley step would land on the
-         * same end again: bisection alone then shrank the bracket, 8 to 34
-         * steps in all for about 3 % of the x solves (measured over uniform
-         * u and directions: mean 3.68 steps per x solve before, 3.34 after,
-         * at most 12). */
-        if (fabs(xn - x) <= BT_MF_SOLVE_TOL * (R(1.0) + fabs(xn)) && xn >= lo && xn <= hi) return xn;
-        if (!(xn > lo && xn < hi)) xn = R(0.5) * (lo + hi); /* also catches NaN */
-        REAL tol = BT_MF_SOLVE_TOL * (R(1.0) + fabs(xn));
-        if (fabs(xn - x) <= tol || hi - lo <= tol) return xn;
-        x = xn;
-    }
+    for (int it = 0; it < BT_MF_SOLVE_ITERS; ++it)
+        if (bt_mf_solve_step(a, b, target, &lo, &hi, &x)) return x;
     return x;
 }
 
@@ -456,7 +515,7 @@ BT_INLINE REAL bt_mf_erfinv_unit_guess(REAL u)
 {
     const REAL k = R(4.33074675)    /* 2 / (pi 0.147) */, inv_a = R(6.80272109); /* 1/0.147 */
     REAL q = fmax(fmin(u, R(1.0) - u), R(1e-30));
-    REAL l = bt_log(R(4.0) * q * (R(1.0) - q));
+    REAL l = bt_log_split(R(4.0) * q * (R(1.0) - q)); /* not packed with bt_log(q) */
     REAL t = k + R(0.5) * l;
     REAL y = bt_safe_sqrt(bt_safe_sqrt(t * t - l * inv_a) - t);
     return u < R(0.5) ? -y : y;
@@ -470,7 +529,7 @@ BT_INLINE REAL bt_mf_erfinv_unit(REAL u)
     REAL q = flip ? R(1.0) - u : u;
     q = fmax(q, R(1e-30)); /* u = 0 -> the range cut at -7 */
     REAL x0 = fmax(bt_mf_erfinv_unit_guess(q), -BT_MF_SLOPE_MAX + R(0.5));
-    REAL y = bt_mf_solve_log_cdf(R(0.5), R(0.0), bt_log(q), -BT_MF_SLOPE_MAX, R(0.0), x0);
+    REAL y = BT_MF_SOLVE(R(0.5), R(0.0), bt_log(q), -BT_MF_SLOPE_MAX, R(0.0), x0, BT_MF_SOLVE_STEPS_Y);
     return flip ? -y : y;
 }
 
@@ -489,7 +548,7 @@ BT_INLINE REAL bt_beckmann_visible_slope_x(REAL mu, REAL u)
     REAL w = mu < R(1e4) ? mu * mu / (R(1.0) + mu * mu) : R(1.0);
     REAL x0 = w * bt_mf_erfinv_unit_guess(q) + (R(1.0) - w) * -bt_safe_sqrt(-bt_log(q));
     if (!(x0 > lo && x0 < hi)) x0 = R(0.5) * (lo + hi);
-    return bt_mf_solve_log_cdf(a, R(0.5), target, lo, hi, x0);
+    return BT_MF_SOLVE(a, R(0.5), target, lo, hi, x0, BT_MF_SOLVE_STEPS_X);
 }
 
 BT_INLINE bt_vec3 bt_beckmann_sample_visible(bt_vec3 v, REAL ax, REAL ay, REAL u0, REAL u1)
@@ -499,14 +558,19 @@ BT_INLINE bt_vec3 bt_beckmann_sample_visible(bt_vec3 v, REAL ax, REAL ay, REAL u
     /* Azimuth of v~ (any at normal incidence); mu = cot(theta~), capped so
      * normal incidence stays finite (mu > 7 already means "no cut"). */
     REAL cp = st > R(0.0) ? vt.x / st : R(1.0);
-    REAL sp = st > R(0.0) ? vt.y / st : R(0.0);
+    REAL sp = BT_SLP_SPLIT(st > R(0.0) ? vt.y / st : R(0.0)); /* splits: compat.h */
     REAL mu = vt.z < st * R(1e15) ? vt.z / st : R(1e15);
     REAL x = bt_beckmann_visible_slope_x(mu, u0);
     REAL y = bt_mf_erfinv_unit(u1);
     /* Rotate the slope back by the azimuth; m~ prop. to (-slope, 1). */
-    REAL sx = cp * x - sp * y, sy = sp * x + cp * y;
+    REAL sx = cp * x - sp * y, sy = BT_SLP_SPLIT(sp * x + cp * y);
     bt_vec3 mt = bt_v3_normalize(bt_v3(-sx, -sy, R(1.0)));
-    return bt_mf_unstretch_normal(mt, ax, ay);
+    bt_vec3 m = bt_mf_unstretch_normal(mt, ax, ay);
+#if BT_MF_FIXED_STEPS
+    /* A search that has not ended gives a NaN normal (BT_MF_UNFINISHED). */
+    if (!(x == x) || !(y == y)) m = bt_v3((REAL)NAN, (REAL)NAN, (REAL)NAN);
+#endif
+    return m;
 }
 
 /* m ~ D_v(m) for light/view v (v.z > 0).  Phong has no visible sampler:

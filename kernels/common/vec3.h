@@ -76,10 +76,8 @@ BT_INLINE bt_vec3 bt_from_spherical(REAL theta, REAL phi)
 {
     REAL ct, cp;
     REAL st = bt_sincos(theta, &ct);
-    /* The splits (compat.h) keep PoCL's SLP vectoriser from packing the two
-     * argument reductions and the x, y products (micrograin's g_dist). */
-    REAL sp = bt_sincos(BT_SLP_SPLIT(phi), &cp);
-    return bt_v3(st * cp, BT_SLP_SPLIT(st * sp), ct);
+    REAL sp = bt_sincos(phi, &cp);
+    return bt_v3(st * cp, st * sp, ct);
 }
 
 /* How bt_direction forms the z component (see there). */

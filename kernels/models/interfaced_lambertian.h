@@ -92,6 +92,7 @@ BT_INLINE REAL il_body_sample(il_surface* s, int sampling, bt_vec3 i, bt_vec3 o,
         int swap = o.z > i.z;
         bt_vec3 v = swap ? o : i, w = swap ? i : o;
         m = bt_mf_sample_visible(&s->mf, v, bt_uniform(smp, 0u), bt_uniform(smp, 1u));
+        if (BT_MF_UNFINISHED(m)) return (REAL)NAN; /* the engine redoes this sample */
         REAL vm = bt_v3_dot(v, m), wm = bt_v3_dot(w, m);
         if (!(vm > R(0.0)) || !(wm > R(0.0)) || !(m.z > R(0.0))) return R(0.0);
         REAL gs = bt_mf_g1_smith_nochi(&s->mf, v);

@@ -155,7 +155,7 @@ BT_INLINE il_surface il_make_surface(const REAL* p, const int* o)
     s.sigma = fmax(p[IL_PARAM_SIGMA], R(0.0));
     s.gauss_c = R(0.0);
     REAL ax = p[IL_PARAM_ALPHA_X] > R(0.0) ? p[IL_PARAM_ALPHA_X] : p[IL_PARAM_ALPHA];
-    REAL ay = p[IL_PARAM_ALPHA_Y] > R(0.0) ? p[IL_PARAM_ALPHA_Y] : p[IL_PARAM_ALPHA];
+    REAL ay = BT_SLP_SPLIT(p[IL_PARAM_ALPHA_Y] > R(0.0) ? p[IL_PARAM_ALPHA_Y] : p[IL_PARAM_ALPHA]); /* compat.h */
     s.mf = bt_microfacet_make(s.dist == IL_GGX_SMITH ? BT_MF_GGX : BT_MF_BECKMANN, BT_G1_EXACT,
                               BT_SHADOW_SEPARABLE, ax, ay);
     return s;
