@@ -188,19 +188,28 @@ const std::vector<WalkParallelCase>& walk_parallel_cases() {
 // quantity can stay off by default (NodeParallelFunctions::by_default).
 bool node_parallel_by_default() { return true; }
 
+namespace {
+
+// Whether `options` (indices, in the order of model.options) set the option
+// `name` to `choice`.
+bool option_is(const ModelInfo& model, const std::vector<int>& options, const std::string& name,
+               const std::string& choice) {
+    const OptionInfo* o = model.find_option(name);
+    if (!o) return false;
+    const std::size_t k = static_cast<std::size_t>(o - model.options.data());
+    return k < options.size() && options[k] == o->index_of(choice);
+}
+
+}  // namespace
+
 bool sample_parallel_by_default(const ModelInfo& model, const QuantityInfo& quantity,
                                 Method method, const std::vector<int>& options) {
     for (const SampleParallelCase& c : sample_parallel_default_cases()) {
         if (c.model != model.name || c.quantity != quantity.name || c.method != method) continue;
-        bool all = true;
-        for (const auto& [name, choice] : c.options) {
-            bool set = false;
-            for (std::size_t k = 0; k < model.options.size() && k < options.size(); ++k)
-                if (model.options[k].name == name)
-                    set = options[k] == model.options[k].index_of(choice);
-            all = all && set;
-        }
-        if (all) return true;
+        if (std::all_of(c.options.begin(), c.options.end(), [&](const auto& o) {
+                return option_is(model, options, o.first, o.second);
+            }))
+            return true;
     }
     return false;
 }
@@ -535,15 +544,10 @@ private:
         if (precision_ != Precision::Double || !runtime_.device_info().has_fp64) return false;
         const ModelInfo& m = *l.model;
         if (m.name != "interfaced-lambertian") return false;
-        bool body = false;
-        for (const QuantityInfo& q : m.quantities)
-            if (q.id == l.quantity) body = q.name == "body";
-        if (!body) return false;
-        for (std::size_t k = 0; k < m.options.size() && k < l.options.size(); ++k)
-            if (m.options[k].name == "distribution")
-                return l.options[k] == m.options[k].index_of("beckmann-smith") ||
-                       l.options[k] == m.options[k].index_of("beckmann-ts");
-        return false;
+        const QuantityInfo* body = m.find_quantity("body");
+        if (!body || body->id != l.quantity) return false;
+        return option_is(m, l.options, "distribution", "beckmann-smith") ||
+               option_is(m, l.options, "distribution", "beckmann-ts");
     }
 
     // Whether this launch runs sample-parallel: only Monte Carlo / RQMC
@@ -634,13 +638,14 @@ private:
             scratch_ = cl::Buffer(runtime_.context(), CL_MEM_READ_WRITE, scratch_bytes);
             scratch_bytes_ = scratch_bytes;
         }
-        const int sample_first_arg = set_work_args(k.sample, l);  // first_work, n_samples
-        k.sample.setArg(sample_first_arg + 2, static_cast<cl_uint>(batch));
-        k.sample.setArg(sample_first_arg + 3, scratch_);
-        if (k.has_redo) {  // the sample kernel's arguments
-            set_work_args(k.redo, l);
-            k.redo.setArg(sample_first_arg + 2, static_cast<cl_uint>(batch));
-            k.redo.setArg(sample_first_arg + 3, scratch_);
+        // The kernels run per sample: the sample kernel, and the redo kernel,
+        // which takes its arguments, after it.
+        std::vector<cl::Kernel*> per_sample{&k.sample};
+        if (k.has_redo) per_sample.push_back(&k.redo);
+        int sample_first_arg = 0;  // first_work, n_samples
+        for (cl::Kernel* kernel : per_sample) {
+            sample_first_arg = set_work_args(*kernel, l);
+            set_args_from(*kernel, sample_first_arg + 2, static_cast<cl_uint>(batch), scratch_);
         }
         k.reduce.setArg(0, scratch_);
         k.reduce.setArg(3, static_cast<cl_uint>(batch));
@@ -650,13 +655,11 @@ private:
         for (std::size_t first = 0; first < n; first += per_sub) {
             const std::size_t count = std::min(per_sub, n - first);
             const std::size_t samples = count * batch;
-            k.sample.setArg(sample_first_arg, static_cast<cl_uint>(first));
-            k.sample.setArg(sample_first_arg + 1, static_cast<cl_uint>(samples));
-            queue.enqueueNDRangeKernel(k.sample, cl::NullRange, cl::NDRange(padded_global(samples)), local);
-            if (k.has_redo) {
-                k.redo.setArg(sample_first_arg, static_cast<cl_uint>(first));
-                k.redo.setArg(sample_first_arg + 1, static_cast<cl_uint>(samples));
-                queue.enqueueNDRangeKernel(k.redo, cl::NullRange, cl::NDRange(padded_global(samples)), local);
+            for (cl::Kernel* kernel : per_sample) {
+                set_args_from(*kernel, sample_first_arg, static_cast<cl_uint>(first),
+                              static_cast<cl_uint>(samples));
+                queue.enqueueNDRangeKernel(*kernel, cl::NullRange, cl::NDRange(padded_global(samples)),
+                                           local);
             }
             k.reduce.setArg(1, static_cast<cl_uint>(first));
             k.reduce.setArg(2, static_cast<cl_uint>(count));
