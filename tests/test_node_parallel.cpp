@@ -442,7 +442,11 @@ TEST_CASE("oren-nayar's node functions compose to its sample function (host buil
     // The nested contract of kernels/common/node_parallel.h on the C++ build
     // of the header: count, prepare, every group's prepare, its terms, its
     // reduction and addition in order, and finish give oren_nayar_sample bit
-    // for bit.
+    // for bit.  The table prepare reads is built entry by entry by the table
+    // function, as the device's table kernel builds it.
+    std::vector<double> table(static_cast<std::size_t>(ON_NODE_TABLE_ENTRIES) * ON_NODE_TABLE_SIZE);
+    for (int e = 0; e < ON_NODE_TABLE_ENTRIES; ++e)
+        oren_nayar_node_table(e, &table[static_cast<std::size_t>(e) * ON_NODE_TABLE_SIZE]);
     const double thetas_i[] = {0.0, 0.3, 1.2, 1.5706, BT_HALF_PI};
     const double thetas_o[] = {0.0, 0.8, 1.55, BT_HALF_PI};
     const double phis_d[] = {0.0, BT_PI, 2.0};
@@ -478,7 +482,7 @@ TEST_CASE("oren-nayar's node functions compose to its sample function (host buil
                             if (groups == 0) continue;  // the sample function's own value
                             ++nested;
                             std::vector<double> item(ON_NODE_ITEM_STATE);
-                            oren_nayar_node_prepare(p, o, quantity, &s, item.data());
+                            oren_nayar_node_prepare(p, o, quantity, &s, table.data(), item.data());
                             double acc[ON_NODE_ACC] = {0, 0, 0};
                             for (int g = 0; g < groups; ++g) {
                                 std::vector<double> gs(ON_NODE_GROUP_STATE);

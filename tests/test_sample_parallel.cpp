@@ -106,21 +106,37 @@ TEST_CASE("fixed-step searches: every unfinished sample is redone, the bits are 
     // not ended.  With one step each (BRDFTAB_FIXED_SOLVER_STEPS=1,1) nearly
     // every sample takes the redo; with the defaults (4, 3) a few do.  Both
     // must give the bits of the usual kernel, which always runs the loop.
+    // vcavity runs the same search as the first of its two stages
+    // (QuantityInfo::staged; a stage redo kernel): the same checks, at all
+    // orders and at order 3, in both interreflection modes.
     auto device = make_backend("", Precision::Double);
     const ModelInfo& m = find_model("interfaced-lambertian");
-    const QuantityInfo& q = m.quantity("body");
-    for (const char* distribution : {"beckmann-smith", "beckmann-ts"}) {
+    struct Case {
+        const char* quantity;
+        const char* distribution;
+        const char* interreflection;
+        double order;
+    };
+    for (const Case& c : {Case{"body", "beckmann-smith", "full", 0}, Case{"body", "beckmann-ts", "full", 0},
+                          Case{"vcavity", "beckmann-smith", "full", 0},
+                          Case{"vcavity", "beckmann-ts", "body", 3}}) {
+        const QuantityInfo& q = m.quantity(c.quantity);
+        const char* distribution = c.distribution;
         for (Method method : {Method::MonteCarlo, Method::Rqmc}) {
             const std::string method_name = to_string(method);
+            CAPTURE(c.quantity);
             CAPTURE(distribution);
             CAPTURE(method_name);
             auto cells = test_cells(m, q, 4);
+            if (std::string(c.quantity) == "vcavity")
+                for (auto& cell : cells) cell["order"] = c.order;
             IntegrationSettings s;
             s.method = method;
             s.samples = 256;
             s.batch_size = 64;
             s.seed = 5;
-            const nlohmann::json given = {{"distribution", distribution}, {"sampling", "visible"}};
+            nlohmann::json given = {{"distribution", distribution}, {"sampling", "visible"}};
+            if (std::string(c.quantity) == "vcavity") given["interreflection"] = c.interreflection;
             EstimateResult usual;
             {
                 ScopedEnv off("BRDFTAB_SAMPLE_PARALLEL", "0");
@@ -134,6 +150,33 @@ TEST_CASE("fixed-step searches: every unfinished sample is redone, the bits are 
                 check_same_bits(usual, estimate_cells(*device, m, q, cells, s, given));
             }
         }
+    }
+}
+
+TEST_CASE("staged samples in float (no fixed-step build): the usual float kernel's bits") {
+    // vcavity's stage and rest kernels from the usual float build (the
+    // fixed-step search is a double-only build), forced on: every value and
+    // error estimate must be the usual float kernel's.
+    auto device = make_backend("", Precision::Float);
+    const ModelInfo& m = find_model("interfaced-lambertian");
+    const QuantityInfo& q = m.quantity("vcavity");
+    REQUIRE(q.staged.enabled());
+    for (Method method : {Method::MonteCarlo, Method::Rqmc}) {
+        const std::string method_name = to_string(method);
+        CAPTURE(method_name);
+        IntegrationSettings s;
+        s.method = method;
+        s.samples = 128;
+        s.batch_size = 32;
+        s.seed = 3;
+        const auto cells = test_cells(m, q, 4);
+        EstimateResult usual;
+        {
+            ScopedEnv off("BRDFTAB_SAMPLE_PARALLEL", "0");
+            usual = estimate_cells(*device, m, q, cells, s);
+        }
+        ScopedEnv on("BRDFTAB_SAMPLE_PARALLEL", "1");
+        check_same_bits(usual, estimate_cells(*device, m, q, cells, s));
     }
 }
 

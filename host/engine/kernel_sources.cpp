@@ -221,7 +221,9 @@ std::string estimate_kernel_source(const std::string& kernel_header,
 
 std::string sample_parallel_kernel_source(const std::string& kernel_header,
                                           const std::string& sample_function,
-                                          const std::string& kernel_dir) {
+                                          const std::string& kernel_dir, int stage_size,
+                                          const std::string& stage_function,
+                                          const std::string& rest_function) {
     // One sample per work item: kernels/common/sobol.h picks its form for that.
     std::string source = "#define BT_SAMPLE_PARALLEL_PROGRAM 1\n";
     source += load_kernel_source("common/estimator.h", kernel_dir);
@@ -229,6 +231,10 @@ std::string sample_parallel_kernel_source(const std::string& kernel_header,
     source += "#line 1 \"generated sample-parallel entry points for " + kernel_header + "\"\n";
     source += "BT_DEFINE_SAMPLE_PARALLEL_KERNELS(" + std::string(kSampleKernelName) + ", " +
               kReduceKernelName + ", " + kRedoKernelName + ", " + sample_function + ")\n";
+    if (stage_size > 0)
+        source += "BT_DEFINE_STAGED_SAMPLE_KERNELS(" + std::string(kStageKernelName) + ", " +
+                  kStageRedoKernelName + ", " + kStageRestKernelName + ", " +
+                  std::to_string(stage_size) + ", " + stage_function + ", " + rest_function + ")\n";
     return source;
 }
 
@@ -278,12 +284,15 @@ std::string nested_node_parallel_kernel_source(const std::string& kernel_header,
                                                const std::string& kernel_dir) {
     std::string source = forced_inline_prologue(kernel_header, "common/node_parallel.h", kernel_dir);
     source += "#line 1 \"generated nested node-parallel entry points for " + kernel_header + "\"\n";
-    source += "BT_DEFINE_NESTED_NODE_PARALLEL_KERNELS(" + std::string(kNodePrepareKernelName) +
-              ", " + kNodeGroupKernelName + ", " + kNodeChunkKernelName + ", " + kNodeKernelName +
-              ", " + kNodeReduceKernelName + ", " + kNodeSumKernelName + ", " + f.item_state_size +
-              ", " + f.group_state_size + ", " + f.terms + ", " + f.partials + ", " + f.acc_size +
-              ", " + f.count + ", " + f.prepare + ", " + f.group_prepare + ", " + f.term + ", " +
-              f.group_reduce + ", " + f.group_add + ", " + f.finish + ", " + f.sample + ")\n";
+    const std::string table = f.table.empty() ? "bt_node_no_table" : f.table;
+    source += "BT_DEFINE_NESTED_NODE_PARALLEL_KERNELS(" + std::string(kNodeTableKernelName) +
+              ", " + kNodePrepareKernelName + ", " + kNodeGroupKernelName + ", " +
+              kNodeChunkKernelName + ", " + kNodeKernelName + ", " + kNodeReduceKernelName + ", " +
+              kNodeSumKernelName + ", " + f.table_entries + ", " + f.table_size + ", " +
+              f.item_state_size + ", " + f.group_state_size + ", " + f.terms + ", " + f.partials +
+              ", " + f.acc_size + ", " + table + ", " + f.count + ", " + f.prepare + ", " +
+              f.group_prepare + ", " + f.term + ", " + f.group_reduce + ", " + f.group_add + ", " +
+              f.finish + ", " + f.sample + ")\n";
     return source;
 }
 

@@ -20,6 +20,11 @@ constexpr const char* kEstimateKernelName = "bt_estimate";
 constexpr const char* kSampleKernelName = "bt_sample";
 constexpr const char* kReduceKernelName = "bt_reduce";
 constexpr const char* kRedoKernelName = "bt_sample_redo";
+// The staged entry points (BT_DEFINE_STAGED_SAMPLE_KERNELS), in the same
+// program when the quantity has staged samples.
+constexpr const char* kStageKernelName = "bt_stage";
+constexpr const char* kStageRedoKernelName = "bt_stage_redo";
+constexpr const char* kStageRestKernelName = "bt_stage_rest";
 // The three entry points node_parallel_kernel_source() generates.
 constexpr const char* kNodePrepareKernelName = "bt_node_prepare";
 constexpr const char* kNodeKernelName = "bt_node";
@@ -29,6 +34,7 @@ constexpr const char* kNodeSumKernelName = "bt_node_sum";
 constexpr const char* kNodeGroupKernelName = "bt_node_group";
 constexpr const char* kNodeChunkKernelName = "bt_node_chunk";
 constexpr const char* kNodeReduceKernelName = "bt_node_reduce";
+constexpr const char* kNodeTableKernelName = "bt_node_table";
 // The entry point walk_parallel_kernel_source() generates.
 constexpr const char* kWalkKernelName = "bt_estimate_walk";
 
@@ -45,10 +51,15 @@ std::string estimate_kernel_source(const std::string& kernel_header,
 // (BT_DEFINE_SAMPLE_PARALLEL_KERNELS(bt_sample, bt_reduce, bt_sample_redo,
 // sample_function)):
 // a separate program, so that the usual one keeps its source (and PoCL's
-// cache entries) and its build time.
+// cache entries) and its build time.  With stage_size > 0 the program also
+// holds BT_DEFINE_STAGED_SAMPLE_KERNELS(bt_stage, bt_stage_redo,
+// bt_stage_rest, stage_size, stage_function, rest_function).
 std::string sample_parallel_kernel_source(const std::string& kernel_header,
                                           const std::string& sample_function,
-                                          const std::string& kernel_dir = "");
+                                          const std::string& kernel_dir = "",
+                                          int stage_size = 0,
+                                          const std::string& stage_function = "",
+                                          const std::string& rest_function = "");
 // The program of a quantity's node-parallel quadrature: the model's kernel
 // header and the entry points BT_DEFINE_NODE_PARALLEL_KERNELS(bt_node_prepare,
 // bt_node, bt_node_sum, state_size, count, prepare, term, finish) of
@@ -62,12 +73,15 @@ std::string node_parallel_kernel_source(const std::string& kernel_header,
                                         const std::string& finish_function,
                                         const std::string& kernel_dir = "");
 // The program of a quantity's nested node-parallel quadrature: the entry
-// points BT_DEFINE_NESTED_NODE_PARALLEL_KERNELS(bt_node_prepare,
-// bt_node_group, bt_node_chunk, bt_node, bt_node_sum, ...) of kernels/common/node_parallel.h
-// around the model's node functions (QuantityInfo::node_parallel, nested()).
+// points BT_DEFINE_NESTED_NODE_PARALLEL_KERNELS(bt_node_table, bt_node_prepare,
+// bt_node_group, bt_node_chunk, bt_node, bt_node_reduce, bt_node_sum, ...) of
+// kernels/common/node_parallel.h around the model's node functions
+// (QuantityInfo::node_parallel, nested()).  An empty `table` names
+// bt_node_no_table (node_parallel.h).
 struct NestedNodeParallelNames {
-    std::string item_state_size, group_state_size, terms, partials, acc_size;
-    std::string count, prepare, group_prepare, term, group_reduce, group_add, finish, sample;
+    std::string table_entries, table_size, item_state_size, group_state_size, terms, partials,
+        acc_size;
+    std::string table, count, prepare, group_prepare, term, group_reduce, group_add, finish, sample;
 };
 std::string nested_node_parallel_kernel_source(const std::string& kernel_header,
                                                const NestedNodeParallelNames& names,

@@ -144,6 +144,12 @@ ModelInfo interfaced_lambertian_model() {
                  "bounce order selected by `order` (0 = all); uses the chosen distribution with "
                  "V-cavity visibility whatever its GAF",
                  "eqs. 8, 14, 22-23", Method::Rqmc, 8));
+    // A vcavity sample is the facet, then the walk in its groove: staged
+    // sample-parallel launches run the facet as a vectorised kernel of its
+    // own (kernels/models/interfaced_lambertian.h, interfaced_lambertian_stage;
+    // docs/benchmarks.md, "Session 14: vcavity in two stages").
+    b.quantity_by_id(IL_Q_VCAVITY).staged = {"interfaced_lambertian_stage",
+                                             "interfaced_lambertian_rest", IL_VCAVITY_STAGE};
     return b.build();
 }
 

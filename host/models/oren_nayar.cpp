@@ -187,6 +187,9 @@ ModelInfo oren_nayar_model() {
         f.partials = ON_NODE_PARTIALS;
         f.acc_size = ON_NODE_ACC;
         f.max_groups = ON_NODE_MAX_GROUPS;
+        f.table = "oren_nayar_node_table";
+        f.table_entries = ON_NODE_TABLE_ENTRIES;
+        f.table_size = ON_NODE_TABLE_SIZE;
     }
     return b.build();
 }

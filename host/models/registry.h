@@ -74,6 +74,11 @@ struct NodeParallelFunctions {
     // work item.
     std::string group_prepare = {}, group_reduce = {}, group_add = {}, sample = {};
     int group_state_size = 0, terms = 1, partials = 1, acc_size = 1, max_groups = 0;
+    // The table prepare reads (nested sums only; computed on the device once
+    // per program): its function (void table(int entry, REAL* values)), its
+    // entries and the values per entry.  Empty: a one-value table of zeros.
+    std::string table = {};
+    int table_entries = 0, table_size = 0;
     // Whether it runs with BRDFTAB_NODE_PARALLEL unset (and
     // node_parallel_by_default()); false: only with BRDFTAB_NODE_PARALLEL=1.
     bool by_default = true;
@@ -151,6 +156,16 @@ struct QuantityInfo {
     // Node-parallel quadrature functions (see NodeParallelFunctions); set by
     // the model file after registering the quantity.
     NodeParallelFunctions node_parallel = {};
+    // Staged samples (kernels/common/estimator.h, BT_DEFINE_STAGED_SAMPLE_KERNELS):
+    // the kernel header's stage and rest functions, whose composition is the
+    // sample function's value, and the stage's size; the engine runs them in
+    // sample-parallel launches whose search takes fixed steps.  size 0: none.
+    struct StagedSample {
+        std::string stage, rest;
+        int size = 0;
+        bool enabled() const { return size > 0; }
+    };
+    StagedSample staged = {};
     bool float_measured() const { return float_max_rel_diff >= 0; }
     // Whether float reaches the precision of a stored float32 (2^-24 relative)
     // or float16 (2^-11) table over the measured domains.

@@ -268,6 +268,74 @@
         s.sample = gid - item * batch_size_;                                   \
         scratch[gid] =                                                         \
             (ACCUM)sample_fn(p, o, BT_KERNEL_QUANTITY_(quantity), &s);
+
+/* Staged samples.  A sample function whose sample is a loop-free first stage
+ * followed by a loop of data-dependent length (interfaced-lambertian's
+ * vcavity: the facet, then the walk in its groove) is still scalar in the
+ * sample kernel above: the loop wraps nothing, but it is in the work-item
+ * loop's body, which is then not innermost.  Split in two, with
+ *     void stage_fn(p, o, quantity, s, REAL* stage)     stage_size values
+ *     REAL rest_fn (p, o, quantity, s, const REAL* stage)
+ * whose composition is sample_fn's value bit for bit, the sample kernel
+ * becomes three (the reduce kernel above follows them):
+ *   stage_kernel       one work item per sample, as the sample kernel:
+ *                      stage_fn's values at stage[gid * stage_size + ...];
+ *                      loop-free, so it vectorises (built with
+ *                      BT_MF_SOLVE_STEPS: an unfinished search leaves NaN in
+ *                      the stage's first value);
+ *   stage_redo_kernel  the same, from the usual build, for the samples whose
+ *                      first stage value is NaN;
+ *   rest_kernel        one work item per sample: rest_fn on its stage, at
+ *                      scratch[gid] (scalar, like the sample kernel).
+ * Stages are stored exactly (REAL), so every sample is the sample kernel's
+ * (tests/test_sample_parallel.cpp). */
+#define BT_DEFINE_STAGED_SAMPLE_KERNELS(stage_kernel, stage_redo_kernel,       \
+                                        rest_kernel, stage_size, stage_fn,     \
+                                        rest_fn)                               \
+    __kernel void stage_kernel(                                                \
+        BT_WORK_KERNEL_PARAMS, uint first_work, uint n_samples, uint batch_size, \
+        __global REAL* stage)                                                  \
+    {                                                                          \
+        BT_STAGE_BODY_(stage_size, stage_fn, 0)                                \
+    }                                                                          \
+    __kernel void stage_redo_kernel(                                           \
+        BT_WORK_KERNEL_PARAMS, uint first_work, uint n_samples, uint batch_size, \
+        __global REAL* stage)                                                  \
+    {                                                                          \
+        BT_STAGE_BODY_(stage_size, stage_fn, 1)                                \
+    }                                                                          \
+    __kernel void rest_kernel(                                                 \
+        BT_WORK_KERNEL_PARAMS, uint first_work, uint n_samples, uint batch_size, \
+        __global ACCUM* scratch, __global const REAL* stage)                   \
+    {                                                                          \
+        BT_STAGE_LOAD_SAMPLE_                                                  \
+        REAL st[stage_size];                                                   \
+        _Pragma("unroll")                                                      \
+        for (uint i = 0; i < (uint)(stage_size); ++i)                          \
+            st[i] = stage[(size_t)gid * (stage_size) + i];                     \
+        scratch[gid] =                                                         \
+            (ACCUM)rest_fn(p, o, BT_KERNEL_QUANTITY_(quantity), &s, st);       \
+    }
+/* Sample gid of the sub-launch: its work item, point and sampler state. */
+#define BT_STAGE_LOAD_SAMPLE_                                                  \
+        const uint gid = (uint)get_global_id(0);                               \
+        if (gid >= n_samples) return;                                          \
+        const uint batch_size_ = BT_KERNEL_BATCH_SIZE_(batch_size);            \
+        const uint item = gid / batch_size_;                                   \
+        const uint w = first_work + item;                                      \
+        BT_KERNEL_LOAD_WORK_(w)                                                \
+        s.sample = gid - item * batch_size_;
+#define BT_STAGE_BODY_(stage_size, stage_fn, redo)                             \
+        if ((redo) && (uint)get_global_id(0) < n_samples) {                    \
+            const REAL first_ = stage[(size_t)get_global_id(0) * (stage_size)]; \
+            if (first_ == first_) return;                                      \
+        }                                                                      \
+        BT_STAGE_LOAD_SAMPLE_                                                  \
+        REAL st[stage_size];                                                   \
+        stage_fn(p, o, BT_KERNEL_QUANTITY_(quantity), &s, st);                 \
+        _Pragma("unroll")                                                      \
+        for (uint i = 0; i < (uint)(stage_size); ++i)                          \
+            stage[(size_t)gid * (stage_size) + i] = st[i];
 #else
 typedef REAL (*bt_sample_fn)(const REAL* point, const int* options,
                              int quantity, const bt_sampler* sampler);

@@ -56,15 +56,12 @@
 #include "estimator.h"
 
 #if BT_DEVICE
-/* The prepare kernel of both launches: one work item per work item w of a
- * sub-launch stores prepare_fn's state_size values at
- * state[(w - first_work) * state_size + ...].  unroll_copy (0 or 1) unrolls
- * the copy (the flat launch's, as measured; the nested one's state is
- * larger and is copied in a loop). */
-#define BT_NODE_COPY_UNROLL_0_
-#define BT_NODE_COPY_UNROLL_1_ _Pragma("unroll")
-#define BT_DEFINE_NODE_PREPARE_KERNEL_(prepare_kernel, state_size, prepare_fn,  \
-                                       unroll_copy)                            \
+#define BT_DEFINE_NODE_PARALLEL_KERNELS(prepare_kernel, node_kernel,           \
+                                        sum_kernel, state_size, count_fn,      \
+                                        prepare_fn, term_fn, finish_fn)        \
+    /* prepare: one work item per work item w of a sub-launch, its state at \
+     * state[(w - first_work) * state_size + ...] (the copy unrolled, as   \
+     * measured) */                                                        \
     __kernel void prepare_kernel(                                              \
         BT_WORK_KERNEL_PARAMS, uint first_work, uint n_work,                   \
         __global REAL* state)                                                  \
@@ -76,15 +73,10 @@
         s.sample = 0u;                                                         \
         REAL st[state_size];                                                   \
         prepare_fn(p, o, BT_KERNEL_QUANTITY_(quantity), &s, st);               \
-        BT_NODE_COPY_UNROLL_##unroll_copy##_                                   \
+        _Pragma("unroll")                                                      \
         for (uint i = 0; i < (uint)(state_size); ++i)                          \
             state[(size_t)gid * (state_size) + i] = st[i];                     \
-    }
-
-#define BT_DEFINE_NODE_PARALLEL_KERNELS(prepare_kernel, node_kernel,           \
-                                        sum_kernel, state_size, count_fn,      \
-                                        prepare_fn, term_fn, finish_fn)        \
-    BT_DEFINE_NODE_PREPARE_KERNEL_(prepare_kernel, state_size, prepare_fn, 1) \
+    }                                                                          \
     __kernel void node_kernel(                                                 \
         __global const int* options, uint n_options, int quantity,             \
         __global const uint* node_item, __global const uint* node_offset,      \
@@ -148,7 +140,12 @@
  * those to acc.  The model names:
  *     int  count_fn        (p, o, quantity, s)  groups; 0: no nested sum
  *                          (the sum kernel then returns sample_fn's value)
- *     void prepare_fn      (p, o, quantity, s, REAL* item_state)
+ *     void table_fn        (int entry, REAL* values)  entry 0..table_entries-1
+ *                          of a table the device computes once per program
+ *                          (table_size values per entry; oren-nayar: the
+ *                          Gauss-Legendre rule of n = entry nodes)
+ *     void prepare_fn      (p, o, quantity, s, BT_GLOBAL const REAL* table,
+ *                           REAL* item_state)
  *     int  group_prepare_fn(BT_GLOBAL const REAL* item_state, o, quantity, g,
  *                           BT_GLOBAL REAL* group_state)   returns the group's
  *                           nodes; writes what its nodes read (in place)
@@ -177,6 +174,14 @@
  * and group states), and a block's nodes into *sub-launches* of whole
  * groups (the node scratch).  Indices of work items and groups are local to
  * a block, indices of nodes to a sub-launch:
+ *   table_kernel    one work item per table entry, once per program (the
+ *                   engine keeps the table with the program's kernels).
+ *                   Oren-nayar's rule used to be computed by every work
+ *                   item's prepare (Newton on P_n, PoCL's scalar cos): 14 %
+ *                   of the device time at 12 nodes (docs/benchmarks.md,
+ *                   "Session 14").  The same function in the same program
+ *                   gives the same bits (test_node_parallel compares with
+ *                   the usual kernel, which computes the rule inline).
  *   prepare_kernel  one work item per work item of the block: item state.
  *   group_kernel    one work item per group G of the block, of work item
  *                   i = group_item[G], its number G - item_group[i]: group
@@ -206,12 +211,43 @@
  * code must call the same functions), and partial sums are stored exactly
  * (REAL), so the bits are the usual kernel's.
  */
+/* The table of a nested sum whose prepare reads none (one zero). */
+BT_INLINE void bt_node_no_table(int entry, REAL* values)
+{
+    (void)entry;
+    values[0] = R(0.0);
+}
+
 #if BT_DEVICE
 #define BT_DEFINE_NESTED_NODE_PARALLEL_KERNELS(                                \
-    prepare_kernel, group_kernel, chunk_kernel, node_kernel, reduce_kernel,    \
-    sum_kernel, item_state_size, group_state_size, n_terms, n_partial,         \
-    acc_size, count_fn, prepare_fn, group_prepare_fn, term_fn,                 \
-    group_reduce_fn, group_add_fn, finish_fn, sample_fn)                       \
+    table_kernel, prepare_kernel, group_kernel, chunk_kernel, node_kernel,     \
+    reduce_kernel, sum_kernel, table_entries, table_size, item_state_size,     \
+    group_state_size, n_terms, n_partial, acc_size, table_fn, count_fn,        \
+    prepare_fn, group_prepare_fn, term_fn, group_reduce_fn, group_add_fn,      \
+    finish_fn, sample_fn)                                                      \
+    __kernel void table_kernel(__global REAL* table)                           \
+    {                                                                          \
+        const uint gid = (uint)get_global_id(0);                               \
+        if (gid >= (uint)(table_entries)) return;                              \
+        REAL t[table_size];                                                    \
+        table_fn((int)gid, t);                                                 \
+        for (uint i = 0; i < (uint)(table_size); ++i)                          \
+            table[(size_t)gid * (table_size) + i] = t[i];                      \
+    }                                                                          \
+    __kernel void prepare_kernel(                                              \
+        BT_WORK_KERNEL_PARAMS, uint first_work, uint n_work,                   \
+        __global const REAL* table, __global REAL* state)                      \
+    {                                                                          \
+        const uint gid = (uint)get_global_id(0);                               \
+        if (gid >= n_work) return;                                             \
+        const uint w = first_work + gid;                                       \
+        BT_KERNEL_LOAD_WORK_(w)                                                \
+        s.sample = 0u;                                                         \
+        REAL st[item_state_size];                                              \
+        prepare_fn(p, o, BT_KERNEL_QUANTITY_(quantity), &s, table, st);        \
+        for (uint i = 0; i < (uint)(item_state_size); ++i)                     \
+            state[(size_t)gid * (item_state_size) + i] = st[i];                \
+    }                                                                          \
     __kernel void chunk_kernel(__global const uint* group_node,                \
                                uint first_group, uint n_groups,                \
                                __global uint* node_group,                      \
@@ -230,7 +266,6 @@
                         group_state + (size_t)g * (group_state_size),          \
                         node_x + (group_node[g] - base));                      \
     }                                                                          \
-    BT_DEFINE_NODE_PREPARE_KERNEL_(prepare_kernel, item_state_size, prepare_fn, 0) \
     __kernel void group_kernel(                                                \
         __global const int* options, uint n_options, int quantity,             \
         __global const uint* group_item, __global const uint* item_group,      \

@@ -210,4 +210,38 @@ BT_INLINE REAL interfaced_lambertian_sample(const REAL* p, const int* o, int qua
     return R(0.0);
 }
 
+/* The staged sample-parallel launch of vcavity (estimator.h,
+ * BT_DEFINE_STAGED_SAMPLE_KERNELS; registered in
+ * host/models/interfaced_lambertian.cpp): the first stage is the facet
+ * (IL_VCAVITY_STAGE values), the rest the walk, with the checks of
+ * interfaced_lambertian_sample in its order, so that rest(stage) is its
+ * value bit for bit.  Other quantities: the rest is the sample function. */
+BT_INLINE void interfaced_lambertian_stage(const REAL* p, const int* o, int quantity,
+                                           const bt_sampler* smp, REAL* st)
+{
+    /* No branch: the facet is drawn for every quantity and for directions
+     * below the horizon too (bt_direction gives a unit vector either way),
+     * where the rest never reads it.  Early returns (stores under branches,
+     * "control flow cannot be substituted for a select") and zeros selected
+     * in their place (packed by SLP) both kept PoCL's work-item loop
+     * scalar. */
+    (void)quantity;
+    il_surface s = il_make_surface(p, o);
+    bt_vec3 vi, vo;
+    bt_direction(p[0], p[1], IL_MIN_COS, BT_DIR_CLAMP_COS, &vi);
+    bt_direction(p[2], p[3], IL_MIN_COS, BT_DIR_CLAMP_COS, &vo);
+    il_vcavity_facet(&s, o[IL_OPT_SAMPLING], vi, vo, smp, st);
+}
+
+BT_INLINE REAL interfaced_lambertian_rest(const REAL* p, const int* o, int quantity,
+                                          const bt_sampler* smp, const REAL* st)
+{
+    if (quantity != IL_Q_VCAVITY) return interfaced_lambertian_sample(p, o, quantity, smp);
+    bt_vec3 vi, vo;
+    if (!bt_direction(p[0], p[1], IL_MIN_COS, BT_DIR_CLAMP_COS, &vi)) return R(0.0);
+    if (!bt_direction(p[2], p[3], IL_MIN_COS, BT_DIR_CLAMP_COS, &vo)) return R(0.0);
+    return il_vcavity_walk(o[IL_OPT_INTERREFLECTION], vi, vo, p[IL_PARAM_NI], p[IL_PARAM_KD],
+                           (int)floor(p[IL_PARAM_ORDER] + R(0.5)), smp, st);
+}
+
 #endif /* BRDFTAB_INTERFACED_LAMBERTIAN_H */

@@ -91,11 +91,17 @@ BT_INLINE REAL il_vcavity_hit(REAL pos, REAL c, REAL sn, bt_vec3 d)
     return bt_clamp(sig, R(0.0), R(1.0));
 }
 
-BT_INLINE REAL il_vcavity_sample(il_surface* s, int sampling, int mode, bt_vec3 i, bt_vec3 o,
-                                 REAL ni, REAL kd, int order, const bt_sampler* smp)
+/* A sample is two stages: the facet it starts from (il_vcavity_facet,
+ * dimensions 0-1; no loop but the Beckmann visible-normal search) and the
+ * walk in its groove (il_vcavity_walk, dimensions 2 and up; a bounce loop
+ * of data-dependent length).  The staged sample-parallel launch
+ * (estimator.h, BT_DEFINE_STAGED_SAMPLE_KERNELS) runs them as two kernels so
+ * that the first vectorises across samples; il_vcavity_sample runs them in
+ * a row.  The stage: st[0..2] = m, st[3] = its weight wm (file comment). */
+#define IL_VCAVITY_STAGE 4
+BT_INLINE void il_vcavity_facet(il_surface* s, int sampling, bt_vec3 i, bt_vec3 o,
+                                const bt_sampler* smp, REAL* st)
 {
-    if (order < 0) return R(0.0);
-    REAL A = kd / (ni * ni * (R(1.0) - kd * il_ri(ni)));
     bt_vec3 m;
     REAL wm;
     if (il_uses_visible(s, sampling)) {
@@ -106,6 +112,22 @@ BT_INLINE REAL il_vcavity_sample(il_surface* s, int sampling, int mode, bt_vec3 
         m = il_sample_distribution(s, smp);
         wm = m.z > R(0.0) ? bt_v3_dot(i, m) / (i.z * o.z * m.z) : R(0.0);
     }
+    /* The splits (compat.h) keep clang's SLP vectoriser from packing the
+     * four stores and the trees behind them, which kept the stage kernel's
+     * work-item loop scalar (docs/benchmarks.md, "Session 14"). */
+    st[0] = m.x;
+    st[1] = BT_SLP_SPLIT(m.y);
+    st[2] = m.z;
+    st[3] = BT_SLP_SPLIT(wm);
+}
+
+BT_INLINE REAL il_vcavity_walk(int mode, bt_vec3 i, bt_vec3 o, REAL ni, REAL kd, int order,
+                               const bt_sampler* smp, const REAL* st)
+{
+    if (order < 0) return R(0.0);
+    REAL A = kd / (ni * ni * (R(1.0) - kd * il_ri(ni)));
+    bt_vec3 m = bt_v3(st[0], st[1], st[2]);
+    REAL wm = st[3];
     REAL im = bt_v3_dot(i, m);
     if (!(im > R(0.0)) || !(m.z > R(0.0)) || !(wm > R(0.0))) return R(0.0);
     REAL sn = sqrt(m.x * m.x + m.y * m.y), c = m.z;
@@ -209,6 +231,15 @@ BT_INLINE REAL il_vcavity_sample(il_surface* s, int sampling, int mode, bt_vec3 
         din = bt_v3(dout.x, -dout.y, -dout.z); /* -dout, mirrored u -> -u */
     }
     return wm * gi * acc;
+}
+
+BT_INLINE REAL il_vcavity_sample(il_surface* s, int sampling, int mode, bt_vec3 i, bt_vec3 o,
+                                 REAL ni, REAL kd, int order, const bt_sampler* smp)
+{
+    if (order < 0) return R(0.0);
+    REAL st[IL_VCAVITY_STAGE];
+    il_vcavity_facet(s, sampling, i, o, smp, st);
+    return il_vcavity_walk(mode, i, o, ni, kd, order, smp, st);
 }
 
 #endif /* BRDFTAB_INTERFACED_LAMBERTIAN_VCAVITY_H */

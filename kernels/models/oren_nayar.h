@@ -829,7 +829,9 @@ BT_INLINE REAL oren_nayar_sample(const REAL* p, const int* o, int quantity, cons
  * (on_phi_add, then / 2 pi), its addition is the theta_a step
  * (on_theta_add), so the result is oren_nayar_sample's bit for bit.
  * Item state (ON_NODE_ITEM_STATE): the geometry, n, the non-empty theta_a
- * sub-intervals (lo, L, kind) and the GL rule.  Group state
+ * sub-intervals (lo, L, kind) and the GL rule, copied from the table the
+ * device computes once per program (oren_nayar_node_table: the rule of
+ * every n, as on_gauss_quadrature computes it).  Group state
  * (ON_NODE_GROUP_STATE): theta_a, wp, sin and cos theta_a, nb, d(1, 1),
  * b[0..nb]. */
 #define ON_NODE_GEOM 12
@@ -900,8 +902,20 @@ BT_INLINE int oren_nayar_node_count(const REAL* p, const int* o, int quantity, c
     return m * on_quad_nodes(p, s);
 }
 
+/* The table's entries: the n-point rule for n = 0..ON_MAX_NODES (nodes,
+ * then weights, ON_MAX_NODES each; zeros past n and for n = 0, which
+ * on_quad_nodes never returns; n = 1 is the coarse rule of nodes = 2). */
+#define ON_NODE_TABLE_SIZE (2 * ON_MAX_NODES)
+#define ON_NODE_TABLE_ENTRIES (ON_MAX_NODES + 1)
+BT_INLINE void oren_nayar_node_table(int n, REAL* rule)
+{
+    for (int i = 0; i < ON_NODE_TABLE_SIZE; ++i) rule[i] = R(0.0);
+    if (n >= 1 && n <= ON_MAX_NODES) bt_gauss_legendre_rule(n, rule, rule + ON_MAX_NODES);
+}
+
 BT_INLINE void oren_nayar_node_prepare(const REAL* p, const int* o, int quantity,
-                                       const bt_sampler* s, REAL* st)
+                                       const bt_sampler* s, BT_GLOBAL const REAL* table,
+                                       REAL* st)
 {
     (void)o;
     for (int i = 0; i < ON_NODE_ITEM_STATE; ++i) st[i] = R(0.0);
@@ -936,11 +950,10 @@ BT_INLINE void oren_nayar_node_prepare(const REAL* p, const int* o, int quantity
         st[ON_NODE_I_KIND + m] = kind[k] ? R(1.0) : R(0.0);
         ++m;
     }
-    REAL gx[ON_MAX_NODES], gw[ON_MAX_NODES];
-    bt_gauss_legendre_rule(n, gx, gw);
+    BT_GLOBAL const REAL* rule = table + (size_t)n * ON_NODE_TABLE_SIZE;
     for (int j = 0; j < n; ++j) {
-        st[ON_NODE_I_GX + j] = gx[j];
-        st[ON_NODE_I_GW + j] = gw[j];
+        st[ON_NODE_I_GX + j] = rule[j];
+        st[ON_NODE_I_GW + j] = rule[ON_MAX_NODES + j];
     }
 }
 
