@@ -112,13 +112,10 @@ BT_INLINE void il_vcavity_facet(il_surface* s, int sampling, bt_vec3 i, bt_vec3 
         m = il_sample_distribution(s, smp);
         wm = m.z > R(0.0) ? bt_v3_dot(i, m) / (i.z * o.z * m.z) : R(0.0);
     }
-    /* The splits (compat.h) keep clang's SLP vectoriser from packing the
-     * four stores and the trees behind them, which kept the stage kernel's
-     * work-item loop scalar (docs/benchmarks.md, "Session 14"). */
     st[0] = m.x;
-    st[1] = BT_SLP_SPLIT(m.y);
+    st[1] = m.y;
     st[2] = m.z;
-    st[3] = BT_SLP_SPLIT(wm);
+    st[3] = wm;
 }
 
 BT_INLINE REAL il_vcavity_walk(int mode, bt_vec3 i, bt_vec3 o, REAL ni, REAL kd, int order,
