@@ -56,6 +56,17 @@
 #include "estimator.h"
 
 #if BT_DEVICE
+/* The start of both prepare kernels: work item w = first_work + gid of the
+ * sub-launch, its point and sampler (sample 0), and st[state_size] for the
+ * state prepare_fn writes. */
+#define BT_NODE_PREPARE_BEGIN_(state_size)                                     \
+        const uint gid = (uint)get_global_id(0);                               \
+        if (gid >= n_work) return;                                             \
+        const uint w = first_work + gid;                                       \
+        BT_KERNEL_LOAD_WORK_(w)                                                \
+        s.sample = 0u;                                                         \
+        REAL st[state_size];
+
 #define BT_DEFINE_NODE_PARALLEL_KERNELS(prepare_kernel, node_kernel,           \
                                         sum_kernel, state_size, count_fn,      \
                                         prepare_fn, term_fn, finish_fn)        \
@@ -66,12 +77,7 @@
         BT_WORK_KERNEL_PARAMS, uint first_work, uint n_work,                   \
         __global REAL* state)                                                  \
     {                                                                          \
-        const uint gid = (uint)get_global_id(0);                               \
-        if (gid >= n_work) return;                                             \
-        const uint w = first_work + gid;                                       \
-        BT_KERNEL_LOAD_WORK_(w)                                                \
-        s.sample = 0u;                                                         \
-        REAL st[state_size];                                                   \
+        BT_NODE_PREPARE_BEGIN_(state_size)                                     \
         prepare_fn(p, o, BT_KERNEL_QUANTITY_(quantity), &s, st);               \
         _Pragma("unroll")                                                      \
         for (uint i = 0; i < (uint)(state_size); ++i)                          \
@@ -238,12 +244,7 @@ BT_INLINE void bt_node_no_table(int entry, REAL* values)
         BT_WORK_KERNEL_PARAMS, uint first_work, uint n_work,                   \
         __global const REAL* table, __global REAL* state)                      \
     {                                                                          \
-        const uint gid = (uint)get_global_id(0);                               \
-        if (gid >= n_work) return;                                             \
-        const uint w = first_work + gid;                                       \
-        BT_KERNEL_LOAD_WORK_(w)                                                \
-        s.sample = 0u;                                                         \
-        REAL st[item_state_size];                                              \
+        BT_NODE_PREPARE_BEGIN_(item_state_size)                                \
         prepare_fn(p, o, BT_KERNEL_QUANTITY_(quantity), &s, table, st);        \
         for (uint i = 0; i < (uint)(item_state_size); ++i)                     \
             state[(size_t)gid * (item_state_size) + i] = st[i];                \
