@@ -124,7 +124,7 @@ TEST_CASE("node-parallel H: the usual kernel's bits, every psi, fine and coarse 
     for (const char* psi : kPsi) {
         CAPTURE(psi);
         const Launch x = h_launch(psi, std::string(psi) == "poly" ? kPoly : std::map<std::string, double>{});
-        Outputs usual, node, split, short_layout;
+        Outputs usual, node, split, short_layout, one_kernel, shifted_up, shifted_down;
         {
             ScopedEnv off("BRDFTAB_NODE_PARALLEL", "0");
             usual = run(*device, x.launch);
@@ -144,11 +144,30 @@ TEST_CASE("node-parallel H: the usual kernel's bits, every psi, fine and coarse 
                 ScopedEnv cap("BRDFTAB_NODE_PARALLEL_LAYOUT_CAP", "50");
                 short_layout = run(*device, x.launch);
             }
+            // H's terms run on two kernels, series and direct form
+            // (node_parallel.h, "Split terms"); one node kernel for both,
+            // and host guesses 7 nodes too high or too low (those nodes come
+            // back NaN and the sum kernel computes them).
+            {
+                ScopedEnv one("BRDFTAB_NODE_SPLIT", "0");
+                one_kernel = run(*device, x.launch);
+            }
+            {
+                ScopedEnv up("BRDFTAB_NODE_SPLIT_SHIFT", "7");
+                shifted_up = run(*device, x.launch);
+            }
+            {
+                ScopedEnv down("BRDFTAB_NODE_SPLIT_SHIFT", "-7");
+                shifted_down = run(*device, x.launch);
+            }
         }
         const Outputs serial = run(*host, x.launch);
         check_same_bits(x, usual, node);
         check_same_bits(x, usual, split);
         check_same_bits(x, usual, short_layout);
+        check_same_bits(x, usual, one_kernel);
+        check_same_bits(x, usual, shifted_up);
+        check_same_bits(x, usual, shifted_down);
         for (std::size_t w = 0; w < serial.mean.size(); ++w) {
             CAPTURE(w);
             CAPTURE(x.mu[w]);
@@ -261,6 +280,21 @@ TEST_CASE("hfunction's node functions compose to its sample function (host build
                     for (int k = 0; k < n; ++k) sum += hfunction_h_node_term(state, o, HF_Q_H, k);
                     const double composed = hfunction_h_node_finish(p, o, HF_Q_H, &s, sum);
                     CHECK(same_bits(composed, hfunction_sample(p, o, HF_Q_H, &s)));
+                    // The split forms: at each node exactly one is a number,
+                    // the term's bits; the host's guess is the series prefix
+                    // (here, where both use the host's exp, exactly).
+                    const int split = hfunction_h_node_split(p, o, HF_Q_H, &s);
+                    CHECK(split >= 0);
+                    CHECK(split <= n);
+                    for (int k = 0; k < n; ++k) {
+                        CAPTURE(k);
+                        const double term = hfunction_h_node_term(state, o, HF_Q_H, k);
+                        const double series = hfunction_h_node_term_series(state, o, HF_Q_H, k);
+                        const double direct = hfunction_h_node_term_direct(state, o, HF_Q_H, k);
+                        CHECK(std::isnan(series) != std::isnan(direct));
+                        CHECK(same_bits(std::isnan(series) ? direct : series, term));
+                        CHECK(std::isnan(direct) == (k < split));
+                    }
                     if (mu >= HF_MU_TINY)
                         CHECK(n > (batch == 0 ? 120 : 60));  // the fine rule has ~125+ nodes
                     else

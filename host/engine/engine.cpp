@@ -13,6 +13,7 @@
 #include <mutex>
 #include <new>
 #include <thread>
+#include <tuple>
 
 #if defined(__linux__)
 #include <sys/mman.h>
@@ -815,6 +816,10 @@ private:
     struct NodeParallelKernels {
         cl::Kernel prepare, node, sum;
         cl::Kernel group = {}, chunk = {}, reduce = {};  // nested sums only
+        // Split terms (flat sums; NodeParallelFunctions::split()): the
+        // kernels of the first and second form, instead of node.
+        cl::Kernel first = {}, second = {};
+        bool split = false;
         // Nested sums: the table prepare reads, computed by the program's
         // table kernel before its first launch.
         cl::Kernel table_kernel = {};
@@ -895,7 +900,47 @@ private:
             std::fill(node_item_host_.begin() + node_offset_host_[w],
                       node_item_host_.begin() + node_offset_host_[w + 1],
                       static_cast<std::uint32_t>(w));
+        // Split terms: the first-form nodes (a work item's first host_split
+        // ones), then the others, each list in node order; node_first_before_
+        // [w]: first-form nodes of the work items before w.
+        node_list_host_.clear();
+        node_first_before_.clear();
+        if (f.split() && use_split_terms()) {
+            // BRDFTAB_NODE_SPLIT_SHIFT=D moves every guess by D nodes (tests:
+            // the nodes put on the wrong side must come out the same).
+            const char* shift_env = std::getenv("BRDFTAB_NODE_SPLIT_SHIFT");
+            const int shift = shift_env && *shift_env ? std::atoi(shift_env) : 0;
+            node_first_before_.resize(n + 1);
+            node_list_host_.resize(static_cast<std::size_t>(total));
+            std::uint32_t firsts = 0;
+            for (std::size_t w = 0; w < n; ++w) {
+                node_first_before_[w] = firsts;
+                std::copy_n(&l.points[w * l.stride], l.stride, point);
+                s.cell = l.cells[w];
+                s.batch = l.batches[w];
+                const std::uint32_t count = node_offset_host_[w + 1] - node_offset_host_[w];
+                const int guess = f.host_split(point, opts, l.quantity, &s) + shift;
+                firsts += std::min(count, static_cast<std::uint32_t>(std::max(guess, 0)));
+            }
+            node_first_before_[n] = firsts;
+            for (std::size_t w = 0; w < n; ++w) {
+                const std::uint32_t a = node_first_before_[w], b = node_first_before_[w + 1];
+                const std::uint32_t base = node_offset_host_[w];
+                for (std::uint32_t j = 0; j < b - a; ++j) node_list_host_[a + j] = base + j;
+                const std::uint32_t second_at = firsts + base - a;  // list B follows list A
+                for (std::uint32_t j = b - a; j < node_offset_host_[w + 1] - base; ++j)
+                    node_list_host_[second_at + j - (b - a)] = base + j;
+            }
+        }
         return true;
+    }
+
+    // Split terms on (NodeParallelFunctions::split()) unless
+    // BRDFTAB_NODE_SPLIT=0 (one node kernel with both forms, as before; the
+    // same bits either way, tests/test_node_parallel.cpp).
+    static bool use_split_terms() {
+        const char* env = std::getenv("BRDFTAB_NODE_SPLIT");
+        return !(env && std::string(env) == "0");
     }
 
     // Writes the node layout and enqueues the node and sum kernels over every
@@ -940,15 +985,30 @@ private:
         if (total > 0)
             queue.enqueueWriteBuffer(node_item_, CL_FALSE, 0, total * sizeof(std::uint32_t),
                                      node_item_host_.data());
+        const bool split = k.split && node_list_host_.size() == total && node_first_before_.size() == n + 1;
+        if (split && total > 0) {
+            if (total > node_list_items_) {
+                node_list_items_ = std::max(total, 2 * node_list_items_);
+                node_list_ = cl::Buffer(ctx, CL_MEM_READ_ONLY, node_list_items_ * sizeof(std::uint32_t));
+            }
+            queue.enqueueWriteBuffer(node_list_, CL_FALSE, 0, total * sizeof(std::uint32_t),
+                                     node_list_host_.data());
+        }
         const int prepare_first_arg = set_work_args(k.prepare, l);  // first_work, n_work, state
         k.prepare.setArg(prepare_first_arg + 2, node_state_);
         // options, n_options, quantity, node_item, node_offset, first_work,
         // first_node, n_nodes, state, scratch
-        set_option_args(k.node, l);
-        k.node.setArg(3, node_item_);
-        k.node.setArg(4, node_offset_);
-        k.node.setArg(8, node_state_);
-        k.node.setArg(9, node_scratch_);
+        // first and second (split terms): the same, then node_list, list_first
+        for (cl::Kernel* kernel : {&k.node, &k.first, &k.second}) {
+            if (kernel != &k.node && !split) continue;
+            set_option_args(*kernel, l);
+            kernel->setArg(3, node_item_);
+            kernel->setArg(4, node_offset_);
+            kernel->setArg(8, node_state_);
+            kernel->setArg(9, node_scratch_);
+            if (kernel != &k.node) kernel->setArg(10, node_list_);
+        }
+        const std::uint32_t firsts = split ? node_first_before_[n] : 0;
         const int sum_first_arg = set_work_args(k.sum, l);  // node_offset, first_node, first_work, n_work, scratch, out_mean, out_m2
         k.sum.setArg(sum_first_arg, node_offset_);
         k.sum.setArg(sum_first_arg + 4, node_scratch_);
@@ -962,11 +1022,28 @@ private:
                 k.prepare.setArg(prepare_first_arg + 1, static_cast<cl_uint>(last - first));
                 queue.enqueueNDRangeKernel(k.prepare, cl::NullRange,
                                            cl::NDRange(padded_global(last - first)), local);
-                k.node.setArg(5, static_cast<cl_uint>(first));
-                k.node.setArg(6, static_cast<cl_uint>(offset[first]));
-                k.node.setArg(7, static_cast<cl_uint>(nodes));
-                queue.enqueueNDRangeKernel(k.node, cl::NullRange, cl::NDRange(padded_global(nodes)),
-                                           local);
+                if (!split) {
+                    k.node.setArg(5, static_cast<cl_uint>(first));
+                    k.node.setArg(6, static_cast<cl_uint>(offset[first]));
+                    k.node.setArg(7, static_cast<cl_uint>(nodes));
+                    queue.enqueueNDRangeKernel(k.node, cl::NullRange, cl::NDRange(padded_global(nodes)),
+                                               local);
+                } else {
+                    // The sub-launch's stretch of each list: [begin, begin + count).
+                    const std::uint32_t a0 = node_first_before_[first], a1 = node_first_before_[last];
+                    const std::uint32_t b0 = firsts + offset[first] - a0, b1 = firsts + offset[last] - a1;
+                    for (const auto& [kernel, begin, count] :
+                         {std::tuple<cl::Kernel*, std::uint32_t, std::uint32_t>{&k.first, a0, a1 - a0},
+                          {&k.second, b0, b1 - b0}}) {
+                        if (count == 0) continue;
+                        kernel->setArg(5, static_cast<cl_uint>(first));
+                        kernel->setArg(6, static_cast<cl_uint>(offset[first]));
+                        kernel->setArg(7, static_cast<cl_uint>(count));
+                        kernel->setArg(11, static_cast<cl_uint>(begin));
+                        queue.enqueueNDRangeKernel(*kernel, cl::NullRange,
+                                                   cl::NDRange(padded_global(count)), local);
+                    }
+                }
             }
             k.sum.setArg(sum_first_arg + 1, static_cast<cl_uint>(offset[first]));
             k.sum.setArg(sum_first_arg + 2, static_cast<cl_uint>(first));
@@ -1211,12 +1288,19 @@ private:
                        f.term, f.group_reduce, f.group_add, f.finish, f.sample},
                       kernel_dir_)
                 : node_parallel_kernel_source(model.kernel_header, std::to_string(f.state_size),
-                                              f.count, f.prepare, f.term, f.finish, kernel_dir_);
+                                              f.count, f.prepare, f.term, f.finish, kernel_dir_,
+                                              f.split() ? f.term_first : "",
+                                              f.split() ? f.term_second : "");
         cl::Program program = cached_program(runtime_, source, options);
         try {
             NodeParallelKernels k{cl::Kernel(program, kNodePrepareKernelName),
                                   cl::Kernel(program, kNodeKernelName),
                                   cl::Kernel(program, kNodeSumKernelName)};
+            if (!f.nested() && f.split()) {
+                k.first = cl::Kernel(program, kNodeFirstKernelName);
+                k.second = cl::Kernel(program, kNodeSecondKernelName);
+                k.split = true;
+            }
             if (f.nested()) {
                 k.group = cl::Kernel(program, kNodeGroupKernelName);
                 k.chunk = cl::Kernel(program, kNodeChunkKernelName);
@@ -1379,6 +1463,11 @@ private:
     // sub-launch's terms.
     std::map<std::string, NodeParallelKernels> node_parallel_kernels_;
     std::vector<std::uint32_t> node_offset_host_, node_item_host_;
+    // Split terms: both node lists (first form, then second) and the
+    // first-form nodes before each work item (lay_out_nodes); their buffer.
+    std::vector<std::uint32_t> node_list_host_, node_first_before_;
+    cl::Buffer node_list_;
+    std::size_t node_list_items_ = 0;
     cl::Buffer node_offset_, node_item_, node_scratch_, node_state_;
     std::size_t node_offset_items_ = 0, node_item_items_ = 0, node_scratch_bytes_ = 0;
     std::size_t node_state_bytes_ = 0;

@@ -269,13 +269,19 @@ std::string node_parallel_kernel_source(const std::string& kernel_header,
                                         const std::string& prepare_function,
                                         const std::string& term_function,
                                         const std::string& finish_function,
-                                        const std::string& kernel_dir) {
+                                        const std::string& kernel_dir,
+                                        const std::string& term_first,
+                                        const std::string& term_second) {
     std::string source = forced_inline_prologue(kernel_header, "common/node_parallel.h", kernel_dir);
     source += "#line 1 \"generated node-parallel entry points for " + kernel_header + "\"\n";
     source += "BT_DEFINE_NODE_PARALLEL_KERNELS(" + std::string(kNodePrepareKernelName) + ", " +
               kNodeKernelName + ", " + kNodeSumKernelName + ", " + state_size + ", " +
               count_function + ", " + prepare_function + ", " + term_function + ", " +
               finish_function + ")\n";
+    if (!term_first.empty() && !term_second.empty())
+        source += "BT_DEFINE_NODE_SPLIT_KERNELS(" + std::string(kNodeFirstKernelName) + ", " +
+                  kNodeSecondKernelName + ", " + state_size + ", " + term_first + ", " +
+                  term_second + ")\n";
     return source;
 }
 

@@ -35,6 +35,10 @@ constexpr const char* kNodeGroupKernelName = "bt_node_group";
 constexpr const char* kNodeChunkKernelName = "bt_node_chunk";
 constexpr const char* kNodeReduceKernelName = "bt_node_reduce";
 constexpr const char* kNodeTableKernelName = "bt_node_table";
+// The split-term node kernels (BT_DEFINE_NODE_SPLIT_KERNELS), in the flat
+// program of a quantity whose terms are split.
+constexpr const char* kNodeFirstKernelName = "bt_node_first";
+constexpr const char* kNodeSecondKernelName = "bt_node_second";
 // The entry point walk_parallel_kernel_source() generates.
 constexpr const char* kWalkKernelName = "bt_estimate_walk";
 
@@ -65,13 +69,17 @@ std::string sample_parallel_kernel_source(const std::string& kernel_header,
 // bt_node, bt_node_sum, state_size, count, prepare, term, finish) of
 // kernels/common/node_parallel.h around the model's node functions
 // (QuantityInfo::node_parallel); a separate program, like the one above.
+// With both term_first and term_second named, it also holds
+// BT_DEFINE_NODE_SPLIT_KERNELS(bt_node_first, bt_node_second, ...).
 std::string node_parallel_kernel_source(const std::string& kernel_header,
                                         const std::string& state_size,
                                         const std::string& count_function,
                                         const std::string& prepare_function,
                                         const std::string& term_function,
                                         const std::string& finish_function,
-                                        const std::string& kernel_dir = "");
+                                        const std::string& kernel_dir = "",
+                                        const std::string& term_first = "",
+                                        const std::string& term_second = "");
 // The program of a quantity's nested node-parallel quadrature: the entry
 // points BT_DEFINE_NESTED_NODE_PARALLEL_KERNELS(bt_node_table, bt_node_prepare,
 // bt_node_group, bt_node_chunk, bt_node, bt_node_reduce, bt_node_sum, ...) of

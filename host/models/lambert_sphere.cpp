@@ -77,6 +77,15 @@ ModelInfo hfunction_model() {
     b.quantity_by_id(HF_Q_H).node_parallel = {
         "hfunction_h_node_count", "hfunction_h_node_prepare", "hfunction_h_node_term",
         "hfunction_h_node_finish", HF_NODE_STATE, &hfunction_h_node_count};
+    // Its two forms of a term (series below t = 1/2, K itself above) on
+    // kernels of their own (node_parallel.h, "Split terms"; docs/benchmarks.md,
+    // "Session 14: hfunction's two forms").
+    {
+        NodeParallelFunctions& f = b.quantity_by_id(HF_Q_H).node_parallel;
+        f.term_first = "hfunction_h_node_term_series";
+        f.term_second = "hfunction_h_node_term_direct";
+        f.host_split = &hfunction_h_node_split;
+    }
     b.quantity(
         QuantityInfo{"moment", HF_Q_MOMENT,
                      "alpha_n = int_0^1 mu^n H(mu) dmu (24-point Gauss-Legendre in sqrt(mu))", "1",

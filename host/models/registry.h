@@ -79,6 +79,13 @@ struct NodeParallelFunctions {
     // entries and the values per entry.  Empty: a one-value table of zeros.
     std::string table = {};
     int table_entries = 0, table_size = 0;
+    // Split terms (flat sums only; node_parallel.h, "Split terms"): the two
+    // forms of a term, each NaN at the other form's nodes, and how many
+    // leading nodes of a work item the host takes to be of the first form
+    // (a guess: a wrong one costs time, not bits).  Empty: one node kernel.
+    std::string term_first = {}, term_second = {};
+    HostNodeCountFn host_split = nullptr;
+    bool split() const { return host_split != nullptr && !term_first.empty() && !term_second.empty(); }
     // Whether it runs with BRDFTAB_NODE_PARALLEL unset (and
     // node_parallel_by_default()); false: only with BRDFTAB_NODE_PARALLEL=1.
     bool by_default = true;

@@ -119,13 +119,16 @@
         __global const REAL* x = scratch + (node_offset[w] - first_node);      \
         REAL sum = R(0.0);                                                     \
         for (int k = 0; k < n; ++k) {                                          \
-            if ((uint)k < stored) {                                            \
-                sum += x[k];                                                   \
-            } else { /* not laid out by the host: computed here */             \
+            const int have = (uint)k < stored;                                 \
+            REAL v = have ? x[k] : R(0.0);                                     \
+            /* not laid out by the host, or NaN (a split kernel's node of   \
+             * the other form, or a NaN term): computed here */             \
+            if (!have || !(v == v)) {                                          \
                 REAL st[state_size];                                           \
                 prepare_fn(p, o, q_, &s, st);                                  \
-                sum += term_fn(st, o, q_, k);                                  \
+                v = term_fn(st, o, q_, k);                                     \
             }                                                                  \
+            sum += v;                                                          \
         }                                                                      \
         ACCUM value = (ACCUM)finish_fn(p, o, q_, &s, sum);                     \
         ACCUM mean = 0, m2 = 0;                                                \
@@ -133,6 +136,49 @@
         out_mean[w] = mean;                                                    \
         out_m2[w] = m2;                                                        \
     }
+#endif
+
+/* Split terms (BT_DEFINE_NODE_SPLIT_KERNELS, with the flat launch above).
+ * A term with two forms on either side of a branch (hfunction: the series
+ * of K below t = 1/2, K itself above) costs both forms in a vectorised node
+ * kernel, which runs both sides of a branch for every lane.  A model may
+ * name the forms apart,
+ *     REAL term_first_fn (state, o, quantity, k)   term(k) where k is of the
+ *     REAL term_second_fn(state, o, quantity, k)   form, else NaN
+ * and a host function that says how many leading nodes of a work item are
+ * of the first form (NodeParallelFunctions::host_split).  The engine then
+ * runs, instead of node_kernel, first_kernel over the list of first-form
+ * nodes and second_kernel over the others (node_list[list_first + gid]:
+ * global node numbers; same other arguments as node_kernel), each storing
+ * at the node's own scratch slot.  A node the host put on the wrong side
+ * comes back NaN, and the sum kernel computes it with term_fn: the host's
+ * split is a guess that changes no value. */
+#if BT_DEVICE
+#define BT_NODE_LIST_KERNEL_(kernel, state_size, term_fn)                      \
+    __kernel void kernel(                                                      \
+        __global const int* options, uint n_options, int quantity,             \
+        __global const uint* node_item, __global const uint* node_offset,      \
+        uint first_work, uint first_node, uint n_nodes,                        \
+        __global const REAL* state, __global REAL* scratch,                    \
+        __global const uint* node_list, uint list_first)                       \
+    {                                                                          \
+        const uint gid = (uint)get_global_id(0);                               \
+        if (gid >= n_nodes) return;                                            \
+        const uint node = node_list[list_first + gid];                         \
+        const uint w = node_item[node];                                        \
+        BT_KERNEL_LOAD_OPTIONS_(o, options, n_options)                         \
+        __global const REAL* my_state =                                        \
+            state + (size_t)(w - first_work) * (state_size);                   \
+        REAL st[state_size];                                                   \
+        _Pragma("unroll")                                                      \
+        for (uint i = 0; i < (uint)(state_size); ++i) st[i] = my_state[i];     \
+        scratch[node - first_node] = term_fn(st, o, BT_KERNEL_QUANTITY_(quantity), \
+                                             (int)(node - node_offset[w]));    \
+    }
+#define BT_DEFINE_NODE_SPLIT_KERNELS(first_kernel, second_kernel, state_size,  \
+                                     term_first_fn, term_second_fn)            \
+    BT_NODE_LIST_KERNEL_(first_kernel, state_size, term_first_fn)             \
+    BT_NODE_LIST_KERNEL_(second_kernel, state_size, term_second_fn)
 #endif
 
 /*

@@ -241,19 +241,32 @@ BT_INLINE REAL hf_log1p(REAL x)
 }
 #endif
 
-/* L(t) = log(K(t)/Q(t)), note 2. */
-BT_INLINE REAL hf_log_k_over_q(const hf_psi* P, REAL t)
+/* L(t) = log(K(t)/Q(t)), note 2: by the series for t < HF_T_SERIES, else
+ * from K directly.  The two forms apart, for the node-parallel kernels that
+ * run each on its own nodes (hfunction_h_node_term_series/_direct). */
+BT_INLINE REAL hf_log_k_over_q_series(const hf_psi* P, REAL t)
 {
     REAL a = P->k0, beta = hf_beta(P);
     REAL t2 = t * t;
     REAL bt2 = beta * t2;
-    if (t < HF_T_SERIES) {
-        REAL rest = (P->b - beta) * t2 + hf_k_series_rest(P, t);
-        REAL aq = a + bt2;
-        if (!(aq > R(0.0))) return R(0.0); /* t = 0 with a = 0 */
-        return hf_log1p(rest / aq) + hf_log1p(bt2);
-    }
+    REAL rest = (P->b - beta) * t2 + hf_k_series_rest(P, t);
+    REAL aq = a + bt2;
+    if (!(aq > R(0.0))) return R(0.0); /* t = 0 with a = 0 */
+    return hf_log1p(rest / aq) + hf_log1p(bt2);
+}
+
+BT_INLINE REAL hf_log_k_over_q_direct(const hf_psi* P, REAL t)
+{
+    REAL a = P->k0, beta = hf_beta(P);
+    REAL t2 = t * t;
+    REAL bt2 = beta * t2;
     return hf_log(hf_k_direct(P, t)) - hf_log(a + bt2) + hf_log1p(bt2);
+}
+
+BT_INLINE REAL hf_log_k_over_q(const hf_psi* P, REAL t)
+{
+    if (t < HF_T_SERIES) return hf_log_k_over_q_series(P, t);
+    return hf_log_k_over_q_direct(P, t);
 }
 
 /* The trapezoid rule of H(mu) (eq. 16 with notes 2-3) in three parts, so
@@ -291,11 +304,20 @@ BT_INLINE int hf_h_nodes(const hf_psi* P, REAL mu, int coarse, REAL* s_lo, REAL*
     return n;
 }
 
+/* Node k's t, and its term from L(t) (hf_h_term, in two steps for the
+ * node-parallel kernels of one form). */
+BT_INLINE REAL hf_h_node_t(REAL s_lo, REAL step, int k) { return bt_exp(s_lo + step * (REAL)k); }
+
+BT_INLINE REAL hf_h_term_of(REAL log_k_over_q, REAL mu, REAL t)
+{
+    REAL mt = mu * t;
+    return log_k_over_q * mt / (R(1.0) + mt * mt);
+}
+
 BT_INLINE REAL hf_h_term(const hf_psi* P, REAL mu, REAL s_lo, REAL step, int k)
 {
-    REAL t = bt_exp(s_lo + step * (REAL)k);
-    REAL mt = mu * t;
-    return hf_log_k_over_q(P, t) * mt / (R(1.0) + mt * mt);
+    REAL t = hf_h_node_t(s_lo, step, k);
+    return hf_h_term_of(hf_log_k_over_q(P, t), mu, t);
 }
 
 BT_INLINE REAL hf_h_finish(const hf_psi* P, REAL mu, REAL step, REAL sum)
@@ -428,9 +450,8 @@ BT_INLINE void hfunction_h_node_prepare(const REAL* p, const int* o, int quantit
     for (int j = 0; j < HF_SERIES_TERMS; ++j) state[6 + HF_NCOEF + j] = P.m[j];
 }
 
-BT_INLINE REAL hfunction_h_node_term(const REAL* state, const int* o, int quantity, int k)
+BT_INLINE hf_psi hfunction_h_node_psi(const REAL* state, const int* o)
 {
-    (void)quantity;
     hf_psi P;
     P.kind = o[HF_OPT_PSI];
     P.c = state[3];
@@ -440,7 +461,56 @@ BT_INLINE REAL hfunction_h_node_term(const REAL* state, const int* o, int quanti
     for (int i = 0; i < HF_NCOEF; ++i) P.a[i] = state[6 + i];
     HF_UNROLL
     for (int j = 0; j < HF_SERIES_TERMS; ++j) P.m[j] = state[6 + HF_NCOEF + j];
+    return P;
+}
+
+BT_INLINE REAL hfunction_h_node_term(const REAL* state, const int* o, int quantity, int k)
+{
+    (void)quantity;
+    hf_psi P = hfunction_h_node_psi(state, o);
     return hf_h_term(&P, state[0], state[1], state[2], k);
+}
+
+/* The two forms of a term (the node-parallel split, node_parallel.h): a
+ * vectorised node kernel computes both sides of hf_log_k_over_q's branch for
+ * every node, and the series (38 terms) costs more than the direct form; the
+ * engine runs the nodes with t < HF_T_SERIES (a prefix: t grows with k) on
+ * the series kernel and the others on the direct one.  Each returns its
+ * form's term, hfunction_h_node_term's value, where its form is the one
+ * hf_log_k_over_q takes at the node's t, else NaN (the sum kernel then
+ * computes the term itself). */
+BT_INLINE REAL hfunction_h_node_term_series(const REAL* state, const int* o, int quantity, int k)
+{
+    (void)quantity;
+    hf_psi P = hfunction_h_node_psi(state, o);
+    REAL t = hf_h_node_t(state[1], state[2], k);
+    REAL v = hf_h_term_of(hf_log_k_over_q_series(&P, t), state[0], t);
+    return t < HF_T_SERIES ? v : R(0.0) / R(0.0);
+}
+
+BT_INLINE REAL hfunction_h_node_term_direct(const REAL* state, const int* o, int quantity, int k)
+{
+    (void)quantity;
+    hf_psi P = hfunction_h_node_psi(state, o);
+    REAL t = hf_h_node_t(state[1], state[2], k);
+    REAL v = hf_h_term_of(hf_log_k_over_q_direct(&P, t), state[0], t);
+    return t < HF_T_SERIES ? R(0.0) / R(0.0) : v;
+}
+
+/* The series nodes of a work item (the host's guess, for the layout): k
+ * with s_lo + step k < log(HF_T_SERIES), from the grid rather than from
+ * n calls of exp; a node it puts on the wrong side comes back NaN and is
+ * computed by the sum kernel, so the guess moves no value. */
+BT_INLINE int hfunction_h_node_split(const REAL* p, const int* o, int quantity, const bt_sampler* s)
+{
+    (void)quantity;
+    hf_psi P = hfunction_point_psi(p, o);
+    REAL s_lo, step;
+    int n = hf_h_nodes(&P, p[HF_PARAM_MU], hfunction_coarse(s), &s_lo, &step);
+    if (n <= 0 || !(step > R(0.0))) return 0;
+    REAL first_direct = ceil((bt_log(HF_T_SERIES) - s_lo) / step);
+    if (!(first_direct > R(0.0))) return 0;
+    return first_direct < (REAL)n ? (int)first_direct : n;
 }
 
 BT_INLINE REAL hfunction_h_node_finish(const REAL* p, const int* o, int quantity,
