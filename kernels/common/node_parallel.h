@@ -231,7 +231,8 @@
  *                   Oren-nayar's rule used to be computed by every work
  *                   item's prepare (Newton on P_n, PoCL's scalar cos): 14 %
  *                   of the device time at 12 nodes (docs/benchmarks.md,
- *                   "Session 14").  The same function in the same program
+ *                   "Session 14: oren-nayar's rules from a table
+ *                   kernel").  The same function in the same program
  *                   gives the same bits (test_node_parallel compares with
  *                   the usual kernel, which computes the rule inline).
  *   prepare_kernel  one work item per work item of the block: item state.
