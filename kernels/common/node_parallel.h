@@ -66,6 +66,19 @@
         BT_KERNEL_LOAD_WORK_(w)                                                \
         s.sample = 0u;                                                         \
         REAL st[state_size];
+/* The node kernels' body once the global node number is known: its work
+ * item's state (copied whole, unrolled) and term_fn's value at scratch[slot]
+ * (the node's number within its work item is node - node_offset[w]). */
+#define BT_NODE_TERM_(state_size, term_fn, node, slot)                         \
+        const uint w = node_item[node];                                        \
+        BT_KERNEL_LOAD_OPTIONS_(o, options, n_options)                         \
+        __global const REAL* my_state =                                        \
+            state + (size_t)(w - first_work) * (state_size);                   \
+        REAL st[state_size];                                                   \
+        _Pragma("unroll")                                                      \
+        for (uint i = 0; i < (uint)(state_size); ++i) st[i] = my_state[i];     \
+        scratch[slot] = term_fn(st, o, BT_KERNEL_QUANTITY_(quantity),          \
+                                (int)(node - node_offset[w]));
 
 #define BT_DEFINE_NODE_PARALLEL_KERNELS(prepare_kernel, node_kernel,           \
                                         sum_kernel, state_size, count_fn,      \
@@ -92,15 +105,7 @@
         const uint gid = (uint)get_global_id(0);                               \
         if (gid >= n_nodes) return;                                            \
         const uint node = first_node + gid;                                    \
-        const uint w = node_item[node];                                        \
-        BT_KERNEL_LOAD_OPTIONS_(o, options, n_options)                         \
-        __global const REAL* my_state =                                        \
-            state + (size_t)(w - first_work) * (state_size);                   \
-        REAL st[state_size];                                                   \
-        _Pragma("unroll")                                                      \
-        for (uint i = 0; i < (uint)(state_size); ++i) st[i] = my_state[i];     \
-        scratch[gid] = term_fn(st, o, BT_KERNEL_QUANTITY_(quantity),           \
-                               (int)(node - node_offset[w]));                  \
+        BT_NODE_TERM_(state_size, term_fn, node, gid)                          \
     }                                                                          \
     __kernel void sum_kernel(                                                  \
         BT_WORK_KERNEL_PARAMS,                                                 \
@@ -165,15 +170,7 @@
         const uint gid = (uint)get_global_id(0);                               \
         if (gid >= n_nodes) return;                                            \
         const uint node = node_list[list_first + gid];                         \
-        const uint w = node_item[node];                                        \
-        BT_KERNEL_LOAD_OPTIONS_(o, options, n_options)                         \
-        __global const REAL* my_state =                                        \
-            state + (size_t)(w - first_work) * (state_size);                   \
-        REAL st[state_size];                                                   \
-        _Pragma("unroll")                                                      \
-        for (uint i = 0; i < (uint)(state_size); ++i) st[i] = my_state[i];     \
-        scratch[node - first_node] = term_fn(st, o, BT_KERNEL_QUANTITY_(quantity), \
-                                             (int)(node - node_offset[w]));    \
+        BT_NODE_TERM_(state_size, term_fn, node, node - first_node)            \
     }
 #define BT_DEFINE_NODE_SPLIT_KERNELS(first_kernel, second_kernel, state_size,  \
                                      term_first_fn, term_second_fn)            \
