@@ -303,6 +303,17 @@ TEST_CASE("sample-parallel defaults name existing Monte Carlo / RQMC quantities 
     for (const char* other : {"beckmann-ts", "gaussian-ts"})
         CHECK_FALSE(sample_parallel_by_default(il, body, Method::MonteCarlo,
                                                resolve_options(il, {{"distribution", other}}, "")));
+    // vcavity, staged: Beckmann-Smith and Beckmann-TS with visible normals (the
+    // fixed-step search), not GGX-Smith (staged measured slower, session 14).
+    const QuantityInfo& vcavity = il.quantity("vcavity");
+    for (const char* beckmann : {"beckmann-smith", "beckmann-ts"})
+        for (Method method : {Method::MonteCarlo, Method::Rqmc})
+            CHECK(sample_parallel_by_default(il, vcavity, method,
+                                             resolve_options(il, {{"distribution", beckmann}}, "")));
+    CHECK_FALSE(sample_parallel_by_default(il, vcavity, Method::Rqmc,
+                                           resolve_options(il, {{"distribution", "ggx-smith"}}, "")));
+    CHECK_FALSE(sample_parallel_by_default(il, vcavity, Method::Rqmc,
+                                           resolve_options(il, {{"sampling", "distribution"}}, "")));
     const ModelInfo& mg = find_model("micrograin");
     CHECK_FALSE(sample_parallel_by_default(mg, mg.quantity("brdf"), Method::Rqmc,
                                            resolve_options(mg, nlohmann::json::object(), "")));
