@@ -485,7 +485,7 @@ private:
                                          l.batches.data());
             }
             if (sample_parallel) {
-                enqueue_sample_parallel(l, *pair, accum_size);
+                enqueue_sample_parallel(l, *pair, accum_size, real_size);
             } else if (node_parallel && node_functions(l)->nested()) {
                 enqueue_nested_node_parallel(l, *nodes, real_size);
             } else if (node_parallel) {
@@ -537,6 +537,13 @@ private:
     }
 
 private:
+    // The quantity a launch computes (its id in the model's list).
+    static const QuantityInfo* launch_quantity(const BatchLaunch& l) {
+        for (const QuantityInfo& q : l.model->quantities)
+            if (q.id == l.quantity) return &q;
+        return nullptr;
+    }
+
     // The sample-parallel pair of kernels (kernels/common/estimator.h,
     // BT_DEFINE_SAMPLE_PARALLEL_KERNELS) of one (model, quantity, options,
     // method).
@@ -565,10 +572,8 @@ private:
         if (precision_ != Precision::Double || !runtime_.device_info().has_fp64) return false;
         const ModelInfo& m = *l.model;
         if (m.name != "interfaced-lambertian") return false;
-        const QuantityInfo* body = m.find_quantity("body");
-        const QuantityInfo* vcavity = m.find_quantity("vcavity");
-        if (!(body && body->id == l.quantity) && !(vcavity && vcavity->id == l.quantity))
-            return false;
+        const QuantityInfo* q = launch_quantity(l);
+        if (!q || (q->name != "body" && q->name != "vcavity")) return false;
         return option_is(m, l.options, "distribution", "beckmann-smith") ||
                option_is(m, l.options, "distribution", "beckmann-ts");
     }
@@ -584,14 +589,12 @@ private:
         if (env && std::string(env) == "0") return false;
         if (env && std::string(env) == "1") return true;
         const Method method = l.method == BT_METHOD_MC ? Method::MonteCarlo : Method::Rqmc;
-        for (const QuantityInfo& q : l.model->quantities)
-            if (q.id == l.quantity) {
-                // A staged quantity's first stage vectorises only with the
-                // fixed-step search: elsewhere its launch stays the usual one.
-                if (q.staged.enabled() && !uses_fixed_step_solver(l)) return false;
-                return sample_parallel_by_default(*l.model, q, method, l.options);
-            }
-        return false;
+        const QuantityInfo* q = launch_quantity(l);
+        if (!q) return false;
+        // A staged quantity's first stage vectorises only with the fixed-step
+        // search: elsewhere its launch stays the usual one.
+        if (q->staged.enabled() && !uses_fixed_step_solver(l)) return false;
+        return sample_parallel_by_default(*l.model, *q, method, l.options);
     }
 
     // The arguments both entry points take first, in the same order
@@ -654,7 +657,7 @@ private:
     // in sub-launches of at most sample_parallel_scratch_samples() samples.
     // The inputs are already written; the outputs are read by run().
     void enqueue_sample_parallel(const BatchLaunch& l, SampleParallelKernels& k,
-                                 std::size_t accum_size) {
+                                 std::size_t accum_size, std::size_t real_size) {
         cl::CommandQueue& queue = runtime_.queue();
         const std::size_t n = l.cells.size();
         const std::size_t batch = l.batch_size;
@@ -672,8 +675,7 @@ private:
         std::vector<cl::Kernel*> per_sample{&k.sample};
         if (k.has_redo) per_sample.push_back(&k.redo);
         if (k.stage_size > 0) {
-            const std::size_t stage_bytes = std::min(n, per_sub) * batch * k.stage_size *
-                                            (precision_ == Precision::Float ? sizeof(float) : sizeof(double));
+            const std::size_t stage_bytes = std::min(n, per_sub) * batch * k.stage_size * real_size;
             if (stage_bytes > stage_bytes_) {
                 stage_ = cl::Buffer(runtime_.context(), CL_MEM_READ_WRITE, stage_bytes);
                 stage_bytes_ = stage_bytes;
@@ -731,9 +733,7 @@ private:
         const std::string key = model.name + "\n" + options + "\n" + fixed_options;
         auto it = sample_parallel_kernels_.find(key);
         if (it != sample_parallel_kernels_.end()) return it->second;
-        const QuantityInfo* quantity = nullptr;
-        for (const QuantityInfo& q : model.quantities)
-            if (q.id == l.quantity) quantity = &q;
+        const QuantityInfo* quantity = launch_quantity(l);
         const QuantityInfo::StagedSample staged =
             quantity && quantity->staged.enabled() ? quantity->staged : QuantityInfo::StagedSample{};
         const std::string source =
@@ -775,11 +775,10 @@ private:
     // ------------------------------------------------ walk-parallel launch
     // (kernels/common/walk_parallel.h; the cases: walk_parallel_cases()).
     static const WalkParallelCase* walk_parallel_case(const BatchLaunch& l) {
-        for (const WalkParallelCase& c : walk_parallel_cases()) {
-            if (l.model->name != c.model) continue;
-            for (const QuantityInfo& q : l.model->quantities)
-                if (q.id == l.quantity && q.name == c.quantity) return &c;
-        }
+        const QuantityInfo* q = launch_quantity(l);
+        if (!q) return nullptr;
+        for (const WalkParallelCase& c : walk_parallel_cases())
+            if (l.model->name == c.model && q->name == c.quantity) return &c;
         return nullptr;
     }
     // Monte Carlo only: with RQMC the round runs the first collision's
@@ -834,9 +833,8 @@ private:
     };
 
     static const NodeParallelFunctions* node_functions(const BatchLaunch& l) {
-        for (const QuantityInfo& q : l.model->quantities)
-            if (q.id == l.quantity) return q.node_parallel.enabled() ? &q.node_parallel : nullptr;
-        return nullptr;
+        const QuantityInfo* q = launch_quantity(l);
+        return q && q->node_parallel.enabled() ? &q->node_parallel : nullptr;
     }
 
     // Whether this launch runs node-parallel: quadrature (or closed-form)
@@ -887,6 +885,15 @@ private:
         s.key1 = l.key1;
         s.method = l.method;
         s.sample = 0;
+        // Split terms: the first-form nodes (a work item's first host_split
+        // ones), node_first_before_[w]: those of the work items before w.
+        // BRDFTAB_NODE_SPLIT_SHIFT=D moves every guess by D nodes (tests: the
+        // nodes put on the wrong side must come out the same).
+        const bool split = f.split() && use_split_terms();
+        const char* shift_env = split ? std::getenv("BRDFTAB_NODE_SPLIT_SHIFT") : nullptr;
+        const int shift = shift_env && *shift_env ? std::atoi(shift_env) : 0;
+        node_first_before_.assign(split ? n + 1 : 0, 0);
+        std::uint32_t firsts = 0;
         node_offset_host_.resize(n + 1);
         std::uint64_t total = 0;
         for (std::size_t w = 0; w < n; ++w) {
@@ -895,40 +902,29 @@ private:
             s.batch = l.batches[w];
             int count = f.host_count(point, opts, l.quantity, &s);
             if (layout_cap >= 0 && count > layout_cap) count = static_cast<int>(layout_cap);
+            count = std::max(count, 0);
             if (total > 0xFFFFFFFFull) return false;
             node_offset_host_[w] = static_cast<std::uint32_t>(total);
-            total += static_cast<std::uint64_t>(std::max(count, 0));
+            total += static_cast<std::uint64_t>(count);
+            if (split) {
+                node_first_before_[w] = firsts;
+                const int guess = f.host_split(point, opts, l.quantity, &s) + shift;
+                firsts += static_cast<std::uint32_t>(std::clamp(guess, 0, count));
+            }
         }
         if (total > 0xFFFFFFFFull) return false;
+        if (split) node_first_before_[n] = firsts;
         node_offset_host_[n] = static_cast<std::uint32_t>(total);
         node_item_host_.resize(static_cast<std::size_t>(total));
         for (std::size_t w = 0; w < n; ++w)
             std::fill(node_item_host_.begin() + node_offset_host_[w],
                       node_item_host_.begin() + node_offset_host_[w + 1],
                       static_cast<std::uint32_t>(w));
-        // Split terms: the first-form nodes (a work item's first host_split
-        // ones), then the others, each list in node order; node_first_before_
-        // [w]: first-form nodes of the work items before w.
+        // Split terms: both node lists, first form then second, each in
+        // node order.
         node_list_host_.clear();
-        node_first_before_.clear();
-        if (f.split() && use_split_terms()) {
-            // BRDFTAB_NODE_SPLIT_SHIFT=D moves every guess by D nodes (tests:
-            // the nodes put on the wrong side must come out the same).
-            const char* shift_env = std::getenv("BRDFTAB_NODE_SPLIT_SHIFT");
-            const int shift = shift_env && *shift_env ? std::atoi(shift_env) : 0;
-            node_first_before_.resize(n + 1);
+        if (split) {
             node_list_host_.resize(static_cast<std::size_t>(total));
-            std::uint32_t firsts = 0;
-            for (std::size_t w = 0; w < n; ++w) {
-                node_first_before_[w] = firsts;
-                std::copy_n(&l.points[w * l.stride], l.stride, point);
-                s.cell = l.cells[w];
-                s.batch = l.batches[w];
-                const std::uint32_t count = node_offset_host_[w + 1] - node_offset_host_[w];
-                const int guess = f.host_split(point, opts, l.quantity, &s) + shift;
-                firsts += std::min(count, static_cast<std::uint32_t>(std::max(guess, 0)));
-            }
-            node_first_before_[n] = firsts;
             for (std::size_t w = 0; w < n; ++w) {
                 const std::uint32_t a = node_first_before_[w], b = node_first_before_[w + 1];
                 const std::uint32_t base = node_offset_host_[w];

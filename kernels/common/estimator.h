@@ -255,17 +255,22 @@
         out_mean[first_work + item] = mean;                                    \
         out_m2[first_work + item] = m2;                                        \
     }
-/* The sample kernel's body; with redo = 1 only the slots that hold NaN are
- * computed again (the redo kernel: see BT_MF_SOLVE_STEPS in microfacet.h). */
-#define BT_SAMPLE_PARALLEL_BODY_(sample_fn, redo)                              \
+/* Sample gid of a sub-launch, as every per-sample kernel starts: unless it
+ * is padding or `skip` (an expression of gid) holds, its work item, point
+ * and sampler state. */
+#define BT_SAMPLE_LOAD_(skip)                                                  \
         const uint gid = (uint)get_global_id(0);                               \
         if (gid >= n_samples) return;                                          \
-        if ((redo) && scratch[gid] == scratch[gid]) return;                    \
+        if (skip) return;                                                      \
         const uint batch_size_ = BT_KERNEL_BATCH_SIZE_(batch_size);            \
         const uint item = gid / batch_size_;                                   \
         const uint w = first_work + item;                                      \
         BT_KERNEL_LOAD_WORK_(w)                                                \
-        s.sample = gid - item * batch_size_;                                   \
+        s.sample = gid - item * batch_size_;
+/* The sample kernel's body; with redo = 1 only the slots that hold NaN are
+ * computed again (the redo kernel: see BT_MF_SOLVE_STEPS in microfacet.h). */
+#define BT_SAMPLE_PARALLEL_BODY_(sample_fn, redo)                              \
+        BT_SAMPLE_LOAD_((redo) && scratch[gid] == scratch[gid])                \
         scratch[gid] =                                                         \
             (ACCUM)sample_fn(p, o, BT_KERNEL_QUANTITY_(quantity), &s);
 
@@ -308,7 +313,7 @@
         BT_WORK_KERNEL_PARAMS, uint first_work, uint n_samples, uint batch_size, \
         __global ACCUM* scratch, __global const REAL* stage)                   \
     {                                                                          \
-        BT_STAGE_LOAD_SAMPLE_                                                  \
+        BT_SAMPLE_LOAD_(0)                                                     \
         REAL st[stage_size];                                                   \
         _Pragma("unroll")                                                      \
         for (uint i = 0; i < (uint)(stage_size); ++i)                          \
@@ -316,21 +321,11 @@
         scratch[gid] =                                                         \
             (ACCUM)rest_fn(p, o, BT_KERNEL_QUANTITY_(quantity), &s, st);       \
     }
-/* Sample gid of the sub-launch: its work item, point and sampler state. */
-#define BT_STAGE_LOAD_SAMPLE_                                                  \
-        const uint gid = (uint)get_global_id(0);                               \
-        if (gid >= n_samples) return;                                          \
-        const uint batch_size_ = BT_KERNEL_BATCH_SIZE_(batch_size);            \
-        const uint item = gid / batch_size_;                                   \
-        const uint w = first_work + item;                                      \
-        BT_KERNEL_LOAD_WORK_(w)                                                \
-        s.sample = gid - item * batch_size_;
+/* The stage kernel's body; with redo = 1 only the stages whose first value
+ * is NaN are computed again. */
 #define BT_STAGE_BODY_(stage_size, stage_fn, redo)                             \
-        if ((redo) && (uint)get_global_id(0) < n_samples) {                    \
-            const REAL first_ = stage[(size_t)get_global_id(0) * (stage_size)]; \
-            if (first_ == first_) return;                                      \
-        }                                                                      \
-        BT_STAGE_LOAD_SAMPLE_                                                  \
+        BT_SAMPLE_LOAD_((redo) && stage[(size_t)gid * (stage_size)] ==         \
+                                      stage[(size_t)gid * (stage_size)])       \
         REAL st[stage_size];                                                   \
         stage_fn(p, o, BT_KERNEL_QUANTITY_(quantity), &s, st);                 \
         _Pragma("unroll")                                                      \
