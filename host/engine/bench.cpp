@@ -24,7 +24,7 @@ std::vector<BenchCase> default_bench_cases() {
     std::vector<BenchCase> cases;
     cases.push_back({"rough-dielectric", "bsdf", false, 240, 179});
     // The albedos' default is quadrature; the bench keeps timing their
-    // sampled (RQMC) kernel, whose rates the history in benchmarks.md tracks.
+    // sampled (RQMC) kernel, the sample-parallel launch's main case.
     cases.push_back({"rough-dielectric", "albedo_r", false, 0, 89, Method::Rqmc});
     cases.push_back({"rough-dielectric", "albedo_t", false, 0, 89, Method::Rqmc});
     cases.push_back({"oren-nayar", "brdf", true, 0, 89});
@@ -147,8 +147,7 @@ struct TimingSeries {
 // small launches do not build), then `repeats` rounds in which each backend runs once in turn.  Interleaved, so that a slower phase of the
 // machine (other processes, frequency) falls on every backend alike rather
 // than on whichever was running then: the serial host's rate moved by 30 %
-// from one whole series to the next on the project machine (docs/benchmarks.md,
-// "Session 10 build, after the merges").
+// from one whole series to the next on the project machine.
 std::vector<BackendTiming> measure_backends(const std::vector<Backend*>& backends, const Workload& w,
                                             std::size_t cells, bool per_cell, unsigned repeats,
                                             std::uint64_t& evaluations) {

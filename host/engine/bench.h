@@ -38,7 +38,7 @@ struct BenchCase {
     Method method = Method::Auto;
 };
 
-// The cases `brdftab bench` runs, in order (issue #12's list).
+// The cases `brdftab bench` runs, in order: every model's main quantities.
 std::vector<BenchCase> default_bench_cases();
 
 struct BenchSettings {
@@ -102,7 +102,7 @@ BenchReport run_bench(Backend& device, const BenchSettings& settings,
 // double8 FMA chains.  Throws Error when the device has no fp64.
 PeakFma measure_peak_fma(const std::string& device_selector, double target_seconds);
 
-// Targets of issue #12 for one report (medians over the cases).
+// The speed targets for one report (docs/benchmarks.md, "Targets").
 struct BenchTargets {
     double min_device_over_host = 0, median_device_over_host = 0;
     double min_device_over_threads = 0;

@@ -135,26 +135,23 @@ private:
 
 // The cases whose batches run sample-parallel on OpenCL devices by default
 // (engine.h).  Filled from measurements only (docs/benchmarks.md,
-// "Sample-parallel launches (2026-11-30)"): a case is listed where PoCL
-// vectorised the sample kernel across work items and it ran faster per
-// CPU-second than the usual kernel (rough-dielectric GGX albedos by Monte
-// Carlo: 2.1-2.4x; bench/bench_sample_parallel), bit-identical to it
-// (tests/test_sample_parallel.cpp).  Not listed, because measured slower
-// (0.6-1.0x): every RQMC case (the scrambled Sobol sampler keeps the loop
-// scalar), Beckmann and Phong albedos, interfaced-lambertian body and vcavity,
-// lambert-sphere brdf_mc, micrograin brdf (calls, loops of data-dependent
-// length or inner sums in the sample function).  Since then: RQMC for GGX
-// albedos (session 8) and interfaced-lambertian's body (session 13) with
+// "Sample-parallel launches"): a case is listed where PoCL vectorises the
+// sample kernel across work items and it runs faster per CPU-second than
+// the usual kernel (bench/bench_sample_parallel), bit-identical to it
+// (tests/test_sample_parallel.cpp): the rough-dielectric GGX albedos by
+// Monte Carlo (2.1-2.4x) and RQMC; interfaced-lambertian's body with
 // Beckmann-Smith visible normals (a fixed-step search, uses_fixed_step_solver;
-// 2.2x less CPU time) and with GGX-Smith (1.2-1.4x); not with Beckmann-TS,
-// Gaussian-TS or Beckmann normals sampled from the distribution (measured
-// 1.4-1.9x slower; "Session 13: interfaced-lambertian's body").
+// 2.2x less CPU time) and with GGX-Smith (1.2-1.4x).  Not listed, because
+// measured slower: Beckmann and Phong albedos, lambert-sphere brdf_mc,
+// micrograin brdf (0.6-1.0x: calls, loops of data-dependent length or inner
+// sums in the sample function), the body with Beckmann-TS, Gaussian-TS or
+// Beckmann normals sampled from the distribution (1.4-1.9x slower).
 const std::vector<SampleParallelCase>& sample_parallel_default_cases() {
     static const std::vector<SampleParallelCase> cases = {
         {"rough-dielectric", "albedo_r", Method::MonteCarlo, {{"distribution", "ggx"}}},
         {"rough-dielectric", "albedo_t", Method::MonteCarlo, {{"distribution", "ggx"}}},
         {"rough-dielectric", "albedo_avg", Method::MonteCarlo, {{"distribution", "ggx"}}},
-        // RQMC since the sampler vectorises across work items (kernels/common/sobol.h).
+        // RQMC too: the sampler vectorises across work items (kernels/common/sobol.h).
         {"rough-dielectric", "albedo_r", Method::Rqmc, {{"distribution", "ggx"}}},
         {"rough-dielectric", "albedo_t", Method::Rqmc, {{"distribution", "ggx"}}},
         {"rough-dielectric", "albedo_avg", Method::Rqmc, {{"distribution", "ggx"}}},
@@ -168,7 +165,7 @@ const std::vector<SampleParallelCase>& sample_parallel_default_cases() {
         // takes fixed steps (the engine checks: double precision only):
         // Beckmann-Smith 4.3x the serial host against 3.5x, the Beckmann-TS
         // preset 5.6-5.8 s against 7.4-7.5 s; not GGX-Smith (4.6-4.8 s against
-        // 3.4 s) ("Session 14: vcavity in two stages").
+        // 3.4 s) (docs/benchmarks.md, "Sample-parallel launches").
         {"interfaced-lambertian", "vcavity", Method::MonteCarlo,
          {{"distribution", "beckmann-smith"}, {"sampling", "visible"}}},
         {"interfaced-lambertian", "vcavity", Method::Rqmc,
@@ -184,8 +181,8 @@ const std::vector<SampleParallelCase>& sample_parallel_default_cases() {
 // The random-walk quantities with a walk-parallel kernel (engine.h,
 // kernels/common/walk_parallel.h), run that way for every Monte Carlo launch
 // unless BRDFTAB_WALK_PARALLEL=0: measured faster per CPU-second than
-// the usual kernel (docs/benchmarks.md, "Session 10: lambert-sphere
-// brdf_mc"), bit-identical to it (tests/test_walk_parallel.cpp).
+// the usual kernel (docs/benchmarks.md, "Walk-parallel launch"),
+// bit-identical to it (tests/test_walk_parallel.cpp).
 const std::vector<WalkParallelCase>& walk_parallel_cases() {
     static const std::vector<WalkParallelCase> cases = {
         {"lambert-sphere", "brdf_mc", "ls_brdf_mc_state", "ls_brdf_mc_setup", "ls_brdf_mc_begin",
@@ -195,10 +192,9 @@ const std::vector<WalkParallelCase>& walk_parallel_cases() {
 }
 
 // Node-parallel quadrature by default (engine.h): measured faster per
-// CPU-second on hfunction H (2.8x r9's kernel, 1.8x the usual kernel of the
-// same build; docs/benchmarks.md "Node-parallel quadrature") and, as nested
-// sums, on oren-nayar's brdf (1.8x r9's kernel and the usual kernel),
-// bit-identical to the usual kernel (tests/test_node_parallel.cpp).  A
+// CPU-second than the usual kernel on hfunction H (1.8x; docs/benchmarks.md
+// "Node-parallel quadrature") and, as nested sums, on oren-nayar's brdf
+// (1.8x), bit-identical to the usual kernel (tests/test_node_parallel.cpp).  A
 // quantity can stay off by default (NodeParallelFunctions::by_default).
 bool node_parallel_by_default() { return true; }
 
@@ -348,8 +344,8 @@ public:
     // idle one), wrapped by CL_MEM_USE_HOST_PTR buffers.  On PoCL's CPU
     // device such a buffer's storage is that memory, and the write that
     // hands it over (enqueue_launch) is no copy: the caller's one copy of a
-    // point into its work item's slot is the only one (before: a second,
-    // PoCL's, of the whole launch; docs/benchmarks.md, session 10).  The
+    // point into its work item's slot is the only one (a write from other
+    // memory would be a second copy, PoCL's, of the whole launch).  The
     // memory is kept from launch to launch: no page faults after the first.
     bool stage(const BatchLaunch& l, std::size_t items, LaunchStaging& staging) override {
         if (items == 0 || unfinished_.size() >= 2 || !overlaps(l)) return false;
@@ -565,9 +561,9 @@ private:
     // normals, double precision): the search's loop is what kept the work-item
     // loop scalar; with a fixed number of steps it vectorises, and the rare
     // sample whose search has not ended is redone with the loop, so the
-    // values are the usual kernel's (docs/benchmarks.md, "Session 13").
-    // vcavity's facet (its first stage, QuantityInfo::staged) is the same
-    // search ("Session 14: vcavity in two stages").
+    // values are the usual kernel's (docs/benchmarks.md, "Sample-parallel
+    // launches").  vcavity's facet (its first stage, QuantityInfo::staged) is
+    // the same search.
     bool uses_fixed_step_solver(const BatchLaunch& l) const {
         if (precision_ != Precision::Double || !runtime_.device_info().has_fp64) return false;
         const ModelInfo& m = *l.model;
@@ -795,7 +791,7 @@ private:
     // BRDFTAB_WALK_LOCAL_SIZE (1..256, for experiments).  A group runs as many
     // rounds as its busiest work item, so small groups waste fewer lanes on
     // the long walks' tails: measured 4 > 8 > 16 > 64, and 1 or 2 (no SIMD)
-    // slower (docs/benchmarks.md, "Session 10: lambert-sphere brdf_mc").
+    // slower (docs/benchmarks.md, "Walk-parallel launch").
     std::size_t walk_group() const {
         static const long chosen = [] {
             const char* env = std::getenv("BRDFTAB_WALK_LOCAL_SIZE");
@@ -938,7 +934,7 @@ private:
     }
 
     // Split terms on (NodeParallelFunctions::split()) unless
-    // BRDFTAB_NODE_SPLIT=0 (one node kernel with both forms, as before; the
+    // BRDFTAB_NODE_SPLIT=0 (one node kernel with both forms; the
     // same bits either way, tests/test_node_parallel.cpp).
     static bool use_split_terms() {
         const char* env = std::getenv("BRDFTAB_NODE_SPLIT");
@@ -1319,7 +1315,7 @@ private:
 
     // Work-group size: a fixed 64 (or BRDFTAB_LOCAL_SIZE, a divisor of 256
     // below 256, for experiments; 0 or 256 = the driver's choice, on a global
-    // size padded to a multiple of 256 as before).  Fixed, because PoCL compiles
+    // size padded to a multiple of 256).  Fixed, because PoCL compiles
     // a kernel again for every new work-group size, and with the driver's
     // choice that size follows the global size, which varies from launch to
     // launch.  64 is a multiple of every SIMD width and lets PoCL vectorise
@@ -1364,7 +1360,7 @@ private:
         if (precision_ == Precision::Float) options += " -D BT_REAL_IS_FLOAT=1";
         // BRDFTAB_KERNEL_OPTIONS: extra build options, for experiments
         // (e.g. "-D BT_SAMPLE_BARRIER=0"); BRDFTAB_GENERIC_KERNELS=1 builds
-        // the one generic program per model that r4 used.
+        // one generic program per model instead of specialised ones.
         static const std::string extra = [] {
             const char* env = std::getenv("BRDFTAB_KERNEL_OPTIONS");
             return env && *env ? " " + std::string(env) : std::string();
@@ -1379,12 +1375,11 @@ private:
         // (docs/benchmarks.md, "What vectorises, and why"): it lets PoCL run
         // the work items of a group as SIMD lanes.  Not for every model:
         // with it, lambert-sphere tables came out wrong and PoCL crashed
-        // (SIGSEGV) on its Horak-Chandrasekhar constants (in session 10 only
-        // the in-kernel solve of lambert-sphere-constants still crashed:
-        // docs/contributing.md).  BRDFTAB_KERNEL_OPTIONS
+        // (SIGSEGV) in the in-kernel Horak-Chandrasekhar solve of
+        // lambert-sphere-constants (docs/contributing.md).  BRDFTAB_KERNEL_OPTIONS
         // naming BT_FORCE_INLINE decides instead.  interfaced-lambertian: body
-        // and vcavity 1.6x and 1.2x per CPU-second, presets bit-identical
-        // (docs/benchmarks.md, "Session 10"), though its sample loops stay scalar.
+        // and vcavity 1.6x and 1.2x per CPU-second with it, presets
+        // bit-identical, even where its sample loops stay scalar.
         if (!generic && extra.find("BT_FORCE_INLINE") == std::string::npos &&
             (model.name == "rough-dielectric" || model.name == "micrograin" ||
              model.name == "interfaced-lambertian"))
@@ -1422,10 +1417,10 @@ private:
     }
 
     // Device buffers kept from launch to launch and grown when a launch
-    // needs more: creating them per launch cost an allocation, a copy and
+    // needs more: creating them per launch costs an allocation, a copy and
     // fresh pages (page faults) for every launch, which on a CPU device
-    // weighed more than a closed-form kernel itself (docs/benchmarks.md,
-    // session 6).  Sizes are for `buffer_items_` work items and
+    // weighs more than a closed-form kernel itself (docs/benchmarks.md,
+    // "Closed forms: the engine's host work").  Sizes are for `buffer_items_` work items and
     // `buffer_point_bytes_` bytes of points.
     void reserve_buffers(std::size_t items, std::size_t point_bytes, std::size_t accum_size) {
         cl::Context& ctx = runtime_.context();
@@ -1548,8 +1543,8 @@ double cell_stderr(const CellState& c, bool rqmc) {
 // kernel allows, the fresh memory is asked to be backed by transparent huge
 // pages first (madvise), so that filling it takes a page fault per 2 MiB
 // instead of per 4 KiB.  Measured on 4 M closed-form cells: the faults of the
-// three result arrays took about a sixth of the process's time
-// (docs/benchmarks.md, session 10).  Only the mapping changes, not a value.
+// three result arrays took about a sixth of the process's time (411 page
+// faults per run instead of 18 700).  Only the mapping changes, not a value.
 template <typename T>
 void assign_large(std::vector<T>& v, std::size_t n, T fill) {
 #if defined(__linux__) && defined(MADV_HUGEPAGE)
@@ -1851,8 +1846,9 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
     // the work lists and the stopping rule are not needed: each launch's
     // results go straight into the result arrays.  Measured: the state alone
     // (72 bytes per cell, fresh memory on every call) cost more page faults
-    // and memory traffic than the closed-form kernel (docs/benchmarks.md,
-    // session 6).  The values are those the general path below computes.
+    // and memory traffic than the closed-form kernel (`perf record` of
+    // bench_engine_closed_form).  The values are those the general path below
+    // computes.
     const bool direct = closed && !(checkpoint && (checkpoint->save || checkpoint->resume));
     if (direct) {
         assign_large(result.value, cell_count, 0.0);

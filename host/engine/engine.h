@@ -233,8 +233,8 @@ using PointFn = std::function<void(std::size_t cell, double* point)>;
 // estimate() asks for whole launches' worth of cells at a time where it can
 // (closed forms without a checkpoint: every launch's cells in one call), so
 // a caller that holds its points in one array copies them with one copy per
-// launch instead of a call and a copy per cell (docs/benchmarks.md, session
-// 11); elsewhere it asks for one cell at a time.  The same cells get the
+// launch instead of a call and a copy per cell (docs/benchmarks.md, "Closed
+// forms: the engine's host work"); elsewhere it asks for one cell at a time.  The same cells get the
 // same points either way, so results do not depend on which form is used.
 using PointsFn = std::function<void(std::size_t first_cell, std::size_t count, double* points)>;
 

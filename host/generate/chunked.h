@@ -1,6 +1,5 @@
 // chunked.h — `brdftab generate` in chunks of cells, streamed to the output
-// file as they finish (issue #15), and shared among processes (issue #17,
-// distributed.h).
+// file as they finish, and shared among processes (distributed.h).
 //
 // A computed table is cut into chunks of consecutive (row-major) cells.  Each
 // chunk is one engine run over its cells, with the cells' global indices in

@@ -1,4 +1,4 @@
-// distributed.h — `mpirun -n N brdftab generate` (issue #17): the chunks of
+// distributed.h — `mpirun -n N brdftab generate`: the chunks of
 // cells of host/generate/chunked.h shared among N MPI processes (ranks).
 // Built only with -DBRDFTAB_MPI=ON (then BRDFTAB_MPI is defined).
 //

@@ -71,8 +71,9 @@ std::vector<GeneratedTable> generate_tables(const Spec& spec, Backend& backend,
                                             Checkpoint* checkpoint = nullptr);
 
 // What generate_tables() and the final write will need, estimated from the
-// spec alone before anything is computed (issue #15: a 4e9-cell table failed
-// with bad_alloc after starting, a 30 M-cell one only when writing).  Counts
+// spec alone before anything is computed, so that a table too large for the
+// machine is refused up front, not with bad_alloc after starting or only
+// when writing.  Counts
 // are doubles so that absurd grids (65536^4 cells) do not wrap.
 struct ResourceEstimate {
     double cells = 0;         // cells of every table, derived ones included

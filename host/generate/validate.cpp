@@ -118,7 +118,7 @@ ValidationPlan::ValidationPlan(const std::string& file, const std::string& table
     IntegrationSettings& s = reference_settings_;
     // A recombined table has no method of its own: its values (at stored_at)
     // are checked against the quantity of its name with that quantity's
-    // default method (issue 14: plan's recombined predictions are checked so).
+    // default method (plan's recombined predictions are checked so).
     s.method = t.kind == TableKind::Computed ? t.method : Method::Auto;
     // The table's budget comes from the file, which may be hostile: capped.
     if (options_.max_samples < 1) throw InputError("--max-samples must be >= 1");

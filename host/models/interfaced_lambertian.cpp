@@ -147,7 +147,7 @@ ModelInfo interfaced_lambertian_model() {
     // A vcavity sample is the facet, then the walk in its groove: staged
     // sample-parallel launches run the facet as a vectorised kernel of its
     // own (kernels/models/interfaced_lambertian.h, interfaced_lambertian_stage;
-    // docs/benchmarks.md, "Session 14: vcavity in two stages").
+    // docs/benchmarks.md, "Sample-parallel launches").
     b.quantity_by_id(IL_Q_VCAVITY).staged = {"interfaced_lambertian_stage",
                                              "interfaced_lambertian_rest", IL_VCAVITY_STAGE};
     return b.build();

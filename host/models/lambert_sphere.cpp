@@ -79,7 +79,7 @@ ModelInfo hfunction_model() {
         "hfunction_h_node_finish", HF_NODE_STATE, &hfunction_h_node_count};
     // Its two forms of a term (series below t = 1/2, K itself above) on
     // kernels of their own (node_parallel.h, "Split terms"; docs/benchmarks.md,
-    // "Session 14: hfunction's two forms").
+    // "Node-parallel quadrature").
     {
         NodeParallelFunctions& f = b.quantity_by_id(HF_Q_H).node_parallel;
         f.term_first = "hfunction_h_node_term_series";
@@ -115,8 +115,8 @@ std::string check_lambert_sphere_point(const QuantityInfo& q,
 // The derived slots of brdf_analytic / brdf_three_term
 // (kernels/models/lambert_sphere.h, LS_DERIVED_K and LS_DERIVED_H): the exact
 // constants l, m, A..F solved once per distinct c, and the exact H-functions
-// once per distinct (H-function, rule, mu, c), where the kernel used to solve
-// them in every cell and both quadrature batches.  The values are those
+// once per distinct (H-function, rule, mu, c), instead of in every cell and
+// both quadrature batches of the kernel.  The values are those
 // ls_fill_derived writes (the same kernel functions, memoised), so the host
 // path's tables are unchanged bit for bit.
 CellDerivation derive_lambert_sphere(const QuantityInfo& q, const std::vector<int>& options) {

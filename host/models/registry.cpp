@@ -113,8 +113,8 @@ const QuantityInfo& ModelInfo::quantity(const std::string& n) const {
 
 namespace {
 
-// docs/precision.md, "Float against double" (2026-11-30, shrunk presets, seed
-// 7, PoCL CPU device): per model and quantity, the largest relative
+// docs/precision.md, "Float against double" (shrunk presets, seed 7, PoCL
+// CPU device): per model and quantity, the largest relative
 // |float - double| over every preset table, and where float fails.  Only
 // measured quantities are listed; the others stay "not measured".
 struct FloatMeasurement {

@@ -1,5 +1,5 @@
 // certify.h — certified generation (`brdftab generate --accuracy E | --budget T`,
-// issue 13 item 3, docs/planning.md "Certified generation").
+// docs/planning.md "Certified generation").
 //
 // A certificate is a measurement of a written table's total error, as a
 // renderer sees it: the stored values (so storage rounding is included),

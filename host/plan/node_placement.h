@@ -1,6 +1,6 @@
 // node_placement.h — explicit nodes that equidistribute the measured
-// interpolation error along one axis (`brdftab plan --place-nodes`, issue 13
-// item 4, docs/planning.md "Placed nodes").
+// interpolation error along one axis (`brdftab plan --place-nodes`,
+// docs/planning.md "Node placement that follows the physics").
 //
 // Piecewise-linear interpolation of f on an interval of width h errs by
 // about C h^p with C = |f''|/8 and p = 2.  Given, for every interval i of a

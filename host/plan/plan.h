@@ -1,4 +1,4 @@
-// plan.h — the speed/accuracy planner (`brdftab plan`, issue 13, docs/planning.md).
+// plan.h — the speed/accuracy planner (`brdftab plan`, docs/planning.md).
 //
 // A table's total error between nodes, as a renderer sees it, is modelled as
 //   total = interpolation + integration + storage rounding
@@ -18,8 +18,8 @@
 //
 // Library code: no printing.  Pure pieces (fits, storage rounding, Pareto
 // choice, 1-D probes) are separate so tests can check them on synthetic
-// data with a known answer; item 3 of issue 13 (generate --accuracy) is
-// meant to call make_pilot() / make_candidates() / choose_plan() directly.
+// data with a known answer; certified generation (certify.h, generate
+// --accuracy) calls make_pilot() / make_candidates() / choose_plan() directly.
 #pragma once
 
 #include <cstddef>
@@ -377,7 +377,7 @@ std::optional<std::size_t> choose_plan(const std::vector<Candidate>& candidates,
 // --------------------------------------------------------------- recombined tables
 
 // A [[recombined]] table R(x; p) = sum_t c_t(p) T_t(x) over piloted terms
-// (issue 14: Oren-Nayar's brdf = rho brdf_direct + rho^2 brdf_interreflection).
+// (Oren-Nayar's brdf = rho brdf_direct + rho^2 brdf_interreflection).
 // Its terms must share one node layout, so a plan gives every term of a group
 // the same counts: per axis the largest that any term needs.
 struct RecombinedGroup {

@@ -46,9 +46,9 @@
 #endif
 /* The engine passes -D BT_FORCE_INLINE=1 for rough-dielectric, micrograin and
  * interfaced-lambertian (host/engine/engine.cpp): measured faster there, and their preset tables
- * bit-identical.  Not for every model: lambert-sphere tables came out wrong and
- * PoCL crashed with it (docs/benchmarks.md); in session 10's recheck only the
- * in-kernel Horak-Chandrasekhar solve (lambert-sphere-constants) still crashed. */
+ * bit-identical.  Not for lambert-sphere: PoCL crashes (SIGSEGV) with it in
+ * the in-kernel Horak-Chandrasekhar solve of lambert-sphere-constants
+ * (docs/contributing.md). */
 #if BT_DEVICE && BT_FORCE_INLINE && !defined(BT_NO_FORCE_INLINE)
 /* With the sample-loop barrier (below), or with -D BT_FORCE_INLINE=1, force
  * inlining of every shared function into the kernel.  PoCL's inliner otherwise keeps larger helpers
@@ -130,11 +130,11 @@
  * work item) makes PoCL put that work-item loop *inside* the sample loop,
  * where its loop vectoriser can turn it into SIMD lanes — provided the loop
  * body has no calls left (hence the forced inlining above).  It never changes
- * a work item's arithmetic.  Measured in docs/benchmarks.md: a large gain on
- * a call-free body, none on today's models (whose bodies still call PoCL's
- * scalar sin/cos/acos), and one model crashed PoCL's work-group function with
- * it (all work items' private state is kept across the barrier), so it is
- * not the default. */
+ * a work item's arithmetic.  Measured (docs/benchmarks.md, "What vectorises,
+ * and why"): a large gain on a call-free body, but on large model bodies
+ * PoCL's compile time blows up (every value live across the barrier becomes
+ * a per-work-item array), so it is not the default: the sample-, node- and
+ * walk-parallel launches remove the sample loop instead. */
 #if !defined(BT_SAMPLE_BARRIER)
 #define BT_SAMPLE_BARRIER 0
 #endif
@@ -180,9 +180,9 @@
         BT_WORK_KERNEL_PARAMS, uint n_work, uint batch_size,                   \
         __global ACCUM* out_mean, __global ACCUM* out_m2
 
-/* The point load is unrolled: left as a loop, clang vectorised it as a 4-wide
- * inner loop before PoCL wrapped the body in its work-item loop, which was then
- * not innermost and stayed scalar (measured on the rough-dielectric bsdf
+/* The point load is unrolled: left as a loop, clang vectorises it as a 4-wide
+ * inner loop before PoCL wraps the body in its work-item loop, which then is
+ * not innermost and stays scalar (measured on the rough-dielectric bsdf
  * kernel, docs/contributing.md "What keeps PoCL's work-item loop scalar"). */
 #define BT_DEFINE_ESTIMATE_KERNEL(kernel_name, sample_fn)                      \
     __kernel void kernel_name(BT_ESTIMATE_KERNEL_PARAMS)                       \

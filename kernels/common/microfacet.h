@@ -157,9 +157,8 @@ BT_INLINE int bt_mf_visible(bt_vec3 v, bt_vec3 m) { return bt_v3_dot(v, m) * v.z
  * computed as 2 - erfc a (a >= 0, so it lies in [1, 2] and nothing
  * cancels): bt_erfc is one polynomial, where bt_erf evaluates a 36-term
  * series and a 30-level continued fraction (30 dependent divisions) and
- * selects one.  Measured (docs/benchmarks.md, session 11): the serial
- * host's Beckmann+Smith body ran about 1.3x faster, the device about the
- * same. */
+ * selects one.  Measured: the serial host's Beckmann+Smith body runs about
+ * 1.3x faster than with the erf form, the device about the same. */
 BT_INLINE REAL bt_beckmann_g1_exact_a(REAL a)
 {
     REAL as = a * BT_SQRT_PI;

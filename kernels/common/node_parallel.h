@@ -225,13 +225,13 @@
  * a block, indices of nodes to a sub-launch:
  *   table_kernel    one work item per table entry, once per program (the
  *                   engine keeps the table with the program's kernels).
- *                   Oren-nayar's rule used to be computed by every work
- *                   item's prepare (Newton on P_n, PoCL's scalar cos): 14 %
- *                   of the device time at 12 nodes (docs/benchmarks.md,
- *                   "Session 14: oren-nayar's rules from a table
- *                   kernel").  The same function in the same program
- *                   gives the same bits (test_node_parallel compares with
- *                   the usual kernel, which computes the rule inline).
+ *                   Oren-nayar's Gauss-Legendre rules come from it: computed
+ *                   in every work item's prepare (Newton on P_n, PoCL's
+ *                   scalar cos) they took 14 % of the device time at 12
+ *                   nodes (docs/benchmarks.md, "Node-parallel quadrature").
+ *                   The same function in the same program gives the same
+ *                   bits (test_node_parallel compares with the usual
+ *                   kernel, which computes the rule inline).
  *   prepare_kernel  one work item per work item of the block: item state.
  *   group_kernel    one work item per group G of the block, of work item
  *                   i = group_item[G], its number G - item_group[i]: group
@@ -245,8 +245,8 @@
  *   node_kernel     one work item per node of a sub-launch: group
  *                   G = node_group[gid] and x = node_x[gid] (plain loads,
  *                   consecutive in gid); terms at scratch[n_terms * gid].
- *                   Loop-free: vectorises.  (x replaced the node's number,
- *                   k - group_node[G], which took more gathers per node.)
+ *                   Loop-free: vectorises.  (x, not the node's number
+ *                   k - group_node[G], which would take more gathers per node.)
  *   reduce_kernel   one work item per group of a sub-launch: its partial
  *                   sums from its nodes' terms, at group_partial[n_partial * G].
  *   sum_kernel      one work item per work item of the block: acc from its
@@ -254,9 +254,9 @@
  *                   as in the usual kernel.
  * Only the group kernel's counts come back to the host (one read per block);
  * a block's sub-launches and its sum are queued without waiting.  The
- * per-group reduction used to be the first part of the sum kernel's loop: as a
- * kernel over groups it runs on every core even when a sub-launch holds few
- * work items (docs/benchmarks.md, "Session 12: oren-nayar in blocks").
+ * per-group reduction is a kernel over groups, not part of the sum kernel's
+ * loop, so that it runs on every core even when a sub-launch holds few work
+ * items (docs/benchmarks.md, "Node-parallel quadrature").
  * Every term and every addition is the serial loop's (the model's serial
  * code must call the same functions), and partial sums are stored exactly
  * (REAL), so the bits are the usual kernel's.

@@ -27,7 +27,7 @@
  * OpenCL's mul_hi(uint, uint) is a software routine of 16-bit partial
  * products (its machine code multiplies by 0xd251 and 0x1f53, the halves of
  * BT_PHILOX_M0), measured at 53 % of a lambert-sphere brdf_mc kernel's time
- * against 25 % with the 64-bit product (docs/benchmarks.md).  Both are exact,
+ * against 25 % with the 64-bit product (docs/contributing.md).  Both are exact,
  * so the words are the same; GPU compilers turn this form into their
  * mul-high instruction. */
 BT_INLINE uint bt_mulhi32(uint a, uint b)
@@ -42,7 +42,7 @@ BT_INLINE void bt_philox4x32_10(uint c0, uint c1, uint c2, uint c3, uint k0, uin
     /* Unrolled on the device: left as a loop, the ten rounds are an inner
      * loop of PoCL's work-item loop, which then is not innermost and stays
      * scalar (the sample-parallel kernel, kernels/common/estimator.h,
-     * vectorises once they are unrolled: docs/benchmarks.md).  Same
+     * vectorises once they are unrolled: docs/contributing.md).  Same
      * operations in the same order. */
 #if BT_DEVICE
 #pragma unroll

@@ -150,7 +150,7 @@ BT_TABLE uint bt_sobol_nibble[BT_SOBOL_DIMS][8][16] = {
  * stops PoCL's work-item loop from vectorising ("could not determine number
  * of loop iterations"), and a fixed 32-step loop of branch-free selects
  * becomes 32 bit tests that clang's SLP vectoriser packs into a vector
- * compare, which stops it as well (measured, docs/benchmarks.md). */
+ * compare, which stops it as well (measured, docs/contributing.md). */
 BT_INLINE uint bt_sobol_u32(uint index, uint dim)
 {
     uint x = 0u;

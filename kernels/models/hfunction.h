@@ -288,8 +288,8 @@ BT_INLINE int hf_h_nodes(const hf_psi* P, REAL mu, int coarse, REAL* s_lo, REAL*
      * factor * exp(0) = 1 (mu vanishes next to sqrt(beta) in the factor),
      * and H(mu) = 1 + O(mu log(1/mu)) is 1 to the working precision there
      * (HF_MU_TINY).  The rule below would reach t = e^18/mu, whose square
-     * overflows for mu below ~5e-147 in double, ~4e-12 in float (H was NaN
-     * there). */
+     * overflows for mu below ~5e-147 in double, ~4e-12 in float (H would be
+     * NaN there). */
     if (mu < HF_MU_TINY) return 0;
     /* Integration limits in s = log t (note 3): the integrand is ~ mu b t^3
      * below t ~ 1/mu and ~ 1/(mu t^2) above max(1, 1/mu). */

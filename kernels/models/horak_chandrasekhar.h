@@ -128,7 +128,7 @@
  * ---------------------------------------------------------------- departures
  *  1. f^(1): the exact solution has prefactor c/(3 pi), i.e. f^(1)_exact =
  *     2 x eq. 22 (with the exact l, m).  Its first-order term is 2 x eq. 28.
- *     This is the project's "factor 2 on the cos phi mode" finding, now derived:
+ *     This is the "factor 2 on the cos phi mode" finding, derived here:
  *     eq. 22 is correct in shape, and eqs. 22 and 28 are both half of the
  *     cos(phi) Fourier coefficient of eq. 9.  hc_f1 returns the exact (doubled)
  *     value.  Nothing changes in the phi-average (eq. 30 normalisation is exact).

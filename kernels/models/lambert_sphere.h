@@ -136,11 +136,11 @@
  * slots, host/models/registry.h) for brdf_analytic and brdf_three_term:
  *  - the exact constants l, m, A..F (constants "exact"; three_term always)
  *    depend on c alone and cost 0.5 ms (c < 0.9975) to 6 ms (above) per
- *    solve; solved in the kernel they were recomputed in every cell and both
- *    quadrature batches (80 % of such a table's time):
+ *    solve; solved in the kernel they would be recomputed in every cell and
+ *    both quadrature batches (80 % of such a table's time):
  *    p[LS_DERIVED_K + j], j = 0..7 in hc_constants' order;
  *  - the exact H-functions at mu_i and mu_o depend on (mu, c) alone, a
- *    quadrature of ~600 nodes each (96 % of the time once the constants were
+ *    quadrature of ~600 nodes each (96 % of the time once the constants are
  *    hoisted): p[LS_DERIVED_H + 6 b + j], b = 0 for the accurate rule (batch
  *    0), 1 for the coarse one (batch 1), j = 0..5: H0(mi), H0(mo), H1(mi),
  *    H1(mo), H2(mi), H2(mo) (H2: three_term only).

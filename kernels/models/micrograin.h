@@ -268,7 +268,7 @@ BT_INLINE REAL mg_ellipse_sweep(bt_vec3 v, REAL h, REAL psa, REAL psb)
 /* a in (-3 pi, 3 pi) (every caller passes a difference of two atan2 results
  * shifted by pi, so |a| < 2 pi) into (-pi, pi]: one conditional step each
  * way, written as selects so the work-item loop stays vectorisable (the
- * same arithmetic as the former while loops, which never ran twice). */
+ * same arithmetic as while loops, which would never run twice). */
 BT_INLINE REAL mg_wrap_pi(REAL a)
 {
     a = a > BT_PI ? a - BT_TWO_PI : a;
@@ -311,12 +311,12 @@ BT_INLINE REAL mg_overlap_piece(bt_vec3 vi, bt_vec3 vo, REAL h, REAL rho, REAL c
  * crosses the crescent, so each ray from the axis is all shadow or none).
  *
  * Written as one straight path, so that PoCL's work-item loop vectorises
- * (docs/benchmarks.md, "Session 13"): the common arc [lo, hi] is cut at the
- * (at most two) split angles that fall inside it, a missing cut is placed at
- * hi, where it sorts last and leaves an empty piece, and the three pieces are
- * summed in order; the early returns are selects at the end.  The arithmetic
- * of every term is the former loop's, so the value is the same bit for bit
- * (area starts at +0 and so never is -0, and adding an empty piece's +0
+ * (docs/contributing.md, "What keeps PoCL's work-item loop scalar"): the
+ * common arc [lo, hi] is cut at the (at most two) split angles that fall
+ * inside it, a missing cut is placed at hi, where it sorts last and leaves an
+ * empty piece, and the three pieces are summed in order; the early returns
+ * are selects at the end.  The arithmetic of every term is that of a loop
+ * over the pieces, so the value is the same bit for bit (area starts at +0 and so never is -0, and adding an empty piece's +0
  * leaves it unchanged).  Outside the device's closed-form
  * kernels it still returns as soon as the value is known
  * (`!MG_STRAIGHT_PATH && ...`, above: the same results, less work).  The BT_SLP_SPLIT calls

@@ -206,9 +206,9 @@ BT_INLINE REAL rough_dielectric_ft(const REAL* p, const int* o)
 /* f_r where i and o are on one side, f_t where not: the values of
  * rough_dielectric_fr / _ft, with the directions and the distribution formed
  * once.  On a SIMD device the work items of a group take both branches
- * (masked), so calling those two, as before, formed four directions (eight
+ * (masked), so calling those two would form four directions (eight
  * sin/cos) per evaluation instead of two (measured: 11 -> 13.4 M
- * evaluations per CPU-second on PoCL, docs/benchmarks.md).  Evaluating F, D
+ * evaluations per CPU-second on PoCL).  Evaluating F, D
  * and G once for both lobes (the facet normal chosen per lane) would save
  * more, but every way of writing it tried let clang's SLP vectoriser pack
  * the sine and cosine of one direction into <2 x double>, and the work-item
