@@ -2,15 +2,16 @@
 // estimate() over N rough-dielectric bsdf cells on one backend, timed in wall
 // and process CPU seconds, through the direct path (no checkpoint) and
 // through the general per-cell-state path (a checkpoint whose save does
-// nothing, as `brdftab generate` passes one).  docs/benchmarks.md, session 6.
+// nothing, as `brdftab generate` passes one).  docs/benchmarks.md, "Closed
+// forms: the engine's host work".
 //
 //   build/bench/bench_engine_closed_form [cells=2000000] [repeats=5] [device] [paths=both]
 //                                        [feed=span]
 //
 // paths: `direct`, `general` or `both` (e.g. `direct` alone under a profiler).
 // feed: how estimate() gets the points, held in one array: `span` copies a
-// span of cells per call (PointsFn, as `brdftab bench` does since session 11),
-// `cell` one cell per call (PointFn, as before).
+// span of cells per call (PointsFn, as `brdftab bench` does), `cell` one
+// cell per call (PointFn).
 #include <time.h>
 
 #include <algorithm>

@@ -25,7 +25,7 @@
 #     inlined by the time its own SLP runs.  Prints clang's SLP remarks, then
 #     the source lines of vector-typed instructions.  It sees only the first
 #     of PoCL's two optimisation rounds: micrograin's g_dist came out clean
-#     here and still had 2-wide packs in PoCL (session 13), so confirm with
+#     here and still had 2-wide packs in PoCL, so confirm with
 #     --pocl.
 #
 # Needs clang-15 (PoCL 3.1's LLVM) and python3.

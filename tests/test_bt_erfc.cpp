@@ -36,7 +36,7 @@ const bool pocl_cache_ready = test::default_pocl_cache(BT_BINARY_DIR);
 
 // Bound over every input below, host and device (the device contracts
 // a * b + c into FMAs, which changes the last bits).  Measured maxima:
-// the test's MESSAGE lines and docs/benchmarks.md (session 11).
+// the test's MESSAGE lines and docs/contributing.md (the bt_math table).
 const double erfc_ulp_bound = 3.0;
 
 // The arguments: dense sweeps over the range the Beckmann sampler uses

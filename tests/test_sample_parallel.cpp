@@ -291,7 +291,7 @@ TEST_CASE("sample-parallel defaults name existing Monte Carlo / RQMC quantities 
     CHECK(sample_parallel_by_default(rd, rd.quantity("albedo_t"), Method::Rqmc,
                                      resolve_options(rd, {{"distribution", "ggx"}}, "")));
     // interfaced-lambertian's body: its defaults (Beckmann-Smith, visible
-    // normals) and GGX-Smith, not the other pairs (session 13).
+    // normals) and GGX-Smith, not the other pairs (measured slower).
     const ModelInfo& il = find_model("interfaced-lambertian");
     const QuantityInfo& body = il.quantity("body");
     CHECK(sample_parallel_by_default(il, body, Method::Rqmc,
@@ -304,7 +304,7 @@ TEST_CASE("sample-parallel defaults name existing Monte Carlo / RQMC quantities 
         CHECK_FALSE(sample_parallel_by_default(il, body, Method::MonteCarlo,
                                                resolve_options(il, {{"distribution", other}}, "")));
     // vcavity, staged: Beckmann-Smith and Beckmann-TS with visible normals (the
-    // fixed-step search), not GGX-Smith (staged measured slower, session 14).
+    // fixed-step search), not GGX-Smith (staged measured slower).
     const QuantityInfo& vcavity = il.quantity("vcavity");
     for (const char* beckmann : {"beckmann-smith", "beckmann-ts"})
         for (Method method : {Method::MonteCarlo, Method::Rqmc})

@@ -131,7 +131,7 @@ void CellPoints::point(std::size_t cell, double* out) const {
     // Without dependent axes a cell's axis values are the nodes at its
     // multi-index, as Grid::coordinates gives them, found here without the
     // two vectors that call allocates: this runs once or twice per cell and
-    // was the largest host cost of a closed-form table (docs/benchmarks.md).
+    // is the largest host cost of a closed-form table when it allocates.
     const std::vector<Axis>& axes = grid_.axes();
     bool independent = cell < grid_.cell_count() && axes.size() == feeds_.size();
     for (std::size_t a = 0; independent && a < axes.size(); ++a)
