@@ -355,7 +355,7 @@ double shared_kernel_saving(const std::vector<TablePlan>& tables) {
 
 double write_seconds(double cells, StoredType type, int compression, bool with_stderr, bool with_samples) {
     // Seconds per stored value, write_tables() of a smooth 2-D table of
-    // 3e5 and 3e6 cells (fastest of 3), the 2-core machine, 30 November 2026:
+    // 3e5 and 3e6 cells (fastest of 3), 2 cores of an Intel Xeon (AVX-512):
     //             float16   float32   float64
     //   deflate    2.5e-7    4.5e-7    6.5e-7   (level 6, with shuffle)
     //   none       1.5e-7    2.0e-7    1.7e-7
@@ -376,7 +376,7 @@ double write_seconds(double cells, StoredType type, int compression, bool with_s
 }
 
 double process_fixed_seconds() {
-    // Measured on the 2-core machine (30 November 2026, load average 5-6):
+    // Measured on 2 cores of an Intel Xeon (AVX-512), load average 5-6:
     // `brdftab --version` 0.03-0.04 s wall (exec, shared libraries, static
     // registration, exit), and a 64-cell file 7-8 ms (create, attributes,
     // close, rename).
