@@ -1,4 +1,4 @@
-// bench_lookup — throughput of the renderer-side lookup library (issue 7).
+// bench_lookup — throughput of the renderer-side lookup library.
 //
 // Builds in-memory tables of an analytic GGX reflection BRDF (written here,
 // independent of the model kernels) and measures, per core (one thread) and

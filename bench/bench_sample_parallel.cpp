@@ -5,7 +5,7 @@
 //
 //   build/bench/bench_sample_parallel [MODEL QUANTITY METHOD [CELLS SAMPLES]]...
 //
-// Without arguments it runs issue #12's Monte Carlo cases.  For each case it
+// Without arguments it runs the sampled quantities of `brdftab bench` by MC and RQMC.  For each case it
 // alternates the two paths (BRDFTAB_SAMPLE_PARALLEL=0 / 1) three times after a
 // warm-up that builds both programs, and prints the median samples per
 // second of wall time and per CPU-second of the process, the load average,
