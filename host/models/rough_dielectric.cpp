@@ -59,7 +59,7 @@ ModelInfo rough_dielectric_model() {
             .open_min());
     b.parameter(
         RD_PARAM_ETA,
-        parameter_info("eta", "1", "index of refraction, interior / exterior (may be < 1)", 0, 10)
+        parameter_info("eta", "1", "index of refraction, interior / exterior (may be < 1)", 0, 100)
             .open_min());
 
     b.parameter(
@@ -183,6 +183,10 @@ ModelInfo rough_dielectric_model() {
                         "split-sum bias: integral of f_r cos(theta_o) (1 - o.m)^5 with F = 1; "
                         "split_a + split_b is albedo_r with fresnel = none (eta is not read)",
                         kSplitEqs, {"theta_i"}, split_opts, 2));
+    b.quantity(integral("albedo", RD_Q_ALBEDO,
+                        "directional albedo of both lobes, albedo_r + albedo_t: the fraction of "
+                        "light from direction i that leaves the interface (glass albedo)",
+                        kAlbedoEqs, {"theta_i"}, albedo_opts, 2));
     b.check_cell(&check_phong_alpha);
     b.cells_pass(&phong_alpha_cells_pass);
     return b.build();

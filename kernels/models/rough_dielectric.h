@@ -41,6 +41,8 @@
  *   7 split_b     int f_r |o.n| (1 - o.m)^5 do with F = 1: its constant term,
  *                 so that under Schlick int f_r cos = F0 split_a + split_b
  *                 (neither reads eta or the fresnel option)
+ *   8 albedo      directional albedo of both lobes, albedo_r + albedo_t (the
+ *                 glass albedo of energy compensation)
  * Random dimensions: 0, 1 sample m (visible normals or D(m)|m.n|);
  * 2 picks mu = sqrt(u) (avg).  Method quadrature (the albedos' default):
  * deterministic tensor Gauss-Legendre, batch 0 with p[6] nodes, batch 1 with
@@ -89,7 +91,8 @@
 #define RD_Q_ALBEDO_AVG 5
 #define RD_Q_SPLIT_A 6
 #define RD_Q_SPLIT_B 7
-#define RD_Q_COUNT 8
+#define RD_Q_ALBEDO 8
+#define RD_Q_COUNT 9
 
 /* The model contract: slots of the point p[] and of the options o[]
  * (quantity ids: RD_Q_* in rough_dielectric.h).  host/models/rough_dielectric.cpp registers the
@@ -857,10 +860,14 @@ BT_INLINE REAL rough_dielectric_sample(const REAL* p, const int* o, int quantity
     const int fresnel = quantity == RD_Q_SPLIT_A   ? RD_FRESNEL_SPLIT_A
                         : quantity == RD_Q_SPLIT_B ? RD_FRESNEL_SPLIT_B
                                                    : o[RD_OPT_FRESNEL];
-    const int lobe = quantity == RD_Q_ALBEDO_T ? RD_LOBE_TRANSMISSION : RD_LOBE_REFLECTION;
+    const int lobe = quantity == RD_Q_ALBEDO_T ? RD_LOBE_TRANSMISSION
+                     : quantity == RD_Q_ALBEDO ? RD_LOBE_BOTH
+                                               : RD_LOBE_REFLECTION;
+    const int directional = quantity == RD_Q_ALBEDO_R || quantity == RD_Q_ALBEDO_T ||
+                            quantity == RD_Q_ALBEDO || split;
     if (s->method == BT_METHOD_QUADRATURE) {
         int n = rd_quad_nodes(p, s);
-        if (quantity == RD_Q_ALBEDO_R || quantity == RD_Q_ALBEDO_T || split) {
+        if (directional) {
             bt_vec3 i;
             bt_direction(p[0], p[1], RD_MIN_COS, BT_DIR_SIGNED_COS, &i);
             return rd_albedo_quadrature_dir(&mf, i, p[RD_PARAM_ETA], lobe, fresnel, n);
@@ -871,7 +878,7 @@ BT_INLINE REAL rough_dielectric_sample(const REAL* p, const int* o, int quantity
         return R(0.0);
     }
     REAL u0 = bt_uniform(s, 0u), u1 = bt_uniform(s, 1u);
-    if (quantity == RD_Q_ALBEDO_R || quantity == RD_Q_ALBEDO_T || split) {
+    if (directional) {
         bt_vec3 i;
         bt_direction(p[0], p[1], RD_MIN_COS, BT_DIR_SIGNED_COS, &i);
         return rd_albedo_sample_dir(&mf, i, p[RD_PARAM_ETA], lobe, o[RD_OPT_SAMPLING], fresnel, u0,
