@@ -97,6 +97,12 @@ TEST_CASE("Kulla-Conty white furnace: E(mu) + int f_ms cos = 1 at F = 1")
                                     (1 - quad(RD_Q_ALBEDO_R, mu, alpha, 1.5, 16, op.o));
                     }
                 const double eavg = quad(RD_Q_ALBEDO_AVG, 1, alpha, 1.5, 24, op.o);
+                // The graded mu rule against the same independent integral.
+                Options graded = op;
+                graded.o[RD_OPT_MU_RULE] = RD_MU_RULE_GRADED;
+                const double eavg_graded = quad(RD_Q_ALBEDO_AVG, 1, alpha, 1.5, 24, graded.o);
+                INFO("Eavg graded " << eavg_graded << " vs 1 - integral " << 1 - integral);
+                CHECK(std::fabs(eavg_graded - (1 - integral)) <= 2e-6);
                 for (double mu_i : {0.02, 0.5, 1.0}) {
                     const double e = quad(RD_Q_ALBEDO_R, mu_i, alpha, 1.5, 16, op.o);
                     const double furnace = e + (1 - e) * integral / (1 - eavg);

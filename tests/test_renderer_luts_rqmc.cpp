@@ -34,7 +34,7 @@ TEST_CASE("Cycles preset: quadrature within RQMC noise at 2^20 points on 200 ran
         const brdftab::Grid grid(t.axes);
         const std::size_t cell = next() % grid.cell_count();
         const std::vector<double> x = grid.coordinates(cell);
-        double p[8] = {0, 0, 0, 0, 0, 1.5, 16, 0};
+        double p[8] = {0, 0, 0, 0, 0, 1.5, t.fixed.at("nodes"), 0};
         for (std::size_t d = 0; d < t.axes.size(); ++d) {
             const std::string& n = t.axes[d].name;
             if (n == "alpha") p[RD_PARAM_ALPHA] = x[d];
@@ -49,6 +49,7 @@ TEST_CASE("Cycles preset: quadrature within RQMC noise at 2^20 points on 200 ran
             o[RD_OPT_LOBE] = RD_LOBE_REFLECTION;
         }
         if (t.options["side"] == "inside") o[RD_OPT_SIDE] = 1;
+        if (t.options["mu_rule"] == "graded") o[RD_OPT_MU_RULE] = RD_MU_RULE_GRADED;
         const int q = t.quantity == "albedo_r" ? RD_Q_ALBEDO_R
                       : t.quantity == "albedo" ? RD_Q_ALBEDO
                                                : RD_Q_ALBEDO_AVG;

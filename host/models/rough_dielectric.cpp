@@ -110,6 +110,13 @@ ModelInfo rough_dielectric_model() {
               "energy compensation), or Schlick's approximation with F0 = ((eta-1)/(eta+1))^2",
               {"dielectric", "none", "schlick"},
               "dielectric"});
+    b.option(RD_OPT_MU_RULE,
+             {"mu_rule",
+              "albedo_avg under quadrature: the mu integral as one Gauss-Legendre rule per side "
+              "of the critical cosine (single), or on panels geometric towards grazing and the "
+              "critical cosine, (nodes + 1)/2 nodes each (graded: for errors near 1e-6)",
+              {"single", "graded"},
+              "single"});
 
     const std::vector<std::string> all_dirs = {"theta_i", "phi_i", "theta_o", "phi_o"};
     const std::vector<std::string> shape_opts = {"distribution", "g1", "shadowing", "fresnel"};
@@ -169,7 +176,8 @@ ModelInfo rough_dielectric_model() {
                         "cosine-weighted hemispherical average of the directional albedo, "
                         "2 * int E(mu) mu dmu, for the chosen lobe(s) and side",
                         kAlbedoEqs, {},
-                        {"distribution", "g1", "shadowing", "lobe", "side", "sampling", "fresnel"},
+                        {"distribution", "g1", "shadowing", "lobe", "side", "sampling", "fresnel",
+                         "mu_rule"},
                         3));
     const char* kSplitEqs =
         "eqs. 14, 20, 39 with F = 1, weighted by Schlick's factors (Schlick 1994 eq. 15; "
