@@ -112,6 +112,11 @@ expect_exit 2 "cycles stores float only" -- \
 expect_exit 2 "unknown layout" -- "$BT" export luts.h5 --table E --header bad.h --layout unity
 expect_grep "cycles, filament, ue4" err.txt "the --layout message lists the choices"
 [ ! -e bad.h ] && ok || bad "a refused export left a file"
+# The two-channel texture as OpenEXR (pixels checked in tests/test_exr_export.cpp).
+expect_exit 0 "export --exr R,G" -- "$BT" export luts.h5 --table B,E2 --exr dfg.exr --half
+[ -s dfg.exr ] && ok || bad "dfg.exr written"
+expect_exit 2 "EXR channels must share one grid" -- "$BT" export luts.h5 --table B,E --exr bad.exr
+[ ! -e bad.exr ] && ok || bad "a refused EXR export left a file"
 
 if [ -z "$CC_BIN" ] || ! command -v "$CC_BIN" >/dev/null 2>&1; then
   echo "SKIP: no C compiler (pass CMake's CMAKE_C_COMPILER as the third argument)"

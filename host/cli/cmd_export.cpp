@@ -89,7 +89,17 @@ void run_export(const ExportArgs& a) {
             o.x_axis = xy[0];
             o.y_axis = xy[1];
         }
-        export_exr_slice(read_table(a.file, a.table), a.exr, o);
+        // --table R,G: a two-channel texture (G = the second table's values).
+        const auto names = split_commas(a.table);
+        if (names.size() > 2)
+            throw InputError("--table '" + a.table + "': --exr takes one table, or two (R,G)");
+        const TableData red = read_table(a.file, names[0]);
+        TableData green;
+        if (names.size() == 2) {
+            green = read_table(a.file, names[1]);
+            o.green = &green;
+        }
+        export_exr_slice(red, a.exr, o);
     } else if (header && !a.layout.empty()) {
         // A renderer's own array (host/io/renderer_layout.h); --table R,G
         // names a two-channel texture's tables.
