@@ -12,6 +12,7 @@
 #include "test_sampling.h"
 #include "test_support.h"
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 #include <vector>
@@ -295,6 +296,33 @@ TEST_CASE("Cycles preset: node placement is Cycles' formula, axes in Cycles' arr
         check_nodes(g.axes[1], 16, alpha);
         CHECK(g.options["side"] == (std::string(name) == "ggx_glass_Eavg" ? "outside" : "inside"));
     }
+}
+
+TEST_CASE("Filament preset: texel placement as cmgen and CubemapIBL::DFG define it")
+{
+    // Column x: NoV = (x + 0.5)/128.  Image row y: c = saturate((128 - y + 0.5)/128),
+    // alpha = c^2; GL row j is image row 127 - j, so c_j = min(1, (j + 1.5)/128).
+    const brdftab::Spec s =
+        brdftab::parse_spec_file(std::string(BT_SOURCE_DIR) + "/tables/renderers/filament-dfg.toml");
+    for (const char* name : {"dfg_x", "dfg_y"}) {
+        const auto& t = table_of(s, name);
+        REQUIRE(t.axes.size() == 2);
+        CHECK(t.axes[0].name == "alpha");
+        CHECK(t.axes[1].name == "mu_i");
+        REQUIRE(t.axes[0].count == 128);
+        REQUIRE(t.axes[1].count == 128);
+        for (std::size_t k = 0; k < 128; ++k) {
+            const double y = 127.0 - double(k);
+            const double c = std::min(1.0, (128.0 - y + 0.5) / 128.0);
+            CHECK(t.axes[0].values[k] == doctest::Approx(c * c).epsilon(1e-14));
+            CHECK(t.axes[1].values[k] == doctest::Approx((double(k) + 0.5) / 128.0).epsilon(1e-14));
+        }
+        CHECK(t.options["shadowing"] == "height-correlated");
+        CHECK(t.options["distribution"] == "ggx");
+    }
+    CHECK(table_of(s, "dfg_x").quantity == "split_b");
+    CHECK(table_of(s, "dfg_y").quantity == "albedo_r");
+    CHECK(table_of(s, "dfg_y").options["fresnel"] == "none");
 }
 
 TEST_CASE("renderer layouts: element order and the tables each layout accepts")
