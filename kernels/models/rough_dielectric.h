@@ -25,14 +25,14 @@
  *   o[5] sampling       albedos only: 0 visible normals (default), 1 Walter
  *                       (m ~ D|m.n|, eqs. 28/32/35).  Phong has no visible-
  *                       normal sampler and always uses Walter's.
- *   o[7] mu_rule        albedo_avg under quadrature: 0 single (one Gauss-
- *                       Legendre rule per side of the critical cosine), 1
- *                       graded (panels geometric towards grazing and the
- *                       critical cosine; rd_albedo_avg_quadrature_graded)
  *   o[6] fresnel        0 dielectric (eq. 22, the default), 1 none (F = 1:
  *                       everything is reflected, nothing transmitted; eta is
  *                       not read), 2 schlick (Schlick's approximation with
  *                       F0 = ((eta - 1)/(eta + 1))^2, see rd_fresnel)
+ *   o[7] mu_rule        albedo_avg under quadrature: 0 single (one Gauss-
+ *                       Legendre rule per side of the critical cosine), 1
+ *                       graded (panels geometric towards grazing and the
+ *                       critical cosine; rd_albedo_avg_quadrature_graded)
  * Quantities:
  *   0 brdf        f_r (1/sr); 0 when i and o are on opposite sides
  *   1 btdf        f_t (1/sr); 0 when i and o are on the same side
