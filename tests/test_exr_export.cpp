@@ -401,3 +401,34 @@ TEST_CASE("--axes on a 2-D slice, --no-stderr, and the real version") {
               .find("twice") != std::string::npos);
     CHECK(!fs::exists(d / "x.exr"));
 }
+
+TEST_CASE("two-channel texture: G = a second table on the same grid") {
+    fs::path d = scratch_dir("green");
+    const TableData t = analytic_table();
+    TableData second = t;
+    second.name = "second";
+    for (std::size_t k = 0; k < second.value.size(); ++k) second.value[k] = 0.25 + 1e-3 * double(k);
+    ExrExportOptions o;
+    o.slice["theta_i"] = 40.0;
+    o.green = &second;
+    const std::string out = (d / "rg.exr").string();
+    export_exr_slice(t, out, o);
+    const Image img = read_exr(out);
+    REQUIRE(img.width == 6);
+    REQUIRE(img.height == 4);
+    for (int y = 0; y < img.height; ++y)
+        for (int x = 0; x < img.width; ++x) {
+            const std::size_t i = std::size_t(y) * img.width + x;
+            const std::size_t c = (std::size_t(y) * 5 + 2) * 6 + std::size_t(x);  // alpha y, theta_i node 2, phi_d x
+            CHECK(img.r[i] == float(t.value[c]));
+            CHECK(img.g[i] == float(second.value[c]));
+        }
+    CHECK(attr(img.header, "brdftab_channels") == "R=brdf G=second B=0 A=1");
+    // A second table on other nodes is refused and nothing is written.
+    TableData other = second;
+    other.axes[0] = axis("alpha", "1", 0.1, 0.9, 4);
+    o.green = &other;
+    CHECK(input_error_message([&] { export_exr_slice(t, (d / "bad.exr").string(), o); })
+              .find("share one grid") != std::string::npos);
+    CHECK(!fs::exists(d / "bad.exr"));
+}

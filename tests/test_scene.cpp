@@ -305,7 +305,7 @@ TEST_CASE("bad input names the file and line, the XML element, or the material")
                                                   "\"float eta\" 0\nShape \"sphere\"\n"));
     CHECK(contains(e, "anonymous-1"));
     CHECK(contains(e, "eta = 0"));
-    CHECK(contains(e, "(0, 10]"));
+    CHECK(contains(e, "(0, 100]"));
     e = error_of(s.write("ni.xml", "<scene version=\"3.0.0\"><bsdf type=\"roughplastic\" "
                                    "id=\"p\"><float name=\"int_ior\" value=\"0.5\"/></bsdf>"
                                    "<shape type=\"sphere\"><ref id=\"p\"/></shape></scene>"));

@@ -395,7 +395,7 @@ TEST_CASE("parameter names, option choices and value ranges") {
                  "alpha, eta, nodes (parameters)");
     expect_error(lines({"model = \"rough-dielectric\"", "[parameters]", "alpha = 0.3",
                         "eta = 0", BODY}),
-                 4, "parameters.eta", "(0, 10]");
+                 4, "parameters.eta", "(0, 100]");
     expect_error(lines({"model = \"rough-dielectric\"", "[parameters]", "alpha = 4.5",
                         "eta = 1.5", BODY}),
                  3, "parameters.alpha", "(0, 4]");

@@ -12,6 +12,7 @@
 #include "host/io/exr_export.h"
 #include "host/io/header_export.h"
 #include "host/io/merl_export.h"
+#include "host/io/renderer_layout.h"
 #include "host/io/table_io.h"
 #include "host/lookup/lookup.h"
 
@@ -27,7 +28,7 @@ struct ExportArgs {
     bool half = false, layers = false, no_stderr = false;
     std::string axes;
     // header
-    std::string name, type;
+    std::string name, type, layout;
     // MERL
     std::string rgb;
 };
@@ -62,6 +63,7 @@ void run_export(const ExportArgs& a) {
     refuse_unless(exr, !a.axes.empty(), "--axes", "--exr");
     refuse_unless(header, !a.name.empty(), "--name", "--header");
     refuse_unless(header, !a.type.empty(), "--type", "--header");
+    refuse_unless(header, !a.layout.empty(), "--layout", "--header");
     refuse_unless(merl, !a.rgb.empty(), "--rgb", "--merl");
     refuse_unless(!header, !a.slice.empty(), "--slice", "--exr and --merl");
     std::map<std::string, double> slice;
@@ -87,7 +89,29 @@ void run_export(const ExportArgs& a) {
             o.x_axis = xy[0];
             o.y_axis = xy[1];
         }
-        export_exr_slice(read_table(a.file, a.table), a.exr, o);
+        // --table R,G: a two-channel texture (G = the second table's values).
+        const auto names = split_commas(a.table);
+        if (names.size() > 2)
+            throw InputError("--table '" + a.table + "': --exr takes one table, or two (R,G)");
+        const TableData red = read_table(a.file, names[0]);
+        TableData green;
+        if (names.size() == 2) {
+            green = read_table(a.file, names[1]);
+            o.green = &green;
+        }
+        export_exr_slice(red, a.exr, o);
+    } else if (header && !a.layout.empty()) {
+        // A renderer's own array (host/io/renderer_layout.h); --table R,G
+        // names a two-channel texture's tables.
+        RendererExportOptions o;
+        o.layout = parse_renderer_layout(a.layout);
+        o.name = a.name;
+        o.type_given = !a.type.empty();
+        if (o.type_given) o.type = parse_header_value_type(a.type);
+        o.source = std::filesystem::path(a.file).filename().string();
+        std::vector<TableData> channels;
+        for (const auto& t : split_commas(a.table)) channels.push_back(LookupTable::open(a.file, t).table());
+        export_renderer_header(channels, a.header, o);
     } else if (header) {
         HeaderExportOptions o;
         o.name = a.name;
@@ -145,6 +169,10 @@ void register_export(CLI::App& app) {
     cmd->add_option("--type", a->type,
                     "header: value storage, float (default), half or uint16 (see docs/format.md "
                     "for each one's error)");
+    cmd->add_option("--layout", a->layout,
+                    "header: a renderer's own array, order and type (docs/renderer-luts.md): "
+                    "cycles (one table, float), filament or ue4 (--table R,G: a two-channel "
+                    "texture; half or float)");
     cmd->add_option("--rgb", a->rgb,
                     "MERL: R,G,B values of a factored table's parameter (e.g. rho) for the red, "
                     "green and blue channels (default: the same value in all three)");

@@ -149,7 +149,17 @@ void export_exr_slice(const TableData& table, const std::string& out_path,
 
     const int width = static_cast<int>(axes[ax].count);
     const int height = static_cast<int>(axes[ay].count);
-    const bool have_stderr = options.with_stderr && !table.stderr_.empty() &&
+    const TableData* green = options.green;
+    if (green) {
+        bool same = green->axes.size() == axes.size() && green->value.size() == table.value.size();
+        for (std::size_t i = 0; same && i < axes.size(); ++i)
+            same = green->axes[i].name == axes[i].name && green->axes[i].values == axes[i].values;
+        if (!same)
+            throw InputError("tables '" + table.name + "' and '" + green->name +
+                             "' differ in their axes or nodes; the two channels of an EXR "
+                             "texture must share one grid");
+    }
+    const bool have_stderr = !green && options.with_stderr && !table.stderr_.empty() &&
                              table.stderr_.size() == table.value.size();
     const std::size_t npix = static_cast<std::size_t>(width) * static_cast<std::size_t>(height);
     const std::size_t nlayers = al < axes.size() ? axes[al].count : 1;
@@ -174,6 +184,7 @@ void export_exr_slice(const TableData& table, const std::string& out_path,
                 const std::size_t p = static_cast<std::size_t>(y) * width + x;
                 r[p] = table.value[c];
                 if (have_stderr) g[p] = table.stderr_[c];
+                if (green) g[p] = green->value[c];
             }
 
         Imf::Header header(width, height);
@@ -198,7 +209,8 @@ void export_exr_slice(const TableData& table, const std::string& out_path,
         put("brdftab_y_axis", axis_label(axes[ay]) + " (row 0 = first node)");
         put("brdftab_slice", slice_desc.empty() ? "none" : slice_desc);
         put("brdftab_channels",
-            std::string("R=value G=") + (have_stderr ? "stderr" : "0") + " B=0 A=1");
+            green ? "R=" + table.name + " G=" + green->name + " B=0 A=1"
+                  : std::string("R=value G=") + (have_stderr ? "stderr" : "0") + " B=0 A=1");
         put("brdftab_version", BRDFTAB_VERSION);
         if (al < axes.size()) {
             put("brdftab_layer_axis", axis_label(axes[al]));

@@ -21,6 +21,10 @@ struct ExrExportOptions {
     // Three free axes: one part per node of the free axis that is not x or y
     // (a multi-part file; each part named "axis=value").
     bool layers = false;
+    // Two-channel textures (a renderer's split-sum or DFG LUT): G = this
+    // table's values instead of the stderr; it must have the same axes and
+    // nodes as `table` (InputError otherwise).  Not owned.
+    const TableData* green = nullptr;
 };
 
 // Scanline, ZIP compression.  The image's x axis is the last free axis, y the

@@ -59,7 +59,7 @@ ModelInfo rough_dielectric_model() {
             .open_min());
     b.parameter(
         RD_PARAM_ETA,
-        parameter_info("eta", "1", "index of refraction, interior / exterior (may be < 1)", 0, 10)
+        parameter_info("eta", "1", "index of refraction, interior / exterior (may be < 1)", 0, 100)
             .open_min());
 
     b.parameter(
@@ -103,10 +103,26 @@ ModelInfo rough_dielectric_model() {
               "always uses Walter's",
               {"visible", "walter"},
               "visible"});
+    b.option(RD_OPT_FRESNEL,
+             {"fresnel",
+              "facet reflectance F: the exact dielectric Fresnel factor (eq. 22), none (F = 1: "
+              "all light is reflected and eta is not read; albedo_r is then the albedo E of "
+              "energy compensation), or Schlick's approximation with F0 = ((eta-1)/(eta+1))^2",
+              {"dielectric", "none", "schlick"},
+              "dielectric"});
+    b.option(RD_OPT_MU_RULE,
+             {"mu_rule",
+              "albedo_avg under quadrature: the mu integral as one Gauss-Legendre rule per side "
+              "of the critical cosine (single), or on panels geometric towards grazing and the "
+              "critical cosine, (nodes + 1)/2 nodes each (graded: for errors near 1e-6)",
+              {"single", "graded"},
+              "single"});
 
     const std::vector<std::string> all_dirs = {"theta_i", "phi_i", "theta_o", "phi_o"};
-    const std::vector<std::string> shape_opts = {"distribution", "g1", "shadowing"};
-    const std::vector<std::string> albedo_opts = {"distribution", "g1", "shadowing", "sampling"};
+    const std::vector<std::string> shape_opts = {"distribution", "g1", "shadowing", "fresnel"};
+    const std::vector<std::string> albedo_opts = {"distribution", "g1", "shadowing", "sampling",
+                                                  "fresnel"};
+    const std::vector<std::string> split_opts = {"distribution", "g1", "shadowing", "sampling"};
     auto closed = [&](const char* name, int id, const char* desc, const char* eqs) {
         QuantityInfo q;
         q.name = name;
@@ -160,7 +176,25 @@ ModelInfo rough_dielectric_model() {
                         "cosine-weighted hemispherical average of the directional albedo, "
                         "2 * int E(mu) mu dmu, for the chosen lobe(s) and side",
                         kAlbedoEqs, {},
-                        {"distribution", "g1", "shadowing", "lobe", "side", "sampling"}, 3));
+                        {"distribution", "g1", "shadowing", "lobe", "side", "sampling", "fresnel",
+                         "mu_rule"},
+                        3));
+    const char* kSplitEqs =
+        "eqs. 14, 20, 39 with F = 1, weighted by Schlick's factors (Schlick 1994 eq. 15; "
+        "Karis 2013 split sum); sampling as the albedos";
+    b.quantity(integral("split_a", RD_Q_SPLIT_A,
+                        "split-sum scale: integral of f_r cos(theta_o) (1 - (1 - o.m)^5) with F = 1, "
+                        "so that the reflectance under Schlick's F is F0 split_a + split_b (eta is "
+                        "not read)",
+                        kSplitEqs, {"theta_i"}, split_opts, 2));
+    b.quantity(integral("split_b", RD_Q_SPLIT_B,
+                        "split-sum bias: integral of f_r cos(theta_o) (1 - o.m)^5 with F = 1; "
+                        "split_a + split_b is albedo_r with fresnel = none (eta is not read)",
+                        kSplitEqs, {"theta_i"}, split_opts, 2));
+    b.quantity(integral("albedo", RD_Q_ALBEDO,
+                        "directional albedo of both lobes, albedo_r + albedo_t: the fraction of "
+                        "light from direction i that leaves the interface (glass albedo)",
+                        kAlbedoEqs, {"theta_i"}, albedo_opts, 2));
     b.check_cell(&check_phong_alpha);
     b.cells_pass(&phong_alpha_cells_pass);
     return b.build();

@@ -1,0 +1,52 @@
+// renderer_layout.h — tables written as the C arrays renderers ship, in each
+// renderer's own element order and type (`brdftab export --layout`,
+// docs/renderer-luts.md):
+//   cycles    one table, `static const float table_<name>[N]`, index
+//             z nx ny + y nx + x with x = roughness, y = mu, z = IOR: the
+//             table's axes must be (eta,) (mu_i | theta_i,) alpha, outermost
+//             first, so the file's row-major order is Cycles' order.
+//   filament  two tables (the texture's R and G channels) on the same 2-D
+//             grid (alpha outer, mu_i inner): `const uint16_t DFG_LUT[]`,
+//             binary16 bits, R G interleaved per texel, rows in GL order
+//             (first row = first alpha node), NoV fastest.
+//   ue4       the same two-channel grid as `float` (or binary16 with
+//             type = half): R = scale A, G = bias B of the split sum.
+// Library code: no printing.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "host/core/table.h"
+#include "host/io/header_export.h"
+
+namespace brdftab {
+
+enum class RendererLayout { Cycles, Filament, Ue4 };
+
+// "cycles" | "filament" | "ue4"; InputError otherwise.
+RendererLayout parse_renderer_layout(const std::string& name);
+const char* renderer_layout_name(RendererLayout layout);
+
+struct RendererExportOptions {
+    RendererLayout layout = RendererLayout::Cycles;
+    // Storage: cycles: float only; filament: half (default) or float;
+    // ue4: float (default) or half.  `type_given` false takes the default.
+    HeaderValueType type = HeaderValueType::Float;
+    bool type_given = false;
+    std::string name;    // array identifier; empty: the layout's default
+    std::string source;  // e.g. the input file name, written in the comment
+};
+
+// The element sequence of the layout (channel values interleaved per texel
+// for two-channel layouts), as doubles before storage rounding; checks the
+// tables against the layout (InputError naming the table and what differs).
+std::vector<double> renderer_layout_values(const std::vector<TableData>& channels,
+                                           const RendererExportOptions& options);
+
+// Writes the header atomically (InputError as above, or for a storage type
+// the layout does not take).
+void export_renderer_header(const std::vector<TableData>& channels, const std::string& out_path,
+                            const RendererExportOptions& options);
+
+}  // namespace brdftab

@@ -1,0 +1,367 @@
+// test_renderer_luts.cpp — the renderer LUT quantities of rough-dielectric
+// (fresnel = none | schlick, split_a / split_b, albedo) and the renderer
+// layouts (tables/renderers/, host/io/renderer_layout.h).
+// Oracles: limits (E -> 1 as alpha -> 0 with F = 1), identities (Kulla &
+// Conty's white furnace with an independent Gauss-Legendre integral over mu;
+// A + B = E; Schlick's linearity in F0; eta^2 T_avg(inside) = T_avg(outside)
+// from the reciprocity of f_t), a brute-force integral of the closed-form
+// f_r with the split-sum weight, and each renderer's node formulas and array
+// order as its public source states them (docs/renderer-luts.md).
+#include <doctest/doctest.h>
+
+#include "test_sampling.h"
+#include "test_support.h"
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "host/core/error.h"
+#include "host/io/renderer_layout.h"
+#include "host/spec/spec.h"
+#include "kernels/common/gauss_legendre.h"
+#include "kernels/models/rough_dielectric.h"
+
+namespace {
+
+using brdftab::test::kPi;
+
+bt_sampler quad_sampler() { return brdftab::test::make_sampler(BT_METHOD_QUADRATURE, 0, 0, 0, 0, 0); }
+
+// Quantity q by quadrature with n nodes at light cosine mu (mu < 0: from inside).
+double quad(int q, double mu, double alpha, double eta, int n, const int* o) {
+    double p[8] = {std::acos(mu), 0, 0, 0, alpha, eta, double(n), 0};
+    bt_sampler s = quad_sampler();
+    return rough_dielectric_sample(p, o, q, &s);
+}
+
+struct Options {
+    int o[8] = {0, 0, 0, 0, 0, 0, 0, 0};
+    Options(int dist, int sh, int fresnel, int lobe = RD_LOBE_BOTH, int side = 0) {
+        o[RD_OPT_DISTRIBUTION] = dist;
+        o[RD_OPT_SHADOWING] = sh;
+        o[RD_OPT_FRESNEL] = fresnel;
+        o[RD_OPT_LOBE] = lobe;
+        o[RD_OPT_SIDE] = side;
+        o[RD_OPT_SAMPLING] = RD_SAMPLING_VISIBLE;
+    }
+};
+
+const int kDists[] = {BT_MF_GGX, BT_MF_BECKMANN};
+const int kShadows[] = {BT_SHADOW_SEPARABLE, BT_SHADOW_HEIGHT_CORRELATED};
+
+}  // namespace
+
+TEST_CASE("F = 1: E -> 1 as alpha -> 0, E in [0, 1], eta is not read")
+{
+    for (int dist : kDists)
+        for (int sh : kShadows) {
+            Options op(dist, sh, RD_FRESNEL_NONE);
+            for (double mu : {0.05, 0.3, 0.7, 1.0}) {
+                double previous_loss = 1;
+                for (double alpha : {1e-2, 1e-3, 1e-4, 1e-6}) {
+                    const double e = quad(RD_Q_ALBEDO_R, mu, alpha, 1.5, 16, op.o);
+                    INFO("dist " << dist << " sh " << sh << " mu " << mu << " alpha " << alpha
+                                 << " E " << e);
+                    CHECK(e <= 1 + 1e-12);
+                    CHECK(1 - e <= previous_loss + 1e-12);  // shrinks with alpha
+                    previous_loss = 1 - e;
+                    // Nothing transmitted, whatever eta.
+                    CHECK(quad(RD_Q_ALBEDO_T, mu, alpha, 1.5, 16, op.o) == 0.0);
+                    CHECK(quad(RD_Q_ALBEDO_R, mu, alpha, 3.0, 16, op.o) == e);
+                }
+                CHECK(previous_loss < 1e-5);  // alpha = 1e-6
+            }
+        }
+}
+
+TEST_CASE("Kulla-Conty white furnace: E(mu) + int f_ms cos = 1 at F = 1")
+{
+    // f_ms(mu_o, mu_i) = (1 - E(mu_o))(1 - E(mu_i)) / (pi (1 - Eavg)), so
+    // int f_ms cos do = (1 - E(mu_i)) * 2 int (1 - E(mu_o)) mu_o dmu_o / (1 - Eavg).
+    // The mu_o integral here is an independent composite Gauss-Legendre rule
+    // (panels graded towards grazing), Eavg is the model's albedo_avg.
+    double gx[24], gw[24];
+    bt_gauss_legendre_rule(24, gx, gw);
+    const double edges[] = {0, 0.01, 0.04, 0.12, 0.3, 0.6, 1};
+    for (int dist : kDists)
+        for (int sh : kShadows)
+            for (double alpha : {0.1, 0.4, 1.0}) {
+                Options op(dist, sh, RD_FRESNEL_NONE, RD_LOBE_REFLECTION);
+                double integral = 0;
+                for (int k = 0; k + 1 < 7; ++k)
+                    for (int j = 0; j < 24; ++j) {
+                        const double L = edges[k + 1] - edges[k];
+                        const double mu = edges[k] + L * 0.5 * (gx[j] + 1);
+                        integral += 0.5 * L * gw[j] * 2 * mu *
+                                    (1 - quad(RD_Q_ALBEDO_R, mu, alpha, 1.5, 16, op.o));
+                    }
+                const double eavg = quad(RD_Q_ALBEDO_AVG, 1, alpha, 1.5, 24, op.o);
+                // The graded mu rule against the same independent integral.
+                Options graded = op;
+                graded.o[RD_OPT_MU_RULE] = RD_MU_RULE_GRADED;
+                const double eavg_graded = quad(RD_Q_ALBEDO_AVG, 1, alpha, 1.5, 24, graded.o);
+                INFO("Eavg graded " << eavg_graded << " vs 1 - integral " << 1 - integral);
+                CHECK(std::fabs(eavg_graded - (1 - integral)) <= 2e-6);
+                for (double mu_i : {0.02, 0.5, 1.0}) {
+                    const double e = quad(RD_Q_ALBEDO_R, mu_i, alpha, 1.5, 16, op.o);
+                    const double furnace = e + (1 - e) * integral / (1 - eavg);
+                    INFO("dist " << dist << " sh " << sh << " alpha " << alpha << " mu_i " << mu_i
+                                 << ": E " << e << " Eavg " << eavg << " 1 - 2 int E mu "
+                                 << integral << " furnace " << furnace);
+                    CHECK(std::fabs(furnace - 1) <= 2e-5);
+                }
+            }
+}
+
+TEST_CASE("split sum: A + B = E at F0 = 1; Schlick albedo = F0 A + B")
+{
+    for (int dist : kDists)
+        for (int sh : kShadows)
+            for (double mu : {0.02, 0.3, 1.0, -0.5})
+                for (double alpha : {0.01, 0.3, 1.0}) {
+                    Options none(dist, sh, RD_FRESNEL_NONE), schlick(dist, sh, RD_FRESNEL_SCHLICK);
+                    const double a = quad(RD_Q_SPLIT_A, mu, alpha, 1.5, 12, none.o);
+                    const double b = quad(RD_Q_SPLIT_B, mu, alpha, 1.5, 12, none.o);
+                    const double e = quad(RD_Q_ALBEDO_R, mu, alpha, 1.5, 12, none.o);
+                    INFO("dist " << dist << " sh " << sh << " mu " << mu << " alpha " << alpha);
+                    CHECK(a >= 0);
+                    CHECK(b >= 0);
+                    CHECK(std::fabs(a + b - e) <= 1e-12);
+                    // The split quantities ignore eta and the fresnel option.
+                    CHECK(quad(RD_Q_SPLIT_B, mu, alpha, 3.0, 12, schlick.o) == b);
+                    if (mu > 0)
+                        for (double eta : {1.2, 1.5, 2.4}) {
+                            const double r = (eta - 1) / (eta + 1), f0 = r * r;
+                            const double s = quad(RD_Q_ALBEDO_R, mu, alpha, eta, 12, schlick.o);
+                            CHECK(std::fabs(s - (f0 * a + b)) <= 1e-12);
+                        }
+                    // RQMC: A + B = E sample by sample.
+                    double p[8] = {std::acos(mu), 0, 0, 0, alpha, 1.5, 12, 0};
+                    for (uint k = 0; k < 64; ++k) {
+                        bt_sampler s = brdftab::test::make_sampler(BT_METHOD_RQMC, 5, 6, 9, 0, k);
+                        const double sa = rough_dielectric_sample(p, none.o, RD_Q_SPLIT_A, &s);
+                        const double sb = rough_dielectric_sample(p, none.o, RD_Q_SPLIT_B, &s);
+                        const double se = rough_dielectric_sample(p, none.o, RD_Q_ALBEDO_R, &s);
+                        CHECK(std::fabs(sa + sb - se) <= 1e-14);
+                    }
+                }
+}
+
+TEST_CASE("split_b against a brute-force integral of the closed-form f_r")
+{
+    // int f_r(i, o) (1 - o.h)^5 cos(theta_o) do with F = 1, f_r the model's
+    // closed form (eq. 20), on a 2-D Gauss-Legendre product rule in
+    // (cos theta_o, phi_o) with 40 panels x 16 nodes each way.
+    double gx[16], gw[16];
+    bt_gauss_legendre_rule(16, gx, gw);
+    for (int sh : kShadows)
+        for (double alpha : {0.3, 0.7})
+            for (double mu : {0.4, 0.9}) {
+                Options op(BT_MF_GGX, sh, RD_FRESNEL_NONE);
+                const double ti = std::acos(mu);
+                bt_vec3 i = bt_v3(std::sin(ti), 0, mu);
+                double sum_b = 0, sum_e = 0;
+                const int panels = 40;
+                for (int pc = 0; pc < panels; ++pc)
+                    for (int jc = 0; jc < 16; ++jc) {
+                        const double c = (pc + 0.5 * (gx[jc] + 1)) / panels;
+                        const double wc = 0.5 * gw[jc] / panels;
+                        for (int pp = 0; pp < panels; ++pp)
+                            for (int jp = 0; jp < 16; ++jp) {
+                                const double phi = kPi * (pp + 0.5 * (gx[jp] + 1)) / panels;
+                                const double wp = 2 * kPi * 0.5 * gw[jp] / panels;  // phi in [0, pi], x2 by symmetry
+                                const double s = std::sqrt(1 - c * c);
+                                double p[8] = {ti, 0, std::acos(c), phi, alpha, 1.5, 12, 0};
+                                const double f = rough_dielectric_fr(p, op.o);
+                                bt_vec3 o = bt_v3(s * std::cos(phi), s * std::sin(phi), c);
+                                bt_vec3 h = bt_v3_normalize(bt_v3_add(i, o));
+                                const double k = 1 - bt_v3_dot(o, h), k5 = k * k * k * k * k;
+                                sum_b += wc * wp * f * c * k5;
+                                sum_e += wc * wp * f * c;
+                            }
+                    }
+                const double b = quad(RD_Q_SPLIT_B, mu, alpha, 1.5, 16, op.o);
+                const double e = quad(RD_Q_ALBEDO_R, mu, alpha, 1.5, 16, op.o);
+                INFO("sh " << sh << " alpha " << alpha << " mu " << mu << ": B " << b << " vs "
+                           << sum_b << ", E " << e << " vs " << sum_e);
+                CHECK(std::fabs(b - sum_b) <= 1e-5);
+                CHECK(std::fabs(e - sum_e) <= 1e-5);
+            }
+}
+
+TEST_CASE("reciprocity of the averages: eta^2 T_avg(inside) = T_avg(outside)")
+{
+    // From f_t(i, o) / eta_o^2 = f_t(o, i) / eta_i^2 (Walter eq. 21),
+    // integrated over both hemispheres with cos_i cos_o.
+    for (int dist : kDists)
+        for (int sh : kShadows)
+            for (double eta : {1.2, 1.5, 2.4})
+                for (double alpha : {0.1, 0.5}) {
+                    Options out(dist, sh, RD_FRESNEL_DIELECTRIC, RD_LOBE_TRANSMISSION, 0);
+                    Options in(dist, sh, RD_FRESNEL_DIELECTRIC, RD_LOBE_TRANSMISSION, 1);
+                    const double t_out = quad(RD_Q_ALBEDO_AVG, 1, alpha, eta, 16, out.o);
+                    const double t_in = quad(RD_Q_ALBEDO_AVG, 1, alpha, eta, 16, in.o);
+                    INFO("dist " << dist << " sh " << sh << " eta " << eta << " alpha " << alpha
+                                 << ": T_out " << t_out << " eta^2 T_in " << eta * eta * t_in);
+                    CHECK(std::fabs(t_out - eta * eta * t_in) <= 2e-4 * t_out);
+                }
+}
+
+TEST_CASE("Schlick: F0 at normal incidence, 1 at grazing, total internal reflection from inside")
+{
+    for (double eta : {1.33, 1.5, 2.4}) {
+        const double r = (eta - 1) / (eta + 1);
+        CHECK(rd_fresnel(RD_FRESNEL_SCHLICK, 1.0, eta) == doctest::Approx(r * r).epsilon(1e-15));
+        CHECK(rd_fresnel(RD_FRESNEL_SCHLICK, 0.0, eta) == doctest::Approx(1.0));
+        // Light inside (canonical index 1/eta): total internal reflection
+        // below the critical cosine, Schlick at the refracted cosine above.
+        const double ci = std::sqrt(1 - 1 / (eta * eta));
+        CHECK(rd_fresnel(RD_FRESNEL_SCHLICK, 0.9 * ci, 1 / eta) == 1.0);
+        const double c = 0.5 * (1 + ci), ct = std::sqrt(1 - eta * eta * (1 - c * c));
+        CHECK(rd_fresnel(RD_FRESNEL_SCHLICK, c, 1 / eta) ==
+              doctest::Approx(rd_fresnel(RD_FRESNEL_SCHLICK, ct, eta)).epsilon(1e-12));
+    }
+}
+
+// ------------------------------------------------------------------ layouts
+
+namespace {
+
+double clamp(double x, double lo, double hi) { return x < lo ? lo : (x > hi ? hi : x); }
+
+const brdftab::TableSpec& table_of(const brdftab::Spec& s, const std::string& name) {
+    for (const auto& t : s.tables)
+        if (t.name == name) return t;
+    FAIL("no table " << name);
+    return s.tables.front();
+}
+
+// The axis values, checked against the formula f(k) for k = 0 .. n - 1.
+template <class F>
+void check_nodes(const brdftab::Axis& a, std::size_t n, F f) {
+    REQUIRE(a.count == n);
+    for (std::size_t k = 0; k < n; ++k) {
+        INFO("axis " << a.name << " node " << k);
+        CHECK(a.values[k] == doctest::Approx(f(double(k) / double(n - 1))).epsilon(1e-14));
+    }
+}
+
+}  // namespace
+
+TEST_CASE("Cycles preset: node placement is Cycles' formula, axes in Cycles' array order")
+{
+    // cycles_precompute.cpp: roughness r = clamp(x/(nx-1), 1e-4, 1) with
+    // alpha = r^2, mu = clamp(y/(ny-1), 1e-4, 1), IOR = (1 + z^2)/(1 - z^2)
+    // (ior_from_F0(z^4)) with z = clamp(z/(nz-1), 1e-4, 0.99); index
+    // z nx ny + y nx + x: axes (IOR, mu, roughness) outermost first.
+    const brdftab::Spec s =
+        brdftab::parse_spec_file(std::string(BT_SOURCE_DIR) + "/tables/renderers/cycles.toml");
+    auto alpha = [](double t) { return std::pow(clamp(t, 1e-4, 1), 2); };
+    auto mu = [](double t) { return clamp(t, 1e-4, 1); };
+    auto ior = [](double t) {
+        const double z = clamp(t, 1e-4, 0.99);
+        return (1 + z * z) / (1 - z * z);
+    };
+    auto theta_inside = [&](double t) { return 180 - std::acos(mu(t)) * 180 / kPi; };
+    const auto& e = table_of(s, "ggx_E");
+    REQUIRE(e.axes.size() == 2);
+    CHECK(e.axes[0].name == "mu_i");
+    check_nodes(e.axes[0], 32, mu);
+    check_nodes(e.axes[1], 32, alpha);
+    CHECK(e.options["fresnel"] == "none");
+    check_nodes(table_of(s, "ggx_Eavg").axes.at(0), 32, alpha);
+    for (const char* name : {"ggx_glass_E", "ggx_glass_inv_E"}) {
+        const auto& g = table_of(s, name);
+        REQUIRE(g.axes.size() == 3);
+        CHECK(g.axes[0].name == "eta");
+        check_nodes(g.axes[0], 16, ior);
+        if (std::string(name) == "ggx_glass_E") {
+            CHECK(g.axes[1].name == "mu_i");
+            check_nodes(g.axes[1], 16, mu);
+        } else {
+            CHECK(g.axes[1].name == "theta_i");  // light from inside
+            check_nodes(g.axes[1], 16, theta_inside);
+        }
+        check_nodes(g.axes[2], 16, alpha);
+        CHECK(g.quantity == "albedo");
+        CHECK(g.options["fresnel"] == "dielectric");
+        CHECK(g.options["shadowing"] == "height-correlated");
+    }
+    for (const char* name : {"ggx_glass_Eavg", "ggx_glass_inv_Eavg"}) {
+        const auto& g = table_of(s, name);
+        REQUIRE(g.axes.size() == 2);
+        check_nodes(g.axes[0], 16, ior);
+        check_nodes(g.axes[1], 16, alpha);
+        CHECK(g.options["side"] == (std::string(name) == "ggx_glass_Eavg" ? "outside" : "inside"));
+    }
+}
+
+TEST_CASE("Filament preset: texel placement as cmgen and CubemapIBL::DFG define it")
+{
+    // Column x: NoV = (x + 0.5)/128.  Image row y: c = saturate((128 - y + 0.5)/128),
+    // alpha = c^2; GL row j is image row 127 - j, so c_j = min(1, (j + 1.5)/128).
+    const brdftab::Spec s =
+        brdftab::parse_spec_file(std::string(BT_SOURCE_DIR) + "/tables/renderers/filament-dfg.toml");
+    for (const char* name : {"dfg_x", "dfg_y"}) {
+        const auto& t = table_of(s, name);
+        REQUIRE(t.axes.size() == 2);
+        CHECK(t.axes[0].name == "alpha");
+        CHECK(t.axes[1].name == "mu_i");
+        REQUIRE(t.axes[0].count == 128);
+        REQUIRE(t.axes[1].count == 128);
+        for (std::size_t k = 0; k < 128; ++k) {
+            const double y = 127.0 - double(k);
+            const double c = std::min(1.0, (128.0 - y + 0.5) / 128.0);
+            CHECK(t.axes[0].values[k] == doctest::Approx(c * c).epsilon(1e-14));
+            CHECK(t.axes[1].values[k] == doctest::Approx((double(k) + 0.5) / 128.0).epsilon(1e-14));
+        }
+        CHECK(t.options["shadowing"] == "height-correlated");
+        CHECK(t.options["distribution"] == "ggx");
+    }
+    CHECK(table_of(s, "dfg_x").quantity == "split_b");
+    CHECK(table_of(s, "dfg_y").quantity == "albedo_r");
+    CHECK(table_of(s, "dfg_y").options["fresnel"] == "none");
+}
+
+TEST_CASE("renderer layouts: element order and the tables each layout accepts")
+{
+    using namespace brdftab;
+    auto table = [](std::vector<std::pair<std::string, std::size_t>> axes, double offset) {
+        TableData t;
+        t.name = "t";
+        std::size_t cells = 1;
+        for (const auto& [name, n] : axes) {
+            std::vector<double> v;
+            for (std::size_t k = 0; k < n; ++k) v.push_back(0.1 + double(k));
+            t.axes.push_back(make_axis(name, "1", 0, 1, n, Spacing::Explicit, v));
+            cells *= n;
+        }
+        for (std::size_t k = 0; k < cells; ++k) t.value.push_back(offset + double(k));
+        return t;
+    };
+    RendererExportOptions cycles;
+    cycles.layout = RendererLayout::Cycles;
+    // (IOR 2, mu 3, alpha 4): Cycles' index z*12 + y*4 + x is the row-major index.
+    const TableData g = table({{"eta", 2}, {"mu_i", 3}, {"alpha", 4}}, 0);
+    const auto v = renderer_layout_values({g}, cycles);
+    REQUIRE(v.size() == 24);
+    for (std::size_t z = 0; z < 2; ++z)
+        for (std::size_t y = 0; y < 3; ++y)
+            for (std::size_t x = 0; x < 4; ++x) CHECK(v[z * 12 + y * 4 + x] == g.value[z * 12 + y * 4 + x]);
+    CHECK_THROWS_AS(renderer_layout_values({table({{"alpha", 4}, {"mu_i", 3}}, 0)}, cycles), InputError);
+    CHECK_THROWS_AS(renderer_layout_values({g, g}, cycles), InputError);
+    // Two-channel textures: R, G interleaved per texel, NoV fastest.
+    RendererExportOptions fil;
+    fil.layout = RendererLayout::Filament;
+    const TableData r = table({{"alpha", 3}, {"mu_i", 5}}, 0), gch = table({{"alpha", 3}, {"mu_i", 5}}, 100);
+    const auto tex = renderer_layout_values({r, gch}, fil);
+    REQUIRE(tex.size() == 30);
+    for (std::size_t k = 0; k < 15; ++k) {
+        CHECK(tex[2 * k] == r.value[k]);
+        CHECK(tex[2 * k + 1] == gch.value[k]);
+    }
+    CHECK_THROWS_AS(renderer_layout_values({r}, fil), InputError);
+    CHECK_THROWS_AS(renderer_layout_values({r, table({{"mu_i", 5}, {"alpha", 3}}, 0)}, fil), InputError);
+}

@@ -1,0 +1,79 @@
+// test_renderer_luts_rqmc.cpp — the Cycles preset's quadrature against an
+// independent estimator, RQMC with 2^20 Owen-scrambled Sobol points (16
+// batches of 2^16), on 200 random entries of its six tables (label `long`:
+// about a minute on one core).  Each entry: |quadrature - RQMC| within
+// 4 RQMC standard errors + 1e-6, and the quadrature's own error estimate
+// (the distance to the half-node rule, the stored stderr) is reported.
+#include <doctest/doctest.h>
+
+#include "test_sampling.h"
+#include "test_support.h"
+
+#include <cmath>
+#include <string>
+
+#include "host/core/grid.h"
+#include "host/spec/spec.h"
+#include "kernels/models/rough_dielectric.h"
+
+TEST_CASE("Cycles preset: quadrature within RQMC noise at 2^20 points on 200 random entries")
+{
+    const brdftab::Spec s =
+        brdftab::parse_spec_file(std::string(BT_SOURCE_DIR) + "/tables/renderers/cycles.toml");
+    const double kDeg = brdftab::test::kPi / 180;
+    std::uint64_t state = 0x9E3779B97F4A7C15ull;
+    auto next = [&] {  // splitmix64
+        std::uint64_t z = (state += 0x9E3779B97F4A7C15ull);
+        z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+        z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+        return z ^ (z >> 31);
+    };
+    double worst = 0, worst_estimate = 0;
+    for (int entry = 0; entry < 200; ++entry) {
+        const brdftab::TableSpec& t = s.tables[next() % s.tables.size()];
+        const brdftab::Grid grid(t.axes);
+        const std::size_t cell = next() % grid.cell_count();
+        const std::vector<double> x = grid.coordinates(cell);
+        double p[8] = {0, 0, 0, 0, 0, 1.5, t.fixed.at("nodes"), 0};
+        for (std::size_t d = 0; d < t.axes.size(); ++d) {
+            const std::string& n = t.axes[d].name;
+            if (n == "alpha") p[RD_PARAM_ALPHA] = x[d];
+            if (n == "eta") p[RD_PARAM_ETA] = x[d];
+            if (n == "mu_i") p[0] = std::acos(x[d]);
+            if (n == "theta_i") p[0] = x[d] * kDeg;
+        }
+        int o[8] = {BT_MF_GGX, 0, BT_SHADOW_HEIGHT_CORRELATED, RD_LOBE_BOTH, 0, RD_SAMPLING_VISIBLE,
+                    RD_FRESNEL_DIELECTRIC, 0};
+        if (t.options["fresnel"] == "none") {
+            o[RD_OPT_FRESNEL] = RD_FRESNEL_NONE;
+            o[RD_OPT_LOBE] = RD_LOBE_REFLECTION;
+        }
+        if (t.options["side"] == "inside") o[RD_OPT_SIDE] = 1;
+        if (t.options["mu_rule"] == "graded") o[RD_OPT_MU_RULE] = RD_MU_RULE_GRADED;
+        const int q = t.quantity == "albedo_r" ? RD_Q_ALBEDO_R
+                      : t.quantity == "albedo" ? RD_Q_ALBEDO
+                                               : RD_Q_ALBEDO_AVG;
+        bt_sampler s0 = brdftab::test::make_sampler(BT_METHOD_QUADRATURE, 0, 0, 0, 0, 0);
+        bt_sampler s1 = brdftab::test::make_sampler(BT_METHOD_QUADRATURE, 0, 0, 0, 1, 0);
+        const double quad = rough_dielectric_sample(p, o, q, &s0);
+        const double estimate = std::fabs(quad - rough_dielectric_sample(p, o, q, &s1));
+        brdftab::test::RunningStat st;
+        for (uint b = 0; b < 16; ++b) {
+            double sum = 0;
+            for (uint k = 0; k < (1u << 16); ++k) {
+                bt_sampler r = brdftab::test::make_sampler(BT_METHOD_RQMC, 11, 12, uint(entry), b, k);
+                sum += rough_dielectric_sample(p, o, q, &r);
+            }
+            st.add(sum / (1u << 16));
+        }
+        const double d = std::fabs(quad - st.mean);
+        INFO("entry " << entry << " table " << t.name << " cell " << cell << ": quadrature "
+                      << quad << " (estimate " << estimate << "), RQMC " << st.mean << " +- "
+                      << st.se());
+        CHECK(d <= 4 * st.se() + 1e-6);
+        worst = std::fmax(worst, d / (st.se() + 1e-12));
+        worst_estimate = std::fmax(worst_estimate, estimate);
+    }
+    MESSAGE("largest |quadrature - RQMC| / RQMC stderr " << worst << ", largest estimate "
+                                                         << worst_estimate);
+}
