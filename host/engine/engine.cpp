@@ -1707,29 +1707,16 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
     EstimateState state;
     std::vector<CellState>& cells = state.cells;
     // Launch size.  A fixed --slab is kept as given.  Otherwise launches start
-    // small (256 work items) and grow (at most 4x per launch) towards
-    // kLaunchSeconds each, capped
-    // by the backend's preferred slab: progress is then reported every
-    // fraction of a second even when one work item runs thousands of samples,
-    // while closed forms still get launches large enough to amortise the
-    // launch overhead.  Results do not depend on the launch size.
-    // Sizes are whole multiples of kMinLaunch (four work groups of 64), so
-    // that the groups of a launch spread evenly over 2 or 4 cores: with odd
-    // group counts one core idles at the end of every launch (measured: 5 %
-    // of the throughput with 0.4 s launches of ~585 work items).
-    constexpr double kLaunchSeconds = 0.5;
-    constexpr std::size_t kMinLaunch = 256, kFirstLaunch = 256;
+    // small and grow towards kLaunchSeconds each (next_launch_size,
+    // engine_tuning.h, which the planner's engine_launch_sizes follows too).
+    // Results do not depend on the launch size.
     const bool fixed_slab = settings.slab_work_items != 0;
     const std::size_t max_slab =
         std::max<std::size_t>(1, fixed_slab ? settings.slab_work_items : backend.preferred_slab());
     std::size_t slab = fixed_slab ? max_slab : std::min(max_slab, kFirstLaunch);
     auto resize_slab = [&](std::size_t items, double seconds) {
         if (fixed_slab || items < slab) return;  // a short tail launch says little
-        double ideal = seconds > 0 ? kLaunchSeconds * static_cast<double>(items) / seconds
-                                   : static_cast<double>(max_slab);
-        ideal = std::clamp(ideal, static_cast<double>(slab) / 4, static_cast<double>(slab) * 4);
-        const std::size_t rounded = static_cast<std::size_t>(ideal) / kMinLaunch * kMinLaunch;
-        slab = std::clamp(rounded, std::min(kMinLaunch, max_slab), max_slab);
+        slab = next_launch_size(items, seconds, slab, max_slab);
     };
     std::vector<double> slab_mean, slab_m2;
 

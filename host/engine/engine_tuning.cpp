@@ -10,11 +10,12 @@
 namespace brdftab {
 
 const char* environment_setting(const char* name) {
-    // Documented in docs/devices.md (BRDFTAB_DEVICE), docs/contributing.md
-    // ("Debugging switches") and docs/cluster.md (BRDFTAB_TEST_RANK_ABORT).
+    // Listed in docs/contributing.md ("Engine tuning and debugging
+    // switches"), each documented there or in the page it names.
     static const char* const kDocumented[] = {
-        "BRDFTAB_DEVICE",        "BRDFTAB_SAMPLE_PARALLEL", "BRDFTAB_NODE_PARALLEL",
-        "BRDFTAB_WALK_PARALLEL", "BRDFTAB_KERNEL_OPTIONS",  "BRDFTAB_TEST_RANK_ABORT",
+        "BRDFTAB_DEVICE",          "BRDFTAB_SAMPLE_PARALLEL",   "BRDFTAB_NODE_PARALLEL",
+        "BRDFTAB_WALK_PARALLEL",   "BRDFTAB_KERNEL_OPTIONS",    "BRDFTAB_TEST_RANK_ABORT",
+        "BRDFTAB_READ_TIMEOUT",    "BRDFTAB_PROGRESS_INTERVAL",
     };
     if (std::none_of(std::begin(kDocumented), std::end(kDocumented),
                      [&](const char* d) { return std::strcmp(d, name) == 0; }))
@@ -45,6 +46,14 @@ const EngineTuning& environment_tuning() {
         return t;
     }();
     return tuning;
+}
+
+std::size_t next_launch_size(std::size_t items, double seconds, std::size_t slab, std::size_t max_slab) {
+    double ideal = seconds > 0 ? kLaunchSeconds * static_cast<double>(items) / seconds
+                               : static_cast<double>(max_slab);
+    ideal = std::clamp(ideal, static_cast<double>(slab) / 4, static_cast<double>(slab) * 4);
+    const std::size_t rounded = static_cast<std::size_t>(ideal) / kMinLaunch * kMinLaunch;
+    return std::clamp(rounded, std::min(kMinLaunch, max_slab), max_slab);
 }
 
 std::uint32_t floor_pow2(std::uint64_t x) {

@@ -92,9 +92,10 @@ const EngineTuning& environment_tuning();
 
 // The value of one of the environment variables the library reads, or
 // nullptr when it is unset: BRDFTAB_DEVICE (the default device), the
-// debugging switches above and BRDFTAB_TEST_RANK_ABORT (a test hook of
-// distributed runs).  Throws std::logic_error for any other name, so that
-// every variable read is one of the documented ones.
+// debugging switches above, BRDFTAB_TEST_RANK_ABORT (a test hook of
+// distributed runs) and the CLI's BRDFTAB_READ_TIMEOUT and
+// BRDFTAB_PROGRESS_INTERVAL.  Throws std::logic_error for any other name, so
+// that every variable read is one of the documented ones.
 const char* environment_setting(const char* name);
 
 // ------------------------------------------------------------ batch policy
@@ -120,6 +121,24 @@ struct BatchLayout {
     std::uint64_t batches = 1;
 };
 BatchLayout first_round_batches(Method method, std::uint64_t samples, std::uint64_t batch_size = 0);
+
+// ------------------------------------------------------------ launch sizes
+// estimate()'s launches start at kFirstLaunch work items and grow (at most 4x
+// per launch) towards kLaunchSeconds each, capped by the backend's preferred
+// slab: progress comes every fraction of a second even when one work item
+// runs thousands of samples, while closed forms still get launches large
+// enough to amortise the launch overhead.
+inline constexpr double kLaunchSeconds = 0.5;
+inline constexpr std::size_t kFirstLaunch = 256;
+// Sizes are whole multiples of kMinLaunch (four work groups of 64), so that
+// the groups of a launch spread evenly over 2 or 4 cores: with odd group
+// counts one core idles at the end of every launch (measured: 5 % of the
+// throughput with 0.4 s launches of about 585 work items).
+inline constexpr std::size_t kMinLaunch = 256;
+
+// The size of the launch after a full one of `items` work items (launches of
+// `slab`) that took `seconds`, with at most `max_slab` (>= 1) per launch.
+std::size_t next_launch_size(std::size_t items, double seconds, std::size_t slab, std::size_t max_slab);
 
 // The largest power of two <= x, within [1, 2^30].
 std::uint32_t floor_pow2(std::uint64_t x);

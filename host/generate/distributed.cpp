@@ -122,6 +122,7 @@ long abort_after_results(int rank) {
 // ------------------------------------------------------------- MpiSession --
 
 bool MpiSession::launched() {
+    // The variables an MPI launcher sets in every rank (not brdftab's own).
     for (const char* v : {"OMPI_COMM_WORLD_SIZE", "PMIX_RANK", "PMI_RANK", "PMI_SIZE"})
         if (std::getenv(v)) return true;
     return false;

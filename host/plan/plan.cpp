@@ -269,9 +269,8 @@ WorkShape work_shape(Method method, std::uint64_t samples) {
 
 EngineLaunches engine_launch_sizes(double work_items, double seconds_per_item, double seconds_per_launch,
                                    std::size_t max_slab) {
-    // engine.cpp: kLaunchSeconds, kMinLaunch, kFirstLaunch and resize_slab.
-    constexpr double kLaunchSeconds = 0.5;
-    constexpr std::size_t kMinLaunch = 256, kFirstLaunch = 256, kKept = 32;
+    // As estimate() sizes its launches (next_launch_size, engine_tuning.h).
+    constexpr std::size_t kKept = 32;
     EngineLaunches out;
     max_slab = std::max<std::size_t>(1, max_slab);
     std::size_t slab = std::min(max_slab, kFirstLaunch);
@@ -289,10 +288,7 @@ EngineLaunches engine_launch_sizes(double work_items, double seconds_per_item, d
         add(slab, 1);
         left -= double(slab);
         const double seconds = seconds_per_launch + double(slab) * seconds_per_item;
-        double ideal = seconds > 0 ? kLaunchSeconds * double(slab) / seconds : double(max_slab);
-        ideal = std::clamp(ideal, double(slab) / 4, double(slab) * 4);
-        const std::size_t rounded = static_cast<std::size_t>(ideal) / kMinLaunch * kMinLaunch;
-        const std::size_t next = std::clamp(rounded, std::min(kMinLaunch, max_slab), max_slab);
+        const std::size_t next = next_launch_size(slab, seconds, slab, max_slab);
         if (next == slab) {  // steady: every further full launch is the same
             const double full = std::floor(left / double(slab));
             add(slab, full);
