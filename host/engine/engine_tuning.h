@@ -22,8 +22,9 @@ namespace brdftab {
 // or for every launch it can run.
 enum class LaunchChoice { Default, Off, On };
 
-// Samples per sub-launch of the sample-parallel path: the scratch buffer of
-// 2^22 doubles (32 MiB) bounds the memory a launch takes, not its speed.
+// Samples per sub-launch of the sample-parallel path: a bound on the memory
+// a launch takes (a scratch buffer of 2^22 doubles, 32 MiB), not a measured
+// optimum.
 inline constexpr std::size_t kSampleParallelScratchSamples = std::size_t{1} << 22;
 // Nodes per sub-launch of the node-parallel path (2^22 terms of scratch); the
 // nested sums take fractions of it (engine.cpp, enqueue_nested_node_parallel).
