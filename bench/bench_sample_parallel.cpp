@@ -6,7 +6,7 @@
 //   build/bench/bench_sample_parallel [MODEL QUANTITY METHOD [CELLS SAMPLES]]...
 //
 // Without arguments it runs the sampled quantities of `brdftab bench` by MC and RQMC.  For each case it
-// alternates the two paths (BRDFTAB_SAMPLE_PARALLEL=0 / 1) three times after a
+// alternates the two paths (EngineTuning::sample_parallel Off / On) three times after a
 // warm-up that builds both programs, and prints the median samples per
 // second of wall time and per CPU-second of the process, the load average,
 // and whether both paths gave the same bits (they must).
@@ -135,7 +135,9 @@ int main(int argc, char** argv) {
         s.method = c.method;
         s.samples = c.samples;
         auto run = [&](bool sp, std::size_t cells, double& wall, double& cpu) {
-            ::setenv("BRDFTAB_SAMPLE_PARALLEL", sp ? "1" : "0", 1);
+            EngineTuning tuning = device->tuning();
+            tuning.sample_parallel = sp ? LaunchChoice::On : LaunchChoice::Off;
+            device->set_tuning(tuning);
             const double c0 = cpu_seconds();
             const auto t0 = std::chrono::steady_clock::now();
             EstimateResult r = estimate(

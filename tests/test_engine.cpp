@@ -847,3 +847,42 @@ TEST_CASE("cells_pass agrees with check_cell, and a refused span names its first
         }
     }
 }
+
+TEST_CASE("engine tuning: the environment only through the documented variables") {
+    // docs/contributing.md, "Engine tuning and debugging switches", lists the
+    // variables environment_setting() reads; any other name is a programming
+    // error, including the launch knobs that are EngineTuning fields only.
+    for (const char* documented :
+         {"BRDFTAB_DEVICE", "BRDFTAB_SAMPLE_PARALLEL", "BRDFTAB_NODE_PARALLEL",
+          "BRDFTAB_WALK_PARALLEL", "BRDFTAB_KERNEL_OPTIONS", "BRDFTAB_TEST_RANK_ABORT",
+          "BRDFTAB_READ_TIMEOUT", "BRDFTAB_PROGRESS_INTERVAL"}) {
+        CAPTURE(documented);
+        CHECK_NOTHROW(environment_setting(documented));
+    }
+    for (const char* other : {"BRDFTAB_LOCAL_SIZE", "BRDFTAB_GENERIC_KERNELS",
+                              "BRDFTAB_SAMPLE_PARALLEL_SCRATCH", "HOME"}) {
+        CAPTURE(other);
+        CHECK_THROWS_AS(environment_setting(other), std::logic_error);
+    }
+}
+
+TEST_CASE("engine tuning: the backend keeps the tuning it was given, the host backends none") {
+    EngineTuning t;
+    t.sample_parallel = LaunchChoice::Off;
+    t.local_size = 32;
+    t.node_split_shift = -3;
+    t.extra_kernel_options = "-D BT_TEST_UNUSED=1";
+    auto device = make_backend("", Precision::Double, "", t);
+    CHECK(device->tuning().sample_parallel == LaunchChoice::Off);
+    CHECK(device->tuning().local_size == 32);
+    CHECK(device->tuning().node_split_shift == -3);
+    CHECK(device->tuning().extra_kernel_options == "-D BT_TEST_UNUSED=1");
+    t.walk_parallel = false;
+    device->set_tuning(t);
+    CHECK_FALSE(device->tuning().walk_parallel);
+    // The host backends have no launch knobs: defaults, whatever is set.
+    auto host = make_backend("host", Precision::Double, "", t);
+    host->set_tuning(t);
+    CHECK(host->tuning().walk_parallel);
+    CHECK(host->tuning().local_size == kLocalSize);
+}

@@ -1,5 +1,5 @@
 // Node-parallel quadrature (kernels/common/node_parallel.h; host/engine/engine.cpp,
-// BRDFTAB_NODE_PARALLEL): a quadrature batch's nodes as work items of one
+// EngineTuning::node_parallel): a quadrature batch's nodes as work items of one
 // kernel, summed in node order by another, must give the very bits of the
 // usual kernel, whose work item loops over the nodes itself.
 //
@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "host/engine/engine.h"
+#include "scoped_tuning.h"
 #include "test_support.h"
 #include "host/models/registry.h"
 #include "kernels/common/sampler.h"
@@ -30,7 +31,7 @@ using namespace brdftab;
 
 namespace {
 
-using brdftab::test::ScopedEnv;
+using brdftab::test::ScopedTuning;
 
 // Bitwise equality of doubles (NaN included).
 bool same_bits(double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; }
@@ -91,10 +92,10 @@ Outputs run(Backend& backend, const BatchLaunch& l) {
     return o;
 }
 
-// The launch run with BRDFTAB_NODE_PARALLEL set to `node_parallel` ("0": the
-// usual kernel, "1": node-parallel).
-Outputs run_switched(Backend& backend, const BatchLaunch& l, const char* node_parallel) {
-    ScopedEnv set("BRDFTAB_NODE_PARALLEL", node_parallel);
+// The launch run with EngineTuning::node_parallel set to `node_parallel`
+// (Off: the usual kernel, On: node-parallel).
+Outputs run_switched(Backend& backend, const BatchLaunch& l, LaunchChoice node_parallel) {
+    ScopedTuning set(backend, &EngineTuning::node_parallel, node_parallel);
     return run(backend, l);
 }
 
@@ -126,22 +127,22 @@ TEST_CASE("node-parallel H: the usual kernel's bits, every psi, fine and coarse 
         const Launch x = h_launch(psi, std::string(psi) == "poly" ? kPoly : std::map<std::string, double>{});
         Outputs usual, node, split, short_layout, one_kernel, shifted_up, shifted_down;
         {
-            ScopedEnv off("BRDFTAB_NODE_PARALLEL", "0");
+            ScopedTuning off(*device, &EngineTuning::node_parallel, LaunchChoice::Off);
             usual = run(*device, x.launch);
         }
         {
-            ScopedEnv on("BRDFTAB_NODE_PARALLEL", "1");
+            ScopedTuning on(*device, &EngineTuning::node_parallel, LaunchChoice::On);
             node = run(*device, x.launch);
             // Sub-launches of at most 300 nodes: one or two work items each,
             // and a work item of more nodes than the cap alone (tiny mu).
             {
-                ScopedEnv cap("BRDFTAB_NODE_PARALLEL_SCRATCH", "300");
+                ScopedTuning cap(*device, &EngineTuning::node_parallel_scratch_nodes, 300);
                 split = run(*device, x.launch);
             }
             // The host lays out 50 nodes per work item at most; the sum
             // kernel computes the others itself, in their place.
             {
-                ScopedEnv cap("BRDFTAB_NODE_PARALLEL_LAYOUT_CAP", "50");
+                ScopedTuning cap(*device, &EngineTuning::node_layout_cap, 50);
                 short_layout = run(*device, x.launch);
             }
             // H's terms run on two kernels, series and direct form
@@ -149,15 +150,15 @@ TEST_CASE("node-parallel H: the usual kernel's bits, every psi, fine and coarse 
             // and host guesses 7 nodes too high or too low (those nodes come
             // back NaN and the sum kernel computes them).
             {
-                ScopedEnv one("BRDFTAB_NODE_SPLIT", "0");
+                ScopedTuning one(*device, &EngineTuning::split_node_terms, false);
                 one_kernel = run(*device, x.launch);
             }
             {
-                ScopedEnv up("BRDFTAB_NODE_SPLIT_SHIFT", "7");
+                ScopedTuning up(*device, &EngineTuning::node_split_shift, 7);
                 shifted_up = run(*device, x.launch);
             }
             {
-                ScopedEnv down("BRDFTAB_NODE_SPLIT_SHIFT", "-7");
+                ScopedTuning down(*device, &EngineTuning::node_split_shift, -7);
                 shifted_down = run(*device, x.launch);
             }
         }
@@ -187,8 +188,8 @@ TEST_CASE("node-parallel H: the usual kernel's bits, every psi, fine and coarse 
 TEST_CASE("node-parallel H: no H-function (poly with 1 - 2 int Psi < 0) gives the usual NaN") {
     auto device = make_backend("", Precision::Double);
     const Launch x = h_launch("poly", {{"psi_0", 0.8}});
-    const Outputs usual = run_switched(*device, x.launch, "0");
-    const Outputs node = run_switched(*device, x.launch, "1");
+    const Outputs usual = run_switched(*device, x.launch, LaunchChoice::Off);
+    const Outputs node = run_switched(*device, x.launch, LaunchChoice::On);
     check_same_bits(x, usual, node);
     for (std::size_t w = 0; w < node.mean.size(); ++w)
         if (x.mu[w] > 0) CHECK(std::isnan(node.mean[w]));
@@ -201,8 +202,8 @@ TEST_CASE("node-parallel H in float: the usual float kernel's bits") {
     for (const char* psi : {"lambert0", "isotropic"}) {
         CAPTURE(psi);
         const Launch x = h_launch(psi);
-        const Outputs usual = run_switched(*device, x.launch, "0");
-        const Outputs node = run_switched(*device, x.launch, "1");
+        const Outputs usual = run_switched(*device, x.launch, LaunchChoice::Off);
+        const Outputs node = run_switched(*device, x.launch, LaunchChoice::On);
         check_same_bits(x, usual, node);
     }
 }
@@ -228,15 +229,15 @@ TEST_CASE("node-parallel H through estimate(): same values and error estimates a
     };
     EstimateResult usual, node, by_default;
     {
-        ScopedEnv off("BRDFTAB_NODE_PARALLEL", "0");
+        ScopedTuning off(*device, &EngineTuning::node_parallel, LaunchChoice::Off);
         usual = estimate_h();
     }
     {
-        ScopedEnv on("BRDFTAB_NODE_PARALLEL", "1");
+        ScopedTuning on(*device, &EngineTuning::node_parallel, LaunchChoice::On);
         node = estimate_h();
     }
     {
-        ScopedEnv unset("BRDFTAB_NODE_PARALLEL", nullptr);
+        ScopedTuning by_default_choice(*device, &EngineTuning::node_parallel, LaunchChoice::Default);
         by_default = estimate_h();
     }
     CHECK(node_parallel_by_default());
@@ -392,24 +393,24 @@ TEST_CASE("node-parallel oren-nayar: the usual kernel's bits for every quadratur
         const OnLaunch x = on_launch(quantity, options);
         Outputs usual, node, split, blocks;
         {
-            ScopedEnv off("BRDFTAB_NODE_PARALLEL", "0");
+            ScopedTuning off(*device, &EngineTuning::node_parallel, LaunchChoice::Off);
             usual = run(*device, x.launch);
         }
         {
-            ScopedEnv on("BRDFTAB_NODE_PARALLEL", "1");
+            ScopedTuning on(*device, &EngineTuning::node_parallel, LaunchChoice::On);
             node = run(*device, x.launch);
             {
                 // One work item per block (scratch cap / 256 -> 1) and
                 // sub-launches of at most 18 nodes (scratch cap / 16), or of
                 // one group with more.
-                ScopedEnv cap("BRDFTAB_NODE_PARALLEL_SCRATCH", "300");
+                ScopedTuning cap(*device, &EngineTuning::node_parallel_scratch_nodes, 300);
                 split = run(*device, x.launch);
             }
             // Blocks of at most 1024 groups (cap / 64), so a few dozen work
             // items each, those without groups (sigma 0, below the horizon)
             // among them, and many sub-launches of at most 4096 nodes per
             // block.
-            ScopedEnv cap("BRDFTAB_NODE_PARALLEL_SCRATCH", "65536");
+            ScopedTuning cap(*device, &EngineTuning::node_parallel_scratch_nodes, 65536);
             blocks = run(*device, x.launch);
         }
         check_on_same_bits(x, usual, node);
@@ -430,8 +431,8 @@ TEST_CASE("node-parallel oren-nayar: the usual kernel's bits for every quadratur
 TEST_CASE("node-parallel oren-nayar in float: the usual float kernel's bits") {
     auto device = make_backend("", Precision::Float);
     const OnLaunch x = on_launch("brdf");
-    const Outputs usual = run_switched(*device, x.launch, "0");
-    const Outputs node = run_switched(*device, x.launch, "1");
+    const Outputs usual = run_switched(*device, x.launch, LaunchChoice::Off);
+    const Outputs node = run_switched(*device, x.launch, LaunchChoice::On);
     check_on_same_bits(x, usual, node);
 }
 
@@ -455,11 +456,11 @@ TEST_CASE("node-parallel oren-nayar through estimate(): the default, same values
     };
     EstimateResult usual, by_default;
     {
-        ScopedEnv off("BRDFTAB_NODE_PARALLEL", "0");
+        ScopedTuning off(*device, &EngineTuning::node_parallel, LaunchChoice::Off);
         usual = estimate_brdf();
     }
     {
-        ScopedEnv unset("BRDFTAB_NODE_PARALLEL", nullptr);
+        ScopedTuning by_default_choice(*device, &EngineTuning::node_parallel, LaunchChoice::Default);
         by_default = estimate_brdf();
     }
     CHECK(q.node_parallel.by_default);

@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "host/engine/engine.h"
+#include "scoped_tuning.h"
 #include "test_launch_support.h"
 #include "test_support.h"
 #include "host/models/registry.h"
@@ -28,7 +29,7 @@ namespace {
 
 using brdftab::test::check_same_bits;
 using brdftab::test::estimate_cells;
-using brdftab::test::ScopedEnv;
+using brdftab::test::ScopedTuning;
 
 // A few cells of a quantity: directions spread over the hemisphere, every
 // parameter at its default or in the middle of its range.
@@ -80,14 +81,14 @@ TEST_CASE("sample-parallel launches give the usual kernel's bits on every MC/RQM
                 s.seed = 11;
                 EstimateResult usual, parallel, split, over_cap;
                 {
-                    ScopedEnv off("BRDFTAB_SAMPLE_PARALLEL", "0");
+                    ScopedTuning off(*device, &EngineTuning::sample_parallel, LaunchChoice::Off);
                     usual = estimate_cells(*device, m, q, cells, s);
                 }
                 {
-                    ScopedEnv on("BRDFTAB_SAMPLE_PARALLEL", "1");
+                    ScopedTuning on(*device, &EngineTuning::sample_parallel, LaunchChoice::On);
                     parallel = estimate_cells(*device, m, q, cells, s);
                     // Sub-launches of 2 work items (40 samples / 16): 6 of them.
-                    ScopedEnv cap("BRDFTAB_SAMPLE_PARALLEL_SCRATCH", "40");
+                    ScopedTuning cap(*device, &EngineTuning::sample_parallel_scratch_samples, 40);
                     split = estimate_cells(*device, m, q, cells, s);
                 }
                 check_same_bits(usual, parallel);
@@ -103,7 +104,7 @@ TEST_CASE("fixed-step searches: every unfinished sample is redone, the bits are 
     // interfaced-lambertian's body with Beckmann visible normals runs its
     // sample-parallel kernels with microfacet.h's fixed-step search
     // (BT_MF_SOLVE_STEPS) and a redo kernel for the samples whose search had
-    // not ended.  With one step each (BRDFTAB_FIXED_SOLVER_STEPS=1,1) nearly
+    // not ended.  With one step each (fixed_solver_steps_x/y = 1) nearly
     // every sample takes the redo; with the defaults (4, 3) a few do.  Both
     // must give the bits of the usual kernel, which always runs the loop.
     // vcavity runs the same search as the first of its two stages
@@ -139,14 +140,17 @@ TEST_CASE("fixed-step searches: every unfinished sample is redone, the bits are 
             if (std::string(c.quantity) == "vcavity") given["interreflection"] = c.interreflection;
             EstimateResult usual;
             {
-                ScopedEnv off("BRDFTAB_SAMPLE_PARALLEL", "0");
+                ScopedTuning off(*device, &EngineTuning::sample_parallel, LaunchChoice::Off);
                 usual = estimate_cells(*device, m, q, cells, s, given);
             }
-            ScopedEnv on("BRDFTAB_SAMPLE_PARALLEL", "1");
-            for (const std::string steps : {"1,1", "2,1", "default"}) {
-                CAPTURE(steps);
-                ScopedEnv fixed("BRDFTAB_FIXED_SOLVER_STEPS",
-                                steps == "default" ? nullptr : steps.c_str());
+            ScopedTuning on(*device, &EngineTuning::sample_parallel, LaunchChoice::On);
+            // (x, y) steps; 0, 0: microfacet.h's defaults.
+            for (const std::pair<int, int> steps : {std::pair{1, 1}, std::pair{2, 1}, std::pair{0, 0}}) {
+                const int x = steps.first, y = steps.second;
+                CAPTURE(x);
+                CAPTURE(y);
+                ScopedTuning steps_x(*device, &EngineTuning::fixed_solver_steps_x, x);
+                ScopedTuning steps_y(*device, &EngineTuning::fixed_solver_steps_y, y);
                 check_same_bits(usual, estimate_cells(*device, m, q, cells, s, given));
             }
         }
@@ -172,10 +176,10 @@ TEST_CASE("staged samples in float (no fixed-step build): the usual float kernel
         const auto cells = test_cells(m, q, 4);
         EstimateResult usual;
         {
-            ScopedEnv off("BRDFTAB_SAMPLE_PARALLEL", "0");
+            ScopedTuning off(*device, &EngineTuning::sample_parallel, LaunchChoice::Off);
             usual = estimate_cells(*device, m, q, cells, s);
         }
-        ScopedEnv on("BRDFTAB_SAMPLE_PARALLEL", "1");
+        ScopedTuning on(*device, &EngineTuning::sample_parallel, LaunchChoice::On);
         check_same_bits(usual, estimate_cells(*device, m, q, cells, s));
     }
 }
@@ -206,8 +210,9 @@ TEST_CASE("fixed-step searches: without the redo kernel, unfinished samples show
     s.method = Method::MonteCarlo;
     s.samples = 256;
     s.batch_size = 64;
-    ScopedEnv on("BRDFTAB_SAMPLE_PARALLEL", "1");
-    ScopedEnv fixed("BRDFTAB_FIXED_SOLVER_STEPS", "1,1");
+    ScopedTuning on(*device, &EngineTuning::sample_parallel, LaunchChoice::On);
+    ScopedTuning steps_x(*device, &EngineTuning::fixed_solver_steps_x, 1);
+    ScopedTuning steps_y(*device, &EngineTuning::fixed_solver_steps_y, 1);
     const EstimateResult r = estimate_cells(*device, m, q, test_cells(m, q, 4), s);
     std::size_t nan_cells = 0;
     for (double v : r.value) nan_cells += std::isnan(v) ? 1 : 0;
@@ -230,13 +235,13 @@ TEST_CASE("sample-parallel: splits, odd batch sizes, caps below a batch and adap
     s.slab_work_items = 7;  // launches of 7 work items, the last one shorter
     EstimateResult usual;
     {
-        ScopedEnv off("BRDFTAB_SAMPLE_PARALLEL", "0");
+        ScopedTuning off(*device, &EngineTuning::sample_parallel, LaunchChoice::Off);
         usual = estimate_cells(*device, m, q, cells, s);
     }
-    ScopedEnv on("BRDFTAB_SAMPLE_PARALLEL", "1");
-    for (const char* cap : {"36", "37", "74", "100", "259", "4194304"}) {
+    ScopedTuning on(*device, &EngineTuning::sample_parallel, LaunchChoice::On);
+    for (const std::size_t cap : {36, 37, 74, 100, 259, 4194304}) {
         CAPTURE(cap);
-        ScopedEnv scratch("BRDFTAB_SAMPLE_PARALLEL_SCRATCH", cap);
+        ScopedTuning scratch(*device, &EngineTuning::sample_parallel_scratch_samples, cap);
         check_same_bits(usual, estimate_cells(*device, m, q, cells, s));
     }
     // Adaptive RQMC: rounds of different batch counts per cell.
@@ -247,7 +252,7 @@ TEST_CASE("sample-parallel: splits, odd batch sizes, caps below a batch and adap
     a.max_samples = 1 << 14;
     EstimateResult adaptive_usual;
     {
-        ScopedEnv off("BRDFTAB_SAMPLE_PARALLEL", "0");
+        ScopedTuning off(*device, &EngineTuning::sample_parallel, LaunchChoice::Off);
         adaptive_usual = estimate_cells(*device, m, q, cells, a);
     }
     check_same_bits(adaptive_usual, estimate_cells(*device, m, q, cells, a));

@@ -19,34 +19,6 @@
 
 namespace brdftab::test {
 
-// Sets an environment variable for the lifetime of the object (the engine
-// reads its BRDFTAB_* switches at every launch); nullptr unsets it.
-class ScopedEnv {
-public:
-    ScopedEnv(const char* name, const char* value) : name_(name) {
-        const char* old = std::getenv(name);
-        had_ = old != nullptr;
-        if (had_) old_ = old;
-        if (value)
-            ::setenv(name, value, 1);
-        else
-            ::unsetenv(name);
-    }
-    ~ScopedEnv() {
-        if (had_)
-            ::setenv(name_, old_.c_str(), 1);
-        else
-            ::unsetenv(name_);
-    }
-    ScopedEnv(const ScopedEnv&) = delete;
-    ScopedEnv& operator=(const ScopedEnv&) = delete;
-
-private:
-    const char* name_;
-    bool had_ = false;
-    std::string old_;
-};
-
 // The message of the InputError that `f` throws; "" when it throws none.
 template <class F>
 std::string input_error(F&& f) {

@@ -2,7 +2,7 @@
 // a random walk advanced one collision per round of a work group, with a
 // batch's next sample started as soon as a walk ends, must give the very bits
 // of the usual kernel, whose work item runs each walk to its end in a loop.
-// The oracle is that usual kernel (BRDFTAB_WALK_PARALLEL=0: one nested loop,
+// The oracle is that usual kernel (walk_parallel false: one nested loop,
 // no barrier, no regeneration), over lambert-sphere brdf_mc's orders,
 // truncation remainder, Fourier modes, phase functions, albedos (Russian
 // roulette below c^k = 0.05).  Monte Carlo only: RQMC launches run the usual
@@ -16,6 +16,7 @@
 
 #include "host/engine/engine.h"
 #include "host/models/registry.h"
+#include "scoped_tuning.h"
 #include "test_launch_support.h"
 #include "test_support.h"
 
@@ -24,7 +25,7 @@ using namespace brdftab;
 namespace {
 
 using brdftab::test::estimate_cells;
-using brdftab::test::ScopedEnv;
+using brdftab::test::ScopedTuning;
 
 // The shared bit-for-bit comparison, and every value finite (no NaN or
 // infinity in these tables, so == is a bitwise test).
@@ -86,10 +87,10 @@ TEST_CASE("walk-parallel launches give the usual kernel's bits on lambert-sphere
             s.seed = 5;
             EstimateResult usual;
             {
-                ScopedEnv off("BRDFTAB_WALK_PARALLEL", "0");
+                ScopedTuning off(*device, &EngineTuning::walk_parallel, false);
                 usual = estimate_cells(*device, m, q, cells, s, options);
             }
-            ScopedEnv on("BRDFTAB_WALK_PARALLEL", nullptr);
+            ScopedTuning on(*device, &EngineTuning::walk_parallel, true);
             check_same_bits(usual, estimate_cells(*device, m, q, cells, s, options));
             for (std::size_t c = 0; c < usual.value.size(); ++c) CHECK(usual.samples[c] == 111u);
         }
@@ -117,10 +118,10 @@ TEST_CASE("walk-parallel: launches of a few work items, one-sample batches, adap
         settings[k].method = Method::MonteCarlo;
         EstimateResult usual;
         {
-            ScopedEnv off("BRDFTAB_WALK_PARALLEL", "0");
+            ScopedTuning off(*device, &EngineTuning::walk_parallel, false);
             usual = estimate_cells(*device, m, q, cells, settings[k], options);
         }
-        ScopedEnv on("BRDFTAB_WALK_PARALLEL", nullptr);
+        ScopedTuning on(*device, &EngineTuning::walk_parallel, true);
         check_same_bits(usual, estimate_cells(*device, m, q, cells, settings[k], options));
     }
 }

@@ -524,7 +524,7 @@ void print_cells_per_rank(const std::vector<std::uint64_t>& cells) {
 // node's GPUs in turn by rank on the node (local rank k takes GPU k mod the
 // number of GPUs), otherwise the default (first CPU device).  "" = default.
 std::string rank_device(const GenerateArgs& st, int local_rank) {
-    if (!st.compute.device.empty() || std::getenv("BRDFTAB_DEVICE")) return "";
+    if (!st.compute.device.empty() || environment_setting("BRDFTAB_DEVICE")) return "";
     std::vector<DeviceInfo> gpus;
     try {
         for (const DeviceInfo& d : list_devices())

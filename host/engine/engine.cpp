@@ -180,7 +180,7 @@ const std::vector<SampleParallelCase>& sample_parallel_default_cases() {
 
 // The random-walk quantities with a walk-parallel kernel (engine.h,
 // kernels/common/walk_parallel.h), run that way for every Monte Carlo launch
-// unless BRDFTAB_WALK_PARALLEL=0: measured faster per CPU-second than
+// unless EngineTuning::walk_parallel is false: measured faster per CPU-second than
 // the usual kernel (docs/benchmarks.md, "Walk-parallel launch"),
 // bit-identical to it (tests/test_walk_parallel.cpp).
 const std::vector<WalkParallelCase>& walk_parallel_cases() {
@@ -274,8 +274,10 @@ cl::Program cached_program(ClRuntime& runtime, const std::string& source,
 
 class OpenCLBackend final : public Backend {
 public:
-    OpenCLBackend(const DeviceInfo& device, Precision precision, std::string kernel_dir)
-        : runtime_(device), precision_(precision), kernel_dir_(std::move(kernel_dir)) {
+    OpenCLBackend(const DeviceInfo& device, Precision precision, std::string kernel_dir,
+                  const EngineTuning& tuning)
+        : runtime_(device), precision_(precision), kernel_dir_(std::move(kernel_dir)),
+          tuning_(tuning) {
         if (precision == Precision::Double && !device.has_fp64)
             throw InputError("device '" + device.name +
                              "' does not support double precision (cl_khr_fp64); use "
@@ -284,6 +286,11 @@ public:
     std::string device_name() const override { return runtime_.device_info().name; }
     Precision precision() const override { return precision_; }
     std::size_t preferred_slab() const override { return 1u << 17; }
+    void set_tuning(const EngineTuning& tuning) override {
+        tuning_ = tuning;
+        last_kernel_ = nullptr;  // its build options may have changed
+    }
+    EngineTuning tuning() const override { return tuning_; }
 
     void run(const BatchLaunch& l, std::vector<double>& mean,
              std::vector<double>& m2) override {
@@ -576,14 +583,13 @@ private:
 
     // Whether this launch runs sample-parallel: only Monte Carlo / RQMC
     // batches of several samples that fit the scratch cap, and then as
-    // BRDFTAB_SAMPLE_PARALLEL says ("0": never, "1": always), or by default
+    // tuning_.sample_parallel says (Off: never, On: always), or by default
     // where sample_parallel_by_default() says so.
     bool use_sample_parallel(const BatchLaunch& l) const {
         if (l.method != BT_METHOD_MC && l.method != BT_METHOD_RQMC) return false;
         if (l.batch_size < 2 || l.batch_size > sample_parallel_scratch_samples()) return false;
-        const char* env = std::getenv("BRDFTAB_SAMPLE_PARALLEL");
-        if (env && std::string(env) == "0") return false;
-        if (env && std::string(env) == "1") return true;
+        if (tuning_.sample_parallel == LaunchChoice::Off) return false;
+        if (tuning_.sample_parallel == LaunchChoice::On) return true;
         const Method method = l.method == BT_METHOD_MC ? Method::MonteCarlo : Method::Rqmc;
         const QuantityInfo* q = launch_quantity(l);
         if (!q) return false;
@@ -634,19 +640,15 @@ private:
         return group == 256 ? cl::NullRange : cl::NDRange(group);
     }
 
-    // Samples per sub-launch of the sample-parallel path (the scratch
-    // buffer's size: 2^22 doubles = 32 MiB); a launch of more work items is
-    // split into sub-launches of whole batches, which changes no result.
-    // BRDFTAB_SAMPLE_PARALLEL_SCRATCH (samples, >= 2) sets another cap, for
-    // tests of the split; a batch larger than the cap runs the usual kernel.
-    static std::size_t sample_parallel_scratch_samples() {
-        const char* env = std::getenv("BRDFTAB_SAMPLE_PARALLEL_SCRATCH");
-        if (env && *env) {
-            // At most 2^31 samples: a sub-launch's sample count is a uint.
-            const long long v = std::min(std::atoll(env), 1LL << 31);
-            if (v >= 2) return static_cast<std::size_t>(v);
-        }
-        return std::size_t{1} << 22;
+    // Samples per sub-launch of the sample-parallel path
+    // (tuning_.sample_parallel_scratch_samples); a launch of more work items
+    // is split into sub-launches of whole batches, which changes no result;
+    // a batch larger than the cap runs the usual kernel.
+    std::size_t sample_parallel_scratch_samples() const {
+        // At most 2^31 samples: a sub-launch's sample count is a uint.
+        const std::size_t v =
+            std::min(tuning_.sample_parallel_scratch_samples, std::size_t{1} << 31);
+        return v >= 2 ? v : kSampleParallelScratchSamples;
     }
 
     // Enqueues the sample and reduce kernels over every work item of `l`,
@@ -718,11 +720,10 @@ private:
         std::string fixed_options;
         if (fixed) {
             fixed_options = options + " -D BT_MF_SOLVE_STEPS=1";
-            // BRDFTAB_FIXED_SOLVER_STEPS="X,Y": other step counts for the x
-            // and y searches (tests: 1,1 makes most samples take the redo).
-            const char* env = std::getenv("BRDFTAB_FIXED_SOLVER_STEPS");
-            int sx = 0, sy = 0;
-            if (env && std::sscanf(env, "%d,%d", &sx, &sy) == 2 && sx > 0 && sy > 0)
+            // tuning_.fixed_solver_steps_x/y: other step counts for the x
+            // and y searches (tests: 1, 1 makes most samples take the redo).
+            const int sx = tuning_.fixed_solver_steps_x, sy = tuning_.fixed_solver_steps_y;
+            if (sx > 0 && sy > 0)
                 fixed_options += " -D BT_MF_SOLVE_STEPS_X=" + std::to_string(sx) +
                                  " -D BT_MF_SOLVE_STEPS_Y=" + std::to_string(sy);
         }
@@ -780,26 +781,20 @@ private:
     // Monte Carlo only: with RQMC the round runs the first collision's
     // Sobol' draws (if-converted) for every lane in every round, and the
     // launch measured no faster than the usual kernel (docs/benchmarks.md).
-    static bool use_walk_parallel(const BatchLaunch& l) {
-        if (l.method != BT_METHOD_MC) return false;
-        const char* env = std::getenv("BRDFTAB_WALK_PARALLEL");
-        if (env && std::string(env) == "0") return false;
+    bool use_walk_parallel(const BatchLaunch& l) const {
+        if (l.method != BT_METHOD_MC || !tuning_.walk_parallel) return false;
         return walk_parallel_case(l) != nullptr;
     }
-    // The work-group size of walk-parallel launches: 4 (one SIMD vector of
-    // doubles as PoCL vectorised the round: width 4), or
-    // BRDFTAB_WALK_LOCAL_SIZE (1..256, for experiments).  A group runs as many
-    // rounds as its busiest work item, so small groups waste fewer lanes on
-    // the long walks' tails: measured 4 > 8 > 16 > 64, and 1 or 2 (no SIMD)
-    // slower (docs/benchmarks.md, "Walk-parallel launch").
+    // The work-group size of walk-parallel launches: kWalkLocalSize (one
+    // SIMD vector of doubles as PoCL vectorised the round: width 4), or
+    // tuning_.walk_local_size (1..256).  A group runs as many rounds as its
+    // busiest work item, so small groups waste fewer lanes on the long walks'
+    // tails: measured 4 > 8 > 16 > 64, and 1 or 2 (no SIMD) slower
+    // (docs/benchmarks.md, "Walk-parallel launch").
     std::size_t walk_group() const {
-        static const long chosen = [] {
-            const char* env = std::getenv("BRDFTAB_WALK_LOCAL_SIZE");
-            return env && *env ? std::atol(env) : 4L;
-        }();
-        const long group = chosen >= 1 && chosen <= 256 ? chosen : 4L;
-        return std::min<std::size_t>(static_cast<std::size_t>(group),
-                                     runtime_.device_info().max_work_group_size);
+        const std::size_t chosen = tuning_.walk_local_size;
+        const std::size_t group = chosen >= 1 && chosen <= 256 ? chosen : kWalkLocalSize;
+        return std::min<std::size_t>(group, runtime_.device_info().max_work_group_size);
     }
     cl::Kernel& walk_parallel_kernel_for(const BatchLaunch& l) {
         return cached_kernel(walk_parallel_kernels_, l, kWalkKernelName,
@@ -835,42 +830,36 @@ private:
 
     // Whether this launch runs node-parallel: quadrature (or closed-form)
     // launches of one-sample batches of a quantity that names node functions
-    // (QuantityInfo::node_parallel), then as BRDFTAB_NODE_PARALLEL says ("0":
-    // never, "1": always), by default where node_parallel_by_default() says so.
+    // (QuantityInfo::node_parallel), then as tuning_.node_parallel says (Off:
+    // never, On: always), by default where node_parallel_by_default() says so.
     bool use_node_parallel(const BatchLaunch& l) const {
         if (l.method != BT_METHOD_QUADRATURE && l.method != BT_METHOD_CLOSED) return false;
         if (l.batch_size != 1 || !node_functions(l)) return false;
-        const char* env = std::getenv("BRDFTAB_NODE_PARALLEL");
-        if (env && std::string(env) == "0") return false;
-        if (env && std::string(env) == "1") return true;
+        if (tuning_.node_parallel == LaunchChoice::Off) return false;
+        if (tuning_.node_parallel == LaunchChoice::On) return true;
         return node_parallel_by_default() && node_functions(l)->by_default;
     }
 
     // Nodes per sub-launch of the node-parallel path (the scratch buffer's
     // size: 2^22 terms); a launch with more nodes is split into sub-launches
     // of whole work items, which changes no result (a work item with more
-    // nodes than the cap gets a sub-launch of its own).
-    // BRDFTAB_NODE_PARALLEL_SCRATCH (nodes, >= 1) sets another cap, for tests.
-    static std::size_t node_parallel_scratch_nodes() {
-        const char* env = std::getenv("BRDFTAB_NODE_PARALLEL_SCRATCH");
-        if (env && *env) {
-            const long long v = std::min(std::atoll(env), 1LL << 31);
-            if (v >= 1) return static_cast<std::size_t>(v);
-        }
-        return std::size_t{1} << 22;
+    // nodes than the cap gets a sub-launch of its own);
+    // tuning_.node_parallel_scratch_nodes sets another cap.
+    std::size_t node_parallel_scratch_nodes() const {
+        const std::size_t v = std::min(tuning_.node_parallel_scratch_nodes, std::size_t{1} << 31);
+        return v >= 1 ? v : kNodeParallelScratchNodes;
     }
 
     // The node layout of `l` (kernels/common/node_parallel.h): every work
     // item's node count from the host count function, their exclusive prefix
     // sum node_offset_host_[0..n] and the work item of every node.  False (and
     // the usual kernel runs) when the node numbers would not fit a uint.
-    // BRDFTAB_NODE_PARALLEL_LAYOUT_CAP=N lays out at most N nodes per work
+    // tuning_.node_layout_cap = N >= 0 lays out at most N nodes per work
     // item, for tests of the sum kernel's own terms (what it does when the
     // device counts more nodes than the host, e.g. in float).
     bool lay_out_nodes(const BatchLaunch& l) {
         const NodeParallelFunctions& f = *node_functions(l);
-        const char* layout_env = std::getenv("BRDFTAB_NODE_PARALLEL_LAYOUT_CAP");
-        const long long layout_cap = layout_env && *layout_env ? std::atoll(layout_env) : -1;
+        const long long layout_cap = tuning_.node_layout_cap;
         const std::size_t n = l.cells.size();
         int opts[BT_MAX_OPTIONS] = {0};
         for (std::size_t k = 0; k < l.options.size() && k < BT_MAX_OPTIONS; ++k)
@@ -883,11 +872,10 @@ private:
         s.sample = 0;
         // Split terms: the first-form nodes (a work item's first host_split
         // ones), node_first_before_[w]: those of the work items before w.
-        // BRDFTAB_NODE_SPLIT_SHIFT=D moves every guess by D nodes (tests: the
-        // nodes put on the wrong side must come out the same).
+        // tuning_.node_split_shift = D moves every guess by D nodes (tests:
+        // the nodes put on the wrong side must come out the same).
         const bool split = f.split() && use_split_terms();
-        const char* shift_env = split ? std::getenv("BRDFTAB_NODE_SPLIT_SHIFT") : nullptr;
-        const int shift = shift_env && *shift_env ? std::atoi(shift_env) : 0;
+        const int shift = split ? tuning_.node_split_shift : 0;
         node_first_before_.assign(split ? n + 1 : 0, 0);
         std::uint32_t firsts = 0;
         node_offset_host_.resize(n + 1);
@@ -934,12 +922,9 @@ private:
     }
 
     // Split terms on (NodeParallelFunctions::split()) unless
-    // BRDFTAB_NODE_SPLIT=0 (one node kernel with both forms; the
-    // same bits either way, tests/test_node_parallel.cpp).
-    static bool use_split_terms() {
-        const char* env = std::getenv("BRDFTAB_NODE_SPLIT");
-        return !(env && std::string(env) == "0");
-    }
+    // tuning_.split_node_terms is false (one node kernel with both forms;
+    // the same bits either way, tests/test_node_parallel.cpp).
+    bool use_split_terms() const { return tuning_.split_node_terms; }
 
     // Writes the node layout and enqueues the node and sum kernels over every
     // work item of `l`, in sub-launches of at most
@@ -1313,22 +1298,19 @@ private:
         }
     }
 
-    // Work-group size: a fixed 64 (or BRDFTAB_LOCAL_SIZE, a divisor of 256
-    // below 256, for experiments; 0 or 256 = the driver's choice, on a global
+    // Work-group size: a fixed kLocalSize (or tuning_.local_size, a
+    // divisor of 256 below 256; 0 or 256 = the driver's choice, on a global
     // size padded to a multiple of 256).  Fixed, because PoCL compiles
     // a kernel again for every new work-group size, and with the driver's
     // choice that size follows the global size, which varies from launch to
     // launch.  64 is a multiple of every SIMD width and lets PoCL vectorise
     // the work-item loop (docs/benchmarks.md).
     std::size_t local_group() const {
-        static const long chosen = [] {
-            const char* env = std::getenv("BRDFTAB_LOCAL_SIZE");
-            return env && *env ? std::atol(env) : 64L;
-        }();
-        if (chosen <= 0 || chosen >= 256 || 256 % chosen != 0 ||
-            static_cast<std::size_t>(chosen) > runtime_.device_info().max_work_group_size)
+        const std::size_t chosen = tuning_.local_size;
+        if (chosen == 0 || chosen >= 256 || 256 % chosen != 0 ||
+            chosen > runtime_.device_info().max_work_group_size)
             return 256;  // the driver's choice (PoCL: within a multiple of 256)
-        return static_cast<std::size_t>(chosen);
+        return chosen;
     }
 
     // The program of one (model, quantity, options, method): the model's
@@ -1358,29 +1340,22 @@ private:
         std::string options = "-cl-std=CL1.2";
         options += runtime_.device_info().has_fp64 ? " -D BT_HAS_FP64=1" : " -D BT_HAS_FP64=0";
         if (precision_ == Precision::Float) options += " -D BT_REAL_IS_FLOAT=1";
-        // BRDFTAB_KERNEL_OPTIONS: extra build options, for experiments
-        // (e.g. "-D BT_SAMPLE_BARRIER=0"); BRDFTAB_GENERIC_KERNELS=1 builds
-        // one generic program per model instead of specialised ones.
-        static const std::string extra = [] {
-            const char* env = std::getenv("BRDFTAB_KERNEL_OPTIONS");
-            return env && *env ? " " + std::string(env) : std::string();
-        }();
-        static const bool generic = [] {
-            const char* env = std::getenv("BRDFTAB_GENERIC_KERNELS");
-            return env && std::string(env) == "1";
-        }();
-        if (!generic) options += specialisation_options(l.quantity, l.options, l.method, l.stride);
+        // tuning_.extra_kernel_options: extra build options, for experiments
+        // (e.g. "-D BT_SAMPLE_BARRIER=0").
+        const std::string extra =
+            tuning_.extra_kernel_options.empty() ? std::string() : " " + tuning_.extra_kernel_options;
+        options += specialisation_options(l.quantity, l.options, l.method, l.stride);
         // Forced inlining (kernels/common/estimator.h) where it was measured
         // to help and to leave every preset table bit-identical
         // (docs/benchmarks.md, "What vectorises, and why"): it lets PoCL run
         // the work items of a group as SIMD lanes.  Not for every model:
         // with it, lambert-sphere tables came out wrong and PoCL crashed
         // (SIGSEGV) in the in-kernel Horak-Chandrasekhar solve of
-        // lambert-sphere-constants (docs/contributing.md).  BRDFTAB_KERNEL_OPTIONS
-        // naming BT_FORCE_INLINE decides instead.  interfaced-lambertian: body
+        // lambert-sphere-constants (docs/contributing.md).  Extra kernel
+        // options naming BT_FORCE_INLINE decide instead.  interfaced-lambertian: body
         // and vcavity 1.6x and 1.2x per CPU-second with it, presets
         // bit-identical, even where its sample loops stay scalar.
-        if (!generic && extra.find("BT_FORCE_INLINE") == std::string::npos &&
+        if (extra.find("BT_FORCE_INLINE") == std::string::npos &&
             (model.name == "rough-dielectric" || model.name == "micrograin" ||
              model.name == "interfaced-lambertian"))
             options += " -D BT_FORCE_INLINE=1";
@@ -1449,6 +1424,7 @@ private:
     ClRuntime runtime_;
     Precision precision_;
     std::string kernel_dir_;
+    EngineTuning tuning_;
     std::map<std::string, cl::Kernel> kernels_;
     std::map<std::string, SampleParallelKernels> sample_parallel_kernels_;
     cl::Buffer stage_;  // staged samples' first stages (one sub-launch)
@@ -1564,12 +1540,6 @@ void assign_large(std::vector<T>& v, std::size_t n, T fill) {
     v.assign(n, fill);
 }
 
-std::uint32_t floor_pow2(std::uint64_t x) {
-    std::uint32_t p = 1;
-    while (static_cast<std::uint64_t>(p) * 2 <= x && p < (1u << 30)) p *= 2;
-    return p;
-}
-
 // Continue from `from`: each cell's next batch index is its merged count and
 // its remaining work this round is what its target still lacks.  Returns the
 // time spent before.  Throws Error on a state that cannot have come from a
@@ -1595,7 +1565,7 @@ double restore_state(EstimateState& state, EstimateState&& from,
 }  // namespace
 
 std::unique_ptr<Backend> make_backend(const std::string& device_selector, Precision precision,
-                                      const std::string& kernel_dir) {
+                                      const std::string& kernel_dir, const EngineTuning& tuning) {
     if (device_selector == "host") {
         if (precision != Precision::Double)
             throw InputError("--device host computes in double only; drop --precision float");
@@ -1621,7 +1591,7 @@ std::unique_ptr<Backend> make_backend(const std::string& device_selector, Precis
         return std::make_unique<ThreadedHostBackend>(threads);
     }
     return std::make_unique<OpenCLBackend>(select_device(device_selector), precision,
-                                           kernel_dir);
+                                           kernel_dir, tuning);
 }
 
 EstimateResult estimate(Backend& backend, const ModelInfo& model, const QuantityInfo& quantity,
@@ -1720,24 +1690,12 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
     // per-cell state here is indexed from 0.
     const std::uint32_t cell_base = static_cast<std::uint32_t>(settings.cell_base);
 
-    // Budget.  RQMC batches are independently scrambled point sets whose size
-    // is a power of two (Sobol nets are balanced there); at least 4 batches give
-    // a usable error estimate.  MC batches are plain chunks of the sample stream.
-    const std::uint64_t first_budget = settings.samples ? settings.samples : 4096;
-    std::uint32_t batch_size = 1;
-    std::uint32_t first_batches = quadrature ? 2 : 1;
-    if (!closed) {
-        if (settings.batch_size) {
-            batch_size = settings.batch_size;
-        } else if (rqmc) {
-            batch_size = std::max<std::uint32_t>(1, std::min<std::uint32_t>(
-                                                        floor_pow2(first_budget / 8), 8192));
-        } else {
-            batch_size = static_cast<std::uint32_t>(std::min<std::uint64_t>(first_budget, 4096));
-        }
-        first_batches = static_cast<std::uint32_t>((first_budget + batch_size - 1) / batch_size);
-        if (rqmc) first_batches = std::max<std::uint32_t>(first_batches, 4);
-    }
+    // Budget: the batch policy the planner shares (first_round_batches,
+    // engine_tuning.h).
+    const BatchLayout first_round =
+        first_round_batches(result.method, settings.samples, settings.batch_size);
+    const std::uint32_t batch_size = static_cast<std::uint32_t>(first_round.batch_size);
+    const std::uint32_t first_batches = static_cast<std::uint32_t>(first_round.batches);
     const std::uint64_t max_samples =
         adaptive ? std::max<std::uint64_t>(settings.max_samples,
                                            static_cast<std::uint64_t>(first_batches) * batch_size)
@@ -1749,29 +1707,16 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
     EstimateState state;
     std::vector<CellState>& cells = state.cells;
     // Launch size.  A fixed --slab is kept as given.  Otherwise launches start
-    // small (256 work items) and grow (at most 4x per launch) towards
-    // kLaunchSeconds each, capped
-    // by the backend's preferred slab: progress is then reported every
-    // fraction of a second even when one work item runs thousands of samples,
-    // while closed forms still get launches large enough to amortise the
-    // launch overhead.  Results do not depend on the launch size.
-    // Sizes are whole multiples of kMinLaunch (four work groups of 64), so
-    // that the groups of a launch spread evenly over 2 or 4 cores: with odd
-    // group counts one core idles at the end of every launch (measured: 5 %
-    // of the throughput with 0.4 s launches of ~585 work items).
-    constexpr double kLaunchSeconds = 0.5;
-    constexpr std::size_t kMinLaunch = 256, kFirstLaunch = 256;
+    // small and grow towards kLaunchSeconds each (next_launch_size,
+    // engine_tuning.h, which the planner's engine_launch_sizes follows too).
+    // Results do not depend on the launch size.
     const bool fixed_slab = settings.slab_work_items != 0;
     const std::size_t max_slab =
         std::max<std::size_t>(1, fixed_slab ? settings.slab_work_items : backend.preferred_slab());
     std::size_t slab = fixed_slab ? max_slab : std::min(max_slab, kFirstLaunch);
     auto resize_slab = [&](std::size_t items, double seconds) {
         if (fixed_slab || items < slab) return;  // a short tail launch says little
-        double ideal = seconds > 0 ? kLaunchSeconds * static_cast<double>(items) / seconds
-                                   : static_cast<double>(max_slab);
-        ideal = std::clamp(ideal, static_cast<double>(slab) / 4, static_cast<double>(slab) * 4);
-        const std::size_t rounded = static_cast<std::size_t>(ideal) / kMinLaunch * kMinLaunch;
-        slab = std::clamp(rounded, std::min(kMinLaunch, max_slab), max_slab);
+        slab = next_launch_size(items, seconds, slab, max_slab);
     };
     std::vector<double> slab_mean, slab_m2;
 

@@ -23,6 +23,7 @@
 #include <vector>
 
 #include "host/core/vocabulary.h"
+#include "host/engine/engine_tuning.h"
 #include "host/models/registry.h"
 
 namespace brdftab {
@@ -137,15 +138,20 @@ public:
     }
     // Suggested work items per launch.
     virtual std::size_t preferred_slab() const = 0;
+    // The launch knobs (engine_tuning.h) of the launches started from now
+    // on; results do not depend on them.  The host backends have none.
+    virtual void set_tuning(const EngineTuning& tuning) { (void)tuning; }
+    virtual EngineTuning tuning() const { return EngineTuning{}; }
 };
 
 // "host" selects the serial C++ reference; "host-threads" the same code on one
 // std::thread per core ("host-threads:N": N threads), bit-identical to "host";
 // anything else selects an OpenCL device (index or name substring; empty =
-// $BRDFTAB_DEVICE or first CPU).
+// $BRDFTAB_DEVICE or first CPU), whose launches follow `tuning`.
 std::unique_ptr<Backend> make_backend(const std::string& device_selector,
                                       Precision precision,
-                                      const std::string& kernel_dir = "");
+                                      const std::string& kernel_dir = "",
+                                      const EngineTuning& tuning = environment_tuning());
 
 // Sample-parallel launches (OpenCL backend only): a Monte Carlo / RQMC batch
 // of batch_size samples runs as batch_size work items of a sample kernel, one
@@ -153,16 +159,17 @@ std::unique_ptr<Backend> make_backend(const std::string& device_selector,
 // sample order (kernels/common/estimator.h, BT_DEFINE_SAMPLE_PARALLEL_KERNELS),
 // instead of one work item looping over the samples; results are bit-identical
 // either way.  By default only for the cases sample_parallel_default_cases()
-// lists (measured faster, docs/benchmarks.md); the environment variable
-// BRDFTAB_SAMPLE_PARALLEL=1 forces it for every Monte Carlo / RQMC launch of
-// more than one sample per batch, =0 turns it off.
+// lists (measured faster, docs/benchmarks.md); EngineTuning::sample_parallel
+// On forces it for every Monte Carlo / RQMC launch of more than one sample
+// per batch, Off turns it off.
 // interfaced-lambertian's body with Beckmann normals runs a build whose
 // visible-normal searches take a fixed number of steps, and a redo kernel
-// for the samples whose search had not ended (BRDFTAB_FIXED_SOLVER_STEPS=
-// "X,Y" sets other step counts, for tests; engine.cpp, uses_fixed_step_solver).
-// BRDFTAB_SAMPLE_PARALLEL_SCRATCH=N caps a sub-launch at N samples (default
-// 2^22; a batch larger than the cap runs the usual kernel).  Quadratures have
-// their own switch, BRDFTAB_NODE_PARALLEL (node-parallel launches, below).
+// for the samples whose search had not ended (EngineTuning::
+// fixed_solver_steps_x/y set other step counts; engine.cpp,
+// uses_fixed_step_solver).  EngineTuning::sample_parallel_scratch_samples
+// caps a sub-launch (default 2^22 samples; a batch larger than the cap runs
+// the usual kernel).  Quadratures have their own switch,
+// EngineTuning::node_parallel (node-parallel launches, below).
 struct SampleParallelCase {
     std::string model, quantity;
     Method method;       // MonteCarlo or Rqmc
@@ -179,7 +186,8 @@ bool sample_parallel_by_default(const ModelInfo& model, const QuantityInfo& quan
 // a random-walk quantity listed here runs its Monte Carlo batches on a
 // kernel that advances every work item's walk one collision per round and
 // starts a batch's next sample as soon as a walk ends, bit-identical to the
-// usual kernel.  BRDFTAB_WALK_PARALLEL=0 runs the usual kernel instead.
+// usual kernel.  EngineTuning::walk_parallel false runs the usual kernel
+// instead.
 // state, setup, begin, step, value: the model's names (kernel header) for the walk.
 struct WalkParallelCase {
     std::string model, quantity;
@@ -195,12 +203,13 @@ const std::vector<WalkParallelCase>& walk_parallel_cases();
 // the terms in node order (kernels/common/node_parallel.h), instead of one
 // work item looping over the nodes; results are bit-identical either way.  On by
 // default where node_parallel_by_default() says so (measured,
-// docs/benchmarks.md "Node-parallel quadrature"); BRDFTAB_NODE_PARALLEL=0
-// turns it off, =1 forces it on.  BRDFTAB_NODE_PARALLEL_SCRATCH=N caps a
-// sub-launch at N nodes (default 2^22; nested sums: N/16 nodes per
-// sub-launch, blocks of at most N/64 groups and N/256 work items, each with
-// a reduce kernel per group); BRDFTAB_NODE_PARALLEL_LAYOUT_CAP=N
-// (tests) lays out at most N nodes per batch, the sum kernel computing the rest.
+// docs/benchmarks.md "Node-parallel quadrature"); EngineTuning::node_parallel
+// Off turns it off, On forces it on.  EngineTuning::
+// node_parallel_scratch_nodes = N caps a sub-launch at N nodes (default 2^22;
+// nested sums: N/16 nodes per sub-launch, blocks of at most N/64 groups and
+// N/256 work items, each with a reduce kernel per group);
+// EngineTuning::node_layout_cap = N (tests) lays out at most N nodes per
+// batch, the sum kernel computing the rest.
 bool node_parallel_by_default();
 
 struct Progress {

@@ -7,6 +7,8 @@
 // Whatever cl.hpp still throws is translated into OpenCLError by guarded().
 #include "host/engine/opencl_runtime.h"
 
+#include "host/engine/engine_tuning.h"
+
 #include <algorithm>
 #include <cctype>
 #include <cstdlib>
@@ -253,7 +255,7 @@ DeviceInfo select_device(const std::string& selector_in) {
     std::string selector = trim(selector_in);
     std::string source = "device selector";
     if (selector.empty()) {
-        const char* env = std::getenv("BRDFTAB_DEVICE");
+        const char* env = environment_setting("BRDFTAB_DEVICE");
         if (env && !trim(env).empty()) {
             selector = trim(env);
             source = "BRDFTAB_DEVICE";

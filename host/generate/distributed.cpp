@@ -13,6 +13,7 @@
 #include <iostream>
 
 #include "host/core/error.h"
+#include "host/engine/engine_tuning.h"
 #include "host/generate/checkpoint.h"
 
 namespace brdftab {
@@ -108,7 +109,7 @@ ChunkResult unpack(const std::vector<char>& in, const std::vector<CellChunk>& pl
 // The test hook of run_chunk_worker: results after which this rank aborts,
 // or -1.
 long abort_after_results(int rank) {
-    const char* hook = std::getenv("BRDFTAB_TEST_RANK_ABORT");
+    const char* hook = environment_setting("BRDFTAB_TEST_RANK_ABORT");
     if (!hook) return -1;
     int r = -1;
     long k = -1;
@@ -121,6 +122,7 @@ long abort_after_results(int rank) {
 // ------------------------------------------------------------- MpiSession --
 
 bool MpiSession::launched() {
+    // The variables an MPI launcher sets in every rank (not brdftab's own).
     for (const char* v : {"OMPI_COMM_WORLD_SIZE", "PMIX_RANK", "PMI_RANK", "PMI_SIZE"})
         if (std::getenv(v)) return true;
     return false;

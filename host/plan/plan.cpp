@@ -259,30 +259,18 @@ void combine_errors(TablePlan& tp) {
 // --------------------------------------------------------------- cost model terms
 
 WorkShape work_shape(Method method, std::uint64_t samples) {
-    // As estimate() in host/engine/engine.cpp lays out its first round.
+    // The layout of estimate()'s first round (host/engine/engine_tuning.h).
+    const BatchLayout b = first_round_batches(method, samples);
     WorkShape w;
-    const std::uint64_t n = samples ? samples : 4096;
-    if (method == Method::Quadrature) {
-        w.items_per_cell = 2;
-    } else if (method == Method::MonteCarlo) {
-        const std::uint64_t batch = std::min<std::uint64_t>(n, 4096);
-        w.samples_per_item = double(batch);
-        w.items_per_cell = double((n + batch - 1) / batch);
-    } else if (method == Method::Rqmc) {
-        std::uint64_t pow2 = 0;  // floor_pow2(n / 8), 0 for n < 8
-        for (std::uint64_t b = 1; b <= n / 8; b *= 2) pow2 = b;
-        const std::uint64_t batch = std::max<std::uint64_t>(1, std::min<std::uint64_t>(pow2, 8192));
-        w.samples_per_item = double(batch);
-        w.items_per_cell = double(std::max<std::uint64_t>((n + batch - 1) / batch, 4));
-    }
+    w.samples_per_item = double(b.batch_size);
+    w.items_per_cell = double(b.batches);
     return w;
 }
 
 EngineLaunches engine_launch_sizes(double work_items, double seconds_per_item, double seconds_per_launch,
                                    std::size_t max_slab) {
-    // engine.cpp: kLaunchSeconds, kMinLaunch, kFirstLaunch and resize_slab.
-    constexpr double kLaunchSeconds = 0.5;
-    constexpr std::size_t kMinLaunch = 256, kFirstLaunch = 256, kKept = 32;
+    // As estimate() sizes its launches (next_launch_size, engine_tuning.h).
+    constexpr std::size_t kKept = 32;
     EngineLaunches out;
     max_slab = std::max<std::size_t>(1, max_slab);
     std::size_t slab = std::min(max_slab, kFirstLaunch);
@@ -300,10 +288,7 @@ EngineLaunches engine_launch_sizes(double work_items, double seconds_per_item, d
         add(slab, 1);
         left -= double(slab);
         const double seconds = seconds_per_launch + double(slab) * seconds_per_item;
-        double ideal = seconds > 0 ? kLaunchSeconds * double(slab) / seconds : double(max_slab);
-        ideal = std::clamp(ideal, double(slab) / 4, double(slab) * 4);
-        const std::size_t rounded = static_cast<std::size_t>(ideal) / kMinLaunch * kMinLaunch;
-        const std::size_t next = std::clamp(rounded, std::min(kMinLaunch, max_slab), max_slab);
+        const std::size_t next = next_launch_size(slab, seconds, slab, max_slab);
         if (next == slab) {  // steady: every further full launch is the same
             const double full = std::floor(left / double(slab));
             add(slab, full);
@@ -317,7 +302,7 @@ EngineLaunches engine_launch_sizes(double work_items, double seconds_per_item, d
 }
 
 bool reaches_large_grid(const EngineLaunches& launches) {
-    constexpr std::size_t kGroup = 64;  // engine.cpp's work-group size (BRDFTAB_LOCAL_SIZE default)
+    constexpr std::size_t kGroup = kLocalSize;  // the engine's work-group size (engine_tuning.h)
     return (launches.largest + kGroup - 1) / kGroup * kGroup >= kLargeGridWorkItems;
 }
 
@@ -376,11 +361,13 @@ double write_seconds(double cells, StoredType type, int compression, bool with_s
 }
 
 double process_fixed_seconds() {
-    // Measured on 2 cores of an Intel Xeon (AVX-512), load average 5-6:
-    // `brdftab --version` 0.03-0.04 s wall (exec, shared libraries, static
-    // registration, exit), and a 64-cell file 7-8 ms (create, attributes,
-    // close, rename).
-    return 0.035 + 0.008;
+    // Both measured on 2 cores of an Intel Xeon (AVX-512), load average 5-6.
+    // `brdftab --version`: 0.03-0.04 s wall (exec, shared libraries, static
+    // registration, exit).
+    constexpr double kProcessStartSeconds = 0.035;
+    // A 64-cell file: 7-8 ms (create, attributes, close, rename).
+    constexpr double kFileSeconds = 0.008;
+    return kProcessStartSeconds + kFileSeconds;
 }
 
 namespace {
@@ -407,7 +394,7 @@ void large_grid_pilot(const PilotContext& ctx, const Spec& spec, IntegrationFit&
         s = IntegrationSettings{};
         s.method = f.method;
         s.seed = ref.seed;
-        if (sampled) s.samples = spec.integration.samples ? spec.integration.samples : 4096;
+        if (sampled) s.samples = spec.integration.samples ? spec.integration.samples : kDefaultSamplesPerCell;
     }
     const WorkShape w = work_shape(f.method, s.samples);
     const double guess = sampled ? w.samples_per_item * f.seconds_per_sample : f.seconds_per_cell / w.items_per_cell;
@@ -482,7 +469,7 @@ TablePilot run_pilot(const Spec& spec, std::size_t table_index, Backend& backend
             if (const ParameterInfo* info = ctx.model->find_parameter(axis.name); info && info->integer)
                 continue;
         level_counts[a] = axis.spacing == Spacing::Explicit ? std::vector<std::size_t>{axis.count}
-                                                            : pilot_counts(axis.count, integral ? options.integral_max_base : 17);
+                                                            : pilot_counts(axis.count, integral ? options.integral_max_base : options.max_base);
         // The lines: the other coordinates at random nodes of the spec's axes,
         // the same for every level so the levels differ only in h.
         // Stratified: along each other axis the L lines take nodes spread
@@ -1302,7 +1289,7 @@ void predict_adaptive(const TablePilot& pilot, const IntegrationFit& f, const Pl
     const PowerFit& fa = f.fit_max_abs;
     const double q = fa.valid ? fa.p : -0.5;
     const double n_pilot = double(f.samples.back());
-    const double n0 = double(s.samples ? s.samples : 4096);
+    const double n0 = double(s.samples ? s.samples : kDefaultSamplesPerCell);
     const double n_cap = double(s.max_samples);
     std::vector<double> sigma(f.cell_abs.size());
     double samples_sum = 0, rounds_max = 0, rms2 = 0;
@@ -1341,7 +1328,7 @@ std::optional<Candidate> predict_as_written(const Spec& spec, const std::vector<
     c.stored_type = spec.output.stored_type;
     for (const TablePilot& p : pilots) c.seconds = std::max(c.seconds, p.process_seconds);
     c.seconds += process_fixed_seconds();
-    c.samples = spec.integration.samples ? spec.integration.samples : 4096;
+    c.samples = spec.integration.samples ? spec.integration.samples : kDefaultSamplesPerCell;
     const double bytes_per_cell = c.stored_type == StoredType::Float16   ? 2
                                   : c.stored_type == StoredType::Float64 ? 8
                                                                          : 4;

@@ -205,6 +205,9 @@ struct TablePilot {
 
 struct PilotOptions {
     std::size_t lines = 8;              // random lines per axis (other coordinates at nodes)
+    // Base count of the levels b, 2b - 1, 4b - 3 at most (17, 33, 65 nodes):
+    // pilot_counts(count, max_base).
+    std::size_t max_base = 17;
     // Integrals pay reference_samples per probe: fewer lines and coarser
     // levels (base count at most 9: levels 9, 17, 33).
     std::size_t integral_lines = 4;
