@@ -293,12 +293,22 @@ std::string sci_text(double v) {
     return buf;
 }
 
+std::pair<std::string, std::string> compared_text(double value, double target) {
+    if (!std::isfinite(value) || !std::isfinite(target) || value == target)
+        return {sci_text(value), sci_text(target)};
+    for (int digits = 3;; ++digits) {
+        const std::string a = number_text(value, digits), b = number_text(target, digits);
+        if (a != b || digits >= 17) return {a, b};
+    }
+}
+
 std::string certificate_error_text(const Certificate& c) {
+    const auto [max_text, target_text] = compared_text(c.max_error, c.target);
     std::string s = std::string("max ") + (c.absolute ? "absolute" : "relative") + " total error " +
-                    sci_text(c.max_error) + " at (";
+                    max_text + " at (";
     for (std::size_t a = 0; a < c.axis_names.size(); ++a)
         s += (a ? ", " : "") + c.axis_names[a] + " " + sci_text(c.max_at[a]);
-    return s + "), RMS " + sci_text(c.rms_error) + "; target " + sci_text(c.target);
+    return s + "), RMS " + sci_text(c.rms_error) + "; target " + target_text;
 }
 
 }  // namespace brdftab::cli
