@@ -2,6 +2,7 @@
 // host/engine/evaluate.h and host/generate/generate.h; this file parses and
 // prints.
 
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <functional>
@@ -88,7 +89,9 @@ void run_eval(const EvalArgs& st) {
             std::cout << j.dump() << "\n";
         } else {
             std::cout << model.name << " " << q.name << " = " << format_double(r.value[0]);
-            if (r.method != Method::ClosedForm)
+            if (r.method == Method::Quadrature)
+                std::cout << " ± " << r.stderr_[0] << " (error estimate: accurate - coarse rule, quadrature)";
+            else if (r.method != Method::ClosedForm)
                 std::cout << " ± " << r.stderr_[0] << " (1 stderr, " << r.samples[0]
                           << " samples, " << to_string(r.method) << ")";
             else
@@ -231,13 +234,22 @@ void print_summary(const std::vector<GeneratedTable>& tables) {
         if (d.kind == TableKind::Computed &&
             (d.method == Method::MonteCarlo || d.method == Method::Rqmc ||
              d.method == Method::Quadrature))
+        {
             // The per-cell maxima as they are, and the engine's stopping
-            // metric, max stderr / max(|value|, floor), named as what it is:
-            // with a floor the relative stderr can be far larger (issue 13).
-            std::cout << ", " << format_count(static_cast<double>(d.total_samples))
-                      << " samples, max stderr " << t.stderr_max_abs << " absolute, "
-                      << t.stderr_max_rel << " relative (tolerance metric stderr/max(|value|, floor) "
-                      << d.tolerance_achieved << ")";
+            // metric, max stderr / max(|value|, floor), named as what it is
+            // where it differs: with a floor the relative stderr can be far
+            // larger.  A quadrature draws no samples: its error estimate is
+            // the difference of its two rules.
+            if (d.method == Method::Quadrature)
+                std::cout << ", max error estimate (accurate - coarse rule) ";
+            else
+                std::cout << ", " << format_count(static_cast<double>(d.total_samples)) << " samples, max stderr ";
+            std::cout << t.stderr_max_abs << " absolute, " << t.stderr_max_rel << " relative";
+            if (std::fabs(d.tolerance_achieved - t.stderr_max_rel) >
+                1e-9 * std::max(std::fabs(d.tolerance_achieved), std::fabs(t.stderr_max_rel)))
+                std::cout << " (tolerance metric " << (d.method == Method::Quadrature ? "estimate" : "stderr")
+                          << "/max(|value|, floor) " << d.tolerance_achieved << ")";
+        }
         std::cout << ", values in [" << t.value_min << ", " << t.value_max << "], "
                   << format_seconds(d.elapsed_seconds) << "\n";
         if (t.cells_unconverged)
@@ -381,6 +393,7 @@ void run_generate(const GenerateArgs& st) {
             checkpoint->record_layout(layout_text(options.chunk_cells, options.ranks));
     }
     TableProgress progress(st.quiet);
+    progress.sampled = [&](const TableSpec& t) { return table_is_sampled(g.spec, t, g.settings.method); };
     std::vector<GeneratedTable> tables =
         discarding_checkpoint_on_input_error(checkpoint.get(), checkpoint_is_new, [&] {
             return generate_to_file(g.spec, *g.backend, g.settings, g.out_path,
@@ -525,6 +538,7 @@ void run_certified_generate(const GenerateArgs& st) {
         stream.chunk_cells = st.chunk_cells;
         stream.checkpoint = checkpoint.get();
         TableProgress progress(st.quiet, "round " + std::to_string(round) + ": ");
+        progress.sampled = [&](const TableSpec& t) { return table_is_sampled(planned, t, settings.method); };
         tables = discarding_checkpoint_on_input_error(
             checkpoint.get(), presence == CheckpointPresence::None, [&] {
                 return generate_to_file(planned, *backend, settings, path, progress.callback(), stream);
@@ -693,6 +707,7 @@ void run_generate_mpi(const GenerateArgs& st) {
             options.sharing = &sharing;
             options.temporary_created = remove_temporaries_on_termination;
             TableProgress progress(st.quiet);
+            progress.sampled = [&](const TableSpec& t) { return table_is_sampled(g.spec, t, g.settings.method); };
             std::vector<GeneratedTable> tables =
                 discarding_checkpoint_on_input_error(checkpoint.get(), checkpoint_is_new, [&] {
                     return generate_to_file(g.spec, *g.backend, g.settings, g.out_path,

@@ -293,6 +293,9 @@ void register_scene(CLI::App& app) {
             TableFileWriter writer(out_path);
             for (std::size_t k = 0; k < specs.size(); ++k) {
                 TableProgress progress(st.quiet, plan.sets[k].id + " ");
+                progress.sampled = [&](const TableSpec& t) {
+                    return table_is_sampled(specs[k], t, set_settings[k].method);
+                };
                 written += generate_into(specs[k], *backend, set_settings[k], writer,
                                          progress.callback()).size();
                 progress.finish();
