@@ -149,6 +149,7 @@ void run_export(const ExportArgs& a) {
         o.name = a.name;
         if (!a.type.empty()) o.type = parse_header_value_type(a.type);
         o.source = std::filesystem::path(a.file).filename().string();
+        o.certificate = read_stored_certificate(a.file, a.table);
         // Through the lookup library, so a reciprocal-half table is completed
         // exactly as `query` sees it.
         const LookupTable lt = LookupTable::open(a.file, a.table);
