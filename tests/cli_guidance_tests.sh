@@ -119,4 +119,148 @@ assert m, sys.argv[1]
 assert float(m.group(1)) > float(m.group(2)), m.groups()
 PY
 
+# --- a small quadrature table with a stored error estimate (60 cells)
+cat > lut.toml <<'SPEC'
+model = "rough-dielectric"
+[parameters]
+distribution = "ggx"
+[[axes]]
+name = "mu_i"
+range = [0.1, 1.0]
+count = 5
+[[axes]]
+name = "alpha"
+range = [0.1, 1.0]
+count = 4
+[[axes]]
+name = "eta"
+range = [1.2, 2.0]
+count = 3
+[[tables]]
+name = "albedo_r"
+quantity = "albedo_r"
+[integration]
+method = "quadrature"
+[output]
+type = "float32"
+keep_stderr = true
+SPEC
+BRDFTAB_PROGRESS_INTERVAL=0.001 expect_exit 0 "lut generate" -- "$BT" generate lut.toml -o lut.h5
+# Quadrature draws no samples: the progress rate is in cells/s, the summary
+# names the rule difference, and prints one relative figure (no floor here).
+expect_grep "cells/s  elapsed" err.txt "quadrature progress in cells/s"
+if grep -q "samples/s" err.txt; then bad "quadrature progress in samples/s"; else ok; fi
+expect_grep "albedo_r: albedo_r \[mu_i 5 x alpha 4 x eta 3\] = 60 cells, quadrature, max error estimate \(accurate - coarse rule\) [0-9.e-]+ absolute, [0-9.e-]+ relative, values in" out.txt "quadrature summary"
+if grep -q "samples" out.txt; then bad "quadrature summary counts samples"; cat out.txt; else ok; fi
+expect_exit 0 "eval quadrature" -- "$BT" eval rough-dielectric albedo_r mu_i=0.5 alpha=0.3 eta=1.5
+expect_grep "± [0-9.e-]+ \(error estimate: accurate - coarse rule, quadrature\) \[1\]" out.txt "eval names the quadrature estimate"
+if grep -q "samples" out.txt; then bad "eval quadrature counts samples"; else ok; fi
+# A pure number has no unit after its range.
+expect_exit 0 "info" -- "$BT" info lut.h5
+expect_grep "axis eta +\[1.2, 2\], 3 nodes, linear" out.txt "info: no unit 1 after a range"
+expect_exit 0 "models" -- "$BT" models
+expect_grep "fine for float16 tables; float32 tables need double" out.txt "models: float wording"
+if grep -q "accurate enough for float16 tables, not float32" out.txt; then bad "models: old wording"; else ok; fi
+
+# --- query: the stored stderr and what is known of the error between nodes
+expect_exit 0 "query uncertified" -- "$BT" query lut.h5 --table albedo_r mu_i=0.37 alpha=0.21 eta=1.45
+expect_grep "^albedo_r = [0-9.e-]+ ± [0-9.e-]+ \(stderr, interpolated\) \[1\] \(linear\); no certificate: the interpolation error is not in the ±" out.txt "query says there is no certificate"
+expect_exit 0 "header uncertified" -- "$BT" export lut.h5 --table albedo_r --header lut0.h
+expect_grep "Accuracy: no certificate stored" lut0.h "header says there is no certificate"
+expect_exit 0 "certify --store" -- "$BT" certify lut.h5 --table albedo_r --accuracy 1 --abs --store -q
+max=$("$PY" -c "
+import h5py; print('%.3g' % h5py.File('lut.h5')['albedo_r'].attrs['certificate_max_error'])")
+expect_exit 0 "query certified" -- "$BT" query lut.h5 --table albedo_r mu_i=0.37 alpha=0.21 eta=1.45
+expect_grep "\(stderr, interpolated\) \[1\] \(linear\); certified max total error $max absolute \(linear interpolation\)$" out.txt "query prints the certified error"
+expect_exit 0 "query certified json" -- "$BT" query lut.h5 --table albedo_r mu_i=0.37 alpha=0.21 eta=1.45 --json
+"$PY" - <<'PY' && ok || bad "query --json certified_error"
+import h5py, json
+j = json.load(open("out.txt"))
+a = h5py.File("lut.h5")["albedo_r"].attrs
+assert j["certified_error"]["max"] == a["certificate_max_error"], j
+assert j["certified_error"]["measure"] == "absolute" and j["certified_error"]["passed"] is True, j
+assert "stderr" in j
+PY
+expect_exit 0 "header certified" -- "$BT" export lut.h5 --table albedo_r --header lut.h
+expect_grep "Accuracy: certified max total error $max \(RMS [0-9.e-]+, absolute, linear interpolation\)" lut.h "header states the certified error"
+expect_grep "Stored stderr up to [0-9.e-]+ \(not in this header\)" lut.h "header states the stderr"
+if [ -n "${3:-}" ]; then
+  printf '#include "lut.h"\nint main(void) { double x[3] = {0.5, 0.5, 1.5}; return albedo_r_eval(x) > 0 ? 0 : 1; }\n' > lut.c
+  if "$3" -std=c99 -Wall -Werror -o lut_c lut.c -lm && ./lut_c; then ok; else bad "the header with its accuracy comment compiles"; fi
+fi
+
+# --- --slice: the same rule in export (EXR, PNG, MERL) and plot: a node is
+# taken as is, a value between nodes is interpolated linearly and a note
+# says so, with short numbers.  eta = 1.5 lies between the nodes 1.2, 1.6.
+expect_exit 0 "exr between nodes" -- "$BT" export lut.h5 --table albedo_r --exr mid.exr --slice eta=1.5
+expect_grep "note: eta = 1.5 is not a node; it lies between the nodes 1.2 and 1.6: values interpolated linearly" err.txt "export states the interpolation"
+if grep -qE "[0-9]{9,}" err.txt; then bad "long numbers in the note"; cat err.txt; else ok; fi
+expect_exit 0 "plot between nodes" -- "$BT" plot lut.h5 --table albedo_r --slice eta=1.5 -o mid_plot.png
+expect_grep "note: eta = 1.5 is not a node; it lies between the nodes 1.2 and 1.6: values interpolated linearly" err.txt "plot states the interpolation"
+expect_exit 2 "slice outside" -- "$BT" export lut.h5 --table albedo_r --exr out.exr --slice eta=2.5
+expect_grep "eta = 2.5 is outside the axis \[1.2, 2\]$" err.txt "outside: the range, no unit 1"
+# PNG: 16-bit grey; at a node the stored values, between nodes what `query`
+# interpolates (linear), each within the 16-bit rounding (values in [0, 1]:
+# q / 65535).  Decoded here with zlib.
+expect_exit 0 "png at a node" -- "$BT" export lut.h5 --table albedo_r --png node.png --slice eta=1.6
+expect_grep "PNG 16-bit grey 4 x 5 \(x alpha, y mu_i\), value = 0 \+ 1.5259021896696422e-05 \* q" out.txt "png mapping printed"
+expect_exit 0 "png between nodes" -- "$BT" export lut.h5 --table albedo_r --png mid.png --slice eta=1.5
+expect_grep "note: eta = 1.5 is not a node" err.txt "png states the interpolation"
+"$BT" export lut.h5 --table albedo_r --png x.png --layers >out.txt 2>err.txt; [ $? -eq 2 ] && ok || bad "--layers with --png accepted"
+"$PY" - "$BT" <<'PY' >py.txt 2>&1 && ok || { bad "png contents"; cat py.txt; }
+import struct, subprocess, sys, zlib
+import h5py, numpy as np
+
+def read_png16(path):
+    data = open(path, "rb").read()
+    assert data[:8] == b"\x89PNG\r\n\x1a\n"
+    pos, idat, text = 8, b"", {}
+    while pos < len(data):
+        n, kind = struct.unpack(">I4s", data[pos:pos + 8])
+        body = data[pos + 8:pos + 8 + n]
+        if kind == b"IHDR":
+            w, h, depth, colour = struct.unpack(">IIBB", body[:10])
+            assert depth == 16 and colour == 0, (depth, colour)
+        elif kind == b"IDAT":
+            idat += body
+        elif kind == b"tEXt":
+            k, v = body.split(b"\0", 1)
+            text[k.decode()] = v.decode("latin-1")
+        pos += 12 + n
+    raw, stride = zlib.decompress(idat), 2 * w
+    rows, prev = [], bytearray(stride)
+    for y in range(h):
+        f, line = raw[y * (stride + 1)], bytearray(raw[y * (stride + 1) + 1:(y + 1) * (stride + 1)])
+        for i in range(stride):
+            a = line[i - 2] if i >= 2 else 0
+            b, c = prev[i], prev[i - 2] if i >= 2 else 0
+            if f == 1: line[i] = (line[i] + a) & 255
+            elif f == 2: line[i] = (line[i] + b) & 255
+            elif f == 3: line[i] = (line[i] + (a + b) // 2) & 255
+            elif f == 4:
+                p = a + b - c
+                pa, pb, pc = abs(p - a), abs(p - b), abs(p - c)
+                line[i] = (line[i] + (a if pa <= pb and pa <= pc else b if pb <= pc else c)) & 255
+        rows.append([line[2 * x] << 8 | line[2 * x + 1] for x in range(w)])
+        prev = line
+    return np.array(rows, dtype=float), text
+
+g = h5py.File("lut.h5")["albedo_r"]
+values = g["value"][()]
+mu, alpha = g["mu_i"][()], g["alpha"][()]
+q, text = read_png16("node.png")
+assert q.shape == (5, 4), q.shape          # y = mu_i (row 0 = first node), x = alpha
+assert text["brdftab_mapping"].startswith("value = 0 + "), text
+assert "eta=1.6" in text["brdftab_slice"], text
+assert np.max(np.abs(q / 65535 - values[:, :, 1])) <= 0.5 / 65535 + 1e-7
+q, text = read_png16("mid.png")
+assert "eta=1.5 (interpolated)" in text["brdftab_slice"], text
+pts = "mu_i,alpha\n" + "".join("%.17g,%.17g\n" % (m, a) for m in mu for a in alpha)
+open("nodes.csv", "w").write(pts)
+out = subprocess.run([sys.argv[1], "query", "lut.h5", "--table", "albedo_r", "eta=1.5", "--points", "nodes.csv"],
+                     capture_output=True, text=True, check=True).stdout.splitlines()[1:]
+expected = np.array([float(line.split(",")[2]) for line in out]).reshape(5, 4)
+assert np.max(np.abs(q / 65535 - expected)) <= 0.5 / 65535 + 1e-7, np.max(np.abs(q / 65535 - expected))
+PY
+
 cli_summary
