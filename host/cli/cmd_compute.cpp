@@ -749,7 +749,8 @@ void register_generate(CLI::App& app) {
     cmd->add_flag("--resume", state->resume,
                   "continue an interrupted run from its checkpoint (OUTPUT.checkpoint/, written "
                   "while tables are computed and removed once the output is written); the "
-                  "result is bit-identical to an uninterrupted run. Refused when the spec or "
+                  "tables are bit-identical to an uninterrupted run's (only the created and "
+                  "elapsed_seconds attributes differ). Refused when the spec or "
                   "a setting that changes values differs. See docs/spec.md, \"Interrupted "
                   "runs\"");
     cmd->add_option("--checkpoint-interval", state->checkpoint_interval,
