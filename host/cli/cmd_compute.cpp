@@ -417,7 +417,7 @@ std::string plan_text(const Candidate& c) {
 }
 
 // A plan whose predicted cost is beyond the limits (excessive_plan_cost:
-// 10 minutes, 100x the spec's cells) is not started without --yes: the
+// 10 minutes, 100x the spec's cells and 10^6) is not started without --yes: the
 // message names the cost, the cheaper plans and the flags that accept a
 // cost.  On a terminal the user is asked; otherwise the run is refused
 // (exit 2, nothing written).  A refinement round's plan is refused the
@@ -441,8 +441,9 @@ bool approve_costly_plan(const Candidate& plan, const std::vector<Candidate>& fr
     for (double budget : {10.0, 60.0, 600.0}) {
         std::optional<std::size_t> best;
         for (std::size_t i = 0; i < front.size(); ++i)
-            if (front[i].seconds <= budget && (!best || front[i].error_max < front[*best].error_max)) best = i;
-        if (!best && !last && !front.empty()) best = 0;
+            if (front[i].seconds <= budget && front[i].seconds < plan.seconds &&
+                plan_cells(front[i]) < plan_cells(plan) && (!best || front[i].error_max < front[*best].error_max))
+                best = i;
         if (!best || (last && *best == *last)) continue;
         last = best;
         const Candidate& c = front[*best];
@@ -781,8 +782,8 @@ void register_generate(CLI::App& app) {
         ->check(CLI::IsMember({"linear", "cubic"}));
     cmd->add_flag("--yes", state->yes,
                   "with --accuracy: start a plan predicted to take more than 10 minutes or more than "
-                  "100x the spec's cells (otherwise such a run asks on a terminal, and is refused, "
-                  "exit 2, elsewhere; docs/planning.md)");
+                  "100x the spec's cells (and 10^6 cells); otherwise such a run asks on a terminal, "
+                  "and is refused, exit 2, elsewhere (docs/planning.md)");
     cmd->add_option("--max-refinements", state->max_refinements,
                     "with --accuracy: refinement rounds after the first certificate (default 2; 0: "
                     "certify only)");

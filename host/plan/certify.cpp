@@ -1030,10 +1030,11 @@ std::string excessive_plan_cost(const Candidate& plan, const Spec& spec, const P
     if (plan.seconds > limits.max_seconds)
         why = "predicted time " + sci(plan.seconds) + " s, above " + number_text(limits.max_seconds, 6) + " s";
     const double cells = plan_cells(plan), own = spec_table_cells(spec);
-    if (own > 0 && cells > limits.max_cell_factor * own)
+    if (own > 0 && cells > limits.max_cell_factor * own && cells > limits.min_cells)
         why += (why.empty() ? "" : "; ") + number_text(cells, 6) + " cells, " +
                number_text(std::floor(cells / own), 6) + "x the spec's own " + number_text(own, 6) +
-               " (above " + number_text(limits.max_cell_factor, 6) + "x)";
+               " (above " + number_text(limits.max_cell_factor, 6) + "x and " + number_text(limits.min_cells, 6) +
+               " cells)";
     return why;
 }
 
@@ -1219,8 +1220,14 @@ CertifiedResult certified_generate(const Spec& spec, Backend& backend, const Cer
             c.predicted_max = plan.tables[i].error_max;
             c.predicted_rms = plan.tables[i].error_rms;
             rnd.passed = rnd.passed && c.passed;
-            say("certify", round, "certificate '" + c.table + "': max " + sci(c.max_error) + ", RMS " +
-                                      sci(c.rms_error) + " (" + measure + ", target " + sci(c.target) + "): " +
+            // Digits enough for the max and the target to differ when they do.
+            std::string max_text = sci(c.max_error), target_text = sci(c.target);
+            for (int digits = 3; max_text == target_text && c.max_error != c.target && digits <= 17; ++digits) {
+                max_text = number_text(c.max_error, digits);
+                target_text = number_text(c.target, digits);
+            }
+            say("certify", round, "certificate '" + c.table + "': max " + max_text + ", RMS " +
+                                      sci(c.rms_error) + " (" + measure + ", target " + target_text + "): " +
                                       (c.passed ? "passed" : "FAILED"));
             rnd.certificates.push_back(std::move(c));
         }

@@ -292,10 +292,13 @@ struct CertifiedGenerateOptions {
 // Whether a plan's predicted cost is beyond what a run without an explicit
 // budget should start (`generate --accuracy` asks for --yes or --budget):
 // predicted time above max_seconds, or more cells than max_cell_factor x the
-// spec's own tables.  Returns the reasons, in words ("" when neither holds).
+// spec's own tables and than min_cells (a small spec may grow 100x at no
+// cost; the cell count guards against a time prediction that is off).
+// Returns the reasons, in words ("" when neither holds).
 struct PlanCostLimits {
     double max_seconds = 600;
     double max_cell_factor = 100;
+    double min_cells = 1e6;
 };
 std::string excessive_plan_cost(const Candidate& plan, const Spec& spec, const PlanCostLimits& limits = {});
 // Cells of every table of a plan, and of the spec's [[tables]] as written.
