@@ -217,15 +217,8 @@ TEST_CASE("bad slices are InputErrors and write nothing") {
     const std::string out = (d / "x.exr").string();
 
     ExrExportOptions o;
-    o.slice["theta_i"] = 33.0;  // between nodes 20 and 40
-    std::string msg = input_error_message([&] { export_exr_slice(t, out, o); });
-    CHECK(msg.find("theta_i") != std::string::npos);
-    CHECK(msg.find("33") != std::string::npos);
-    CHECK(msg.find("20") != std::string::npos);
-    CHECK(msg.find("40") != std::string::npos);
-
     o.slice["theta_i"] = 95.0;  // beyond the last node
-    msg = input_error_message([&] { export_exr_slice(t, out, o); });
+    std::string msg = input_error_message([&] { export_exr_slice(t, out, o); });
     CHECK(msg.find("95") != std::string::npos);
     CHECK(msg.find("80") != std::string::npos);
 
@@ -257,10 +250,42 @@ TEST_CASE("bad slices are InputErrors and write nothing") {
         return std::string(std::istreambuf_iterator<char>(f), {});
     };
     const std::string before = slurp();
-    o.slice = {{"alpha", 0.15}};
+    o.slice = {{"alpha", 0.05}};  // below the axis
     CHECK_THROWS_AS(export_exr_slice(t, out, o), InputError);
     CHECK(slurp() == before);
     CHECK(std::distance(fs::directory_iterator(d), fs::directory_iterator{}) == 1);
+}
+
+TEST_CASE("a slice between nodes is interpolated linearly, and a note says so") {
+    // theta_i = 33 lies between the nodes 20 and 40 of a linear axis: each
+    // pixel is 0.35 f(20) + 0.65 f(40) (value and stderr), the library's
+    // linear weights, computed here from the analytic function.
+    fs::path d = scratch_dir("between");
+    TableData t = analytic_table();
+    const std::string out = (d / "between.exr").string();
+    ExrExportOptions o;
+    o.slice["theta_i"] = 33.0;
+    const std::vector<std::string> notes = export_exr_slice(t, out, o);
+    REQUIRE(notes.size() == 1);
+    CHECK(notes[0].find("theta_i = 33 deg is not a node") != std::string::npos);
+    CHECK(notes[0].find("between the nodes 20 and 40") != std::string::npos);
+    CHECK(notes[0].find("interpolated linearly") != std::string::npos);
+    const Image img = read_exr(out);
+    CHECK(img.width == 6);   // phi_d on x
+    CHECK(img.height == 4);  // alpha on y
+    const double s = 13.0 / 20.0;
+    for (int y = 0; y < 4; ++y)
+        for (int x = 0; x < 6; ++x) {
+            const double a = t.axes[0].values[y], ph = t.axes[2].values[x];
+            const double v = (1 - s) * f_value(a, 20, ph) + s * f_value(a, 40, ph);
+            const double e = (1 - s) * f_stderr(a, 20, ph) + s * f_stderr(a, 40, ph);
+            CHECK(img.r[y * 6 + x] == doctest::Approx(v).epsilon(1e-7));
+            CHECK(img.g[y * 6 + x] == doctest::Approx(e).epsilon(1e-7));
+        }
+    CHECK(attr(img.header, "brdftab_slice") == "theta_i=33 deg (interpolated)");
+    // At a node: no note, the node's values exactly.
+    o.slice["theta_i"] = 40.0;
+    CHECK(export_exr_slice(t, out, o).empty());
 }
 
 TEST_CASE("unwritable output is an Error, not a crash") {

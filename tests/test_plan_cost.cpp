@@ -13,6 +13,7 @@
 #include "host/engine/engine.h"
 #include "host/engine/evaluate.h"
 #include "host/models/registry.h"
+#include "host/plan/certify.h"
 #include "host/plan/plan.h"
 
 using namespace brdftab;
@@ -243,4 +244,35 @@ TEST_CASE("shared kernels: one process loads each kernel program once") {
     CHECK(shared_kernel_saving(tables) == doctest::Approx((0.45 - 0.20) + (0.7 - 0.4)));
     CHECK(shared_kernel_saving({plan("a", 0.1, 0.3), plan("b", 0.1, 0.3)}) == 0);
     CHECK(shared_kernel_saving({}) == 0);
+}
+
+// The cost guard of `generate --accuracy` (excessive_plan_cost): counts and
+// times are inputs, so every expected verdict is arithmetic.
+TEST_CASE("a plan beyond 10 minutes, or 100x the spec's cells and 10^6 cells, is excessive") {
+    Spec spec;
+    TableSpec t;
+    t.axes = {make_axis("x", "1", 0, 1, 10, Spacing::Linear), make_axis("y", "1", 0, 1, 10, Spacing::Linear)};
+    spec.tables = {t};  // 100 cells
+    auto plan = [](std::size_t nx, std::size_t ny, double seconds) {
+        Candidate c;
+        TablePlan tp;
+        tp.counts = {nx, ny};
+        c.tables = {tp};
+        c.seconds = seconds;
+        return c;
+    };
+    CHECK(plan_cells(plan(30, 40, 1)) == 1200);
+    CHECK(spec_table_cells(spec) == 100);
+    CHECK(excessive_plan_cost(plan(10, 10, 600), spec).empty());          // at the limit
+    CHECK(excessive_plan_cost(plan(10, 10, 601), spec).find("predicted time") != std::string::npos);
+    // 900 x 900 = 810000 cells: 8100x the spec, but under 10^6 cells.
+    CHECK(excessive_plan_cost(plan(900, 900, 1), spec).empty());
+    // 2000 x 2000 = 4e6 cells: 40000x the spec and over 10^6.
+    const std::string why = excessive_plan_cost(plan(2000, 2000, 1), spec);
+    CHECK(why.find("4e+06 cells, 40000x the spec's own 100") != std::string::npos);
+    CHECK(why.find("predicted time") == std::string::npos);
+    // A spec of 10^5 cells: 10^7 cells is exactly 100x (not above), 1.0001e7 is.
+    spec.tables[0].axes = {make_axis("x", "1", 0, 1, 100, Spacing::Linear), make_axis("y", "1", 0, 1, 1000, Spacing::Linear)};
+    CHECK(excessive_plan_cost(plan(10000, 1000, 1), spec).empty());
+    CHECK(!excessive_plan_cost(plan(10001, 1000, 1), spec).empty());
 }

@@ -108,8 +108,8 @@ double log_interval() {
 }
 }  // namespace
 
-ProgressPrinter::ProgressPrinter(std::string label)
-    : label_(std::move(label)), tty_(isatty(STDERR_FILENO) != 0),
+ProgressPrinter::ProgressPrinter(std::string label, bool sampled)
+    : label_(std::move(label)), sampled_(sampled), tty_(isatty(STDERR_FILENO) != 0),
       last_(std::chrono::steady_clock::now()), interval_(tty_ ? 0.1 : log_interval()) {}
 
 void ProgressPrinter::operator()(const Progress& p) {
@@ -125,7 +125,8 @@ void ProgressPrinter::operator()(const Progress& p) {
     if (final && last_fraction_ >= 1.0) return;
     last_ = now;
     last_fraction_ = p.fraction;
-    const double rate = p.elapsed_seconds > 0 ? p.samples_done / p.elapsed_seconds : 0;
+    const double rate =
+        p.elapsed_seconds > 0 ? static_cast<double>(sampled_ ? p.samples_done : p.cells_done) / p.elapsed_seconds : 0;
     // Before any cell is done there is nothing to extrapolate from: no ETA yet.
     const double eta = p.fraction > 0 ? p.elapsed_seconds * (1 - p.fraction) / p.fraction : -1;
     std::ostringstream line;
@@ -138,7 +139,8 @@ void ProgressPrinter::operator()(const Progress& p) {
     char pct[16];
     std::snprintf(pct, sizeof pct, "%5.1f%%", 100 * p.fraction);
     line << pct << "  cells " << p.cells_done << "/" << p.cells_total << "  "
-         << format_count(rate) << " samples/s  elapsed " << format_seconds(p.elapsed_seconds);
+         << format_count(rate) << (sampled_ ? " samples/s" : " cells/s") << "  elapsed "
+         << format_seconds(p.elapsed_seconds);
     if (!final) line << "  ETA " << (eta >= 0 ? format_seconds(eta) : std::string("unknown"));
     if (tty_)
         std::cerr << "\r" << line.str() << "\033[K" << std::flush;
@@ -256,7 +258,8 @@ GenerateProgressFn TableProgress::callback() {
             current_ = e.table_index;
             printer_ = std::make_unique<ProgressPrinter>(
                 "[" + prefix_ + std::to_string(e.table_index + 1) + "/" +
-                std::to_string(e.table_count) + "] " + e.table->name);
+                    std::to_string(e.table_count) + "] " + e.table->name,
+                !sampled || sampled(*e.table));
         }
         (*printer_)(e.progress);
     };
@@ -293,12 +296,27 @@ std::string sci_text(double v) {
     return buf;
 }
 
+std::pair<std::string, std::string> compared_text(double value, double target) {
+    if (!std::isfinite(value) || !std::isfinite(target) || value == target)
+        return {sci_text(value), sci_text(target)};
+    for (int digits = 3;; ++digits) {
+        const std::string a = number_text(value, digits), b = number_text(target, digits);
+        if (a != b || digits >= 17) return {a, b};
+    }
+}
+
 std::string certificate_error_text(const Certificate& c) {
+    const auto [max_text, target_text] = compared_text(c.max_error, c.target);
     std::string s = std::string("max ") + (c.absolute ? "absolute" : "relative") + " total error " +
-                    sci_text(c.max_error) + " at (";
+                    max_text + " at (";
     for (std::size_t a = 0; a < c.axis_names.size(); ++a)
         s += (a ? ", " : "") + c.axis_names[a] + " " + sci_text(c.max_at[a]);
-    return s + "), RMS " + sci_text(c.rms_error) + "; target " + sci_text(c.target);
+    return s + "), RMS " + sci_text(c.rms_error) + "; target " + target_text;
+}
+
+bool table_is_sampled(const Spec& spec, const TableSpec& t, Method requested) {
+    const Method m = resolve_table_method(find_model(spec.model).quantity(t.quantity), requested);
+    return m == Method::MonteCarlo || m == Method::Rqmc;
 }
 
 }  // namespace brdftab::cli

@@ -6,8 +6,10 @@
 
 #include <chrono>
 #include <cstdio>
+#include <functional>
 #include <map>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "host/engine/engine.h"
@@ -50,12 +52,15 @@ struct ComputeOptions {
 // seconds when set), each with cells done, samples/s, elapsed time and ETA.
 class ProgressPrinter {
 public:
-    explicit ProgressPrinter(std::string label);
+    // `sampled`: the run draws samples (Monte Carlo, RQMC), so its rate is
+    // shown in samples/s; otherwise (closed form, quadrature) in cells/s.
+    explicit ProgressPrinter(std::string label, bool sampled = true);
     void operator()(const Progress& p);
     void finish();
 
 private:
     std::string label_;
+    bool sampled_;
     bool tty_;
     std::chrono::steady_clock::time_point last_;
     double interval_;
@@ -72,6 +77,9 @@ public:
         : quiet_(quiet), prefix_(std::move(prefix)) {}
     GenerateProgressFn callback();
     void finish();  // ends the last table's display
+    // Whether a table's run draws samples (ProgressPrinter's `sampled`;
+    // null: every table does).
+    std::function<bool(const TableSpec&)> sampled;
 
 private:
     bool quiet_;
@@ -116,7 +124,14 @@ std::string sci_text(double v);
 
 // A certificate's figures as `generate --accuracy`, `certify` and `info` print
 // them: "max absolute total error E at (axis x, ...), RMS R; target T".
+// A value and the target it is compared with, each with 3 significant
+// digits, or as many more (up to 17) as it takes for the two texts to differ
+// when the numbers do: a miss of 0.0010013 against 0.001 reads "0.0010013".
+std::pair<std::string, std::string> compared_text(double value, double target);
 std::string certificate_error_text(const Certificate& c);
+// Whether `spec`'s table `t` is computed by sampling (MC, RQMC) under
+// `requested` (the run's method setting), not by a closed form or quadrature.
+bool table_is_sampled(const Spec& spec, const TableSpec& t, Method requested);
 
 // Free bytes (for an unprivileged user) on the file system of `path`'s
 // directory; negative when unknown.

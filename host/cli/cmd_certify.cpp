@@ -3,6 +3,7 @@
 // already exists, e.g. one generated from a hand-written spec.  Read-only
 // unless --store, which writes the certificate attributes into a copy of the
 // file and renames it over the original only when that succeeded.
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <iostream>
@@ -14,7 +15,10 @@
 #include "host/cli/commands.h"
 #include "host/core/atomic_file.h"
 #include "host/core/error.h"
+#include "host/io/table_io.h"
 #include "host/plan/certify.h"
+#include "host/plan/plan.h"
+#include "host/spec/spec.h"
 
 namespace brdftab::cli {
 
@@ -23,9 +27,84 @@ namespace {
 struct CertifyArgs {
     std::string file, table, interpolation = "linear";
     double accuracy = 0, abs_floor = 0;
-    bool absolute = false, store = false, quiet = false;
+    bool absolute = false, store = false, quiet = false, no_advice = false;
     ComputeOptions compute;
 };
+
+// The axis whose lines carry the largest error ("" when the worst probe is
+// off every line, i.e. between them).
+std::string worst_axis(const Certificate& c) {
+    std::size_t worst = c.axis_max.size();
+    for (std::size_t a = 0; a < c.axis_max.size(); ++a)
+        if (std::isfinite(c.axis_max[a]) && (worst == c.axis_max.size() || c.axis_max[a] > c.axis_max[worst]))
+            worst = a;
+    return worst < c.axis_names.size() ? c.axis_names[worst] : std::string();
+}
+
+// After a missed target: which axis is responsible, and the plan the
+// planner predicts would pass: a pilot of the table's own spec (stored in
+// the file), its error model corrected by this certificate (as a refinement
+// round of `generate --accuracy` corrects it), the fastest plan predicted to
+// reach the target.  Printed to stdout; a step that cannot run says why.
+void print_failure_advice(const Certificate& c, const CertifyArgs& st, Backend& backend) {
+    std::cout << "  error along each axis (max over the probe lines along it):";
+    for (std::size_t a = 0; a < c.axis_names.size() && a < c.axis_max.size(); ++a)
+        std::cout << (a ? ", " : " ") << c.axis_names[a] << " " << sci_text(c.axis_max[a]);
+    std::cout << "\n";
+    const std::string axis = worst_axis(c);
+    if (!axis.empty())
+        std::cout << "  the axis responsible: " << axis << " (its lines reach "
+                  << sci_text(*std::max_element(c.axis_max.begin(), c.axis_max.end())) << ", target "
+                  << sci_text(c.target) << ")\n";
+    const TableData d = read_table(st.file, st.table);
+    const std::string options = std::string(" --accuracy ") + sci_text(st.accuracy) + (st.absolute ? " --abs" : "") +
+                                (st.interpolation == "cubic" ? " --interpolation cubic" : "");
+    if (d.spec_text.empty()) {
+        std::cout << "  no spec stored with the table: plan one with `brdftab plan SPEC --table " << st.table << options
+                  << "`\n";
+        return;
+    }
+    const std::string spec_name = d.spec_file.empty() ? std::string("SPEC") : d.spec_file;
+    try {
+        const Spec spec = parse_spec_string(d.spec_text, st.file + " (stored spec " + spec_name + ")");
+        std::size_t index = spec.tables.size();
+        for (std::size_t i = 0; i < spec.tables.size(); ++i)
+            if (spec.tables[i].name == st.table) index = i;
+        if (index == spec.tables.size()) throw InputError("the stored spec has no table '" + st.table + "'");
+        PlanTarget target;
+        target.accuracy = st.accuracy;
+        target.absolute = st.absolute;
+        target.interpolation = c.interpolation;
+        PilotOptions po;
+        po.abs_floor = c.absolute ? 0 : c.abs_floor;
+        std::vector<TablePilot> pilots = {run_pilot(spec, index, backend, po)};
+        std::string why;
+        if (const std::optional<Candidate> as_is = predict_as_written(spec, pilots, target, {}, why))
+            correct_error_model(pilots, target, *as_is, {&c});
+        const std::vector<Candidate> front = pareto_front(make_candidates(pilots, target));
+        const std::optional<std::size_t> choice = choose_plan(front, target);
+        if (!choice) {
+            std::cout << "  no plan the planner considers is predicted to reach " << sci_text(st.accuracy)
+                      << " on this table's domain (up to 65536 nodes per axis); relax the target or narrow the "
+                         "axes' ranges\n";
+            return;
+        }
+        const Candidate& plan = front[*choice];
+        std::cout << "  a plan predicted to pass (the planner's pilot of this table, corrected by this "
+                     "certificate): nodes ";
+        for (std::size_t a = 0; a < plan.tables[0].counts.size(); ++a)
+            std::cout << (a ? " x " : "") << pilots[0].axes[a].name << " " << plan.tables[0].counts[a];
+        std::cout << " (now";
+        for (std::size_t a = 0; a < d.axes.size(); ++a) std::cout << (a ? " x " : " ") << d.axes[a].count;
+        std::cout << "), " << to_string(plan.method) << (plan.samples ? " " + std::to_string(plan.samples) : "")
+                  << ", " << stored_type_name(plan.stored_type) << "; predicted max total error "
+                  << sci_text(plan.error_max) << ", generation about " << format_seconds(plan.seconds) << "\n";
+        std::cout << "  plan and verify it: brdftab plan " << spec_name << " --table " << st.table << options
+                  << "\n";
+    } catch (const std::exception& e) {
+        std::cout << "  no plan suggested: " << e.what() << "\n";
+    }
+}
 
 void run_certify(const CertifyArgs& st) {
     if (!(st.accuracy > 0) || !std::isfinite(st.accuracy))
@@ -59,6 +138,7 @@ void run_certify(const CertifyArgs& st) {
         out.commit();
         std::cout << "stored the certificate in " << st.file << "\n";
     }
+    if (!c.passed && !st.no_advice) print_failure_advice(c, st, *backend);
     if (!c.passed)
         throw Error("the certificate missed --accuracy " + sci_text(st.accuracy) + ": max total error " +
                     sci_text(c.max_error));
@@ -89,6 +169,9 @@ void register_certify(CLI::App& app) {
     cmd->add_flag("--store", st->store,
                   "write the certificate into FILE's table attributes (certificate_*, "
                   "docs/format.md); the file is replaced only when that succeeded");
+    cmd->add_flag("--no-advice", st->no_advice,
+                  "on a miss, skip the advice (the axis responsible and the plan predicted to pass, "
+                  "from a planner pilot of the table's stored spec: a few seconds)");
     cmd->add_flag("-q,--quiet", st->quiet, "no progress display");
     st->compute.add_to(*cmd, false);
     cmd->callback([st] { run_certify(*st); });

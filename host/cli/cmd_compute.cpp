@@ -2,6 +2,7 @@
 // host/engine/evaluate.h and host/generate/generate.h; this file parses and
 // prints.
 
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <functional>
@@ -11,11 +12,13 @@
 #include <memory>
 #include <optional>
 #include <sstream>
+#include <unistd.h>
 
 #include "host/core/atomic_file.h"
 #include "host/cli/cli_common.h"
 #include "host/cli/commands.h"
 #include "host/core/error.h"
+#include "host/core/text.h"
 #include "host/engine/evaluate.h"
 #include "host/engine/opencl_runtime.h"
 #include "host/generate/checkpoint.h"
@@ -86,7 +89,9 @@ void run_eval(const EvalArgs& st) {
             std::cout << j.dump() << "\n";
         } else {
             std::cout << model.name << " " << q.name << " = " << format_double(r.value[0]);
-            if (r.method != Method::ClosedForm)
+            if (r.method == Method::Quadrature)
+                std::cout << " ± " << r.stderr_[0] << " (error estimate: accurate - coarse rule, quadrature)";
+            else if (r.method != Method::ClosedForm)
                 std::cout << " ± " << r.stderr_[0] << " (1 stderr, " << r.samples[0]
                           << " samples, " << to_string(r.method) << ")";
             else
@@ -215,6 +220,7 @@ struct GenerateArgs {
     bool absolute = false;
     std::string interpolation;  // empty: linear (and not given)
     std::optional<int> max_refinements;
+    bool yes = false;  // accept a plan beyond the cost limits (approve_costly_plan)
     bool certified() const { return accuracy || budget; }
 };
 
@@ -228,13 +234,22 @@ void print_summary(const std::vector<GeneratedTable>& tables) {
         if (d.kind == TableKind::Computed &&
             (d.method == Method::MonteCarlo || d.method == Method::Rqmc ||
              d.method == Method::Quadrature))
+        {
             // The per-cell maxima as they are, and the engine's stopping
-            // metric, max stderr / max(|value|, floor), named as what it is:
-            // with a floor the relative stderr can be far larger (issue 13).
-            std::cout << ", " << format_count(static_cast<double>(d.total_samples))
-                      << " samples, max stderr " << t.stderr_max_abs << " absolute, "
-                      << t.stderr_max_rel << " relative (tolerance metric stderr/max(|value|, floor) "
-                      << d.tolerance_achieved << ")";
+            // metric, max stderr / max(|value|, floor), named as what it is
+            // where it differs: with a floor the relative stderr can be far
+            // larger.  A quadrature draws no samples: its error estimate is
+            // the difference of its two rules.
+            if (d.method == Method::Quadrature)
+                std::cout << ", max error estimate (accurate - coarse rule) ";
+            else
+                std::cout << ", " << format_count(static_cast<double>(d.total_samples)) << " samples, max stderr ";
+            std::cout << t.stderr_max_abs << " absolute, " << t.stderr_max_rel << " relative";
+            if (std::fabs(d.tolerance_achieved - t.stderr_max_rel) >
+                1e-9 * std::max(std::fabs(d.tolerance_achieved), std::fabs(t.stderr_max_rel)))
+                std::cout << " (tolerance metric " << (d.method == Method::Quadrature ? "estimate" : "stderr")
+                          << "/max(|value|, floor) " << d.tolerance_achieved << ")";
+        }
         std::cout << ", values in [" << t.value_min << ", " << t.value_max << "], "
                   << format_seconds(d.elapsed_seconds) << "\n";
         if (t.cells_unconverged)
@@ -378,6 +393,7 @@ void run_generate(const GenerateArgs& st) {
             checkpoint->record_layout(layout_text(options.chunk_cells, options.ranks));
     }
     TableProgress progress(st.quiet);
+    progress.sampled = [&](const TableSpec& t) { return table_is_sampled(g.spec, t, g.settings.method); };
     std::vector<GeneratedTable> tables =
         discarding_checkpoint_on_input_error(checkpoint.get(), checkpoint_is_new, [&] {
             return generate_to_file(g.spec, *g.backend, g.settings, g.out_path,
@@ -386,6 +402,70 @@ void run_generate(const GenerateArgs& st) {
     progress.finish();
     finish_output(g, checkpoint.get());
     print_summary(tables);
+}
+
+// "nodes 16x4x4, quadrature 1024, float16".
+std::string plan_text(const Candidate& c) {
+    std::string nodes;
+    for (std::size_t i = 0; i < c.tables.size(); ++i) {
+        if (i) nodes += "; ";
+        for (std::size_t a = 0; a < c.tables[i].counts.size(); ++a)
+            nodes += (a ? "x" : "") + std::to_string(c.tables[i].counts[a]);
+    }
+    return "nodes " + nodes + ", " + to_string(c.method) +
+           (c.samples ? " " + std::to_string(c.samples) : std::string()) + ", " + stored_type_name(c.stored_type);
+}
+
+// A plan whose predicted cost is beyond the limits (excessive_plan_cost:
+// 10 minutes, 100x the spec's cells and 10^6) is not started without --yes: the
+// message names the cost, the cheaper plans and the flags that accept a
+// cost.  On a terminal the user is asked; otherwise the run is refused
+// (exit 2, nothing written).  A refinement round's plan is refused the
+// same way, and the last round's file stands (exit 1: its certificate
+// failed).
+bool approve_costly_plan(const Candidate& plan, const std::vector<Candidate>& front, int round,
+                         const Spec& spec, const PlanTarget& target) {
+    const std::string why = excessive_plan_cost(plan, spec);
+    if (why.empty()) return true;
+    std::ostringstream m;
+    m << (round == 0 ? "the plan for --accuracy " : "refinement round " + std::to_string(round) + " for --accuracy ")
+      << sci_text(*target.accuracy) << " is beyond what a run starts unasked: " << why << "\n"
+      << "  plan: " << plan_text(plan) << "; predicted max total error " << sci_text(plan.error_max)
+      << ", time " << format_seconds(plan.seconds) << " (" << format_count(plan_cells(plan)) << " cells; the spec has "
+      << format_count(spec_table_cells(spec)) << ")\n";
+    // The most accurate plan within a few budgets (the front is sorted by
+    // predicted time), and the cheapest one.
+    m << "  cheaper plans (predicted):\n";
+    std::size_t shown = 0;
+    std::optional<std::size_t> last;
+    for (double budget : {10.0, 60.0, 600.0}) {
+        std::optional<std::size_t> best;
+        for (std::size_t i = 0; i < front.size(); ++i)
+            if (front[i].seconds <= budget && front[i].seconds < plan.seconds &&
+                plan_cells(front[i]) < plan_cells(plan) && (!best || front[i].error_max < front[*best].error_max))
+                best = i;
+        if (!best || (last && *best == *last)) continue;
+        last = best;
+        const Candidate& c = front[*best];
+        m << "    --budget " << number_text(budget, 6) << ": " << plan_text(c) << "; max total error "
+          << sci_text(c.error_max) << ", " << format_seconds(c.seconds) << "\n";
+        ++shown;
+    }
+    if (!shown) m << "    (none)\n";
+    m << "  run it anyway with --yes; or --budget SECONDS for the most accurate plan within that time; "
+         "or relax --accuracy";
+    if (isatty(STDIN_FILENO) && isatty(STDERR_FILENO)) {
+        std::cerr << "brdftab: " << m.str() << "\nstart it? [y/N] " << std::flush;
+        std::string answer;
+        std::getline(std::cin, answer);
+        if (answer == "y" || answer == "Y" || answer == "yes") return true;
+    } else if (round == 0) {
+        throw InputError(m.str() + "\n  (not a terminal: refused; nothing computed or written)");
+    } else {
+        std::cerr << "brdftab: " << m.str() << "\n  (not a terminal: refused)\n";
+    }
+    if (round == 0) throw InputError("not started; nothing computed or written");
+    return false;
 }
 
 // `generate SPEC --accuracy E | --budget T`: plan, generate (the streamed,
@@ -434,6 +514,11 @@ void run_certified_generate(const GenerateArgs& st) {
     options.max_refinements = max_refinements;
     options.spec_label = st.spec_path;
     options.verify_settings = [&st](const Spec& planned) { return st.compute.apply(planned.integration); };
+    // --budget states the cost; --yes accepts any.
+    if (target.accuracy && !st.yes)
+        options.approve_plan = [&](const Candidate& plan, const std::vector<Candidate>& front, int round) {
+            return approve_costly_plan(plan, front, round, spec, target);
+        };
 
     AtomicOutput out(out_path);
     std::vector<GeneratedTable> tables;
@@ -454,6 +539,7 @@ void run_certified_generate(const GenerateArgs& st) {
         stream.chunk_cells = st.chunk_cells;
         stream.checkpoint = checkpoint.get();
         TableProgress progress(st.quiet, "round " + std::to_string(round) + ": ");
+        progress.sampled = [&](const TableSpec& t) { return table_is_sampled(planned, t, settings.method); };
         tables = discarding_checkpoint_on_input_error(
             checkpoint.get(), presence == CheckpointPresence::None, [&] {
                 return generate_to_file(planned, *backend, settings, path, progress.callback(), stream);
@@ -496,12 +582,15 @@ void run_certified_generate(const GenerateArgs& st) {
         std::cout << "a certificate missed the plan's prediction (--budget: no refinement)\n";
     else if (result.stop == "max-refinements")
         std::cout << "stopped after --max-refinements " << max_refinements << "\n";
+    else if (result.stop == "cost")
+        std::cout << "stopped: the next refinement's plan was beyond the cost limits (--yes accepts it)\n";
     else
         std::cout << "stopped: no plan is predicted to reach the target with the corrected error model\n";
     if (!result.passed && target.accuracy)
         throw Error("the certificate missed --accuracy " + sci_text(*target.accuracy) + " (" +
                     (result.stop == "max-refinements" ? "--max-refinements " + std::to_string(max_refinements) +
                                                             " reached"
+                     : result.stop == "cost"         ? "the next refinement was beyond the cost limits"
                                                       : "no further refinement predicted to reach it") +
                     "); " + out_path + " was written with certificate_passed = 0; raise --max-refinements, "
                     "or relax --accuracy");
@@ -619,6 +708,7 @@ void run_generate_mpi(const GenerateArgs& st) {
             options.sharing = &sharing;
             options.temporary_created = remove_temporaries_on_termination;
             TableProgress progress(st.quiet);
+            progress.sampled = [&](const TableSpec& t) { return table_is_sampled(g.spec, t, g.settings.method); };
             std::vector<GeneratedTable> tables =
                 discarding_checkpoint_on_input_error(checkpoint.get(), checkpoint_is_new, [&] {
                     return generate_to_file(g.spec, *g.backend, g.settings, g.out_path,
@@ -660,7 +750,8 @@ void register_generate(CLI::App& app) {
     cmd->add_flag("--resume", state->resume,
                   "continue an interrupted run from its checkpoint (OUTPUT.checkpoint/, written "
                   "while tables are computed and removed once the output is written); the "
-                  "result is bit-identical to an uninterrupted run. Refused when the spec or "
+                  "tables are bit-identical to an uninterrupted run's (only the created and "
+                  "elapsed_seconds attributes differ). Refused when the spec or "
                   "a setting that changes values differs. See docs/spec.md, \"Interrupted "
                   "runs\"");
     cmd->add_option("--checkpoint-interval", state->checkpoint_interval,
@@ -689,6 +780,10 @@ void register_generate(CLI::App& app) {
                     "with --accuracy/--budget: the interpolation the tables will be read with: "
                     "linear (default) or cubic (Catmull-Rom)")
         ->check(CLI::IsMember({"linear", "cubic"}));
+    cmd->add_flag("--yes", state->yes,
+                  "with --accuracy: start a plan predicted to take more than 10 minutes or more than "
+                  "100x the spec's cells (and 10^6 cells); otherwise such a run asks on a terminal, "
+                  "and is refused, exit 2, elsewhere (docs/planning.md)");
     cmd->add_option("--max-refinements", state->max_refinements,
                     "with --accuracy: refinement rounds after the first certificate (default 2; 0: "
                     "certify only)");
@@ -701,8 +796,8 @@ void register_generate(CLI::App& app) {
 #endif
             return run_certified_generate(*state);
         }
-        if (state->absolute || !state->interpolation.empty() || state->max_refinements)
-            throw InputError("--abs, --interpolation and --max-refinements need --accuracy E or --budget SECONDS");
+        if (state->absolute || !state->interpolation.empty() || state->max_refinements || state->yes)
+            throw InputError("--abs, --interpolation, --max-refinements and --yes need --accuracy E or --budget SECONDS");
 #ifdef BRDFTAB_MPI
         if (MpiSession::launched()) return run_generate_mpi(*state);
 #endif

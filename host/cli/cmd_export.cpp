@@ -1,14 +1,19 @@
 // export: one table into a format other tools read — an OpenEXR image (or a
 // multi-part EXR of slices), a C99 header, or a MERL binary BRDF.
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
 #include <filesystem>
 #include <iostream>
 #include <memory>
 
 #include "host/cli/cli_common.h"
 #include "host/cli/commands.h"
+#include "host/cli/plot_png.h"
 #include "host/cli/read_guard.h"
 #include "host/core/atomic_file.h"
 #include "host/core/error.h"
+#include "host/core/text.h"
 #include "host/io/exr_export.h"
 #include "host/io/header_export.h"
 #include "host/io/merl_export.h"
@@ -16,13 +21,17 @@
 #include "host/io/table_io.h"
 #include "host/lookup/lookup.h"
 
+#ifndef BRDFTAB_VERSION
+#define BRDFTAB_VERSION "unknown"
+#endif
+
 namespace brdftab::cli {
 
 namespace {
 
 struct ExportArgs {
     std::string file, table;
-    std::string exr, header, merl;  // exactly one
+    std::string exr, header, merl, png;  // exactly one
     std::vector<std::string> slice;
     // EXR
     bool half = false, layers = false, no_stderr = false;
@@ -51,32 +60,74 @@ void refuse_unless(bool applies, bool given, const std::string& option, const st
         throw InputError(option + " applies to " + format + " only");
 }
 
+// `export --png`: the image slice as a 16-bit greyscale PNG of the value,
+// q = round((value - offset) / scale) with offset 0 and scale 1/65535 when
+// every value lies in [0, 1] (value = q / 65535, as renderers read a 16-bit
+// LUT), else offset = min and scale = (max - min) / 65535.  The mapping,
+// axes and slice go into tEXt chunks and are printed.
+void export_png(const TableData& table, const std::string& path, const ExrExportOptions& o) {
+    const ImageSlice slice = image_slice(table, o);
+    for (const std::string& note : slice.notes) std::cerr << "brdftab: note: " << note << "\n";
+    const std::vector<double>& v = slice.layers.front().value;
+    double lo = v.front(), hi = v.front();
+    for (double x : v) {
+        if (!std::isfinite(x)) throw InputError("PNG export of table '" + table.name + "': a value is NaN or infinite");
+        lo = std::min(lo, x);
+        hi = std::max(hi, x);
+    }
+    const bool unit_range = lo >= 0 && hi <= 1;
+    const double offset = unit_range ? 0 : lo, scale = unit_range ? 1.0 / 65535 : (hi > lo ? (hi - lo) / 65535 : 1);
+    std::vector<std::uint16_t> q(v.size());
+    for (std::size_t i = 0; i < v.size(); ++i)
+        q[i] = static_cast<std::uint16_t>(std::min(65535.0, std::max(0.0, std::nearbyint((v[i] - offset) / scale))));
+    const std::vector<Axis>& axes = table.axes;
+    auto label = [](const Axis& a) {
+        return a.name + " [" + number_text(a.min, 6) + ", " + number_text(a.max, 6) + "]" + unit_suffix(a.unit) +
+               ", " + std::to_string(a.count) + " nodes, " + spacing_name(a.spacing);
+    };
+    const std::string mapping = "value = " + number_text(offset, 17) + " + " + number_text(scale, 17) + " * q";
+    write_png_gray16(path, slice.width, slice.height, q,
+                     {{"Software", std::string("brdftab ") + BRDFTAB_VERSION},
+                      {"brdftab_table", table.name},
+                      {"brdftab_model", table.model},
+                      {"brdftab_quantity", table.quantity},
+                      {"brdftab_units", table.units},
+                      {"brdftab_x_axis", label(axes[slice.x_axis])},
+                      {"brdftab_y_axis", label(axes[slice.y_axis]) + " (row 0 = first node)"},
+                      {"brdftab_slice", slice.layers.front().slice.empty() ? "none" : slice.layers.front().slice},
+                      {"brdftab_mapping", mapping}});
+    std::cout << "PNG 16-bit grey " << slice.width << " x " << slice.height << " (x " << axes[slice.x_axis].name
+              << ", y " << axes[slice.y_axis].name << "), " << mapping << ", rounding error <= "
+              << number_text(scale / 2, 3) << "\n";
+}
+
 void run_export(const ExportArgs& a) {
-    const int outputs = int(!a.exr.empty()) + int(!a.header.empty()) + int(!a.merl.empty());
+    const int outputs =
+        int(!a.exr.empty()) + int(!a.header.empty()) + int(!a.merl.empty()) + int(!a.png.empty());
     if (outputs != 1)
-        throw InputError("give exactly one output: --exr FILE.exr, --header FILE.h or "
+        throw InputError("give exactly one output: --exr FILE.exr, --png FILE.png, --header FILE.h or "
                          "--merl FILE.binary");
-    const bool exr = !a.exr.empty(), header = !a.header.empty(), merl = !a.merl.empty();
+    const bool exr = !a.exr.empty(), header = !a.header.empty(), merl = !a.merl.empty(), png = !a.png.empty();
     refuse_unless(exr, a.half, "--half", "--exr");
     refuse_unless(exr, a.layers, "--layers", "--exr");
     refuse_unless(exr, a.no_stderr, "--no-stderr", "--exr");
-    refuse_unless(exr, !a.axes.empty(), "--axes", "--exr");
+    refuse_unless(exr || png, !a.axes.empty(), "--axes", "--exr and --png");
     refuse_unless(header, !a.name.empty(), "--name", "--header");
     refuse_unless(header, !a.type.empty(), "--type", "--header");
     refuse_unless(header, !a.layout.empty(), "--layout", "--header");
     refuse_unless(merl, !a.rgb.empty(), "--rgb", "--merl");
-    refuse_unless(!header, !a.slice.empty(), "--slice", "--exr and --merl");
+    refuse_unless(!header, !a.slice.empty(), "--slice", "--exr, --png and --merl");
     std::map<std::string, double> slice;
     for (const auto& s : a.slice) {
         auto [name, text] = split_assignment(s);
         if (!slice.emplace(name, parse_number(text, "--slice " + name)).second)
             throw InputError("--slice " + name + " is given twice");
     }
-    const std::string out = exr ? a.exr : header ? a.header : a.merl;
+    const std::string out = exr ? a.exr : header ? a.header : png ? a.png : a.merl;
     check_output_writable(out);
     guard_table_file(a.file);
 
-    if (exr) {
+    if (exr || png) {
         ExrExportOptions o;
         o.half = a.half;
         o.layers = a.layers;
@@ -89,17 +140,22 @@ void run_export(const ExportArgs& a) {
             o.x_axis = xy[0];
             o.y_axis = xy[1];
         }
-        // --table R,G: a two-channel texture (G = the second table's values).
-        const auto names = split_commas(a.table);
-        if (names.size() > 2)
-            throw InputError("--table '" + a.table + "': --exr takes one table, or two (R,G)");
-        const TableData red = read_table(a.file, names[0]);
-        TableData green;
-        if (names.size() == 2) {
-            green = read_table(a.file, names[1]);
-            o.green = &green;
+        if (png) {
+            export_png(read_table(a.file, a.table), a.png, o);
+        } else {
+            // --table R,G: a two-channel texture (G = the second table's values).
+            const auto names = split_commas(a.table);
+            if (names.size() > 2)
+                throw InputError("--table '" + a.table + "': --exr takes one table, or two (R,G)");
+            const TableData red = read_table(a.file, names[0]);
+            TableData green;
+            if (names.size() == 2) {
+                green = read_table(a.file, names[1]);
+                o.green = &green;
+            }
+            for (const std::string& note : export_exr_slice(red, a.exr, o))
+                std::cerr << "brdftab: note: " << note << "\n";
         }
-        export_exr_slice(red, a.exr, o);
     } else if (header && !a.layout.empty()) {
         // A renderer's own array (host/io/renderer_layout.h); --table R,G
         // names a two-channel texture's tables.
@@ -117,6 +173,7 @@ void run_export(const ExportArgs& a) {
         o.name = a.name;
         if (!a.type.empty()) o.type = parse_header_value_type(a.type);
         o.source = std::filesystem::path(a.file).filename().string();
+        o.certificate = read_stored_certificate(a.file, a.table);
         // Through the lookup library, so a reciprocal-half table is completed
         // exactly as `query` sees it.
         const LookupTable lt = LookupTable::open(a.file, a.table);
@@ -132,6 +189,18 @@ void run_export(const ExportArgs& a) {
             for (int c = 0; c < 3; ++c) o.rgb_values[c] = parse_number(parts[c], "--rgb");
         }
         const LookupTable lt = LookupTable::open(a.file, a.table);
+        // The same slice rule as --exr and plot: say which values are
+        // interpolated between nodes.
+        for (const Axis& ax : lt.axes()) {
+            const auto it = slice.find(ax.name);
+            if (it == slice.end() || ax.dependent()) continue;
+            try {
+                const std::string note = slice_note(ax, it->second, axis_position(ax, it->second));
+                if (!note.empty()) std::cerr << "brdftab: note: " << note << "\n";
+            } catch (const InputError&) {
+                // Outside the axis: export_merl's own message follows.
+            }
+        }
         const MerlExportReport r = export_merl(lt, a.merl, o);
         for (const auto& note : r.notes) std::cerr << "brdftab: note: " << note << "\n";
     }
@@ -152,16 +221,21 @@ void register_export(CLI::App& app) {
     cmd->add_option("--header", a->header, "output C header path (.h)")->check(non_empty_path());
     cmd->add_option("--merl", a->merl, "output MERL .binary path (isotropic BRDF tables)")
         ->check(non_empty_path());
+    cmd->add_option("--png", a->png,
+                    "output .png path: a 2-D slice as a 16-bit greyscale PNG of the value (q / 65535 "
+                    "when every value is in [0, 1], else min + (max - min) q / 65535; the mapping is "
+                    "printed and stored in a tEXt chunk)")
+        ->check(non_empty_path());
     cmd->add_option("--slice", a->slice,
-                    "name=value: with --exr, fix every axis except two (three with --layers) "
-                    "at a grid node; with --merl, the value of every non-angle coordinate "
-                    "(interpolated)");
+                    "name=value: with --exr and --png, fix every axis except two (three with "
+                    "--layers); with --merl, the value of every non-angle coordinate.  A value "
+                    "between nodes is interpolated linearly (a note says so), as in plot");
     cmd->add_flag("--half", a->half, "EXR: 16-bit half channels instead of 32-bit float");
     cmd->add_flag("--layers", a->layers,
                   "EXR: three free axes; one image part per node of the axis not on x or y, "
                   "named axis=value (a multi-part EXR)");
     cmd->add_option("--axes", a->axes,
-                    "EXR: X,Y — the free axes that become image x and y (default: the later "
+                    "EXR, PNG: X,Y — the free axes that become image x and y (default: the later "
                     "free axis on x, the earlier on y)");
     cmd->add_flag("--no-stderr", a->no_stderr, "EXR: G = 0 instead of the standard error");
     cmd->add_option("--name", a->name,

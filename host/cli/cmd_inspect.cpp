@@ -9,6 +9,7 @@
 #include "host/cli/commands.h"
 #include "host/cli/read_guard.h"
 #include "host/core/error.h"
+#include "host/core/text.h"
 #include "host/engine/opencl_runtime.h"
 #include "host/io/table_io.h"
 #include "host/plan/certify.h"
@@ -78,15 +79,16 @@ void print_model(const ModelInfo& m) {
         for (const auto& d : q.directions) std::cout << " " << d;
         if (q.directions.empty()) std::cout << " no direction";
         std::cout << "] " << q.description << "  (" << q.equations << ")\n";
-        std::cout << "    " << std::string(static_cast<std::size_t>(qw), ' ') << "float: ";
+        // Which stored types a float (single-precision) kernel can fill
+        // without its rounding showing (--precision float).
+        std::cout << "    " << std::string(static_cast<std::size_t>(qw), ' ') << "--precision float: ";
         if (!q.float_measured()) {
             std::cout << "not measured\n";
         } else {
-            std::cout << "max rel. |float - double| " << q.float_max_rel_diff
-                      << " on the presets; accurate enough for "
-                      << (q.float_enough_for_float32()   ? "float32 and float16 tables"
-                          : q.float_enough_for_float16() ? "float16 tables, not float32"
-                                                         : "neither float32 nor float16 tables");
+            std::cout << "max rel. |float - double| " << q.float_max_rel_diff << " on the presets; "
+                      << (q.float_enough_for_float32()   ? "fine for float32 and float16 tables"
+                          : q.float_enough_for_float16() ? "fine for float16 tables; float32 tables need double"
+                                                         : "float32 and float16 tables both need double");
             if (!q.float_note.empty()) std::cout << " (fails at: " << q.float_note << ")";
             std::cout << "\n";
         }
@@ -147,7 +149,7 @@ void print_table_summary(const TableData& t, bool verbose) {
               << ")\n";
     for (const auto& a : t.axes)
         std::cout << "    axis " << std::left << std::setw(8) << a.name << " [" << a.min << ", "
-                  << a.max << "] " << a.unit << ", " << a.count << " nodes, "
+                  << a.max << "]" << unit_suffix(a.unit) << ", " << a.count << " nodes, "
                   << spacing_name(a.spacing) << "\n";
     std::cout << "    parameters: " << t.parameters.dump() << "\n";
     if (!t.spec_file.empty() || !t.spec_text.empty())

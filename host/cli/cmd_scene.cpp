@@ -293,6 +293,9 @@ void register_scene(CLI::App& app) {
             TableFileWriter writer(out_path);
             for (std::size_t k = 0; k < specs.size(); ++k) {
                 TableProgress progress(st.quiet, plan.sets[k].id + " ");
+                progress.sampled = [&](const TableSpec& t) {
+                    return table_is_sampled(specs[k], t, set_settings[k].method);
+                };
                 written += generate_into(specs[k], *backend, set_settings[k], writer,
                                          progress.callback()).size();
                 progress.finish();
@@ -301,6 +304,7 @@ void register_scene(CLI::App& app) {
         }
         // Certificates: each table probed off-grid against the mapped model
         // (host/plan/certify.h), stored in the file and the manifest.
+        std::vector<std::string> failed_tables;  // certificates that missed their target
         if (!st.no_certify) {
             for (SceneTableSet& set : plan.sets) {
                 double last = 0;
@@ -313,13 +317,13 @@ void register_scene(CLI::App& app) {
                     st.budget > 0 && set.planned ? set.predicted_error : st.accuracy;
                 certify_table_set(set, out_path, *backend, target, progress);
                 for (const SceneTableSet::TableCertificate& c : set.certificates) {
-                    std::ostringstream line;
-                    line.precision(3);
-                    line << "  certified " << c.table << ": max total error " << c.max_error
-                         << (set.purpose == "albedo" ? " (absolute)" : " (relative)") << ", target "
-                         << c.target << ": " << (c.passed ? "passed" : "FAILED")
-                         << (c.how == "measured" ? "" : " (" + c.how + ")") << "\n";
-                    std::cout << line.str();
+                    // Digits enough to show a miss (0.0010013 against 0.001).
+                    const auto [max_text, target_text] = compared_text(c.max_error, c.target);
+                    std::cout << "  certified " << c.table << ": max total error " << max_text
+                              << (set.purpose == "albedo" ? " (absolute)" : " (relative)") << ", target "
+                              << target_text << ": " << (c.passed ? "passed" : "FAILED")
+                              << (c.how == "measured" ? "" : " (" + c.how + ")") << "\n";
+                    if (!c.passed) failed_tables.push_back(c.table);
                 }
             }
         }
@@ -327,6 +331,16 @@ void register_scene(CLI::App& app) {
                               scene_manifest(plan, st.scene, out_path).dump(2) + "\n");
         std::cout << "wrote " << out_path << " (" << written << " tables) and "
                   << manifest_path << "\n";
+        // As `certify` and `generate --accuracy`: the files stay written (the
+        // manifest records `passed`), the exit code is 1.
+        if (!failed_tables.empty()) {
+            std::string names;
+            for (const std::string& t : failed_tables) names += (names.empty() ? "" : ", ") + t;
+            throw Error(std::to_string(failed_tables.size()) + " certificate(s) missed the target (" + names +
+                        "); " + out_path + " and " + manifest_path +
+                        " were written with passed = false; plan the sets (without --no-plan), or leave the "
+                        "planner a margin with a smaller --accuracy");
+        }
     });
 }
 

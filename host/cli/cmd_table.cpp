@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <iostream>
 #include <memory>
+#include <optional>
 #include <sstream>
 
 #include "host/core/atomic_file.h"
@@ -14,6 +15,7 @@
 #include "host/core/error.h"
 #include "host/generate/validate.h"
 #include "host/io/point_file.h"
+#include "host/io/table_io.h"
 #include "host/lookup/lookup.h"
 #include "host/lookup/lookup_internal.h"
 #include "host/cli/plot_png.h"
@@ -75,6 +77,17 @@ std::vector<double> ordered_coords(const LookupTable& lt,
 
 // ---------------------------------------------------------------- query
 
+// "certified max total error 0.0253 absolute (cubic interpolation)": the
+// table's stored certificate, the error between nodes that the interpolated
+// stderr leaves out.
+std::string certified_error_text(const StoredCertificate& c) {
+    std::string s = "certified max total error " + sci_text(c.max_error) +
+                    (c.absolute ? " absolute" : " relative to max(|value|, " + sci_text(c.abs_floor) + ")") +
+                    " (" + c.interpolation + " interpolation";
+    if (!c.passed) s += "; missed its target " + sci_text(c.target);
+    return s + ")";
+}
+
 void run_query(const std::string& file, const std::string& table,
                const std::vector<std::string>& assignments, bool cubic, bool reject,
                const std::string& points_file, const std::string& output, bool json) {
@@ -88,6 +101,7 @@ void run_query(const std::string& file, const std::string& table,
     const LookupTable lt = LookupTable::open(file, table);
     const auto se_table = stderr_lookup(lt);
     const char* interp_name = cubic ? "cubic" : "linear";
+    const std::optional<StoredCertificate> certificate = read_stored_certificate(file, table);
 
     if (points_file.empty()) {
         const std::vector<double> c = ordered_coords(lt, fixed, "arguments");
@@ -98,13 +112,29 @@ void run_query(const std::string& file, const std::string& table,
                                 {"quantity", lt.quantity()}, {"value", v},
                                 {"units", lt.units()},      {"interpolation", interp_name}};
             if (se_table) j["stderr"] = se_table->eval(c, Interpolation::Linear, mode);
+            if (certificate)
+                j["certified_error"] = {{"max", certificate->max_error},
+                                        {"rms", certificate->rms_error},
+                                        {"measure", certificate->absolute ? "absolute" : "relative"},
+                                        {"abs_floor", certificate->abs_floor},
+                                        {"interpolation", certificate->interpolation},
+                                        {"target", certificate->target},
+                                        {"passed", certificate->passed}};
             std::cout << j.dump() << "\n";
         } else {
             std::cout << lt.table().name << " = " << fmt17(v);
             if (se_table)
                 std::cout << " ± " << format_short(se_table->eval(c, Interpolation::Linear, mode))
                           << " (stderr, interpolated)";
-            std::cout << " [" << lt.units() << "] (" << interp_name << ")\n";
+            std::cout << " [" << lt.units() << "] (" << interp_name << ")";
+            // The stderr is the integration noise at the nodes only: say what
+            // is known of the error between them.
+            if (certificate)
+                std::cout << "; " << certified_error_text(*certificate);
+            else if (se_table)
+                std::cout << "; no certificate: the interpolation error is not in the ± (`brdftab certify "
+                             "--store` measures it)";
+            std::cout << "\n";
         }
         return;
     }
@@ -302,6 +332,15 @@ void run_plot(const PlotArgs& pa) {
         std::vector<double> probe = base;
         for (std::size_t a : free) probe[a] = axes[a].min;
         lt.eval(probe, Interpolation::Linear, OutOfRange::Reject);
+    }
+    // The slice rule of `export`: a fixed axis between nodes is interpolated,
+    // and a note says so (with --cubic: Catmull-Rom, not linear weights).
+    for (std::size_t a = 0; a < axes.size(); ++a) {
+        if (!is_fixed[a] || axes[a].dependent()) continue;
+        std::string note = slice_note(axes[a], base[a], axis_position(axes[a], base[a]));
+        if (note.empty()) continue;
+        if (pa.cubic) note = note.substr(0, note.find(": values")) + ": values interpolated (Catmull-Rom, --cubic)";
+        std::cerr << "brdftab: note: " << note << "\n";
     }
     std::vector<std::string> free_names;
     for (std::size_t a : free) free_names.push_back(names[a]);

@@ -252,6 +252,56 @@ void Canvas::write_png(const std::string& path) const {
     out.commit();
 }
 
+void write_png_gray16(const std::string& path, int width, int height, const std::vector<std::uint16_t>& pixels,
+                      const std::vector<std::pair<std::string, std::string>>& text) {
+    if (width < 1 || height < 1 || pixels.size() != static_cast<std::size_t>(width) * height)
+        throw Error("write_png_gray16: " + std::to_string(pixels.size()) + " pixels for " + std::to_string(width) +
+                    " x " + std::to_string(height));
+    // PNG samples are big-endian.
+    std::vector<png_byte> bytes(pixels.size() * 2);
+    for (std::size_t i = 0; i < pixels.size(); ++i) {
+        bytes[2 * i] = static_cast<png_byte>(pixels[i] >> 8);
+        bytes[2 * i + 1] = static_cast<png_byte>(pixels[i] & 0xff);
+    }
+    std::vector<png_text> chunks(text.size());
+    for (std::size_t i = 0; i < text.size(); ++i) {
+        chunks[i] = png_text{};
+        chunks[i].compression = PNG_TEXT_COMPRESSION_NONE;
+        chunks[i].key = const_cast<char*>(text[i].first.c_str());
+        chunks[i].text = const_cast<char*>(text[i].second.c_str());
+        chunks[i].text_length = text[i].second.size();
+    }
+    AtomicOutput out(path);
+    const std::string& tmp = out.path();
+    FILE* f = std::fopen(tmp.c_str(), "wb");
+    if (!f) throw Error("cannot create '" + tmp + "'");
+    png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
+    png_infop info = png ? png_create_info_struct(png) : nullptr;
+    if (!png || !info) {
+        png_destroy_write_struct(&png, &info);
+        std::fclose(f);
+        throw Error("libpng: out of memory");
+    }
+    std::vector<png_bytep> rows(height);
+    for (int y = 0; y < height; ++y) rows[y] = &bytes[static_cast<std::size_t>(y) * width * 2];
+    volatile bool failed = false;  // survives the longjmp
+    if (setjmp(png_jmpbuf(png))) {
+        failed = true;
+    } else {
+        png_init_io(png, f);
+        png_set_IHDR(png, info, width, height, 16, PNG_COLOR_TYPE_GRAY, PNG_INTERLACE_NONE,
+                     PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
+        if (!chunks.empty()) png_set_text(png, info, chunks.data(), static_cast<int>(chunks.size()));
+        png_write_info(png, info);
+        png_write_image(png, rows.data());
+        png_write_end(png, nullptr);
+    }
+    png_destroy_write_struct(&png, &info);
+    const bool close_failed = std::fclose(f) != 0;
+    if (failed || close_failed) throw Error("cannot write PNG '" + tmp + "'");
+    out.commit();
+}
+
 Rgb colour_ramp(double t) {
     // Control points chosen for monotone lightness: dark indigo, violet, teal,
     // green, yellow.

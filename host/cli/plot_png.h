@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <functional>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace brdftab::cli {
@@ -49,6 +50,12 @@ private:
     int w_, h_;
     std::vector<std::uint8_t> rgb_;
 };
+
+// A 16-bit greyscale PNG (one sample per pixel, row 0 first) with tEXt
+// chunks (key, text; Latin-1 keys of 1-79 characters), written to a temporary
+// file and renamed over `path`.  Throws brdftab::Error.  Used by `export --png`.
+void write_png_gray16(const std::string& path, int width, int height, const std::vector<std::uint16_t>& pixels,
+                      const std::vector<std::pair<std::string, std::string>>& text);
 
 // Perceptually ordered colour ramp (dark blue -> teal -> yellow), t in [0, 1].
 Rgb colour_ramp(double t);

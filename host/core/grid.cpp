@@ -399,4 +399,40 @@ std::vector<double> Grid::point_at(const std::vector<double>& t) const {
     return x;
 }
 
+AxisPosition axis_position(const Axis& a, double x, double dep) {
+    const double span = std::fabs(a.max - a.min);
+    const double tol = 1e-9 * std::max({span, std::fabs(a.min), std::fabs(a.max), 1e-300});
+    if (!(x >= a.min - tol && x <= a.max + tol))
+        throw InputError(a.name + " = " + number_text(x, 6) + " is outside the axis [" + number_text(a.min, 6) +
+                         ", " + number_text(a.max, 6) + "]" + unit_suffix(a.unit));
+    AxisPosition p;
+    // Nodes as positions (a dependent axis stores t_k: its positions need dep).
+    const std::size_t n = a.count;
+    auto node_at = [&](std::size_t k) { return a.dependent() ? a.warp_at(a.values[k], dep) : a.values[k]; };
+    for (std::size_t k = 0; k < n; ++k) {
+        const double node = node_at(k);
+        if (std::fabs(node - x) <= 1e-9 * std::max({std::fabs(node), span, 1e-300})) {
+            p.node = k;
+            return p;
+        }
+    }
+    const double t = std::min(1.0, std::max(0.0, a.dependent() ? a.unwarp_at(x, dep) : a.unwarp(x)));
+    const double u = t * static_cast<double>(n - 1);
+    p.node = std::min(static_cast<std::size_t>(std::floor(u)), n - 2);
+    p.s = std::min(1.0, std::max(0.0, u - static_cast<double>(p.node)));
+    p.at_node = false;
+    return p;
+}
+
+std::string slice_note(const Axis& a, double x, const AxisPosition& p) {
+    if (p.at_node) return "";
+    const double lo = a.dependent() ? std::numeric_limits<double>::quiet_NaN() : a.values[p.node];
+    const double hi = a.dependent() ? std::numeric_limits<double>::quiet_NaN() : a.values[p.node + 1];
+    std::string s = a.name + " = " + number_text(x, 6) + unit_suffix(a.unit) + " is not a node; it lies between ";
+    s += a.dependent() ? "nodes " + std::to_string(p.node) + " and " + std::to_string(p.node + 1)
+                       : "the nodes " + number_text(lo, 6) + " and " + number_text(hi, 6);
+    return s + ": values interpolated linearly in the axis' warped coordinate (weights " +
+           number_text(1 - p.s, 3) + ", " + number_text(p.s, 3) + ")";
+}
+
 }  // namespace brdftab

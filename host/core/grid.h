@@ -77,6 +77,23 @@ struct Axis {
     double critical_position(double eta) const;
 };
 
+// Where a coordinate falls on an axis, for a slice fixed at it (`export
+// --slice`, `plot --slice`, docs/cli-table-commands.md "Slices"): at a node
+// (within 1e-9 of the larger of the node's magnitude and the axis span), or
+// between nodes `node` and `node + 1` at fraction `s` of the warped
+// coordinate t, the weights of the library's linear interpolation.  `dep`:
+// the value of the coordinate a dependent axis depends on (ignored
+// otherwise).  Throws InputError outside [min, max].
+struct AxisPosition {
+    std::size_t node = 0;
+    double s = 0;
+    bool at_node = true;
+};
+AxisPosition axis_position(const Axis& a, double x, double dep = 0);
+// "eta = 1.5 lies between the nodes 1.47 and 1.58: interpolated linearly
+// (weights 0.61, 0.39)"; empty at a node.  Node values with 6 digits.
+std::string slice_note(const Axis& a, double x, const AxisPosition& p);
+
 // Each side of a critical axis keeps at least this fraction of the width it
 // would have with the kink at its uniform place.  Small, so that the kink
 // stays on its node over a wide range of eta (with the kink node in the

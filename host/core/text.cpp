@@ -11,3 +11,11 @@ std::string number_text(double v, int digits) {
 }
 
 }  // namespace brdftab
+
+namespace brdftab {
+
+std::string unit_suffix(const std::string& unit) {
+    return unit.empty() || unit == "1" ? std::string() : " " + unit;
+}
+
+}  // namespace brdftab

@@ -10,4 +10,8 @@ namespace brdftab {
 // any double.
 std::string number_text(double v, int digits = 10);
 
+// " deg" after a number or range; "" for a pure number (unit "1" or none),
+// which would read as a count ("1 to 3 1").
+std::string unit_suffix(const std::string& unit);
+
 }  // namespace brdftab

@@ -39,33 +39,9 @@ namespace {
 std::string num(double v) { return number_text(v, 12); }
 
 std::string axis_label(const Axis& a) {
-    std::string unit = a.unit.empty() || a.unit == "1" ? "" : " " + a.unit;
+    const std::string unit = unit_suffix(a.unit);
     return a.name + " [" + num(a.min) + ", " + num(a.max) + "]" + unit + ", " +
            std::to_string(a.count) + " nodes, " + spacing_name(a.spacing);
-}
-
-// Index of the node equal to `v`.  "Equal" is within 1e-9 of the larger of
-// the node's magnitude and the axis span, so nodes at 0 can be matched too.
-std::size_t find_node(const Axis& a, double v) {
-    const double span = std::fabs(a.max - a.min);
-    for (std::size_t k = 0; k < a.values.size(); ++k) {
-        const double node = a.values[k];
-        if (std::fabs(node - v) <= 1e-9 * std::max({std::fabs(node), span, 1e-300})) return k;
-    }
-    // Not a node: name the bracketing nodes (or the end node when outside).
-    std::string near;
-    auto hi = std::lower_bound(a.values.begin(), a.values.end(), v);
-    if (hi == a.values.begin())
-        near = num(a.values.front());
-    else if (hi == a.values.end())
-        near = num(a.values.back());
-    else
-        near = num(*(hi - 1)) + " and " + num(*hi);
-    throw InputError("slice " + a.name + "=" + num(v) + " is not a node of axis '" + a.name +
-                     "' (" + num(a.min) + " to " + num(a.max) +
-                     (a.unit.empty() ? "" : " " + a.unit) + ", " + std::to_string(a.count) +
-                     " nodes); nearest node" + (near.find(" and ") != std::string::npos ? "s: " : ": ") +
-                     near);
 }
 
 std::string join_names(const std::vector<std::size_t>& idx, const std::vector<Axis>& axes) {
@@ -76,10 +52,9 @@ std::string join_names(const std::vector<std::size_t>& idx, const std::vector<Ax
 
 }  // namespace
 
-void export_exr_slice(const TableData& table, const std::string& out_path,
-                      const ExrExportOptions& options) {
+ImageSlice image_slice(const TableData& table, const ExrExportOptions& options) {
     const std::vector<Axis>& axes = table.axes;
-    const std::string where = "EXR export of table '" + table.name + "': ";
+    const std::string where = "export of table '" + table.name + "': ";
     // A 0-node axis has no node to slice at (and would make the table empty).
     for (const Axis& a : axes)
         if (a.count == 0) throw InputError(where + "axis '" + a.name + "' has no nodes");
@@ -105,15 +80,36 @@ void export_exr_slice(const TableData& table, const std::string& out_path,
         }
     }
 
-    // Fixed index per axis; free axes are those of count > 1 not in the slice.
+    // Fixed axes: at a node, or between two (interpolated; axis_position).
+    // Free axes are those of count > 1 not in the slice.
+    ImageSlice out;
     std::vector<std::size_t> index(axes.size(), 0);
-    std::vector<std::size_t> free_axes;
+    std::vector<std::size_t> free_axes, between;  // between: fixed axes off their nodes
+    std::vector<AxisPosition> position(axes.size());
     for (std::size_t i = 0; i < axes.size(); ++i) {
         auto it = options.slice.find(axes[i].name);
-        if (it != options.slice.end())
-            index[i] = find_node(axes[i], it->second);
-        else if (axes[i].count > 1)
-            free_axes.push_back(i);
+        if (it == options.slice.end()) {
+            if (axes[i].count > 1) free_axes.push_back(i);
+            continue;
+        }
+        double dep = 0;
+        if (axes[i].dependent()) {
+            auto d = options.slice.find(axes[i].depends_on);
+            if (d == options.slice.end())
+                throw InputError(where + "--slice " + axes[i].name + " needs --slice " + axes[i].depends_on +
+                                 " too (the nodes of '" + axes[i].name + "' move with it)");
+            dep = d->second;
+        }
+        try {
+            position[i] = axis_position(axes[i], it->second, dep);
+        } catch (const InputError& e) {
+            throw InputError(where + "--slice " + e.what());
+        }
+        index[i] = position[i].node;
+        if (!position[i].at_node) {
+            between.push_back(i);
+            out.notes.push_back(slice_note(axes[i], it->second, position[i]));
+        }
     }
     const std::size_t want = options.layers ? 3 : 2;
     if (free_axes.size() != want) {
@@ -163,6 +159,68 @@ void export_exr_slice(const TableData& table, const std::string& out_path,
                              table.stderr_.size() == table.value.size();
     const std::size_t npix = static_cast<std::size_t>(width) * static_cast<std::size_t>(height);
     const std::size_t nlayers = al < axes.size() ? axes[al].count : 1;
+    out.x_axis = ax;
+    out.y_axis = ay;
+    out.layer_axis = al;
+    out.width = width;
+    out.height = height;
+    out.has_stderr = have_stderr;
+    for (std::size_t layer = 0; layer < nlayers; ++layer) {
+        if (al < axes.size()) index[al] = layer;
+        ImageSlice::Layer L;
+        L.value.assign(npix, 0.0);
+        L.stderr_.assign(npix, 0.0);
+        // Gather the slice (y rows, x fastest): each pixel the sum over the
+        // 2^m corners of the m fixed axes between nodes, with the linear
+        // weights (one corner of weight 1 when every fixed axis is at a node).
+        const std::size_t corners = std::size_t(1) << between.size();
+        for (int y = 0; y < height; ++y)
+            for (int x = 0; x < width; ++x) {
+                index[ay] = static_cast<std::size_t>(y);
+                index[ax] = static_cast<std::size_t>(x);
+                const std::size_t p = static_cast<std::size_t>(y) * width + x;
+                double v = 0, e = 0;
+                for (std::size_t corner = 0; corner < corners; ++corner) {
+                    std::vector<std::size_t> at = index;
+                    double w = 1;
+                    for (std::size_t j = 0; j < between.size(); ++j) {
+                        const bool upper = (corner >> j) & 1;
+                        at[between[j]] = position[between[j]].node + (upper ? 1 : 0);
+                        w *= upper ? position[between[j]].s : 1 - position[between[j]].s;
+                    }
+                    if (w == 0 && corners > 1) continue;
+                    const std::size_t c = table.flat_index(at);
+                    v += w * table.value[c];
+                    if (have_stderr) e += w * table.stderr_[c];
+                    if (green) e += w * green->value[c];
+                }
+                L.value[p] = v;
+                // The second channel: the stderr, or the green table's values.
+                if (have_stderr || green) L.stderr_[p] = e;
+            }
+        for (std::size_t i = 0; i < axes.size(); ++i) {
+            if (i == ax || i == ay) continue;
+            const bool interpolated = std::find(between.begin(), between.end(), i) != between.end();
+            const double v = interpolated ? options.slice.at(axes[i].name) : axes[i].values[index[i]];
+            L.slice += (L.slice.empty() ? "" : ", ") + axes[i].name + "=" + num(v) + unit_suffix(axes[i].unit) +
+                       (interpolated ? " (interpolated)" : "");
+        }
+        if (al < axes.size()) L.name = axes[al].name + "=" + num(axes[al].values[layer]);
+        out.layers.push_back(std::move(L));
+    }
+    return out;
+}
+
+std::vector<std::string> export_exr_slice(const TableData& table, const std::string& out_path,
+                                          const ExrExportOptions& options) {
+    const ImageSlice slice = image_slice(table, options);
+    const std::vector<Axis>& axes = table.axes;
+    const std::size_t ax = slice.x_axis, ay = slice.y_axis, al = slice.layer_axis;
+    const int width = slice.width, height = slice.height;
+    const bool have_stderr = slice.has_stderr;
+    const TableData* green = options.green;
+    const std::size_t npix = static_cast<std::size_t>(width) * static_cast<std::size_t>(height);
+    const std::size_t nlayers = slice.layers.size();
     const Imf::PixelType pt = options.half ? Imf::HALF : Imf::FLOAT;
 
     // One part per layer: its header and pixel data (float or half).
@@ -173,31 +231,14 @@ void export_exr_slice(const TableData& table, const std::string& out_path,
     std::vector<Imf::Header> headers;
     std::vector<Part> parts(nlayers);
     for (std::size_t layer = 0; layer < nlayers; ++layer) {
-        if (al < axes.size()) index[al] = layer;
-        // Gather the slice (y rows, x fastest) in double first.
-        std::vector<double> r(npix), g(npix, 0.0);
-        for (int y = 0; y < height; ++y)
-            for (int x = 0; x < width; ++x) {
-                index[ay] = static_cast<std::size_t>(y);
-                index[ax] = static_cast<std::size_t>(x);
-                const std::size_t c = table.flat_index(index);
-                const std::size_t p = static_cast<std::size_t>(y) * width + x;
-                r[p] = table.value[c];
-                if (have_stderr) g[p] = table.stderr_[c];
-                if (green) g[p] = green->value[c];
-            }
+        const std::vector<double>& r = slice.layers[layer].value;
+        const std::vector<double>& g = slice.layers[layer].stderr_;
 
         Imf::Header header(width, height);
         header.compression() = Imf::ZIP_COMPRESSION;
         for (const char* ch : {"R", "G", "B", "A"}) header.channels().insert(ch, Imf::Channel(pt));
 
-        std::string slice_desc;
-        for (std::size_t i = 0; i < axes.size(); ++i) {
-            if (i == ax || i == ay) continue;
-            slice_desc += (slice_desc.empty() ? "" : ", ") + axes[i].name + "=" +
-                          num(axes[i].values[index[i]]) +
-                          (axes[i].unit.empty() || axes[i].unit == "1" ? "" : " " + axes[i].unit);
-        }
+        const std::string& slice_desc = slice.layers[layer].slice;
         auto put = [&](const char* key, const std::string& v) {
             header.insert(key, Imf::StringAttribute(v));
         };
@@ -214,7 +255,7 @@ void export_exr_slice(const TableData& table, const std::string& out_path,
         put("brdftab_version", BRDFTAB_VERSION);
         if (al < axes.size()) {
             put("brdftab_layer_axis", axis_label(axes[al]));
-            header.setName(axes[al].name + "=" + num(axes[al].values[layer]));
+            header.setName(slice.layers[layer].name);
             header.setType(Imf::SCANLINEIMAGE);
         }
         headers.push_back(header);
@@ -222,7 +263,7 @@ void export_exr_slice(const TableData& table, const std::string& out_path,
         // The frame-buffer slice type must equal the channel type, so HALF
         // channels get half data converted here (round to nearest via float).
         Part& part = parts[layer];
-        const std::vector<double>* src[4] = {&r, &g, nullptr, nullptr};
+        const std::vector<double>* src[4] = {&r, have_stderr || green ? &g : nullptr, nullptr, nullptr};
         for (int ch = 0; ch < 4; ++ch) {
             if (options.half) {
                 part.h[ch].assign(npix, Imath::half(ch == 3 ? 1.0f : 0.0f));
@@ -268,6 +309,7 @@ void export_exr_slice(const TableData& table, const std::string& out_path,
         throw Error("cannot write EXR '" + out_path + "': " + e.what());
     }
     tmp.commit();
+    return slice.notes;
 }
 
 }  // namespace brdftab

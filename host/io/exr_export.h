@@ -3,15 +3,18 @@
 
 #include <map>
 #include <string>
+#include <vector>
 
 #include "host/core/table.h"
 
 namespace brdftab {
 
 struct ExrExportOptions {
-    // Fixed values for every axis except two; each value must be one of the
-    // axis' nodes (within 1e-9 relative) or an InputError names the nearest.
-    // Axes of size 1 need no entry.
+    // Fixed values for every axis except two, within each axis' range.  A
+    // value at a node (axis_position, host/core/grid.h) takes that node's
+    // values; one between nodes is interpolated linearly in the axis' warped
+    // coordinate (values and stderr, the weights of the library's linear
+    // lookup), and ImageSlice::notes says so.  Axes of size 1 need no entry.
     std::map<std::string, double> slice;
     bool half = false;        // HALF channels instead of FLOAT
     bool with_stderr = true;  // G channel = stderr when the table has it
@@ -33,7 +36,25 @@ struct ExrExportOptions {
 // free axis (parts in node order, each part's name "axis=value").  Channels: R = value, G = stderr (or
 // 0), B = 0, A = 1, so every loader reads it.  Axis names and ranges go into
 // string attributes.  Written to a temporary file, then renamed.
-void export_exr_slice(const TableData& table, const std::string& out_path,
-                      const ExrExportOptions& options);
+// Returns the notes of ImageSlice (one per fixed axis between nodes).
+std::vector<std::string> export_exr_slice(const TableData& table, const std::string& out_path,
+                                          const ExrExportOptions& options);
+
+// The image(s) export_exr_slice writes, before any file format: also the
+// source of `export --png`.  Throws InputError as export_exr_slice.
+struct ImageSlice {
+    std::size_t x_axis = 0, y_axis = 0;
+    std::size_t layer_axis = 0;  // == the axis count: no layers
+    int width = 0, height = 0;
+    bool has_stderr = false;
+    struct Layer {
+        std::vector<double> value, stderr_;  // y rows (row 0 = first node), x fastest
+        std::string slice;                   // "eta=1.5 (interpolated), ..." (the fixed axes)
+        std::string name;                    // "axis=value" of a layer; empty without layers
+    };
+    std::vector<Layer> layers;
+    std::vector<std::string> notes;  // slice_note() of each fixed axis between nodes
+};
+ImageSlice image_slice(const TableData& table, const ExrExportOptions& options);
 
 }  // namespace brdftab

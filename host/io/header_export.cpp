@@ -17,6 +17,7 @@
 
 #include "host/core/atomic_file.h"
 #include "host/core/error.h"
+#include "host/core/text.h"
 #include "host/io/half_float.h"
 
 #ifndef BRDFTAB_VERSION
@@ -236,6 +237,30 @@ void export_c_header(const TableData& table, const std::string& out_path,
          "     NaN in, NaN out.  No folding of periodic axes: pass phi_d in the axis range.\n"
          "   Values: " + id + "_values, row-major, last axis fastest; storage: " + storage +
          ";\n   " + error_note + "\n";
+    // What is known of the table's own error (the storage error above comes
+    // on top): the certificate's total error between nodes, and the stored
+    // stderr, which is integration noise at the nodes only.
+    {
+        double max_stderr = 0;
+        const bool has_stderr = table.stderr_.size() == table.value.size() && !table.stderr_.empty();
+        for (double e : table.stderr_) max_stderr = std::max(max_stderr, std::fabs(e));
+        std::string a = "   Accuracy: ";
+        if (options.certificate) {
+            const StoredCertificate& c = *options.certificate;
+            a += "certified max total error " + number_text(c.max_error, 3) + " (RMS " + number_text(c.rms_error, 3) +
+                 ", " + (c.absolute ? std::string("absolute") : "relative to max(|value|, " + number_text(c.abs_floor, 3) + ")") +
+                 ", " + c.interpolation + " interpolation" + (c.passed ? "" : "; it missed its target " + number_text(c.target, 3)) +
+                 "):\n   the error between nodes, measured off-grid against the model" +
+                 (c.interpolation == "linear" ? "." : "; this header interpolates linearly, so its\n   error between nodes differs.");
+        } else {
+            a += "no certificate stored: the error between nodes was not measured\n   (`brdftab certify FILE --table " +
+                 comment_text(table.name) + " --accuracy E --store` measures it).";
+        }
+        if (has_stderr)
+            a += "\n   Stored stderr up to " + number_text(max_stderr, 3) +
+                 " (not in this header): the integration noise at the nodes only.";
+        h += a + "\n";
+    }
     h += "   Needs only <math.h> (link with -lm), <stddef.h> and <stdint.h>. */\n";
     h += "#ifndef " + guard + "\n#define " + guard + "\n\n";
     h += "#include <math.h>\n#include <stddef.h>\n#include <stdint.h>\n\n";

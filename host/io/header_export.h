@@ -6,9 +6,11 @@
 // library, only <math.h> (and <stdint.h> for 16-bit types).
 #pragma once
 
+#include <optional>
 #include <string>
 
 #include "host/core/table.h"
+#include "host/io/table_io.h"
 
 namespace brdftab {
 
@@ -31,6 +33,10 @@ struct HeaderExportOptions {
     std::string name;
     HeaderValueType type = HeaderValueType::Float;
     std::string source;  // e.g. the input file name, written in the comment
+    // The table's stored certificate (read_stored_certificate), stated in
+    // the comment with the stored stderr; nullopt: the comment says the
+    // error between nodes was not measured.
+    std::optional<StoredCertificate> certificate;
 };
 
 // The identifier prefix the header will use for `table` under `options`

@@ -85,13 +85,13 @@ MerlExportReport export_merl(const LookupTable& table, const std::string& out_pa
         const bool normal = mu ? a.max >= 1 - 1e-12 : a.min * scale <= 1e-12;
         if (!normal)
             throw InputError(where + "axis '" + a.name + "' covers [" + num(a.min) + ", " +
-                             num(a.max) + "] " + a.unit +
+                             num(a.max) + "]" + unit_suffix(a.unit) +
                              "; a MERL file holds reflection of light from outside, so the "
                              "table must start at normal incidence");
         const double grazing = mu ? a.min : a.max * scale - kPi / 2;
         if (grazing > 1e-12)
             report.notes.push_back("axis '" + a.name + "' stops at " +
-                                   num(mu ? a.min : a.max) + " " + a.unit +
+                                   num(mu ? a.min : a.max) + unit_suffix(a.unit) +
                                    " before grazing; directions beyond it use the value at its "
                                    "last node (clamped)");
     }

@@ -841,6 +841,25 @@ nlohmann::json read_file_attributes(const std::string& path) {
     return TableReader(path).file_attributes();
 }
 
+std::optional<StoredCertificate> read_stored_certificate(const std::string& path, const std::string& table) {
+    const TableReader reader(path);
+    const std::vector<std::string> names = reader.table_names();
+    if (std::find(names.begin(), names.end(), table) == names.end())
+        throw InputError(path + ": no table '" + table + "'");
+    Handle group(H5Gopen2(static_cast<hid_t>(reader.hdf5_file()), table.c_str(), H5P_DEFAULT), H5Gclose,
+                 "H5Gopen2", path + ": " + table);
+    if (!has_attr(group, "certificate_max_error")) return std::nullopt;
+    StoredCertificate c;
+    c.max_error = read_double_attr(group, "certificate_max_error");
+    c.rms_error = read_double_attr(group, "certificate_rms_error");
+    c.target = read_double_attr(group, "certificate_target");
+    c.absolute = read_string_attr(group, "certificate_measure") == "absolute";
+    c.abs_floor = read_double_attr(group, "certificate_abs_floor");
+    c.interpolation = read_string_attr(group, "certificate_interpolation");
+    c.passed = read_u64_attr(group, "certificate_passed") != 0;
+    return c;
+}
+
 // ------------------------------------------------------- streaming writer --
 
 struct TableFileWriter::Impl {

@@ -7,6 +7,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -104,5 +105,17 @@ TableData read_table(const std::string& path, const std::string& name);
 
 // File-level attributes (brdftab version, spec text, creation time) as JSON.
 nlohmann::json read_file_attributes(const std::string& path);
+
+// The certificate stored with a table (attributes certificate_*, written by
+// `generate --accuracy`, `certify --store` and `scene`; docs/format.md): its
+// measured max and RMS total error between nodes, in its measure (absolute,
+// or relative to max(|value|, abs_floor)), for its interpolation.  nullopt:
+// the table has none.  Throws InputError as read_table.
+struct StoredCertificate {
+    double max_error = 0, rms_error = 0, target = 0, abs_floor = 0;
+    bool absolute = false, passed = false;
+    std::string interpolation;  // "linear" | "cubic"
+};
+std::optional<StoredCertificate> read_stored_certificate(const std::string& path, const std::string& table);
 
 }  // namespace brdftab

@@ -18,8 +18,7 @@ std::string fmt_num(double v) { return number_text(v, 10); }
 
 std::string range_text(const Axis& a) {
     std::string r = "[" + fmt_num(a.min) + ", " + fmt_num(a.max) + "]";
-    if (!a.unit.empty()) r += " " + a.unit;
-    return r;
+    return r + unit_suffix(a.unit);
 }
 
 // Validate a coordinate against its axis and apply the out-of-range policy.

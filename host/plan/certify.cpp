@@ -1005,6 +1005,39 @@ void correct_error_model(std::vector<TablePilot>& pilots, const PlanTarget& targ
     }
 }
 
+double plan_cells(const Candidate& plan) {
+    double cells = 0;
+    for (const TablePlan& t : plan.tables) {
+        double n = 1;
+        for (std::size_t c : t.counts) n *= static_cast<double>(c);
+        cells += n;
+    }
+    return cells;
+}
+
+double spec_table_cells(const Spec& spec) {
+    double cells = 0;
+    for (const TableSpec& t : spec.tables) {
+        double n = 1;
+        for (const Axis& a : t.axes) n *= static_cast<double>(a.count);
+        cells += n;
+    }
+    return cells;
+}
+
+std::string excessive_plan_cost(const Candidate& plan, const Spec& spec, const PlanCostLimits& limits) {
+    std::string why;
+    if (plan.seconds > limits.max_seconds)
+        why = "predicted time " + sci(plan.seconds) + " s, above " + number_text(limits.max_seconds, 6) + " s";
+    const double cells = plan_cells(plan), own = spec_table_cells(spec);
+    if (own > 0 && cells > limits.max_cell_factor * own && cells > limits.min_cells)
+        why += (why.empty() ? "" : "; ") + number_text(cells, 6) + " cells, " +
+               number_text(std::floor(cells / own), 6) + "x the spec's own " + number_text(own, 6) +
+               " (above " + number_text(limits.max_cell_factor, 6) + "x and " + number_text(limits.min_cells, 6) +
+               " cells)";
+    return why;
+}
+
 CertifiedResult certified_generate(const Spec& spec, Backend& backend, const CertifiedGenerateOptions& options,
                                    const std::string& path, const GenerateToFn& generate,
                                    const CertifyProgressFn& progress) {
@@ -1093,6 +1126,16 @@ CertifiedResult certified_generate(const Spec& spec, Backend& backend, const Cer
             }
             plan = repredict(plan, result.pilots, target, counts);
         }
+        // The caller sees every plan before it costs anything (approve_plan).
+        auto approved = [&](const Candidate& c) {
+            if (!options.approve_plan || options.approve_plan(c, front, round)) return true;
+            if (round == 0)
+                throw InputError("the planned generation was not started: " + excessive_plan_cost(c, spec));
+            result.stop = "cost";
+            say("refine", round, "refinement not started: its plan was refused (" + excessive_plan_cost(c, spec) + ")");
+            return false;
+        };
+        if (!approved(plan)) break;
         if (round == 0 && options.verify && target.accuracy) {
             // Verify the first plan before generating it (docs/planning.md
             // "Verified plans"): a missed E corrects the model as a failed
@@ -1130,6 +1173,7 @@ CertifiedResult certified_generate(const Spec& spec, Backend& backend, const Cer
                     break;
                 }
                 plan = again[*pick];
+                if (!approved(plan)) break;
             }
         }
         CertifiedRound rnd;
@@ -1176,8 +1220,14 @@ CertifiedResult certified_generate(const Spec& spec, Backend& backend, const Cer
             c.predicted_max = plan.tables[i].error_max;
             c.predicted_rms = plan.tables[i].error_rms;
             rnd.passed = rnd.passed && c.passed;
-            say("certify", round, "certificate '" + c.table + "': max " + sci(c.max_error) + ", RMS " +
-                                      sci(c.rms_error) + " (" + measure + ", target " + sci(c.target) + "): " +
+            // Digits enough for the max and the target to differ when they do.
+            std::string max_text = sci(c.max_error), target_text = sci(c.target);
+            for (int digits = 3; max_text == target_text && c.max_error != c.target && digits <= 17; ++digits) {
+                max_text = number_text(c.max_error, digits);
+                target_text = number_text(c.target, digits);
+            }
+            say("certify", round, "certificate '" + c.table + "': max " + max_text + ", RMS " +
+                                      sci(c.rms_error) + " (" + measure + ", target " + target_text + "): " +
                                       (c.passed ? "passed" : "FAILED"));
             rnd.certificates.push_back(std::move(c));
         }

@@ -279,7 +279,31 @@ struct CertifiedGenerateOptions {
     // The settings `generate` computes the planned spec with (null: its
     // [integration] as written).
     std::function<IntegrationSettings(const Spec&)> verify_settings;
+    // Called with each round's plan before anything of it is computed (in
+    // round 0 before the verification too, and again should the verification
+    // change the plan), with the Pareto front it was chosen from (sorted by
+    // predicted time).  Returning false stops the loop: in round 0 nothing is
+    // generated and certified_generate() throws InputError with `why`; in a
+    // refinement round the last generated round stands (stop = "cost").  The
+    // caller may throw instead.  Null: every plan is accepted.
+    std::function<bool(const Candidate& plan, const std::vector<Candidate>& front, int round)> approve_plan;
 };
+
+// Whether a plan's predicted cost is beyond what a run without an explicit
+// budget should start (`generate --accuracy` asks for --yes or --budget):
+// predicted time above max_seconds, or more cells than max_cell_factor x the
+// spec's own tables and than min_cells (a small spec may grow 100x at no
+// cost; the cell count guards against a time prediction that is off).
+// Returns the reasons, in words ("" when neither holds).
+struct PlanCostLimits {
+    double max_seconds = 600;
+    double max_cell_factor = 100;
+    double min_cells = 1e6;
+};
+std::string excessive_plan_cost(const Candidate& plan, const Spec& spec, const PlanCostLimits& limits = {});
+// Cells of every table of a plan, and of the spec's [[tables]] as written.
+double plan_cells(const Candidate& plan);
+double spec_table_cells(const Spec& spec);
 
 struct CertifyEvent {
     std::string stage;   // "pilot", "plan", "generate", "certify", "refine"
@@ -308,7 +332,8 @@ struct CertifiedResult {
     std::vector<CertifiedRound> rounds;  // the last one is what `path` holds
     bool passed = false;
     // Why the loop ended: "passed", "max-refinements", "no-plan" (the corrected
-    // model predicts no plan reaching E), "budget" (budget mode: no refinement).
+    // model predicts no plan reaching E), "budget" (budget mode: no refinement),
+    // "cost" (approve_plan refused a refinement round's plan).
     std::string stop;
     double pilot_seconds = 0, total_seconds = 0;
 };

@@ -13,6 +13,7 @@ bound to fixed parameters with direction vectors.  Reference: docs/python.md.
     wo, weight, pdf = bsdf.sample(wi, u)
 """
 
+import warnings
 from collections.abc import Mapping
 
 import numpy as np
@@ -31,6 +32,20 @@ def _rows(coords, order, names):
     columns = [arrays[i].reshape(-1) for i in order]
     rows = np.ascontiguousarray(np.stack(columns, axis=1)) if columns else np.zeros((1, 0))
     return rows, shape
+
+
+def _warn_clamped(clamped, points):
+    """One RuntimeWarning per call for the coordinates the lookup clamped
+    (as `brdftab query` warns; out_of_range="reject" makes them an error)."""
+    if not clamped:
+        return
+    parts = []
+    for name, count, first, lo, hi in clamped:
+        where = "" if points == 1 else f" at {count} of {points} points (first {first:g})"
+        value = f" = {first:g}" if points == 1 else ""
+        parts.append(f"{name}{value} is outside [{lo:g}, {hi:g}]{where}")
+    warnings.warn("; ".join(parts) + ", clamped (out_of_range='reject' makes this an error)",
+                  RuntimeWarning, stacklevel=4)
 
 
 def _shaped(values, shape):
@@ -74,6 +89,10 @@ class Table:
                       doc="stored values, a read-only numpy view (no copy), shape of the axes")
     stderr = property(lambda self: self._t.stderr,
                       doc="stored standard errors (read-only view) or None")
+    certificate = property(lambda self: self._t.certificate,
+                           doc="the stored certificate (dict: max_error, rms_error, measure, "
+                               "abs_floor, interpolation, target, passed) or None: the measured "
+                               "total error between nodes, which the stored stderr leaves out")
 
     @property
     def recombination(self):
@@ -82,7 +101,16 @@ class Table:
 
     def __repr__(self):
         axes = ", ".join(f"{a.name}[{a.count}]" for a in self.axes)
-        return f"<brdftab.Table '{self.name}': {self.model} / {self.quantity} [{self.units}], {axes}>"
+        c = self.certificate
+        if c is not None:
+            accuracy = (f"; certified max total error {c['max_error']:.3g} {c['measure']} "
+                        f"({c['interpolation']} interpolation)")
+        elif self._t.has_stderr:
+            accuracy = "; no certificate: the stored stderr leaves out the interpolation error"
+        else:
+            accuracy = ""
+        return (f"<brdftab.Table '{self.name}': {self.model} / {self.quantity} [{self.units}], "
+                f"{axes}{accuracy}>")
 
     # --- interpolation --------------------------------------------------
     def _eval(self, coords, interpolation, out_of_range, of_stderr):
@@ -90,25 +118,38 @@ class Table:
         order = self._t._order(names)
         rows, shape = _rows(coords, order, names)
         fn = self._t._eval_stderr_rows if of_stderr else self._t._eval_rows
-        return _shaped(fn(rows, interpolation, out_of_range), shape)
+        values = _shaped(fn(rows, interpolation, out_of_range), shape)
+        if out_of_range == "clamp":
+            _warn_clamped(self._t._clamped(rows), rows.shape[0])
+        return values
 
     def eval(self, interpolation="linear", out_of_range="clamp", **coords):
         """Interpolated value(s). interpolation: 'linear' (multilinear) or
         'cubic' (Catmull-Rom), in each axis' warped coordinate;
-        out_of_range: 'clamp' or 'reject' (InputError naming the axis and its
+        out_of_range: 'clamp' (a RuntimeWarning, once per call, names the
+        clamped coordinates) or 'reject' (InputError naming the axis and its
         range).  A float when every coordinate is a number, else an array of
         the broadcast shape."""
         return self._eval(coords, interpolation, out_of_range, False)
 
     def eval_stderr(self, interpolation="linear", out_of_range="clamp", **coords):
         """The stored standard error, interpolated like eval() (as
-        `brdftab query` prints it).  InputError when the table stores none."""
+        `brdftab query` prints it): the integration noise at the nodes, not
+        the error between them (see ``certificate``).  InputError when the
+        table stores none."""
         return self._eval(coords, interpolation, out_of_range, True)
 
     def bind(self, interpolation="linear", out_of_range="clamp", **params):
         """Fix every non-angle coordinate; returns a BoundTable over direction
-        pairs (isotropic tables with theta_i|mu_i, theta_o|mu_o, optional phi_d)."""
-        return BoundTable(self, self._t._bind(params, interpolation, out_of_range), params)
+        pairs (isotropic tables with theta_i|mu_i, theta_o|mu_o, optional phi_d).
+        A clamped parameter warns (RuntimeWarning) as eval() does."""
+        bound = BoundTable(self, self._t._bind(params, interpolation, out_of_range), params)
+        if out_of_range == "clamp":
+            clamped = [(a.name, 1, float(params[a.name]), a.min, a.max) for a in self.axes
+                       if a.name in params and not
+                       (a.min - 1e-9 * (a.max - a.min) <= float(params[a.name]) <= a.max + 1e-9 * (a.max - a.min))]
+            _warn_clamped(clamped, 1)
+        return bound
 
 
 class BoundTable:

@@ -24,6 +24,7 @@
 #include "host/core/vocabulary.h"
 #include "host/io/table_io.h"
 #include "host/lookup/lookup.h"
+#include "host/lookup/lookup_internal.h"
 
 namespace py = pybind11;
 using namespace brdftab;
@@ -233,6 +234,44 @@ PYBIND11_MODULE(_brdftab, m) {
                      order.push_back(std::size_t(k));
                  return order;
              })
+        .def("_clamped",
+             [](const PyTable& t, const py::array& points) {
+                 // Per axis whose coordinates the lookup clamps: (name, how
+                 // many points, the first such value, min, max); phi_d is
+                 // folded or wrapped first, as `brdftab query` warns.
+                 const auto& axes = t.lookup->axes();
+                 const DoubleArray rows = rows_of(points, t.lookup->coordinate_names().size(), "coordinates");
+                 const std::size_t n = std::size_t(rows.shape(0)), width = std::size_t(rows.shape(1));
+                 py::list out;
+                 for (std::size_t a = 0; a < axes.size() && a < width; ++a) {
+                     const double tol = 1e-9 * (axes[a].max - axes[a].min);
+                     std::size_t count = 0;
+                     double first = 0;
+                     for (std::size_t i = 0; i < n; ++i) {
+                         const double given = rows.data()[i * width + a];
+                         const double x = lookup_internal::fold_periodic(axes[a], given);
+                         if (x < axes[a].min - tol || x > axes[a].max + tol) {
+                             if (count++ == 0) first = given;
+                         }
+                     }
+                     if (count) out.append(py::make_tuple(axes[a].name, count, first, axes[a].min, axes[a].max));
+                 }
+                 return out;
+             })
+        .def_property_readonly("certificate",
+                               [](const PyTable& t) -> py::object {
+                                   const auto c = read_stored_certificate(t.path, t.lookup->table().name);
+                                   if (!c) return py::none();
+                                   py::dict d;
+                                   d["max_error"] = c->max_error;
+                                   d["rms_error"] = c->rms_error;
+                                   d["measure"] = c->absolute ? "absolute" : "relative";
+                                   d["abs_floor"] = c->abs_floor;
+                                   d["interpolation"] = c->interpolation;
+                                   d["target"] = c->target;
+                                   d["passed"] = c->passed;
+                                   return std::move(d);
+                               })
         .def("_bind",
              [](const PyTable& t, const std::map<std::string, double>& params,
                 const std::string& interp, const std::string& mode) {

@@ -213,3 +213,53 @@ def test_to_xarray(oren_nayar):
     np.testing.assert_array_equal(da.values, table.values)
     np.testing.assert_array_equal(da.coords["theta_o"].values, table.axes[1].values)
     assert da.attrs["units"] == table.units
+
+
+# ---- clamping warns, as `brdftab query` does; "reject" still raises.
+
+def test_clamped_coordinates_warn_once_per_call(rough_dielectric):
+    import warnings
+    t = brdftab.open(rough_dielectric).tables["bsdf"]
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        t.eval(mu_i=0.5, theta_o=30, phi_d=90, alpha=0.5)           # inside: no warning
+        assert caught == []
+        t.eval(mu_i=0.5, theta_o=30, phi_d=90, alpha=0.9)           # alpha above [0.2, 0.8]
+        t.eval(mu_i=[0.5, 0.6, 0.7], theta_o=30, phi_d=90, alpha=[0.1, 0.5, 0.9])
+        t.eval(mu_i=0.5, theta_o=30, phi_d=-90, alpha=0.5)          # phi_d folds: not clamped
+    assert len(caught) == 2, [str(w.message) for w in caught]
+    assert all(issubclass(w.category, RuntimeWarning) for w in caught)
+    assert "alpha = 0.9 is outside [0.2, 0.8]" in str(caught[0].message)
+    assert "clamped (out_of_range='reject'" in str(caught[0].message)
+    assert "alpha is outside [0.2, 0.8] at 2 of 3 points (first 0.1)" in str(caught[1].message)
+    # The clamped value is the edge's.
+    assert t.eval(mu_i=0.5, theta_o=30, phi_d=90, alpha=0.9) == t.eval(mu_i=0.5, theta_o=30, phi_d=90, alpha=0.8)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        with pytest.raises(brdftab.InputError, match="alpha"):
+            t.eval(mu_i=0.5, theta_o=30, phi_d=90, alpha=0.9, out_of_range="reject")
+        t.bind(alpha=0.95)
+    assert len(caught) == 1 and "alpha = 0.95 is outside" in str(caught[0].message)
+
+
+# ---- the certificate: the error between nodes, next to the stored stderr.
+
+def test_certificate_read_as_stored(tables, oren_nayar):
+    import h5py
+    t = brdftab.open(oren_nayar).tables["brdf_direct"]
+    assert t.certificate is None
+    assert "no certificate" in repr(t)
+    certified = tables.directory / "certified.h5"
+    certified.write_bytes(open(oren_nayar, "rb").read())
+    r = tables.run("certify", certified, "--table", "brdf_direct", "--accuracy", "1", "--store", "-q",
+                   check=False)
+    assert r.returncode == 0, r.stderr
+    c = brdftab.open(certified).tables["brdf_direct"].certificate
+    with h5py.File(certified, "r") as f:   # an independent reader of the attributes
+        g = f["brdf_direct"]
+        assert c["max_error"] == g.attrs["certificate_max_error"]
+        assert c["rms_error"] == g.attrs["certificate_rms_error"]
+        assert c["target"] == 1 and c["passed"] is True
+        assert c["measure"] == "relative" and c["interpolation"] == "linear"
+    assert f"certified max total error {c['max_error']:.3g} relative" in repr(
+        brdftab.open(certified).tables["brdf_direct"])
