@@ -215,6 +215,7 @@ struct GenerateArgs {
     bool absolute = false;
     std::string interpolation;  // empty: linear (and not given)
     std::optional<int> max_refinements;
+    bool full_precision = false;  // --accuracy: no rounded storage
     bool certified() const { return accuracy || budget; }
 };
 
@@ -432,6 +433,7 @@ void run_certified_generate(const GenerateArgs& st) {
     options.target = target;
     options.pilot.abs_floor = st.compute.abs_floor > 0 ? st.compute.abs_floor : 0;
     options.max_refinements = max_refinements;
+    options.round_storage = !st.full_precision;
     options.spec_label = st.spec_path;
     options.verify_settings = [&st](const Spec& planned) { return st.compute.apply(planned.integration); };
 
@@ -692,6 +694,10 @@ void register_generate(CLI::App& app) {
     cmd->add_option("--max-refinements", state->max_refinements,
                     "with --accuracy: refinement rounds after the first certificate (default 2; 0: "
                     "certify only)");
+    cmd->add_flag("--full-precision", state->full_precision,
+                  "with --accuracy: keep every mantissa bit of the stored type (default: the values "
+                  "keep only the bits E needs, rounding error <= 0.1 E, measured by the "
+                  "certificate; docs/spec.md, round_to_accuracy)");
     state->compute.add_to(*cmd);
     cmd->callback([state] {
         if (state->certified()) {
@@ -703,6 +709,7 @@ void register_generate(CLI::App& app) {
         }
         if (state->absolute || !state->interpolation.empty() || state->max_refinements)
             throw InputError("--abs, --interpolation and --max-refinements need --accuracy E or --budget SECONDS");
+        if (state->full_precision) throw InputError("--full-precision needs --accuracy E");
 #ifdef BRDFTAB_MPI
         if (MpiSession::launched()) return run_generate_mpi(*state);
 #endif

@@ -279,6 +279,11 @@ struct CertifiedGenerateOptions {
     // The settings `generate` computes the planned spec with (null: its
     // [integration] as written).
     std::function<IntegrationSettings(const Spec&)> verify_settings;
+    // Accuracy mode: the planned specs store their values rounded for the
+    // target (round_to_accuracy = E in E's measure, host/io/bit_rounding.h),
+    // so the certificates measure the rounded values.  A spec that sets its
+    // own round_to_accuracy keeps it.  Budget mode: the spec's own setting.
+    bool round_storage = true;
 };
 
 struct CertifyEvent {

@@ -24,6 +24,10 @@ struct OutputSettings {
     StoredType stored_type = StoredType::Float32;
     int compression = 6;  // deflate level 0..9
     bool keep_stderr = true;
+    // round_to_accuracy / round_measure: stored values keep only the
+    // mantissa bits this accuracy needs (host/io/bit_rounding.h); 0: off.
+    double round_accuracy = 0;
+    bool round_absolute = false;
 };
 
 struct TableSpec {
