@@ -1033,7 +1033,10 @@ CertifiedResult certified_generate(const Spec& spec, Backend& backend, const Cer
     // The spec the planned specs are written from: with rounded storage, its
     // [output] rounds for the target (the spec's own round_to_accuracy wins).
     Spec stored_spec = spec;
-    if (options.round_storage && target.accuracy && !(spec.output.round_accuracy > 0)) {
+    const bool spec_rounds = spec.output.round_accuracy > 0 ||
+                             std::any_of(spec.tables.begin(), spec.tables.end(),
+                                         [](const TableSpec& ts) { return ts.round_accuracy > 0; });
+    if (options.round_storage && target.accuracy && !spec_rounds) {
         stored_spec.output.round_accuracy = *target.accuracy;
         stored_spec.output.round_absolute = target.absolute;
     }

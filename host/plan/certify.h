@@ -282,7 +282,8 @@ struct CertifiedGenerateOptions {
     // Accuracy mode: the planned specs store their values rounded for the
     // target (round_to_accuracy = E in E's measure, host/io/bit_rounding.h),
     // so the certificates measure the rounded values.  A spec that sets its
-    // own round_to_accuracy keeps it.  Budget mode: the spec's own setting.
+    // own round_to_accuracy ([output] or a table's) keeps it.  Budget mode:
+    // the spec's own setting.
     bool round_storage = true;
 };
 

@@ -7,6 +7,7 @@
 //   FILE:LINE:COL: key 'dotted.key': what is wrong; allowed: ...
 #include "host/spec/spec.h"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -97,6 +98,15 @@ Spec Parser::run() {
         names.emplace(ts.name, pos_of(t));
         spec.tables.push_back(std::move(ts));
     }
+    // round_measure is the measure of a round_to_accuracy ([output]'s or a
+    // table's); alone it would round nothing.
+    if (const toml::table* ot = get_table(root, "", "output"))
+        if (const toml::node* m = ot->get("round_measure"))
+            if (!(spec.output.round_accuracy > 0) &&
+                std::none_of(spec.tables.begin(), spec.tables.end(),
+                             [](const TableSpec& ts) { return ts.round_accuracy > 0; }))
+                fail(pos_of(*m), "output.round_measure",
+                     "needs round_to_accuracy (in [output] or in a [[tables]] entry)");
     if (const toml::array* rs = get_table_array(root, "", "recombined"))
         for (std::size_t k = 0; k < rs->size(); ++k)
             spec.recombined.push_back(
@@ -214,9 +224,6 @@ void Parser::parse_output(const toml::table& t, OutputSettings& o) const {
         if (*m != "relative" && *m != "absolute")
             fail(pos_of(*t.get("round_measure")), sub(pre, "round_measure"),
                  "unknown measure '" + *m + "'; allowed: relative, absolute");
-        if (!o.round_accuracy)
-            fail(pos_of(*t.get("round_measure")), sub(pre, "round_measure"),
-                 "needs round_to_accuracy");
         o.round_absolute = *m == "absolute";
     }
 }

@@ -39,6 +39,9 @@ struct TableSpec {
     // Categorical options, name -> choice (validated against the model).
     nlohmann::json options = nlohmann::json::object();
     std::vector<Axis> axes;
+    // The table's own round_to_accuracy (0: [output]'s), in [output]'s
+    // round_measure.
+    double round_accuracy = 0;
 };
 
 // A table formed from other tables of the same spec, with no computing of its
