@@ -116,6 +116,10 @@ with h5py.File("mc.h5", "r") as f, h5py.File("mcplain.h5", "r") as p:
 PY
 # brdftab reads it back too, and info/query work on it.
 expect_exit 0 "query rounded" -- "$BT" query rel.h5 --table brdf theta_i=30 theta_o=40 --json
+expect_exit 0 "info rounded" -- "$BT" info rel.h5
+expect_grep "storage: rounded for 0.01 \(relative\): 9 of 23 mantissa bits kept" out.txt "info shows the kept bits"
+expect_exit 0 "info plain" -- "$BT" info plain.h5
+if grep -q "storage: rounded" out.txt; then bad "info of a plain table claims rounding"; else ok; fi
 
 # --- certified generation rounds by default; the certificate is measured
 # on the rounded values and still passes.
