@@ -121,6 +121,46 @@ expect_grep "storage: rounded for 0.01 \(relative\): 9 of 23 mantissa bits kept"
 expect_exit 0 "info plain" -- "$BT" info plain.h5
 if grep -q "storage: rounded" out.txt; then bad "info of a plain table claims rounding"; else ok; fi
 
+# --- a table's own round_to_accuracy wins over [output]'s
+cat > pertable.toml <<'SPEC'
+model = "rough-dielectric"
+[parameters]
+alpha = 0.4
+eta = 1.5
+phi_d = 180.0
+[[axes]]
+name = "theta_i"
+range = [0.0, 80.0]
+count = 9
+[[axes]]
+name = "theta_o"
+range = [0.0, 80.0]
+count = 9
+[[tables]]
+name = "coarse"
+quantity = "brdf"
+round_to_accuracy = 0.5
+[[tables]]
+name = "fine"
+quantity = "brdf"
+[integration]
+method = "closed-form"
+[output]
+round_to_accuracy = 1e-3
+SPEC
+expect_exit 0 "per-table rounding" -- "$BT" generate pertable.toml -o pertable.h5 -q
+"$PY" - <<'PY' >py.txt 2>&1 && ok || { bad "per-table rounding"; cat py.txt; }
+import h5py
+with h5py.File("pertable.h5", "r") as f:
+    c, g = f["coarse"].attrs, f["fine"].attrs
+    # 0.5: 2^-(m+1) <= 0.05 -> m = 4; 1e-3: 2^-(m+1) <= 1e-4 -> m = 13
+    assert c["rounding_accuracy"] == 0.5 and c["keep_bits"] == 4, dict(c)
+    assert g["rounding_accuracy"] == 1e-3 and g["keep_bits"] == 13, dict(g)
+PY
+sed 's/round_to_accuracy = 0.5/round_to_accuracy = -1/' pertable.toml > badtable.toml
+expect_exit 2 "bad per-table rounding" -- "$BT" generate badtable.toml -o badtable.h5 -q
+expect_grep "tables\[0\].round_to_accuracy" err.txt "names the table's key"
+
 # --- certified generation rounds by default; the certificate is measured
 # on the rounded values and still passes.
 spec cert.toml
