@@ -43,9 +43,8 @@ RoundingRule value_rounding(StoredType type, double accuracy, bool absolute) {
         r.bound = std::ldexp(1.0, -(m + 1));
         return r;
     }
-    // The largest power of two q with q/2 <= allowed.
-    int e = std::ilogb(2 * allowed);
-    if (std::ldexp(1.0, e) > 2 * allowed) --e;  // ilogb is exact; kept for clarity
+    // The largest power of two q with q/2 <= allowed: 2^floor(log2(2 allowed)).
+    const int e = std::ilogb(2 * allowed);
     // A quantum below the type's smallest spacing rounds nothing.
     if (e <= min_normal_exponent(type) - mantissa_bits(type)) return r;
     r.quantum = std::ldexp(1.0, e);
