@@ -13,7 +13,7 @@ SCENES="$DATA/scenes"
 # --- dry run: the plan, nothing written
 expect_exit 0 "dry run" -- "$BT" scene "$SCENES/pbrt_v4.pbrt" --dry-run --no-plan
 expect_grep "dry run: nothing computed or written" out.txt "dry run says so"
-expect_grep "t1 interfaced-lambertian bsdf .*lacquer-red, lacquer-blue" out.txt "shared table listed"
+expect_grep "t[0-9]+ interfaced-lambertian bsdf .*lacquer-red, lacquer-blue" out.txt "shared table listed"
 if ls ./*.h5 ./*.json >/dev/null 2>&1; then bad "dry run wrote files"; else ok; fi
 
 # --- a glass from pbrt-v4: closed-form BSDF table, manifest, values = eval
@@ -25,9 +25,21 @@ Shape "sphere"
 NamedMaterial "smooth"
 Shape "sphere"
 SCENE
-# The template (--no-plan): reflection and transmission tables away from the
-# horizon, at 2-degree theta steps.
-expect_exit 0 "glass scene" -- "$BT" scene glass.pbrt --for bsdf --no-plan --no-certify -o glass.h5 -q
+# By default the rough dielectric's BSDF is a closed form the renderer
+# evaluates itself: --for bsdf has nothing to tabulate.
+expect_exit 0 "glass closed form" -- "$BT" scene glass.pbrt --for bsdf --no-plan --no-certify -o closed.h5 -q
+expect_grep "glass .*dielectric .*no-table-needed" out.txt "closed-form glass needs no BSDF table"
+expect_grep "the BSDF is a closed form" out.txt "and says why"
+expect_grep "no material needs a table; nothing written" out.txt "nothing to write"
+if [ -e closed.h5 ]; then bad "a closed-form scene wrote a file"; else ok; fi
+# --for all: the albedos only.
+expect_exit 0 "glass closed form, all" -- "$BT" scene glass.pbrt --no-plan --dry-run -q
+expect_grep "bsdf: no-table-needed: the BSDF is a closed form" out.txt "BSDF part marked closed"
+expect_grep "^1 table set\(s\)" out.txt "one set: the albedos"
+expect_grep "t0 rough-dielectric albedo .*glass" out.txt "the albedo set"
+# Forced (--tabulate-closed-forms), the template (--no-plan): reflection and
+# transmission tables away from the horizon, at 2-degree theta steps.
+expect_exit 0 "glass scene" -- "$BT" scene glass.pbrt --for bsdf --tabulate-closed-forms --no-plan --no-certify -o glass.h5 -q
 expect_grep "wrote glass.h5 \(2 tables\) and glass.json" out.txt "summary line"
 "$PY" - <<'PY' >py.txt 2>&1 && ok || { bad "manifest fields"; cat py.txt; }
 import json, math
@@ -73,7 +85,7 @@ set --
 # within the certified error (relative, floor 1e-3 x the table's largest value).
 # The kept template misses 3e-2 (its jump): exit 1, as certify does, with both
 # files written.
-expect_exit 1 "glass planned" -- "$BT" scene glass.pbrt --for bsdf --accuracy 3e-2 -o gp.h5 -q
+expect_exit 1 "glass planned" -- "$BT" scene glass.pbrt --for bsdf --tabulate-closed-forms --accuracy 3e-2 -o gp.h5 -q
 expect_grep "1 certificate\(s\) missed the target \(t0_bsdf_transmission\)" err.txt "the missed certificate named"
 expect_grep "planned: predicted max total error" out.txt "BSDF set planned"
 expect_grep "for t0_bsdf_transmission .*template's node counts are kept" out.txt "transmission kept, and why"
@@ -216,7 +228,7 @@ for _ in range(4):
 PY
 
 # --- resource pre-check: refused before anything is computed, nothing written
-expect_exit 2 "max-memory" -- "$BT" scene glass.pbrt --for bsdf --no-plan --max-memory 1K -o mem.h5
+expect_exit 2 "max-memory" -- "$BT" scene glass.pbrt --for bsdf --tabulate-closed-forms --no-plan --max-memory 1K -o mem.h5
 expect_grep "need about .* of memory, above --max-memory" err.txt "max-memory message"
 if [ -e mem.h5 ] || [ -e mem.json ]; then bad "refused scene wrote files"; else ok; fi
 

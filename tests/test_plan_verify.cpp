@@ -462,3 +462,59 @@ TEST_CASE("plan --accuracy: a verification that misses E corrects the model and 
     CHECK(j2["choice"]["tables"][0]["counts"]["theta_i"] == 84);
     std::filesystem::remove_all(temp_dir());
 }
+
+TEST_CASE("sparse certificates of rounded tables (round_to_accuracy) equal the file's, bit for bit") {
+    // The sparse certificate rounds the cells it computes as the file writer
+    // rounds them (host/io/bit_rounding.h), values and stderr alike.
+    auto backend = make_backend("", Precision::Double);
+    for (const char* type : {"float16", "float32"}) {
+        const std::string rounded = std::string(type) + "\"\nround_to_accuracy = 0.05\nround_measure = \"relative";
+        const Spec spec = parse_spec_string(replaced(replaced(kClosedForm, "COUNT", "13"), "TYPE", rounded), "cf.toml");
+        REQUIRE(spec.output.round_accuracy == 0.05);
+        CertifyOptions o;
+        o.target = 5e-2;
+        o.abs_floor = 3.5e-5;
+        SparseCertifyOptions all;
+        all.max_touched_fraction = 1.0;
+        const SparseCertificate s = certify_spec_table(spec, 0, *backend, spec.integration, o, all);
+        REQUIRE(s.verified);
+        const Certificate full = certify_generated(spec, *backend, "brdf", o);
+        INFO(type << ": sparse max " << s.certificate.max_error << ", file max " << full.max_error);
+        check_same(s.certificate, full);
+    }
+    const Spec spec = parse_spec_string(R"(model = "rough-dielectric"
+[parameters]
+distribution = "ggx"
+eta = 1.5
+[[axes]]
+name = "theta_i"
+range = [0.0, 80.0]
+count = 9
+[[axes]]
+name = "alpha"
+range = [0.1, 0.9]
+count = 5
+[[tables]]
+quantity = "albedo_r"
+[integration]
+method = "rqmc"
+samples = 1024
+seed = 7
+[output]
+path = "unused.h5"
+type = "float32"
+round_to_accuracy = 2e-2
+round_measure = "absolute"
+)",
+                                        "alb.toml");
+    CertifyOptions o;
+    o.target = 2e-2;
+    o.absolute = true;
+    SparseCertifyOptions all;
+    all.max_touched_fraction = 1.0;
+    const SparseCertificate s = certify_spec_table(spec, 0, *backend, spec.integration, o, all);
+    REQUIRE(s.verified);
+    const Certificate full = certify_generated(spec, *backend, "albedo_r", o);
+    check_same(s.certificate, full);
+    std::filesystem::remove_all(temp_dir());
+}

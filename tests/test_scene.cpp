@@ -294,8 +294,10 @@ TEST_CASE("Mitsuba bitmap textures (PNG raw, EXR) become axes over their values"
     // half precision of 0.05 and 0.5
     CHECK(exr_range.first == doctest::Approx(0.05).epsilon(1e-3));
     CHECK(exr_range.second == 0.5);
-    // Different textures: different tables.
-    CHECK(set_of(plan, "png", "bsdf") != set_of(plan, "exr", "bsdf"));
+    // Different textures: different tables (the albedos: the BSDF, a closed
+    // form, has none).
+    CHECK(set_of(plan, "png", "albedo") != set_of(plan, "exr", "albedo"));
+    CHECK(set_of(plan, "png", "bsdf").empty());
 }
 
 TEST_CASE("bad input names the file and line, the XML element, or the material") {
@@ -400,4 +402,71 @@ TEST_CASE("anisotropic roughness: pbrt-v4 coateddiffuse maps to alpha_x / alpha_
     CHECK(by_name(mi, "brushed-plastic").status == MaterialStatus::Unsupported);
     CHECK(by_name(mi, "brushed-plastic").reason.find("not parameters of Mitsuba's roughplastic") !=
           std::string::npos);
+}
+
+TEST_CASE("closed forms stay closed: rough dielectrics get albedo tables only, coatings a body") {
+    // Mitsuba 3 glass (Beckmann, alpha 0.1, water) and a pbrt-v4 glass and
+    // coating: the dielectric BSDFs are Walter et al.'s closed forms, the
+    // coating's specular lobe is one too.
+    Scratch s;
+    const std::string xml = s.write(
+        "glass.xml",
+        "<scene version=\"3.0.0\"><bsdf type=\"roughdielectric\" id=\"glass\">"
+        "<float name=\"alpha\" value=\"0.1\"/><float name=\"int_ior\" value=\"1.333\"/></bsdf>"
+        "<shape type=\"sphere\"><ref id=\"glass\"/></shape></scene>");
+    for (ScenePurpose purpose : {ScenePurpose::Bsdf, ScenePurpose::All, ScenePurpose::Albedo}) {
+        ScenePlanSettings settings;
+        settings.purpose = purpose;
+        const ScenePlan plan = plan_scene_tables(read_scene_materials(xml), settings);
+        const MappedMaterial& glass = by_name(plan, "glass");
+        CAPTURE(static_cast<int>(purpose));
+        REQUIRE(glass.closed_forms.count("bsdf") == 1);
+        CHECK(set_of(plan, "glass", "bsdf").empty());
+        for (const SceneTableSet& set : plan.sets) CHECK(set.purpose == "albedo");
+        if (purpose == ScenePurpose::Bsdf) {
+            CHECK(plan.sets.empty());
+            CHECK(glass.status == MaterialStatus::NoTableNeeded);
+            CHECK(contains(glass.reason, "closed form"));
+            // How it maps stays visible, and the manifest keeps the model and
+            // parameters a renderer evaluates the closed form with.
+            REQUIRE(!glass.notes.empty());
+            CHECK(contains(glass.notes.front(), "maps to rough-dielectric"));
+            const nlohmann::json man = scene_manifest(plan, xml, "out.h5");
+            const nlohmann::json& m = man["materials"][0];
+            CHECK(m["status"] == "no-table-needed");
+            CHECK(m["table"].is_null());
+            CHECK(m["model"] == "rough-dielectric");
+            CHECK(m["parameters"]["eta"].get<double>() == doctest::Approx(1.333 / 1.000277));
+            CHECK(m["closed_forms"]["bsdf"]["status"] == "no-table-needed");
+        } else {
+            CHECK(glass.status == MaterialStatus::Tabulated);
+            CHECK(!set_of(plan, "glass", "albedo").empty());
+        }
+    }
+    // --tabulate-closed-forms: the BSDF tables come back, and a note says why.
+    ScenePlanSettings forced;
+    forced.purpose = ScenePurpose::Bsdf;
+    forced.tabulate_closed_forms = true;
+    const ScenePlan plan = plan_scene_tables(read_scene_materials(xml), forced);
+    const MappedMaterial& glass = by_name(plan, "glass");
+    CHECK(glass.status == MaterialStatus::Tabulated);
+    CHECK(glass.closed_forms.empty());
+    CHECK(!set_of(plan, "glass", "bsdf").empty());
+    bool noted = false;
+    for (const std::string& n : glass.notes) noted = noted || contains(n, "--tabulate-closed-forms");
+    CHECK(noted);
+
+    // The coating: its BSDF set holds the body only; the specular part is
+    // marked closed, with or without the flag.
+    const ScenePlan coat = plan_of("pbrt_v4.pbrt", ScenePurpose::Bsdf);
+    const MappedMaterial& red = by_name(coat, "lacquer-red");
+    CHECK(red.status == MaterialStatus::Tabulated);
+    CHECK(red.closed_forms.count("specular") == 1);
+    CHECK(red.closed_forms.count("bsdf") == 0);
+    for (const SceneTableSet& set : coat.sets)
+        if (set.model == "interfaced-lambertian") CHECK(set.tables == std::vector<std::string>{set.id + "_body"});
+    // Oren-Nayar's exact V-cavity BRDF is an integral: tabulated as before.
+    const ScenePlan clay = plan_of("mitsuba06.xml", ScenePurpose::Bsdf);
+    CHECK(by_name(clay, "clay").closed_forms.empty());
+    CHECK(!set_of(clay, "clay", "bsdf").empty());
 }

@@ -221,6 +221,7 @@ struct GenerateArgs {
     std::string interpolation;  // empty: linear (and not given)
     std::optional<int> max_refinements;
     bool yes = false;  // accept a plan beyond the cost limits (approve_costly_plan)
+    bool full_precision = false;  // --accuracy: no rounded storage
     bool certified() const { return accuracy || budget; }
 };
 
@@ -512,6 +513,7 @@ void run_certified_generate(const GenerateArgs& st) {
     options.target = target;
     options.pilot.abs_floor = st.compute.abs_floor > 0 ? st.compute.abs_floor : 0;
     options.max_refinements = max_refinements;
+    options.round_storage = !st.full_precision;
     options.spec_label = st.spec_path;
     options.verify_settings = [&st](const Spec& planned) { return st.compute.apply(planned.integration); };
     // --budget states the cost; --yes accepts any.
@@ -787,6 +789,10 @@ void register_generate(CLI::App& app) {
     cmd->add_option("--max-refinements", state->max_refinements,
                     "with --accuracy: refinement rounds after the first certificate (default 2; 0: "
                     "certify only)");
+    cmd->add_flag("--full-precision", state->full_precision,
+                  "with --accuracy: keep every mantissa bit of the stored type (default: the values "
+                  "keep only the bits E needs, rounding error <= 0.1 E, measured by the "
+                  "certificate; docs/spec.md, round_to_accuracy)");
     state->compute.add_to(*cmd);
     cmd->callback([state] {
         if (state->certified()) {
@@ -798,6 +804,7 @@ void register_generate(CLI::App& app) {
         }
         if (state->absolute || !state->interpolation.empty() || state->max_refinements || state->yes)
             throw InputError("--abs, --interpolation, --max-refinements and --yes need --accuracy E or --budget SECONDS");
+        if (state->full_precision) throw InputError("--full-precision needs --accuracy E");
 #ifdef BRDFTAB_MPI
         if (MpiSession::launched()) return run_generate_mpi(*state);
 #endif

@@ -11,6 +11,7 @@
 #include "host/core/error.h"
 #include "host/core/text.h"
 #include "host/engine/opencl_runtime.h"
+#include "host/io/bit_rounding.h"
 #include "host/io/table_io.h"
 #include "host/plan/certify.h"
 
@@ -147,6 +148,21 @@ void print_table_summary(const TableData& t, bool verbose) {
     for (const auto& a : t.axes) std::cout << " " << a.name << "=" << a.count;
     std::cout << "  (" << t.cell_count() << " cells, stored " << stored_type_name(t.stored_type)
               << ")\n";
+    if (t.round_accuracy > 0) {  // rounded storage (host/io/bit_rounding.h)
+        const RoundingRule rule = value_rounding(t);
+        double max_abs = 0;
+        for (double v : t.value)
+            if (std::isfinite(v)) max_abs = std::max(max_abs, std::fabs(v));
+        std::cout << "    storage: rounded for " << t.round_accuracy << " ("
+                  << (t.round_absolute ? "absolute" : "relative") << "): ";
+        if (!rule.active())
+            std::cout << "every bit of " << stored_type_name(t.stored_type) << " needed\n";
+        else
+            std::cout << absolute_keep_bits(max_abs, rule) << " of " << mantissa_bits(t.stored_type)
+                      << " mantissa bits kept" << (t.round_absolute ? " (largest value)" : "")
+                      << ", error <= " << rule.bound << (t.round_absolute ? " " + t.units : " x |value|")
+                      << "\n";
+    }
     for (const auto& a : t.axes)
         std::cout << "    axis " << std::left << std::setw(8) << a.name << " [" << a.min << ", "
                   << a.max << "]" << unit_suffix(a.unit) << ", " << a.count << " nodes, "

@@ -104,6 +104,7 @@ void register_scene(CLI::App& app) {
         std::string scene, output, manifest, format, purpose = "all", presets, max_memory;
         double accuracy = 1e-3, budget = 0;
         bool dry_run = false, quiet = false, no_plan = false, no_certify = false;
+        bool tabulate_closed_forms = false;
         ComputeOptions compute;
     };
     auto state = std::make_shared<State>();
@@ -139,6 +140,9 @@ void register_scene(CLI::App& app) {
     cmd->add_flag("--no-certify", state->no_certify,
                   "skip the certificates (off-grid probes of every written table against the "
                   "model, stored in the file and the manifest)");
+    cmd->add_flag("--tabulate-closed-forms", state->tabulate_closed_forms,
+                  "BSDF tables also for materials whose BSDF is a closed form the renderer "
+                  "evaluates itself (rough dielectrics), which by default get only their albedos");
     cmd->add_flag("-q,--quiet", state->quiet, "no progress display");
     cmd->add_option("--max-memory", state->max_memory,
                     "refuse (exit 2) before computing when the tables are estimated to need more "
@@ -150,6 +154,7 @@ void register_scene(CLI::App& app) {
         ScenePlanSettings settings;
         settings.purpose = parse_scene_purpose(st.purpose);
         settings.accuracy = st.accuracy;
+        settings.tabulate_closed_forms = st.tabulate_closed_forms;
         const std::vector<SceneMaterial> materials = read_scene_materials(st.scene, st.format);
         if (st.budget < 0 || !std::isfinite(st.budget))
             throw InputError("--budget must be a positive number of seconds");
@@ -195,6 +200,9 @@ void register_scene(CLI::App& app) {
                       << std::setw(18) << m.source.type << " " << to_string(m.status);
             if (m.status == MaterialStatus::Tabulated) std::cout << " as " << m.model;
             std::cout << "\n      " << m.reason << "\n";
+            for (const auto& [part, why] : m.closed_forms)
+                if (m.status == MaterialStatus::Tabulated)
+                    std::cout << "      " << part << ": no-table-needed: " << why << "\n";
             for (const std::string& n : m.notes) std::cout << "      note: " << n << "\n";
         }
         std::cout << plan.sets.size() << " table set(s), " << cells_text(cells) << ":\n";

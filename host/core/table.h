@@ -58,6 +58,11 @@ struct TableData {
     StoredType stored_type = StoredType::Float32;
     int compression = 6;     // deflate level 0..9 (0 = no compression filter)
     bool keep_stderr = true;
+    // Rounded storage (host/io/bit_rounding.h): > 0: the values keep only the
+    // mantissa bits this accuracy needs, in the relative measure or, with
+    // round_absolute, the absolute one.  0: the stored type's own rounding.
+    double round_accuracy = 0;
+    bool round_absolute = false;
 
     std::size_t cell_count() const;
     std::vector<std::size_t> shape() const;

@@ -27,6 +27,8 @@ void inherit_provenance(TableData& d, const TableData& from, const Spec& spec) {
     d.spec_text = from.spec_text;
     d.stored_type = spec.output.stored_type;
     d.compression = spec.output.compression;
+    d.round_accuracy = spec.output.round_accuracy;
+    d.round_absolute = spec.output.round_absolute;
 }
 
 const TableData& find_done(const std::vector<GeneratedTable>& done, const std::string& name,

@@ -320,6 +320,8 @@ TableData describe_table(const Spec& spec, const Backend& backend,
     d.stored_type = spec.output.stored_type;
     d.compression = spec.output.compression;
     d.keep_stderr = spec.output.keep_stderr && !closed_form;
+    d.round_accuracy = ts.round_accuracy > 0 ? ts.round_accuracy : spec.output.round_accuracy;
+    d.round_absolute = spec.output.round_absolute;
     return d;
 }
 

@@ -29,6 +29,7 @@
 #include <unistd.h>
 
 #include "host/core/error.h"
+#include "host/io/bit_rounding.h"
 #include "host/io/half_float.h"
 #include "host/io/hdf5_attributes.h"
 #include "host/io/hdf5_handles.h"
@@ -292,9 +293,19 @@ void write_cell_range(hid_t ds, const char* name, hid_t mem_type, const void* da
 // Real values of cells [first, first + count) in the table's stored type,
 // rounded by our own casts (round to nearest) rather than HDF5's conversion
 // path, so a stored float is exactly (float)x and a stored half half_bits(x);
-// for binary16 the memory type is the file type: HDF5 copies the bits.
+// for binary16 the memory type is the file type: HDF5 copies the bits.  An
+// active `rule` (bit_rounding.h) rounds to fewer mantissa bits first.
 void write_real_cells(hid_t ds, const char* name, const double* data, StoredType type,
-                      const std::vector<hsize_t>& dims, hsize_t first, hsize_t count) {
+                      const std::vector<hsize_t>& dims, hsize_t first, hsize_t count,
+                      const RoundingRule& rule = {}) {
+    if (rule.active()) {
+        // Every rounded value is exactly representable in `type`, so the
+        // plain conversion below does not round it again.
+        std::vector<double> r(count);
+        std::transform(data, data + count, r.begin(), [&](double v) { return round_value(v, rule); });
+        write_real_cells(ds, name, r.data(), type, dims, first, count);
+        return;
+    }
     switch (type) {
     case StoredType::Float64:
         write_cell_range(ds, name, H5T_NATIVE_DOUBLE, data, 8, dims, first, count);
@@ -352,19 +363,49 @@ void write_table_attributes(hid_t group, const TableData& t) {
     write_string_attr(group, "stored_type", stored_type_name(t.stored_type));
 }
 
+// Rounded storage (bit_rounding.h; docs/format.md "Rounded storage"): the
+// measure and accuracy the values were rounded for, the mantissa bits kept
+// (absolute: by the largest |value|, `max_abs`), the per-value bound, and the
+// bits kept in stderr.  Nothing for a table stored with its type's rounding.
+void write_rounding_attributes(hid_t group, const TableData& t, double max_abs, bool with_stderr) {
+    if (!(t.round_accuracy > 0)) return;
+    const RoundingRule rule = value_rounding(t);
+    const int p = mantissa_bits(t.stored_type);
+    write_string_attr(group, "rounding", t.round_absolute ? "absolute" : "relative");
+    write_double_attr(group, "rounding_accuracy", t.round_accuracy);
+    write_i32_attr(group, "keep_bits", rule.active() ? absolute_keep_bits(max_abs, rule) : p);
+    write_double_attr(group, "rounding_bound",
+                      rule.active() ? rule.bound : t.round_absolute ? 0.0 : std::ldexp(1.0, -(p + 1)));
+    if (with_stderr) {
+        const RoundingRule s = stderr_rounding(t);
+        write_i32_attr(group, "stderr_keep_bits", s.active() ? s.keep_bits : p);
+    }
+}
+
+// Largest finite |v| of n values (0 when none).
+double max_finite_abs(const double* v, std::size_t n) {
+    double m = 0;
+    for (std::size_t i = 0; i < n; ++i)
+        if (std::isfinite(v[i])) m = std::max(m, std::fabs(v[i]));
+    return m;
+}
+
 
 void write_table(hid_t file, const TableData& t) {
     const bool with_stderr = t.keep_stderr && !t.stderr_.empty();
     TableObjects o = create_table_objects(file, t, with_stderr, !t.samples.empty());
     const hsize_t n = t.value.size();
-    write_real_cells(o.value, "value", t.value.data(), t.stored_type, o.dims, 0, n);
+    write_real_cells(o.value, "value", t.value.data(), t.stored_type, o.dims, 0, n,
+                     value_rounding(t));
     if (with_stderr)
-        write_real_cells(o.stderr_, "stderr", t.stderr_.data(), t.stored_type, o.dims, 0, n);
+        write_real_cells(o.stderr_, "stderr", t.stderr_.data(), t.stored_type, o.dims, 0, n,
+                         stderr_rounding(t));
     if (!t.samples.empty())
         write_cell_range(o.samples, "samples", H5T_NATIVE_UINT32, t.samples.data(), 4, o.dims,
                          0, n);
     attach_scales(o, t);
     write_table_attributes(o.group, t);
+    write_rounding_attributes(o.group, t, max_finite_abs(t.value.data(), t.value.size()), with_stderr);
 }
 
 // ---------------------------------------------------------------- reading ---
@@ -775,6 +816,15 @@ TableData read_group(hid_t file, const std::string& path, const std::string& nam
         t.compression = deflate_level(ds, "value");
     });
     if (has_attr(group, "stored_type")) t.stored_type = parse_stored_type(str("stored_type"));
+    if (has_attr(group, "rounding")) {
+        const std::string r = str("rounding");
+        if (r != "relative" && r != "absolute")
+            throw InputError(where + "attribute 'rounding' is '" + r + "'; allowed: relative, absolute");
+        t.round_absolute = r == "absolute";
+        t.round_accuracy = dbl("rounding_accuracy");
+        if (!(t.round_accuracy > 0) || !std::isfinite(t.round_accuracy))
+            throw InputError(where + "attribute 'rounding_accuracy' must be a positive number");
+    }
     t.keep_stderr = has_link(group, "stderr");
     if (t.keep_stderr)
         read_cells("stderr", [&](hid_t ds) { t.stderr_ = read_real(ds, "stderr", n); });
@@ -868,6 +918,8 @@ struct TableFileWriter::Impl {
     struct Open {
         TableObjects objects;
         StoredType type = StoredType::Float64;
+        RoundingRule value_rule, stderr_rule;
+        double max_abs = 0;  // largest finite |value| written (rounding attributes)
         std::size_t cells = 0;
         std::string name;
     };
@@ -910,6 +962,8 @@ std::size_t TableFileWriter::begin_table(const TableData& t, bool with_stderr, b
     auto open = std::make_unique<Impl::Open>();
     open->objects = create_table_objects(impl_->file, t, with_stderr, with_samples);
     open->type = t.stored_type;
+    open->value_rule = value_rounding(t);
+    open->stderr_rule = stderr_rounding(t);
     open->cells = checked_cell_count(t.axes, "table '" + t.name + "': ");
     open->name = t.name;
     impl_->tables.push_back(std::move(open));
@@ -924,9 +978,10 @@ void TableFileWriter::write_cells(std::size_t table, std::size_t first, std::siz
         throw Error("table '" + t.name + "': cells " + std::to_string(first) + " + " +
                     std::to_string(count) + " beyond its " + std::to_string(t.cells));
     const TableObjects& o = t.objects;
-    write_real_cells(o.value, "value", value, t.type, o.dims, first, count);
+    write_real_cells(o.value, "value", value, t.type, o.dims, first, count, t.value_rule);
+    t.max_abs = std::max(t.max_abs, max_finite_abs(value, count));
     if (o.stderr_.get() >= 0)
-        write_real_cells(o.stderr_, "stderr", stderr_, t.type, o.dims, first, count);
+        write_real_cells(o.stderr_, "stderr", stderr_, t.type, o.dims, first, count, t.stderr_rule);
     if (o.samples.get() >= 0)
         write_cell_range(o.samples, "samples", H5T_NATIVE_UINT32, samples, 4, o.dims, first,
                          count);
@@ -936,6 +991,7 @@ void TableFileWriter::finish_table(std::size_t table, const TableData& t) {
     Impl::Open& open = impl_->open_table(table);
     attach_scales(open.objects, t);
     write_table_attributes(open.objects.group, t);
+    write_rounding_attributes(open.objects.group, t, open.max_abs, open.objects.stderr_.get() >= 0);
     impl_->tables[table].reset();
 }
 

@@ -15,6 +15,7 @@
 #include "host/core/text.h"
 #include "host/engine/evaluate.h"
 #include "host/generate/chunked.h"
+#include "host/io/bit_rounding.h"
 #include "host/io/half_float.h"
 #include "host/io/hdf5_attributes.h"
 #include "host/io/hdf5_handles.h"
@@ -529,8 +530,11 @@ SparseCertificate sparse_certificate(ChunkComputer& computer, TableData describe
     std::vector<bool> have(cells, false);
     const std::size_t gap = closed || first.method == Method::Quadrature ? sparse.merge_gap_closed_form
                                                                           : sparse.merge_gap_sampled;
-    // The stored value as the writer rounds it (table_io.cpp write_real_cells).
-    auto stored = [type](double v) {
+    // The stored value as the writer rounds it (table_io.cpp write_real_cells;
+    // a rounded table's rules: bit_rounding.h).
+    const RoundingRule value_rule = value_rounding(described), stderr_rule = stderr_rounding(described);
+    auto stored_as = [type](double v, const RoundingRule& rule) {
+        if (rule.active()) return round_value(v, rule);
         switch (type) {
             case StoredType::Float32: return double(static_cast<float>(v));
             case StoredType::Float16: return half_to_double(half_bits(v));
@@ -538,6 +542,8 @@ SparseCertificate sparse_certificate(ChunkComputer& computer, TableData describe
         }
         return v;
     };
+    auto stored = [&](double v) { return stored_as(v, value_rule); };
+    auto stored_err = [&](double v) { return stored_as(v, stderr_rule); };
     LazyCells lazy;
     lazy.limit = static_cast<std::size_t>(sparse.max_touched_fraction * double(cells));
     lazy.floor_hints = sparse.floor_hints;
@@ -579,7 +585,7 @@ SparseCertificate sparse_certificate(ChunkComputer& computer, TableData describe
                 have[lo + i] = true;
                 values.value[lo + i] = stored(value[i]);
                 if (keep_stderr && have_stderr)
-                    values.stderr_[lo + i] = stored(combine ? std::sqrt(err[i]) : err[i]);
+                    values.stderr_[lo + i] = stored_err(combine ? std::sqrt(err[i]) : err[i]);
                 ++out.computed_cells;
             }
             if (progress) {
@@ -651,6 +657,8 @@ SparseCertificate certify_spec_recombined(const Spec& spec, std::size_t recombin
     described.parameters[rs.parameter] = rs.stored_at;
     described.keep_stderr = spec.output.keep_stderr && all_stderr;
     described.stored_type = spec.output.stored_type;
+    described.round_accuracy = spec.output.round_accuracy;
+    described.round_absolute = spec.output.round_absolute;
     return sparse_certificate(computer, std::move(described), sources, true, backend, options, sparse, progress,
                               start);
 }
@@ -1055,6 +1063,16 @@ CertifiedResult certified_generate(const Spec& spec, Backend& backend, const Cer
                          "[[inverted]] tables yet; generate a copy of the spec without them");
     const bool budget_mode = target.budget.has_value();
     const char* measure = target.absolute ? "absolute" : "relative";
+    // The spec the planned specs are written from: with rounded storage, its
+    // [output] rounds for the target (the spec's own round_to_accuracy wins).
+    Spec stored_spec = spec;
+    const bool spec_rounds = spec.output.round_accuracy > 0 ||
+                             std::any_of(spec.tables.begin(), spec.tables.end(),
+                                         [](const TableSpec& ts) { return ts.round_accuracy > 0; });
+    if (options.round_storage && target.accuracy && !spec_rounds) {
+        stored_spec.output.round_accuracy = *target.accuracy;
+        stored_spec.output.round_absolute = target.absolute;
+    }
     auto say = [&](const std::string& stage, int round, const std::string& message, const Progress& p = {}) {
         if (progress) progress(CertifyEvent{stage, round, message, p});
     };
@@ -1141,7 +1159,7 @@ CertifiedResult certified_generate(const Spec& spec, Backend& backend, const Cer
             // "Verified plans"): a missed E corrects the model as a failed
             // certificate would, without a generation round.
             for (int k = 0;; ++k) {
-                const Spec planned = parse_spec_string(planned_spec_text(spec, indices, plan, {}),
+                const Spec planned = parse_spec_string(planned_spec_text(stored_spec, indices, plan, {}),
                                                        options.spec_label.empty() ? spec.file : options.spec_label);
                 const IntegrationSettings settings =
                     options.verify_settings ? options.verify_settings(planned) : planned.integration;
@@ -1187,7 +1205,7 @@ CertifiedResult certified_generate(const Spec& spec, Backend& backend, const Cer
                 backend.device_name() + "), round " + std::to_string(round) + ".",
             "Predicted: max total error " + sci(plan.error_max) + ", RMS " + sci(plan.error_rms) + " (" +
                 measure + "), engine time " + sci(plan.seconds) + " s.  docs/planning.md"};
-        rnd.spec_text = planned_spec_text(spec, indices, plan, header);
+        rnd.spec_text = planned_spec_text(stored_spec, indices, plan, header);
         const Spec planned = parse_spec_string(rnd.spec_text, options.spec_label.empty() ? spec.file : options.spec_label);
         {
             std::string nodes;

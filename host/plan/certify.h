@@ -287,6 +287,12 @@ struct CertifiedGenerateOptions {
     // refinement round the last generated round stands (stop = "cost").  The
     // caller may throw instead.  Null: every plan is accepted.
     std::function<bool(const Candidate& plan, const std::vector<Candidate>& front, int round)> approve_plan;
+    // Accuracy mode: the planned specs store their values rounded for the
+    // target (round_to_accuracy = E in E's measure, host/io/bit_rounding.h),
+    // so the certificates measure the rounded values.  A spec that sets its
+    // own round_to_accuracy ([output] or a table's) keeps it.  Budget mode:
+    // the spec's own setting.
+    bool round_storage = true;
 };
 
 // Whether a plan's predicted cost is beyond what a run without an explicit

@@ -1421,6 +1421,11 @@ std::string planned_spec_text(const Spec& spec, const std::vector<std::size_t>& 
     }
     if (!root["output"].as_table()) root.insert("output", toml::table{});
     root["output"].as_table()->insert_or_assign("type", stored_type_name(plan.stored_type));
+    if (spec.output.round_accuracy > 0) {  // rounded storage (host/io/bit_rounding.h)
+        root["output"].as_table()->insert_or_assign("round_to_accuracy", spec.output.round_accuracy);
+        root["output"].as_table()->insert_or_assign("round_measure",
+                                                    spec.output.round_absolute ? "absolute" : "relative");
+    }
 
     std::ostringstream out;
     for (const std::string& h : header) out << "# " << h << "\n";

@@ -461,7 +461,8 @@ std::optional<Candidate> predict_as_written(const Spec& spec, const std::vector<
 
 // The spec text with the plan applied: every planned table gets its own
 // [[tables.axes]] with the planned counts, [integration] gets the method and
-// fixed `samples` (its `tolerance` removed), [output] gets the stored type.
+// fixed `samples` (its `tolerance` removed), [output] gets the stored type
+// (and spec.output's rounding, round_to_accuracy and round_measure, when set).
 // Comments of the original are not kept (the TOML is re-serialised); every
 // other key is.  `header` lines are prefixed with "# ".  The result parses
 // with parse_spec_string.

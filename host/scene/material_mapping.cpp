@@ -550,6 +550,22 @@ MappedMaterial map_native(const SceneMaterial& m) {
     return mp.result();
 }
 
+// The parts of a tabulated material's BSDF that are closed forms (scene.h,
+// MappedMaterial::closed_forms), whichever renderer it came from.
+void mark_closed_forms(MappedMaterial& m) {
+    if (m.status != MaterialStatus::Tabulated) return;
+    if (m.model == "rough-dielectric")
+        m.closed_forms["bsdf"] =
+            "the BSDF is a closed form (Walter et al. 2007: f_r and f_t, eqs. 20-21, with the "
+            "mapped D and G) that the renderer evaluates itself: no BSDF table; only its albedos "
+            "(energy compensation, --for albedo or all) are tabulated";
+    else if (m.model == "interfaced-lambertian")
+        m.closed_forms["specular"] =
+            "the coating's specular reflection is a closed form (the microfacet f_r of its "
+            "interface) that the renderer evaluates itself; the BSDF table holds only the body "
+            "(light through the interface and back)";
+}
+
 }  // namespace
 
 MappedMaterial map_material(const SceneMaterial& material) {
@@ -560,9 +576,11 @@ MappedMaterial map_material(const SceneMaterial& material) {
         out.reason = "defined, but no shape uses it";
         return out;
     }
-    if (material.format == "brdftab") return map_native(material);
-    if (material.format.rfind("mitsuba", 0) == 0) return map_mitsuba(material);
-    return map_pbrt(material);
+    MappedMaterial out = material.format == "brdftab"                 ? map_native(material)
+                         : material.format.rfind("mitsuba", 0) == 0 ? map_mitsuba(material)
+                                                                      : map_pbrt(material);
+    mark_closed_forms(out);
+    return out;
 }
 
 }  // namespace brdftab

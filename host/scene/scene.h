@@ -86,6 +86,13 @@ struct MappedMaterial {
     std::map<std::string, std::string> options;  // categorical options
     nlohmann::json factored = nlohmann::json::object();  // e.g. {"kd": 0.64}
     std::vector<std::string> notes;  // approximations and assumptions, in words
+    // Parts of the material's BSDF that are closed forms a renderer evaluates
+    // itself, so they get no table: part -> why.  "bsdf": the whole BSDF
+    // (rough dielectric f_r/f_t: only its albedos are tabulated); "specular":
+    // the interfaced-Lambertian coating's specular reflection (only the body
+    // is tabulated).  Under --tabulate-closed-forms a "bsdf" part is
+    // tabulated all the same and left out of this map.
+    std::map<std::string, std::string> closed_forms;
 };
 
 // Maps one material.  Throws InputError naming the material when a value is
@@ -139,6 +146,9 @@ struct ScenePlanSettings {
     ScenePurpose purpose = ScenePurpose::All;
     double accuracy = 1e-3;  // integration tolerance of the estimated tables
     std::uint64_t seed = 1;
+    // BSDF tables for materials whose BSDF is a closed form (rough
+    // dielectrics) too; by default they get none (MappedMaterial::closed_forms).
+    bool tabulate_closed_forms = false;
 };
 
 struct ScenePlan {

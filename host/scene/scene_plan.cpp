@@ -298,6 +298,11 @@ ScenePlan plan_scene_tables(const std::vector<SceneMaterial>& materials,
         throw InputError("--accuracy " + num(settings.accuracy) + ": allowed range (0, 1)");
     ScenePlan plan;
     for (const SceneMaterial& m : materials) plan.materials.push_back(map_material(m));
+    if (settings.tabulate_closed_forms)
+        for (MappedMaterial& m : plan.materials)
+            if (m.closed_forms.erase("bsdf"))
+                m.notes.push_back("the BSDF is a closed form, tabulated because of "
+                                  "--tabulate-closed-forms");
     std::vector<std::string> purposes;
     if (settings.purpose != ScenePurpose::Albedo) purposes.push_back("bsdf");
     if (settings.purpose != ScenePurpose::Bsdf) purposes.push_back("albedo");
@@ -305,6 +310,7 @@ ScenePlan plan_scene_tables(const std::vector<SceneMaterial>& materials,
     for (const std::string& purpose : purposes) {
         for (const MappedMaterial& m : plan.materials) {
             if (m.status != MaterialStatus::Tabulated) continue;
+            if (purpose == "bsdf" && m.closed_forms.count("bsdf")) continue;
             const std::string key = share_key(m, purpose);
             auto it = by_key.find(key);
             if (it != by_key.end()) {
@@ -319,6 +325,18 @@ ScenePlan plan_scene_tables(const std::vector<SceneMaterial>& materials,
             by_key[key] = plan.sets.size();
             plan.sets.push_back(set);
         }
+    }
+    // A material whose only tables were its closed-form BSDF's (--for bsdf)
+    // needs none: it says why, and how it maps becomes a note.
+    for (MappedMaterial& m : plan.materials) {
+        if (m.status != MaterialStatus::Tabulated || !m.closed_forms.count("bsdf")) continue;
+        const bool served = std::any_of(plan.sets.begin(), plan.sets.end(), [&](const SceneTableSet& set) {
+            return std::find(set.materials.begin(), set.materials.end(), m.source.name) != set.materials.end();
+        });
+        if (served) continue;
+        m.notes.insert(m.notes.begin(), "maps to " + m.model + ": " + m.reason);
+        m.status = MaterialStatus::NoTableNeeded;
+        m.reason = m.closed_forms.at("bsdf");
     }
     // Spec texts once the material lists are complete (they are named in a comment).
     for (SceneTableSet& set : plan.sets) {
@@ -384,6 +402,11 @@ nlohmann::json scene_manifest(const ScenePlan& plan, const std::string& scene_fi
                 }
         if (certified) j["certified_error"] = worst, j["passed"] = passed;
         j["factored"] = m.factored;
+        if (!m.closed_forms.empty()) {
+            nlohmann::json parts = nlohmann::json::object();
+            for (const auto& [part, why] : m.closed_forms) parts[part] = {{"status", "no-table-needed"}, {"reason", why}};
+            j["closed_forms"] = parts;
+        }
         j["notes"] = m.notes;
         if (!m.source.wrapped_in.empty()) j["wrapped_in"] = m.source.wrapped_in;
         out["materials"].push_back(j);

@@ -7,6 +7,7 @@
 //   FILE:LINE:COL: key 'dotted.key': what is wrong; allowed: ...
 #include "host/spec/spec.h"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -97,6 +98,15 @@ Spec Parser::run() {
         names.emplace(ts.name, pos_of(t));
         spec.tables.push_back(std::move(ts));
     }
+    // round_measure is the measure of a round_to_accuracy ([output]'s or a
+    // table's); alone it would round nothing.
+    if (const toml::table* ot = get_table(root, "", "output"))
+        if (const toml::node* m = ot->get("round_measure"))
+            if (!(spec.output.round_accuracy > 0) &&
+                std::none_of(spec.tables.begin(), spec.tables.end(),
+                             [](const TableSpec& ts) { return ts.round_accuracy > 0; }))
+                fail(pos_of(*m), "output.round_measure",
+                     "needs round_to_accuracy (in [output] or in a [[tables]] entry)");
     if (const toml::array* rs = get_table_array(root, "", "recombined"))
         for (std::size_t k = 0; k < rs->size(); ++k)
             spec.recombined.push_back(
@@ -169,7 +179,7 @@ void Parser::parse_integration(const toml::table& t, IntegrationSettings& s) con
 
 void Parser::parse_output(const toml::table& t, OutputSettings& o) const {
     const std::string pre = "output";
-    check_keys(t, pre, {"path", "type", "compression", "keep_stderr"});
+    check_keys(t, pre, {"path", "type", "compression", "keep_stderr", "round_to_accuracy", "round_measure"});
     if (auto p = get_string(t, pre, "path")) {
         if (p->empty()) fail(pos_of(*t.get("path")), sub(pre, "path"), "must not be empty");
         // A relative path is relative to the spec file's directory, so a spec
@@ -202,6 +212,19 @@ void Parser::parse_output(const toml::table& t, OutputSettings& o) const {
         if (!k->is_boolean())
             fail(pos_of(*k), sub(pre, "keep_stderr"), "must be true or false");
         o.keep_stderr = k->as_boolean()->get();
+    }
+    if (auto e = get_number(t, pre, "round_to_accuracy")) {
+        if (!(*e > 0) || !std::isfinite(*e))
+            fail(pos_of(*t.get("round_to_accuracy")), sub(pre, "round_to_accuracy"),
+                 "value " + num(*e) + " is out of range; allowed: > 0 (the accuracy the stored "
+                 "values are rounded for)");
+        o.round_accuracy = *e;
+    }
+    if (auto m = get_string(t, pre, "round_measure")) {
+        if (*m != "relative" && *m != "absolute")
+            fail(pos_of(*t.get("round_measure")), sub(pre, "round_measure"),
+                 "unknown measure '" + *m + "'; allowed: relative, absolute");
+        o.round_absolute = *m == "absolute";
     }
 }
 

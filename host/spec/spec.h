@@ -24,6 +24,10 @@ struct OutputSettings {
     StoredType stored_type = StoredType::Float32;
     int compression = 6;  // deflate level 0..9
     bool keep_stderr = true;
+    // round_to_accuracy / round_measure: stored values keep only the
+    // mantissa bits this accuracy needs (host/io/bit_rounding.h); 0: off.
+    double round_accuracy = 0;
+    bool round_absolute = false;
 };
 
 struct TableSpec {
@@ -35,6 +39,9 @@ struct TableSpec {
     // Categorical options, name -> choice (validated against the model).
     nlohmann::json options = nlohmann::json::object();
     std::vector<Axis> axes;
+    // The table's own round_to_accuracy (0: [output]'s), in [output]'s
+    // round_measure.
+    double round_accuracy = 0;
 };
 
 // A table formed from other tables of the same spec, with no computing of its

@@ -1,6 +1,7 @@
 // tables.cpp — [parameters] blocks and [[tables]] entries of a spec: fixed
 // values and options checked against the model, and each table merged with
 // the global [parameters] / [[axes]] and checked against its quantity.
+#include <cmath>
 #include <set>
 
 #include "host/core/error.h"
@@ -98,9 +99,16 @@ TableSpec Parser::build_table(const toml::table& t, const std::string& prefix,
                               const Block& global_params,
                               const std::vector<AxisSrc>& global_axes,
                               const IntegrationSettings& integration, Pos method_pos) const {
-    check_keys(t, prefix, {"name", "quantity", "description", "parameters", "axes"});
+    check_keys(t, prefix, {"name", "quantity", "description", "parameters", "axes", "round_to_accuracy"});
     const Pos tpos = pos_of(t);
     TableSpec ts;
+    if (auto e = get_number(t, prefix, "round_to_accuracy")) {
+        if (!(*e > 0) || !std::isfinite(*e))
+            fail(pos_of(*t.get("round_to_accuracy")), sub(prefix, "round_to_accuracy"),
+                 "value " + num(*e) + " is out of range; allowed: > 0 (the accuracy the stored "
+                 "values are rounded for)");
+        ts.round_accuracy = *e;
+    }
 
     const auto qname = get_string(t, prefix, "quantity");
     std::vector<std::string> qnames;
