@@ -2,6 +2,9 @@
 // declared in hdf5_handles.h.
 #include "host/io/hdf5_handles.h"
 
+#include <sys/mman.h>
+#include <unistd.h>
+
 #include "host/core/error.h"
 
 namespace brdftab::hdf5 {
@@ -16,7 +19,51 @@ herr_t collect_error(unsigned, const H5E_error2_t* e, void* data) {
     return 0;
 }
 
+// The last resort of hdf5_handles.h: HDF5's cleanup at exit (H5close, run
+// by atexit) would close the ids that a failed H5Fclose left registered, and
+// crash on them.  Every handle is closed by its owner before exit; the
+// cleanup would only free the library's own memory.  H5dont_atexit must come
+// before the library's first call, which no code makes before main().
+[[maybe_unused]] const bool kNoExitCleanup = [] {
+    H5dont_atexit();
+    return true;
+}();
+
 }  // namespace
+
+void detach_from_disk(hid_t file) noexcept {
+    bool posix = false;
+    const hid_t fapl = H5Fget_access_plist(file);
+    if (fapl >= 0) {
+        posix = H5Pget_driver(fapl) == H5FD_SEC2;
+        H5Pclose(fapl);
+    }
+    void* handle = nullptr;
+    if (!posix || H5Fget_vfd_handle(file, H5P_DEFAULT, &handle) < 0 || !handle) {
+        H5Eclear2(H5E_DEFAULT);
+        return;
+    }
+    const int fd = *static_cast<int*>(handle);
+    const int scratch = memfd_create("brdftab-discarded", MFD_CLOEXEC);
+    if (scratch < 0) return;
+    // `fd` now names the in-memory file; HDF5 closes it with the file.
+    dup2(scratch, fd);
+    close(scratch);
+}
+
+void flush_and_close(Handle& file, const std::string& what) {
+    if (file.get() < 0) return;
+    if (H5Fflush(file, H5F_SCOPE_GLOBAL) < 0) {
+        std::string detail;
+        H5Ewalk2(H5E_DEFAULT, H5E_WALK_DOWNWARD, collect_error, &detail);
+        H5Eclear2(H5E_DEFAULT);
+        detach_from_disk(file);
+        file = Handle();  // closes; the flush's error is the one to report
+        H5Eclear2(H5E_DEFAULT);
+        throw Error("HDF5 H5Fflush failed (" + what + ")" + (detail.empty() ? "" : ": " + detail));
+    }
+    file.close("H5Fclose", what);
+}
 
 void silence_hdf5() {
     // Once per process: HDF5 keeps the setting globally.

@@ -67,6 +67,28 @@ private:
     Closer closer_ = nullptr;
 };
 
+// Files open for writing.  HDF5 1.10 frees a file whose H5Fclose fails (a
+// full disk, a file size limit) but keeps its id registered, and its cleanup
+// at process exit then crashes on that id (SIGSEGV in H5F__close_cb).  So a
+// file is flushed before it is closed, and a file whose flush failed, or
+// whose contents are to be thrown away, is detached from the disk first: its
+// close then has nothing to write that can fail.  As a last resort the
+// library's exit-time cleanup is switched off (hdf5_handles.cpp): the
+// operating system releases what a failed close could not.
+
+// Points the descriptor of `file` (open for writing through HDF5's default
+// POSIX driver) at an anonymous in-memory file, so that whatever HDF5 writes
+// from now on (flushes, the close) goes nowhere and cannot fail for lack of
+// disk space.  The file on disk keeps what had reached it.  For a file to be
+// discarded only; does nothing for another driver or when no anonymous file
+// can be made.
+void detach_from_disk(hid_t file) noexcept;
+
+// Flushes and closes `file` (open for writing), checked: a failed flush
+// detaches the file, closes it and throws the flush's error, so the id is
+// released whatever the disk does.  `what` names the file in the message.
+void flush_and_close(Handle& file, const std::string& what);
+
 Handle make_plist(hid_t cls, const char* what);
 Handle copy_type(hid_t t);
 Handle scalar_space();
