@@ -913,7 +913,7 @@ void TableFileWriter::commit() {
     for (const auto& t : impl_->tables)
         if (t) throw Error("table file writer: table '" + t->name + "' was not finished");
     impl_->tables.clear();
-    flush_and_close(impl_->file, impl_->tmp->path());
+    close_written_file(impl_->file, impl_->tmp->path());
     impl_->tmp->commit();
 }
 

@@ -711,7 +711,7 @@ void write_certificate(const std::string& path, const Certificate& c) {
     write_double_attr(group, "certificate_predicted_rms", c.predicted_rms);
     write_double_attr(group, "certificate_seconds", c.seconds);
     group = Handle();
-    flush_and_close(file, path);
+    close_written_file(file, path);
 }
 
 namespace {
