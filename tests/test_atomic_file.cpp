@@ -107,3 +107,56 @@ TEST_CASE("temporary files of dead processes are removed, live ones kept") {
     CHECK(fs::exists(other));
     CHECK(read_text(target) == "done");
 }
+
+TEST_CASE("one writer per output: a second lock is refused, a dead holder's is taken over") {
+    const fs::path dir = test::scratch_dir(BT_BINARY_DIR, "atomic_file", "lock");
+    const fs::path target = dir / "out.h5";
+    const std::string lock_file = target.string() + ".lock";
+    {
+        const OutputLock first(target.string());
+        CHECK(first.path() == lock_file);
+        CHECK(fs::exists(lock_file));
+        CHECK(read_text(lock_file) == std::to_string(::getpid()) + "\n");
+        // A second writer, in this process (flock locks belong to the open
+        // file, not the process) and in another one.
+        std::string message;
+        try {
+            const OutputLock second(target.string());
+        } catch (const InputError& e) {
+            message = e.what();
+        }
+        CHECK(message.find("is being written by another running brdftab (process " +
+                           std::to_string(::getpid()) + ")") != std::string::npos);
+        CHECK(message.find(lock_file) != std::string::npos);
+        const pid_t child = ::fork();
+        if (child == 0) {
+            try {
+                const OutputLock other(target.string());
+            } catch (const InputError&) {
+                ::_exit(7);
+            }
+            ::_exit(0);
+        }
+        int status = 0;
+        ::waitpid(child, &status, 0);
+        CHECK((WIFEXITED(status) && WEXITSTATUS(status) == 7));
+        CHECK(fs::exists(lock_file));  // the refused writers left it alone
+    }
+    CHECK(!fs::exists(lock_file));  // removed by its holder
+    // A lock file left by a killed holder (no process holds the lock): taken.
+    std::ofstream(lock_file) << dead_pid() << "\n";
+    {
+        const OutputLock again(target.string());
+        CHECK(read_text(lock_file) == std::to_string(::getpid()) + "\n");
+    }
+    CHECK(!fs::exists(lock_file));
+    // A lock through a link sits beside the file the link leads to.
+    const fs::path real = dir / "real.h5";
+    std::ofstream(real) << "x";
+    fs::create_symlink(real, dir / "link.h5");
+    {
+        const OutputLock via_link((dir / "link.h5").string());
+        CHECK(via_link.path() == real.string() + ".lock");
+        CHECK_THROWS_AS(OutputLock(real.string()), InputError);
+    }
+}

@@ -326,3 +326,62 @@ TEST_CASE("device (double and float) and host agree through estimate()") {
         }
     }
 }
+
+TEST_CASE("psi = poly: H, moment and H_inf refuse 2 int max(Psi, 0) > 1, by brute force") {
+    // The oracle: int_0^1 max(Psi, 0) by the midpoint rule on 2^20 cells
+    // (error ~1e-6 at a sign change), against the model's cell check for
+    // coefficients drawn in the parameters' range [-10, 10] and near the
+    // boundary; cases within 1e-5 of it are skipped.
+    const ModelInfo& model = find_model("hfunction");
+    const bool has_check = model.check_cell != nullptr;
+    REQUIRE(has_check);
+    const std::vector<int> poly = {HF_PSI_POLY};
+    std::uint64_t state = 12345;
+    auto uniform = [&state](double lo, double hi) {
+        state = state * 6364136223846793005ull + 1442695040888963407ull;
+        return lo + (hi - lo) * double(state >> 11) * 0x1.0p-53;
+    };
+    int refused = 0, accepted = 0;
+    for (int trial = 0; trial < 400; ++trial) {
+        const double scale = trial < 200 ? 10.0 : 1.0;
+        double a[4];
+        for (double& x : a) x = uniform(-scale, scale);
+        if (trial % 3 == 0) a[2] = a[3] = 0;
+        const int n = 1 << 20;
+        double positive = 0;
+        for (int k = 0; k < n; ++k) {
+            const double x = (k + 0.5) / n, y = x * x;
+            positive += std::max(0.0, a[0] + y * (a[1] + y * (a[2] + y * a[3]))) / n;
+        }
+        if (std::fabs(2 * positive - 1) < 1e-5) continue;
+        double point[16] = {0};
+        point[HF_PARAM_MU] = 0.5;
+        for (int k = 0; k < 4; ++k) point[HF_PARAM_PSI_0 + k] = a[k];
+        const bool valid = 2 * positive <= 1;
+        (valid ? accepted : refused) += 1;
+        for (const char* name : {"H", "moment", "H_inf"}) {
+            CAPTURE(name);
+            CAPTURE(a[0]);
+            CAPTURE(a[1]);
+            CAPTURE(a[2]);
+            CAPTURE(a[3]);
+            const std::string problem = model.check_cell(model.quantity(name), point, poly);
+            CHECK(problem.empty() == valid);
+            if (!valid) CHECK(problem.find("allowed: at most 1") != std::string::npos);
+        }
+        // K is defined for any Psi.
+        CHECK(model.check_cell(model.quantity("K"), point, poly).empty());
+        // Where the check accepts, the kernel's H is a number.
+        if (valid) {
+            hf_psi P = hf_make_psi(HF_PSI_POLY, 0, a);
+            CHECK(std::isfinite(hf_h(&P, 0.5, 0)));
+        }
+    }
+    CHECK(accepted > 40);
+    CHECK(refused > 40);
+    // The other characteristic functions are not restricted (c in [0, 1]).
+    double point[16] = {0};
+    point[HF_PARAM_PSI_0] = 0.6;
+    for (int psi : {HF_PSI_LAMBERT0, HF_PSI_ISOTROPIC})
+        CHECK(model.check_cell(model.quantity("H"), point, {psi}).empty());
+}

@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <cctype>
+#include <cerrno>
 #include <cstdio>
 #include <cmath>
 #include <cstdlib>
@@ -53,7 +54,8 @@ void ComputeOptions::add_to(CLI::App& app, bool with_integration) {
             max_samples_given = true;
             max_samples_text = text;
         });
-    app.add_option("--seed", seed, "random seed (64-bit); same seed, same table")
+    app.add_option("--seed", seed_text,
+                   "random seed, an integer in [0, 18446744073709551615]; same seed, same table")
         ->each([this](const std::string&) { seed_given = true; });
     app.add_option("--slab", slab,
                    "work items per device launch (results do not depend on it)")
@@ -85,9 +87,26 @@ IntegrationSettings ComputeOptions::apply(IntegrationSettings s) const {
         check_count("--max-samples", max_samples, max_samples_text);
         s.max_samples = max_samples;
     }
-    if (seed_given) s.seed = seed;
+    if (seed_given) s.seed = parse_seed("--seed", seed_text);
     if (slab) s.slab_work_items = slab;
     return s;
+}
+
+std::uint64_t parse_seed(const std::string& option, const std::string& text) {
+    const std::string allowed = "allowed: integers in [0, 18446744073709551615]";
+    auto all_digits = [](const std::string& t) {
+        return !t.empty() && t.find_first_not_of("0123456789") == std::string::npos;
+    };
+    if (!all_digits(text)) {
+        const bool negative = text.size() > 1 && text[0] == '-' && all_digits(text.substr(1));
+        throw InputError(option + " '" + text + "' " +
+                         (negative ? "is out of range" : "is not an integer") + "; " + allowed);
+    }
+    errno = 0;
+    const unsigned long long v = std::strtoull(text.c_str(), nullptr, 10);
+    if (errno == ERANGE) throw InputError(option + " '" + text + "' is out of range; " + allowed);
+    static_assert(sizeof v == sizeof(std::uint64_t), "unsigned long long holds a 64-bit seed");
+    return v;
 }
 
 std::unique_ptr<Backend> ComputeOptions::make_backend() const {

@@ -33,7 +33,7 @@ struct ComputeOptions {
     double tolerance = 0;
     double abs_floor = -1;
     std::uint64_t max_samples = 0;
-    std::uint64_t seed = 0;
+    std::string seed_text;  // as typed: parse_seed() judges it
     bool seed_given = false;
     bool samples_given = false, tolerance_given = false, max_samples_given = false;
     std::string samples_text, max_samples_text;  // as typed (for messages: -1 wraps)
@@ -42,7 +42,8 @@ struct ComputeOptions {
     void add_to(CLI::App& app, bool with_integration = true);
     // Apply CLI overrides on top of `base` (from a spec or defaults).  Throws
     // InputError naming the option when --samples / --max-samples are outside
-    // [1, 2^32 - 1] or --tolerance outside (0, 1).
+    // [1, 2^32 - 1], --tolerance outside (0, 1) or --seed not an integer in
+    // [0, 2^64 - 1].
     IntegrationSettings apply(IntegrationSettings base) const;
     std::unique_ptr<Backend> make_backend() const;
 };
@@ -109,6 +110,12 @@ CLI::Validator non_empty_path();
 // A number in (min or [min, max]; the message names `allowed` (e.g. "> 0")
 // rather than CLI11's range up to the largest double.
 CLI::Validator number_in(double min, bool min_inclusive, double max, const std::string& allowed);
+
+// A seed option's text (`option` names it in the message) as a 64-bit seed:
+// decimal digits only, at most 2^64 - 1.  Throws InputError naming the option,
+// the text and the range otherwise; CLI11 itself would read "-1" as 2^64 - 1
+// and saturate larger values without a word.
+std::uint64_t parse_seed(const std::string& option, const std::string& text);
 
 // Human formatting.
 std::string format_seconds(double s);

@@ -377,6 +377,7 @@ void finish_output(const GenerateSetup& g, Checkpoint* checkpoint) {
 
 void run_generate(const GenerateArgs& st) {
     GenerateSetup g = set_up_generate(st, true, "");
+    const OutputLock lock(g.out_path);  // one writer of the output (docs/spec.md)
     announce(st, g, 1);
     bool checkpoint_is_new = false;
     std::unique_ptr<Checkpoint> checkpoint = open_checkpoint(st, g, checkpoint_is_new);
@@ -494,6 +495,7 @@ void run_certified_generate(const GenerateArgs& st) {
     const Spec spec = parse_spec_file(st.spec_path);
     const std::string out_path = st.output.empty() ? spec.output.path : st.output;
     check_output_writable(out_path);
+    const OutputLock lock(out_path);  // one writer of the output (docs/spec.md)
     if (!spec.recombined.empty() || !spec.errors.empty() || !spec.inverted.empty())
         throw InputError(st.spec_path + ": --accuracy/--budget do not handle [[recombined]], [[errors]] or "
                          "[[inverted]] tables yet; generate a copy of the spec without them");
@@ -640,6 +642,7 @@ void run_generate_mpi(const GenerateArgs& st) {
     const int rank = mpi.rank(), size = mpi.size();
     const std::string who = "brdftab: rank " + std::to_string(rank) + ": ";
     GenerateSetup g;
+    std::unique_ptr<OutputLock> lock;  // rank 0's: one writer of the output
     std::unique_ptr<Checkpoint> checkpoint;
     bool checkpoint_is_new = false;  // created by this run (rank 0)
     std::string layout;
@@ -660,11 +663,13 @@ void run_generate_mpi(const GenerateArgs& st) {
             std::cerr << (rank == 0 ? std::string("brdftab: ") : who) << "error: " << message
                       << std::endl;
         checkpoint.reset();
+        lock.reset();
         mpi.finalize();
         std::exit(worst);
     };
     agree([&] {
         g = set_up_generate(st, rank == 0, rank_device(st, mpi.local_rank()));
+        if (rank == 0) lock = std::make_unique<OutputLock>(g.out_path);
         if (rank == 0) announce(st, g, size);
     });
     agree([&] {

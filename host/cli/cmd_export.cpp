@@ -125,6 +125,7 @@ void run_export(const ExportArgs& a) {
     }
     const std::string out = exr ? a.exr : header ? a.header : png ? a.png : a.merl;
     check_output_writable(out);
+    const OutputLock lock(out);  // one writer of the output (docs/spec.md)
     guard_table_file(a.file);
 
     if (exr || png) {

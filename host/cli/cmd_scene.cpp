@@ -286,6 +286,7 @@ void register_scene(CLI::App& app) {
         }
         check_output_writable(out_path);
         check_output_writable(manifest_path);
+        const OutputLock lock(out_path), manifest_lock(manifest_path);  // one writer of each
         std::vector<IntegrationSettings> set_settings;
         for (const Spec& spec : specs) set_settings.push_back(st.compute.apply(spec.integration));
         check_scene_resources(specs, set_settings, out_path,

@@ -184,7 +184,7 @@ void run_query(const std::string& file, const std::string& table,
 struct ValidateArgs {
     std::string file, table;
     std::size_t points = 1000;
-    std::uint64_t seed = 1;
+    std::string seed = "1";  // parse_seed() judges it
     std::uint64_t samples = 0;
     std::uint64_t max_samples = ValidateOptions{}.max_samples;
     double rel_floor = 1e-3;
@@ -201,7 +201,7 @@ void run_validate(const ValidateArgs& va) {
     ValidateOptions options;
     options.points = va.points;
     options.max_samples = va.max_samples;
-    options.seed = va.seed;
+    options.seed = parse_seed("--seed", va.seed);
     options.samples = va.samples;
     options.rel_floor = va.rel_floor;
     options.worst = va.worst;
@@ -234,7 +234,7 @@ void run_validate(const ValidateArgs& va) {
     std::cout << "validate " << va.file << ", table '" << rep.table << "': " << rep.model << " / "
               << rep.quantity << " [" << rep.units << "], axes";
     for (const auto& a : rep.axes) std::cout << " " << a.name << "(" << a.count << ")";
-    std::cout << "\n  " << n << " random off-grid points (seed " << va.seed
+    std::cout << "\n  " << n << " random off-grid points (seed " << options.seed
               << ", uniform in each axis' warped coordinate)\n"
               << "  reference: " << to_string(ref.method) << " on " << rep.device << " ("
               << precision_name(rep.precision) << "), ";
@@ -508,7 +508,9 @@ void register_table_commands(CLI::App& app) {
         cmd->add_option("FILE", st->file, "HDF5 file written by `brdftab generate`")->required();
         cmd->add_option("--table", st->table, "table (group) name in FILE")->required();
         cmd->add_option("--points", st->points, "number of random points (default 1000)");
-        cmd->add_option("--seed", st->seed, "seed of the random points (default 1)");
+        cmd->add_option("--seed", st->seed,
+                        "seed of the random points, an integer in [0, 18446744073709551615] "
+                        "(default 1)");
         cmd->add_option("--samples", st->samples,
                         "integrals: fixed sample budget per reference point (default: the "
                         "table's own budget / tolerance)")

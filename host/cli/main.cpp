@@ -15,6 +15,7 @@
 #include "host/cli/commands.h"
 #include "host/core/error.h"
 #include "host/engine/opencl_runtime.h"
+#include "host/io/table_io.h"
 
 #ifndef BRDFTAB_VERSION
 #define BRDFTAB_VERSION "unknown"
@@ -75,6 +76,9 @@ bool known_subcommand(CLI::App& app, int argc, char** argv) {
 
 int main(int argc, char** argv) {
     using namespace brdftab;
+    // Before anything touches HDF5: a failed write then still exits cleanly
+    // (host/io/table_io.h).
+    disable_hdf5_exit_cleanup();
     CLI::App app{
         "brdftab " BRDFTAB_VERSION
         " — tabulate BRDF/BSDF models that have no closed form, with per-cell error "

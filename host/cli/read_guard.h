@@ -19,11 +19,15 @@ namespace brdftab::cli {
 constexpr double kDefaultReadTimeout = 60;
 double read_timeout_seconds();
 
-// Read every table and attribute of `path` in a child process; throws
-// InputError when the child does not finish within read_timeout_seconds(),
-// dies from a signal or exits other than through its own two exits.  Errors the reader reports cleanly are left to the
-// caller's own read, which reports them again.  Call before the process
-// starts threads (OpenCL): fork copies only the calling thread.
+// Read every table, certificate and attribute of `path` in a child process;
+// throws InputError when the child does not finish within
+// read_timeout_seconds(), dies from a signal or exits other than through its
+// own exits.  A clean error on any object (the child reads on past it, so
+// that a crash on a later object is caught too) refuses the whole file: it is
+// thrown here with the reader's message, as InputError when the reader threw
+// one, Error otherwise, so the caller never reads a file the child could not
+// read whole.  Call before the process starts threads (OpenCL): fork copies
+// only the calling thread.
 void guard_table_file(const std::string& path);
 
 }  // namespace brdftab::cli

@@ -2,6 +2,7 @@
 
 #include <fcntl.h>
 #include <signal.h>
+#include <sys/file.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -111,6 +112,56 @@ void AtomicOutput::commit() {
     if (std::rename(temp_.c_str(), target_.c_str()) != 0)
         throw Error("cannot rename '" + temp_ + "' to '" + target_ + "': " + std::strerror(errno));
     committed_ = true;
+}
+
+OutputLock::OutputLock(const std::string& target) : path_(resolve_output_path(target) + ".lock") {
+    // The holder removes the file before it unlocks; a process that opened
+    // the file before that removal and locks it after holds a lock on a file
+    // no longer at the path, so the lock counts only when the path still
+    // names the locked file, and is taken again otherwise.
+    for (int attempt = 0;; ++attempt) {
+        const int fd = ::open(path_.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+        if (fd < 0)
+            throw InputError("output '" + target + "': cannot create the lock file '" + path_ +
+                             "': " + std::strerror(errno));
+        if (::flock(fd, LOCK_EX | LOCK_NB) != 0) {
+            const int err = errno;
+            char pid[32] = {0};
+            const ssize_t n = ::pread(fd, pid, sizeof pid - 1, 0);
+            ::close(fd);
+            if (err != EWOULDBLOCK)
+                throw InputError("output '" + target + "': cannot lock '" + path_ +
+                                 "': " + std::strerror(err));
+            std::string holder = n > 0 ? std::string(pid, std::size_t(n)) : std::string();
+            holder.erase(holder.find_last_not_of(" \n") + 1);
+            throw InputError("output '" + target + "' is being written by another running brdftab" +
+                             (holder.empty() ? std::string() : " (process " + holder + ")") +
+                             ", which holds the lock '" + path_ +
+                             "'; wait for it to finish, or write elsewhere (-o)");
+        }
+        struct stat held {}, named {};
+        if (::fstat(fd, &held) == 0 && ::stat(path_.c_str(), &named) == 0 &&
+            held.st_dev == named.st_dev && held.st_ino == named.st_ino) {
+            fd_ = fd;
+            break;
+        }
+        ::close(fd);
+        if (attempt == 100)
+            throw Error("output '" + target + "': the lock file '" + path_ +
+                        "' keeps being replaced; is another program removing it?");
+    }
+    // Who holds it, for the message of a refused second writer (which only
+    // lacks the process id if this fails).
+    const std::string pid = std::to_string(static_cast<long>(::getpid())) + "\n";
+    const bool recorded =
+        ::ftruncate(fd_, 0) == 0 && ::pwrite(fd_, pid.data(), pid.size(), 0) > 0;
+    (void)recorded;
+}
+
+OutputLock::~OutputLock() {
+    if (fd_ < 0) return;
+    ::unlink(path_.c_str());  // while still locked: see the constructor
+    ::close(fd_);
 }
 
 void write_text_atomically(const std::string& target, const std::string& text) {

@@ -37,6 +37,29 @@ private:
     bool committed_ = false;
 };
 
+// The one writer of an output: an advisory lock (flock) on `<target>.lock`
+// beside the resolved target, held from construction to destruction, so that
+// two runs writing the same output at the same time cannot silently replace
+// each other's file.  A second OutputLock of the same target, in this or
+// another process, throws InputError naming the output, the lock file and the
+// process that holds it.  The destructor removes the lock file.  A killed
+// process's lock is released by the kernel with its descriptors, so a lock
+// file left behind never blocks a later run.  flock is local to a machine on
+// most network file systems.
+class OutputLock {
+public:
+    explicit OutputLock(const std::string& target);
+    ~OutputLock();
+    OutputLock(const OutputLock&) = delete;
+    OutputLock& operator=(const OutputLock&) = delete;
+
+    const std::string& path() const { return path_; }  // the lock file
+
+private:
+    std::string path_;
+    int fd_ = -1;
+};
+
 // Whole text file, atomically.
 void write_text_atomically(const std::string& target, const std::string& text);
 

@@ -67,6 +67,32 @@ private:
     Closer closer_ = nullptr;
 };
 
+// Files open for writing.  HDF5 1.10 frees a file whose H5Fclose fails (a
+// full disk, a file size limit) but keeps its id registered, and its cleanup
+// at process exit then crashes on that id (SIGSEGV in H5F__close_cb); a
+// failed flush leaves the file unable to flush or close at all.  So a file
+// to be kept reserves its disk space before it is closed, and a file whose
+// contents are to be thrown away is detached from the disk first: its close
+// then has nothing to write that can fail.  As a last resort a program can
+// switch the library's exit-time cleanup off (disable_hdf5_exit_cleanup,
+// table_io.h; brdftab's main does): the operating system then releases what
+// a failed close could not.
+
+// Points the descriptor of `file` (open for writing through HDF5's default
+// POSIX driver) at an anonymous in-memory file, so that whatever HDF5 writes
+// from now on (flushes, the close) goes nowhere and cannot fail for lack of
+// disk space.  The file on disk keeps what had reached it.  For a file to be
+// discarded only; does nothing for another driver or when no anonymous file
+// can be made.
+void detach_from_disk(hid_t file) noexcept;
+
+// Closes `file` (open for writing), checked.  Its disk space up to its end of
+// allocation is reserved first (fallocate): when that fails (no space, a file
+// size limit), the file is detached and closed and brdftab::Error names
+// `what` and the system's reason, so the id is released whatever the disk
+// does.  A file system without fallocate is not reserved.
+void close_written_file(Handle& file, const std::string& what);
+
 Handle make_plist(hid_t cls, const char* what);
 Handle copy_type(hid_t t);
 Handle scalar_space();

@@ -671,34 +671,13 @@ bool has_link(hid_t loc, const std::string& name) {
 // ------------------------------------------------------------------ public --
 
 void write_tables(const std::string& path, const std::vector<TableData>& tables) {
-    silence_hdf5();
-    if (H5Zfilter_avail(H5Z_FILTER_DEFLATE) <= 0 || H5Zfilter_avail(H5Z_FILTER_SHUFFLE) <= 0 ||
-        H5Zfilter_avail(H5Z_FILTER_FLETCHER32) <= 0)
-        throw Error("this HDF5 library lacks the deflate, shuffle or fletcher32 filter");
-
-    AtomicOutput tmp(path);
-    {
-        Handle fapl = make_plist(H5P_FILE_ACCESS, "file access");
-        // Oldest object formats that still hold everything we write, so
-        // readers linked against older HDF5 releases can open the file.
-        check(H5Pset_libver_bounds(fapl, H5F_LIBVER_EARLIEST, H5F_LIBVER_V18),
-              "H5Pset_libver_bounds");
-        Handle file(H5Fcreate(tmp.path().c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl), H5Fclose,
-                    "H5Fcreate", tmp.path());
-
-        write_i32_attr(file, "brdftab_format", kFormatVersion);
-        write_string_attr(file, "brdftab_version", BRDFTAB_VERSION);
-        write_string_attr(file, "created", utc_now_iso8601());
-
-        for (const TableData& t : tables) {
-            // Checked table by table; an error on a later table still only
-            // ever touches the temporary file.
-            validate_table(t);
-            write_table(file, t);
-        }
-        file.close("H5Fclose", tmp.path());
-    }
-    tmp.commit();
+    // The streaming writer writes the same objects in the same order, and
+    // discards its temporary file without a write to the disk on failure.
+    TableFileWriter out(path);
+    // Checked table by table; an error on a later table still only ever
+    // touches the temporary file.
+    for (const TableData& t : tables) out.add_table(t);
+    out.commit();
 }
 
 namespace {
@@ -938,7 +917,8 @@ TableFileWriter::TableFileWriter(const std::string& path) : impl_(std::make_uniq
         throw Error("this HDF5 library lacks the deflate, shuffle or fletcher32 filter");
     impl_->tmp = std::make_unique<AtomicOutput>(path);
     Handle fapl = make_plist(H5P_FILE_ACCESS, "file access");
-    // As write_tables: the oldest object formats that hold what we write.
+    // Oldest object formats that still hold everything we write, so readers
+    // linked against older HDF5 releases can open the file.
     check(H5Pset_libver_bounds(fapl, H5F_LIBVER_EARLIEST, H5F_LIBVER_V18),
           "H5Pset_libver_bounds");
     impl_->file = Handle(H5Fcreate(impl_->tmp->path().c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl),
@@ -949,7 +929,11 @@ TableFileWriter::TableFileWriter(const std::string& path) : impl_(std::make_uniq
 }
 
 TableFileWriter::~TableFileWriter() {
-    // Handles close before the temporary file is removed.
+    // Uncommitted: the temporary file is thrown away, so nothing more of it
+    // goes to the disk, whose being full may be why we are here (closing a
+    // table flushes its chunk cache; see hdf5_handles.h).  Handles close
+    // before the temporary file is removed.
+    if (impl_->file.get() >= 0) detach_from_disk(impl_->file);
     impl_->tables.clear();
     impl_->file = Handle();
     impl_->tmp.reset();
@@ -1004,7 +988,7 @@ void TableFileWriter::commit() {
     for (const auto& t : impl_->tables)
         if (t) throw Error("table file writer: table '" + t->name + "' was not finished");
     impl_->tables.clear();
-    impl_->file.close("H5Fclose", impl_->tmp->path());
+    close_written_file(impl_->file, impl_->tmp->path());
     impl_->tmp->commit();
 }
 

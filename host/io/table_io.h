@@ -90,6 +90,16 @@ private:
     std::unique_ptr<Impl> impl_;
 };
 
+// For a program's main(), before its first use of HDF5: switches off
+// libhdf5's clean-up at exit.  After an H5Fclose that failed (a full disk
+// during the close's last flush, a file size limit) libhdf5 1.10 keeps the id
+// of a file it has freed, and that clean-up crashes on it (host/io/
+// hdf5_handles.h).  The writers here close every file before they return or
+// throw, so the clean-up would only free the library's memory.  A program
+// that also writes HDF5 files through other code (h5py) and relies on that
+// clean-up to flush them must not call it.  No effect once HDF5 has started.
+void disable_hdf5_exit_cleanup();
+
 // Names of the tables (groups) in a file.  Throws InputError if the file is
 // missing or not a brdftab file.
 std::vector<std::string> list_tables(const std::string& path);

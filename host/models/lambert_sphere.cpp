@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <map>
@@ -15,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "host/core/text.h"
 #include "host/models/registry.h"
 #include "kernels/common/compat.h"
 #include "kernels/common/estimator.h"  // BT_MAX_OPTIONS
@@ -27,6 +29,86 @@ namespace {
 const char* kCitation =
     "E. d'Eon. An analytic BRDF for materials with spherical Lambertian scatterers. "
     "Computer Graphics Forum 40(4) (EGSR 2021).";
+
+// int_0^1 max(Psi(x), 0) dx for Psi(x) = sum_k a[k] x^(2k), exactly up to
+// rounding: Psi is a cubic P in y = x^2, monotone between the roots of P' in
+// (0, 1), so each such piece holds at most one root of P (found by bisection);
+// the antiderivative sum_k a[k] x^(2k+1)/(2k+1) is summed over the pieces
+// where Psi > 0.  Without a root in (0, 1) and with Psi >= 0 this is
+// sum_k a[k]/(2k+1), summed as the kernel sums m_0.
+double psi_positive_integral(const double* a) {
+    auto P = [a](double y) { return a[0] + y * (a[1] + y * (a[2] + y * a[3])); };
+    auto F = [a](double x) {
+        double sum = 0, power = x;
+        for (int k = 0; k < 4; ++k, power *= x * x) sum += a[k] * power / double(2 * k + 1);
+        return sum;
+    };
+    std::vector<double> ends = {0.0};  // in y: 0, the roots of P' and of P in (0, 1), 1
+    {
+        // P'(y) = a1 + 2 a2 y + 3 a3 y^2
+        const double A = 3 * a[3], B = 2 * a[2], C = a[1];
+        std::vector<double> turns;
+        if (A == 0) {
+            if (B != 0) turns.push_back(-C / B);
+        } else {
+            const double d = B * B - 4 * A * C;
+            if (d >= 0) {
+                turns.push_back((-B - std::sqrt(d)) / (2 * A));
+                turns.push_back((-B + std::sqrt(d)) / (2 * A));
+            }
+        }
+        std::sort(turns.begin(), turns.end());
+        for (double t : turns)
+            if (t > 0 && t < 1) ends.push_back(t);
+        ends.push_back(1.0);
+    }
+    std::vector<double> cuts = {0.0};
+    for (std::size_t k = 0; k + 1 < ends.size(); ++k) {
+        double lo = ends[k], hi = ends[k + 1];
+        const bool rising = P(hi) > P(lo);
+        if ((P(lo) < 0) != (P(hi) < 0) && P(lo) != 0 && P(hi) != 0) {
+            for (int it = 0; it < 200 && hi - lo > 0; ++it) {
+                const double mid = 0.5 * (lo + hi);
+                if (mid <= lo || mid >= hi) break;
+                ((P(mid) < 0) == rising ? lo : hi) = mid;
+            }
+            cuts.push_back(0.5 * (lo + hi));
+        }
+    }
+    cuts.push_back(1.0);
+    if (cuts.size() == 2) return P(0.5) > 0 || (P(0.5) == 0 && P(0) > 0) ? F(1.0) : 0.0;
+    double positive = 0;
+    for (std::size_t k = 0; k + 1 < cuts.size(); ++k) {
+        const double x0 = std::sqrt(cuts[k]), x1 = std::sqrt(cuts[k + 1]);
+        if (P(0.5 * (cuts[k] + cuts[k + 1])) > 0) positive += F(x1) - F(x0);
+    }
+    return positive;
+}
+
+// psi = poly: Psi's coefficients must admit an H-function.  eq. 16 needs
+// K(t) = 1 - 2 int_0^1 Psi(x)/(1 + x^2 t^2) dx >= 0 for every t; since
+// 0 < 1/(1 + x^2 t^2) <= 1, K(t) >= 1 - 2 int max(Psi, 0), so 2 int_0^1
+// max(Psi, 0) <= 1 is sufficient: every non-negative Psi of albedo
+// 2 int Psi <= 1 and Psi's that are negative in places, as Psi1 of eq. 14.
+// Beyond it the kernel returned NaN (H, moment) or inf (H_inf).  K itself
+// is defined for any Psi and is not checked.
+std::string check_hfunction_poly(const QuantityInfo& q, const double* point,
+                                 const std::vector<int>& options) {
+    if (q.id == HF_Q_K || options.size() <= HF_OPT_PSI || options[HF_OPT_PSI] != HF_PSI_POLY)
+        return "";
+    const double a[4] = {point[HF_PARAM_PSI_0], point[HF_PARAM_PSI_1], point[HF_PARAM_PSI_2],
+                         point[HF_PARAM_PSI_3]};
+    double m0 = 0;  // as hf_make_psi sums it
+    for (int k = 0; k < 4; ++k) m0 += a[k] / double(2 * k + 1);
+    const double positive = psi_positive_integral(a);
+    if (1 - 2 * positive >= 0 && 1 - 2 * m0 >= 0) return "";
+    return "psi = poly with psi_0 = " + number_text(a[0]) + ", psi_1 = " +
+                    number_text(a[1]) + ", psi_2 = " + number_text(a[2]) + ", psi_3 = " +
+                    number_text(a[3]) + " has no H-function: 2 int_0^1 max(Psi, 0) dmu = " +
+                    number_text(2 * std::max(positive, m0)) +
+                    "; allowed: at most 1 (then K(t) >= 0 for every t, as eq. 16 needs; e.g. "
+                    "psi_0 in [-10, 0.5] with psi_1 = psi_2 = psi_3 = 0)";
+}
 
 ModelInfo hfunction_model() {
     ModelBuilder b("hfunction", 40);
@@ -61,7 +143,8 @@ ModelInfo hfunction_model() {
     b.option(HF_OPT_PSI, {"psi",
                           "characteristic function: d'Eon eqs. 13-15 (lambert0/1/2), isotropic "
                           "scattering c/2, or the polynomial psi_0 + psi_1 mu^2 + psi_2 mu^4 + "
-                          "psi_3 mu^6 (needs 1 - 2 int Psi >= 0; NaN otherwise)",
+                          "psi_3 mu^6, for H, moment and H_inf restricted to 2 int_0^1 max(Psi, 0) "
+                          "dmu <= 1 (K(t) >= 0 for every t; refused otherwise)",
                           {"lambert0", "lambert1", "lambert2", "isotropic", "poly"},
                           "lambert0"});
     const std::vector<std::string> none;
@@ -96,6 +179,7 @@ ModelInfo hfunction_model() {
     b.quantity(QuantityInfo{"K", HF_Q_K, "K(t) at t = mu (diagnostic; closed forms or series)", "1",
                             QuantityKind::ClosedForm, none, psi, "eqs. 17-20 (d'Eon)",
                             Method::ClosedForm, 0});
+    b.check_cell(&check_hfunction_poly);
     return b.build();
 }
 

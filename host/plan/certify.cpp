@@ -719,7 +719,7 @@ void write_certificate(const std::string& path, const Certificate& c) {
     write_double_attr(group, "certificate_predicted_rms", c.predicted_rms);
     write_double_attr(group, "certificate_seconds", c.seconds);
     group = Handle();
-    file.close("H5Fclose", path);
+    close_written_file(file, path);
 }
 
 namespace {
