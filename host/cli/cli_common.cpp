@@ -15,6 +15,7 @@
 
 #include "host/core/error.h"
 #include "host/core/text.h"
+#include "host/engine/engine_tuning.h"
 #include "host/plan/certify.h"
 
 namespace brdftab::cli {
@@ -117,7 +118,7 @@ namespace {
 // Seconds between two progress lines in a log: 30, or
 // $BRDFTAB_PROGRESS_INTERVAL (seconds, > 0; for tests and impatient users).
 double log_interval() {
-    const char* env = std::getenv("BRDFTAB_PROGRESS_INTERVAL");
+    const char* env = environment_setting("BRDFTAB_PROGRESS_INTERVAL");
     if (env && *env) {
         char* end = nullptr;
         const double v = std::strtod(env, &end);

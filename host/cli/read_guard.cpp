@@ -19,13 +19,14 @@
 #include <thread>
 
 #include "host/core/error.h"
+#include "host/engine/engine_tuning.h"
 #include "host/io/table_io.h"
 #include "host/plan/certify.h"
 
 namespace brdftab::cli {
 
 double read_timeout_seconds() {
-    const char* env = std::getenv("BRDFTAB_READ_TIMEOUT");
+    const char* env = environment_setting("BRDFTAB_READ_TIMEOUT");
     if (!env || !*env) return kDefaultReadTimeout;
     char* end = nullptr;
     const double s = std::strtod(env, &end);
