@@ -218,7 +218,12 @@ int Canvas::text_width(const std::string& s, int scale) {
 }
 int Canvas::text_height(int scale) { return kCellH * scale; }
 
-void Canvas::write_png(const std::string& path) const {
+namespace {
+
+// Writes rows (each width samples of bit_depth bits, big-endian) as a PNG of
+// colour_type through a temporary file renamed over `path` when complete.
+void write_png_rows(const std::string& path, int width, int height, int bit_depth, int colour_type,
+                    const std::vector<png_bytep>& rows, std::vector<png_text>& chunks) {
     AtomicOutput out(path);
     const std::string& tmp = out.path();
     FILE* f = std::fopen(tmp.c_str(), "wb");
@@ -232,24 +237,32 @@ void Canvas::write_png(const std::string& path) const {
     }
     // libpng reports errors by longjmp; nothing with a destructor lives
     // between here and the end of the write.
-    std::vector<png_bytep> rows(h_);
-    for (int y = 0; y < h_; ++y)
-        rows[y] = const_cast<png_bytep>(&rgb_[static_cast<std::size_t>(y) * w_ * 3]);
     volatile bool failed = false;  // survives the longjmp
     if (setjmp(png_jmpbuf(png))) {
         failed = true;
     } else {
         png_init_io(png, f);
-        png_set_IHDR(png, info, w_, h_, 8, PNG_COLOR_TYPE_RGB, PNG_INTERLACE_NONE,
+        png_set_IHDR(png, info, width, height, bit_depth, colour_type, PNG_INTERLACE_NONE,
                      PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
+        if (!chunks.empty()) png_set_text(png, info, chunks.data(), static_cast<int>(chunks.size()));
         png_write_info(png, info);
-        png_write_image(png, rows.data());
+        png_write_image(png, const_cast<png_bytepp>(rows.data()));
         png_write_end(png, nullptr);
     }
     png_destroy_write_struct(&png, &info);
     const bool close_failed = std::fclose(f) != 0;
     if (failed || close_failed) throw Error("cannot write PNG '" + tmp + "'");
     out.commit();
+}
+
+}  // namespace
+
+void Canvas::write_png(const std::string& path) const {
+    std::vector<png_bytep> rows(h_);
+    for (int y = 0; y < h_; ++y)
+        rows[y] = const_cast<png_bytep>(&rgb_[static_cast<std::size_t>(y) * w_ * 3]);
+    std::vector<png_text> no_text;
+    write_png_rows(path, w_, h_, 8, PNG_COLOR_TYPE_RGB, rows, no_text);
 }
 
 void write_png_gray16(const std::string& path, int width, int height, const std::vector<std::uint16_t>& pixels,
@@ -271,35 +284,9 @@ void write_png_gray16(const std::string& path, int width, int height, const std:
         chunks[i].text = const_cast<char*>(text[i].second.c_str());
         chunks[i].text_length = text[i].second.size();
     }
-    AtomicOutput out(path);
-    const std::string& tmp = out.path();
-    FILE* f = std::fopen(tmp.c_str(), "wb");
-    if (!f) throw Error("cannot create '" + tmp + "'");
-    png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
-    png_infop info = png ? png_create_info_struct(png) : nullptr;
-    if (!png || !info) {
-        png_destroy_write_struct(&png, &info);
-        std::fclose(f);
-        throw Error("libpng: out of memory");
-    }
     std::vector<png_bytep> rows(height);
     for (int y = 0; y < height; ++y) rows[y] = &bytes[static_cast<std::size_t>(y) * width * 2];
-    volatile bool failed = false;  // survives the longjmp
-    if (setjmp(png_jmpbuf(png))) {
-        failed = true;
-    } else {
-        png_init_io(png, f);
-        png_set_IHDR(png, info, width, height, 16, PNG_COLOR_TYPE_GRAY, PNG_INTERLACE_NONE,
-                     PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
-        if (!chunks.empty()) png_set_text(png, info, chunks.data(), static_cast<int>(chunks.size()));
-        png_write_info(png, info);
-        png_write_image(png, rows.data());
-        png_write_end(png, nullptr);
-    }
-    png_destroy_write_struct(&png, &info);
-    const bool close_failed = std::fclose(f) != 0;
-    if (failed || close_failed) throw Error("cannot write PNG '" + tmp + "'");
-    out.commit();
+    write_png_rows(path, width, height, 16, PNG_COLOR_TYPE_GRAY, rows, chunks);
 }
 
 Rgb colour_ramp(double t) {
