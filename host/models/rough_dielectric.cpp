@@ -78,9 +78,10 @@ ModelInfo rough_dielectric_model() {
         RD_OPT_G1,
         {"g1",
          "Smith masking for Beckmann: exact (eq. 26), or Walter's rational fit (eq. 27); GGX is "
-         "always exact (eq. 34); Phong always uses Walter's rational fit (eqs. 27, 31) whatever "
-         "this option says",
-         {"smith", "walter-fit"},
+         "exact (eq. 34) under both; schlick: Schlick's approximation cos/(cos (1-k) + k), "
+         "k = alpha/2, for Beckmann and GGX (Karis 2013's image-lighting G1); Phong always uses "
+         "Walter's rational fit (eqs. 27, 31) whatever this option says",
+         {"smith", "walter-fit", "schlick"},
          "smith"});
     b.option(RD_OPT_SHADOWING,
              {"shadowing",
