@@ -42,7 +42,7 @@ TEST_CASE("Cycles preset: quadrature within RQMC noise at 2^20 points on 200 ran
             if (n == "mu_i") p[0] = std::acos(x[d]);
             if (n == "theta_i") p[0] = x[d] * kDeg;
         }
-        int o[8] = {BT_MF_GGX, 0, BT_SHADOW_HEIGHT_CORRELATED, RD_LOBE_BOTH, 0, RD_SAMPLING_VISIBLE,
+        int o[RD_OPT_COUNT] = {BT_MF_GGX, 0, BT_SHADOW_HEIGHT_CORRELATED, RD_LOBE_BOTH, 0, RD_SAMPLING_VISIBLE,
                     RD_FRESNEL_DIELECTRIC, 0};
         if (t.options["fresnel"] == "none") {
             o[RD_OPT_FRESNEL] = RD_FRESNEL_NONE;

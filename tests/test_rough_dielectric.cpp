@@ -48,7 +48,7 @@ TEST_CASE("reciprocity: f_r(i,o) = f_r(o,i), f_t(i,o)/eta_o^2 = f_t(o,i)/eta_i^2
         for (int g1 = 0; g1 < 2; ++g1)
             for (int sh = 0; sh < 2; ++sh)
                 for (double eta : {1.5, 1 / 1.33, 2.4}) {
-                    int o[8] = {dist, g1, sh, 0, 0};
+                    int o[RD_OPT_COUNT] = {dist, g1, sh, 0, 0};
                     int checked_t = 0;
                     for (int k = 0; k < 200; ++k) {
                         bt_sampler s = mc(1000 + dist * 100 + g1 * 10 + sh, (uint)k);
@@ -106,7 +106,7 @@ TEST_CASE("albedo estimators (visible and Walter sampling) agree with brute-forc
             double ti = ti_deg * kDeg;
             double R = 0, T = 0;
             const int panels = 400, nphi = 800;
-            int oq[8] = {c.dist, c.g1, c.sh, 0, 0, 0};
+            int oq[RD_OPT_COUNT] = {c.dist, c.g1, c.sh, 0, 0, 0};
             for (int hemi = 0; hemi < 2; ++hemi)
                 for (int pnl = 0; pnl < panels; ++pnl)
                     for (int q = 0; q < 5; ++q) {
@@ -124,7 +124,7 @@ TEST_CASE("albedo estimators (visible and Walter sampling) agree with brute-forc
                     }
             double p[7] = {ti, 0, 0, 0, alpha, eta};
             for (int sampling : {RD_SAMPLING_VISIBLE, RD_SAMPLING_WALTER}) {
-                int o[8] = {c.dist, c.g1, c.sh, 0, 0, sampling};
+                int o[RD_OPT_COUNT] = {c.dist, c.g1, c.sh, 0, 0, sampling};
                 Stat er = estimate(p, o, RD_Q_ALBEDO_R, 40000, 7 + c.dist);
                 Stat et = estimate(p, o, RD_Q_ALBEDO_T, 40000, 7 + c.dist);
                 INFO("dist " << c.dist << " g1 " << c.g1 << " sh " << c.sh << " sampling "
@@ -155,7 +155,7 @@ TEST_CASE("energy: albedo_r + albedo_t <= 1")
                 for (double eta : {1.5, 1 / 1.5, 1.05, 3.0})
                     for (double ti_deg : {0.0, 45.0, 80.0, 89.0, 100.0, 135.0, 179.0}) {
                         if (dist == BT_MF_PHONG && alpha > 0.3) continue;
-                        int o[8] = {dist, 0, sh, 0, 0, RD_SAMPLING_WALTER};
+                        int o[RD_OPT_COUNT] = {dist, 0, sh, 0, 0, RD_SAMPLING_WALTER};
                         double p[7] = {ti_deg * kDeg, 0.3, 0, 0, alpha, eta};
                         Stat st;
                         for (int k = 0; k < 10000; ++k) {
@@ -192,7 +192,7 @@ TEST_CASE("visible-normal sampling: every weight <= 1 (exact G1), <= 1.0035 (Wal
                     for (double e : etas)
                         for (double ti : thetas) {
                             if (g1 == 1 && dist == BT_MF_GGX) continue;  // GGX ignores g1
-                            int o[8] = {dist, g1, sh, RD_LOBE_BOTH, ti > kPi / 2 ? 1 : 0,
+                            int o[RD_OPT_COUNT] = {dist, g1, sh, RD_LOBE_BOTH, ti > kPi / 2 ? 1 : 0,
                                         RD_SAMPLING_VISIBLE};
                             double p[7] = {ti, 0.3, 0, 0, a, e};
                             double bound = g1 ? 1.0035 : 1 + 1e-12;
@@ -228,8 +228,8 @@ TEST_CASE("visible and Walter sampling estimate the same albedos")
                 double p[7] = {ti_deg * kDeg, 0.1, 0, 0, alpha, 1.5};
                 for (int q : {RD_Q_ALBEDO_R, RD_Q_ALBEDO_T, RD_Q_ALBEDO_AVG}) {
                     if (q == RD_Q_ALBEDO_AVG && ti_deg > 0) continue;  // no theta_i
-                    int ov[8] = {dist, 0, 0, RD_LOBE_BOTH, 1, RD_SAMPLING_VISIBLE};
-                    int ow[8] = {dist, 0, 0, RD_LOBE_BOTH, 1, RD_SAMPLING_WALTER};
+                    int ov[RD_OPT_COUNT] = {dist, 0, 0, RD_LOBE_BOTH, 1, RD_SAMPLING_VISIBLE};
+                    int ow[RD_OPT_COUNT] = {dist, 0, 0, RD_LOBE_BOTH, 1, RD_SAMPLING_WALTER};
                     uint cell = (uint)(dist * 1000 + alpha * 10 + ti_deg);
                     Stat v = estimate(p, ov, q, 10000, cell);
                     Stat w = estimate(p, ow, q, 40000, cell + 50000);
@@ -254,7 +254,7 @@ TEST_CASE("smooth limit: alpha -> 0 gives albedo_r = F(theta_i), R + T = 1")
     for (int dist = 0; dist < 3; ++dist)
         for (double ti_deg : {0.0, 30.0, 60.0, 80.0, 150.0, 120.0}) {
             const double eta = 1.5;
-            int o[8] = {dist, 0, 0, 0, 0};
+            int o[RD_OPT_COUNT] = {dist, 0, 0, 0, 0};
             double p[7] = {ti_deg * kDeg, 0, 0, 0, 1e-4, eta};
             bool inside = ti_deg > 90;
             double c = std::fabs(std::cos(ti_deg * kDeg));
@@ -302,7 +302,7 @@ TEST_CASE("eta = 1: no reflection, transmission straight through")
         for (int sh = 0; sh < 2; ++sh)
             for (double alpha : {1e-3, 0.5})
                 for (double ti_deg : {0.0, 40.0, 75.0, 140.0}) {
-                    int o[8] = {dist, 0, sh, 0, 0};
+                    int o[RD_OPT_COUNT] = {dist, 0, sh, 0, 0};
                     double p[7] = {ti_deg * kDeg, 0.2, 0, 0, alpha, 1.0};
                     Stat r = estimate(p, o, RD_Q_ALBEDO_R, 500, 9);
                     Stat t = estimate(p, o, RD_Q_ALBEDO_T, 4000, 9);
@@ -337,9 +337,9 @@ TEST_CASE("albedo_avg: smooth-limit hemispherical reflectances and their identit
     double ri = 1 - (1 - re) / (eta * eta);
     for (int dist = 0; dist < 3; ++dist) {
         double p[7] = {0, 0, 0, 0, 1e-4, eta};
-        int out_r[8] = {dist, 0, 0, RD_LOBE_REFLECTION, 0};
-        int in_r[8] = {dist, 0, 0, RD_LOBE_REFLECTION, 1};
-        int out_both[8] = {dist, 0, 0, RD_LOBE_BOTH, 0};
+        int out_r[RD_OPT_COUNT] = {dist, 0, 0, RD_LOBE_REFLECTION, 0};
+        int in_r[RD_OPT_COUNT] = {dist, 0, 0, RD_LOBE_REFLECTION, 1};
+        int out_both[RD_OPT_COUNT] = {dist, 0, 0, RD_LOBE_BOTH, 0};
         Stat a = estimate(p, out_r, RD_Q_ALBEDO_AVG, 100000, 21);
         Stat b = estimate(p, in_r, RD_Q_ALBEDO_AVG, 100000, 22);
         Stat c = estimate(p, out_both, RD_Q_ALBEDO_AVG, 20000, 23);
@@ -365,7 +365,7 @@ TEST_CASE("no NaN or Inf on extreme inputs")
                         for (double ti : thetas)
                             for (double to : thetas)
                                 for (double dphi : {0.0, kPi, 1.0}) {
-                                    int o[8] = {dist, g1, sh, (int)(n % 3), (int)(n % 2),
+                                    int o[RD_OPT_COUNT] = {dist, g1, sh, (int)(n % 3), (int)(n % 2),
                                                 (int)((n / 2) % 2)};
                                     double p[7] = {ti, 0.4, to, 0.4 + dphi, a, e};
                                     for (int q = 0; q < 6; ++q) {
@@ -507,7 +507,7 @@ TEST_CASE("Phong near alpha = 1 (issue #15): R + T above 1 is the fitted G1, not
             }
             q *= (1.0 / nu) * (2 * kPi / nphi);
             const double bound = bt_mf_g1_nochi(&mf, i) * q / i.z;
-            int o[8] = {BT_MF_PHONG, 0, 0, 0, 0, RD_SAMPLING_WALTER};
+            int o[RD_OPT_COUNT] = {BT_MF_PHONG, 0, 0, 0, 0, RD_SAMPLING_WALTER};
             double p[7] = {ti_deg * kDeg, 0, 0, 0, alpha, 1.5};
             Stat st;
             for (int k = 0; k < 20000; ++k) {
@@ -590,7 +590,7 @@ TEST_CASE("quadrature agrees with RQMC at 2^20 points (GGX, Beckmann, both G for
                 for (double alpha : {0.001, 0.3, 1.0})
                     for (double eta : {1.0001, 1.5, 3.0}) {
                         if (!full && (alpha == 0.3 || eta == 1.5)) continue;
-                        const int o[8] = {dist, 0, sh, 0, 0, RD_SAMPLING_VISIBLE};
+                        const int o[RD_OPT_COUNT] = {dist, 0, sh, 0, 0, RD_SAMPLING_VISIBLE};
                         const double ti = std::acos(mu);
                         Stat r, t;
                         rqmc_albedos(ti, alpha, eta, o, ++cell, &r, &t, full ? 1u << 16 : 1u << 14);
@@ -611,7 +611,7 @@ TEST_CASE("quadrature agrees with RQMC at 2^20 points (GGX, Beckmann, both G for
 TEST_CASE("quadrature: alpha -> 0 gives the Fresnel reflectance, eta = 1 no reflection")
 {
     for (int dist : {BT_MF_GGX, BT_MF_BECKMANN}) {
-        const int o[8] = {dist, 0, 0, 0, 0, 0};
+        const int o[RD_OPT_COUNT] = {dist, 0, 0, 0, 0, 0};
         for (double eta : {1.33, 1.5, 2.4})
             for (double mu : {0.1, 0.5, 0.9, 1.0, -0.3, -0.7, -0.9, -1.0}) {
                 const double ti = std::acos(mu);
@@ -653,7 +653,7 @@ TEST_CASE("quadrature: energy, and the two-rule error estimate is honest")
                 for (double alpha : {0.003, 0.05, 0.3, 1.0})
                     for (double eta : {1.05, 1.5, 2.5}) {
                         if (sh == BT_SHADOW_HEIGHT_CORRELATED && alpha == 0.05) continue;
-                        const int o[8] = {dist, 0, sh, 0, 0, 0};
+                        const int o[RD_OPT_COUNT] = {dist, 0, sh, 0, 0, 0};
                         const double ti = std::acos(mu);
                         const int n = 12;
                         double acc[2], r_t[2];
@@ -688,7 +688,7 @@ TEST_CASE("quadrature: albedo_avg and Phong agree with RQMC; batch 1 is the coar
     // albedo_avg: 3-D; RQMC over (m, mu) with 2^18 points.
     for (int side : {0, 1})
         for (double alpha : {0.05, 0.5}) {
-            const int o[8] = {BT_MF_GGX, 0, 0, RD_LOBE_BOTH, side, RD_SAMPLING_VISIBLE};
+            const int o[RD_OPT_COUNT] = {BT_MF_GGX, 0, 0, RD_LOBE_BOTH, side, RD_SAMPLING_VISIBLE};
             double p[8] = {0, 0, 0, 0, alpha, 1.5, 16, 0};
             Stat st;
             for (uint b = 0; b < 16; ++b) {
@@ -708,7 +708,7 @@ TEST_CASE("quadrature: albedo_avg and Phong agree with RQMC; batch 1 is the coar
     // Phong (real theta_m rows, Walter-weight normalisation) against its own
     // RQMC (Walter's sampling: Phong has no visible-normal sampler).
     for (double mu : {0.3, 0.9, -0.6}) {
-        const int o[8] = {BT_MF_PHONG, 0, 0, 0, 0, RD_SAMPLING_WALTER};
+        const int o[RD_OPT_COUNT] = {BT_MF_PHONG, 0, 0, 0, 0, RD_SAMPLING_WALTER};
         double p[8] = {std::acos(mu), 0, 0, 0, 0.3, 1.5, 16, 0};
         for (int q : {RD_Q_ALBEDO_R, RD_Q_ALBEDO_T}) {
             Stat st;
@@ -727,7 +727,7 @@ TEST_CASE("quadrature: albedo_avg and Phong agree with RQMC; batch 1 is the coar
         }
     }
     // batch 1 evaluates the coarse rule (the engine's error estimate).
-    const int o[8] = {BT_MF_GGX, 0, 0, 0, 0, 0};
+    const int o[RD_OPT_COUNT] = {BT_MF_GGX, 0, 0, 0, 0, 0};
     double p[8] = {0.7, 0, 0, 0, 0.2, 1.5, 16, 0};
     bt_sampler s1 = quad_sampler(1);
     CHECK(rough_dielectric_sample(p, o, RD_Q_ALBEDO_R, &s1) ==

@@ -90,9 +90,10 @@ ModelInfo rough_dielectric_model() {
         RD_OPT_G1,
         {"g1",
          "Smith masking for Beckmann: exact (eq. 26), or Walter's rational fit (eq. 27); GGX is "
-         "always exact (eq. 34); Phong always uses Walter's rational fit (eqs. 27, 31) whatever "
-         "this option says",
-         {"smith", "walter-fit"},
+         "exact (eq. 34) under both; schlick: Schlick's approximation cos/(cos (1-k) + k), "
+         "k = alpha/2, for Beckmann and GGX (Karis 2013's image-lighting G1); Phong always uses "
+         "Walter's rational fit (eqs. 27, 31) whatever this option says",
+         {"smith", "walter-fit", "schlick"},
          "smith"});
     b.option(RD_OPT_SHADOWING,
              {"shadowing",
@@ -129,11 +130,19 @@ ModelInfo rough_dielectric_model() {
               "critical cosine, (nodes + 1)/2 nodes each (graded: for errors near 1e-6)",
               {"single", "graded"},
               "single"});
+    b.option(RD_OPT_TIR_RULE,
+             {"tir_rule",
+              "albedos under quadrature, light in the denser medium: split (panels end at the "
+              "total-internal-reflection level, graded there) or sqrt (also u = sqrt(phi_tir - "
+              "phi) on the panels just short of it, the rows where a horizon level meets it, "
+              "and, for albedo_avg, mu = 2 mu_c and mu = 1/eta; for errors near 1e-6)",
+              {"split", "sqrt"},
+              "split"});
 
     const std::vector<std::string> all_dirs = {"theta_i", "phi_i", "theta_o", "phi_o"};
     const std::vector<std::string> shape_opts = {"distribution", "g1", "shadowing", "fresnel"};
     const std::vector<std::string> albedo_opts = {"distribution", "g1", "shadowing", "sampling",
-                                                  "fresnel"};
+                                                  "fresnel", "tir_rule"};
     const std::vector<std::string> split_opts = {"distribution", "g1", "shadowing", "sampling"};
     auto closed = [&](const char* name, int id, const char* desc, const char* eqs) {
         QuantityInfo q;
@@ -189,7 +198,7 @@ ModelInfo rough_dielectric_model() {
                         "2 * int E(mu) mu dmu, for the chosen lobe(s) and side",
                         kAlbedoEqs, {},
                         {"distribution", "g1", "shadowing", "lobe", "side", "sampling", "fresnel",
-                         "mu_rule"},
+                         "mu_rule", "tir_rule"},
                         3));
     const char* kSplitEqs =
         "eqs. 14, 20, 39 with F = 1, weighted by Schlick's factors (Schlick 1994 eq. 15; "

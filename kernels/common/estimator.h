@@ -71,7 +71,7 @@
  * derived per-cell invariants (host/models/registry.h; lambert-sphere uses
  * 4 + 5 + 20). */
 #define BT_MAX_POINT 32
-#define BT_MAX_OPTIONS 8
+#define BT_MAX_OPTIONS 12
 
 /* One Welford update; `n` is the 1-based count after adding x. */
 #define BT_WELFORD_ADD(mean, m2, x, n)                                         \

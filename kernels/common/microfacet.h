@@ -27,6 +27,10 @@
  *   as Walter does (eq. 31) — Phong always uses the rational fit of eq. 27
  *   with a = sqrt(0.5 alpha_p + 1) / tan(theta_v); the g1 option is ignored
  *   for Phong.  With our alpha_p conversion this a equals 1/(alpha tan theta_v).
+ *   Schlick's approximation (Beckmann and GGX, g1 = BT_G1_SCHLICK), as
+ *   Karis 2013 uses it for image lighting: G1 = cos / (cos (1 - k) + k) with
+ *   k = alpha / 2 (alpha_x; not a Smith G1 of either D, so Smith's identity
+ *   and energy conservation hold only approximately).
  *   All G1 include Walter's chi+((v.m)/(v.n)): 0 when v sees the back of m.
  *
  * G(i,o,m):
@@ -65,6 +69,7 @@
 
 #define BT_G1_EXACT 0
 #define BT_G1_WALTER_FIT 1
+#define BT_G1_SCHLICK 2
 
 #define BT_SHADOW_SEPARABLE 0
 #define BT_SHADOW_HEIGHT_CORRELATED 1
@@ -193,6 +198,12 @@ BT_INLINE REAL bt_ggx_g1_nochi(bt_vec3 v, REAL ax, REAL ay)
 /* G1 without the chi+ factor (the distribution's visibility of a direction). */
 BT_INLINE REAL bt_mf_g1_nochi(const bt_microfacet* mf, bt_vec3 v)
 {
+    if (mf->g1 == BT_G1_SCHLICK && mf->dist != BT_MF_PHONG) {
+        /* Schlick 1994 / Karis 2013: k = alpha/2 (image-lighting choice) */
+        REAL z = fabs(v.z), k = R(0.5) * mf->ax;
+        REAL den = z * (R(1.0) - k) + k;
+        return den > R(0.0) ? z / den : R(0.0);
+    }
     if (mf->dist == BT_MF_GGX) return bt_ggx_g1_nochi(v, mf->ax, mf->ay);
     if (mf->dist == BT_MF_PHONG) {
         /* eq. 31: a = sqrt(0.5 alpha_p + 1)/tan(theta_v) with eq. 27. */

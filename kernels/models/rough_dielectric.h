@@ -33,6 +33,11 @@
  *                       Legendre rule per side of the critical cosine), 1
  *                       graded (panels geometric towards grazing and the
  *                       critical cosine; rd_albedo_avg_quadrature_graded)
+ *   o[8] tir_rule       albedos under quadrature: 0 split (the TIR level is a
+ *                       graded split of each row), 1 sqrt (also the sqrt map
+ *                       on the panels just short of it, the theta~ splits of
+ *                       rd_quad_add_crossings and, for albedo_avg with the
+ *                       single mu rule, mu splits at 2 mu_c and eta)
  * Quantities:
  *   0 brdf        f_r (1/sr); 0 when i and o are on opposite sides
  *   1 btdf        f_t (1/sr); 0 when i and o are on the same side
@@ -113,10 +118,14 @@
 #define RD_OPT_SAMPLING 5
 #define RD_OPT_FRESNEL 6
 #define RD_OPT_MU_RULE 7
-#define RD_OPT_COUNT 8
+#define RD_OPT_TIR_RULE 8
+#define RD_OPT_COUNT 9
 
 #define RD_MU_RULE_SINGLE 0
 #define RD_MU_RULE_GRADED 1
+
+#define RD_TIR_RULE_SPLIT 0
+#define RD_TIR_RULE_SQRT 1
 
 #define RD_LOBE_BOTH 0
 #define RD_LOBE_REFLECTION 1
@@ -470,6 +479,7 @@ typedef struct {
     REAL c_tir;       /* critical c (eta < 1), else -1 */
     REAL layer[RD_QUAD_LAYERS]; /* c levels of the Fresnel layer, or -1 */
     REAL rise[RD_QUAD_LAYERS];  /* o_r.z levels of the G1(o_r) ramp, or -1 */
+    int tir_rule;     /* RD_TIR_RULE_*: map of the panels near the TIR split */
 } rd_quad_ctx;
 
 /* Weights of one normal m (the visible-normal weights of rd_albedo_weights,
@@ -559,6 +569,10 @@ BT_INLINE void rd_quad_row(const rd_quad_ctx* q, REAL mz, REAL ms, REAL va, REAL
         return; /* the whole row faces away from i */
     }
     /* sub-intervals [0, e0, e1, ..., phi_end] */
+    /* phi of the TIR split (the one split graded 2 on a row), or -1 */
+    REAL phi_tir = -R(1.0);
+    for (int k = 0; k < ne; ++k)
+        if (g[k] == 2) phi_tir = e[k];
     REAL lo = R(0.0);
     int glo = 1;
     REAL a_r = R(0.0), a_t = R(0.0), a_n = R(0.0);
@@ -570,11 +584,29 @@ BT_INLINE void rd_quad_row(const rd_quad_ctx* q, REAL mz, REAL ms, REAL va, REAL
             ghi = 1;
         }
         REAL L = hi - lo;
+        /* tir_rule = sqrt: a panel on the transmitting side (c > c_tir, phi
+         * < phi_tir) that stops short of phi_tir, closer to it than its own
+         * length, carries F's sqrt(c - c_tir) ~ sqrt(phi_tir - phi) from
+         * just outside (the refracted-horizon level sits a hair before the
+         * TIR level: o_t grazes the facet at the TIR edge, so o_t.z = 0 is
+         * reached within ~(c - c_tir) ~ 1e-5).  There u = sqrt(phi_tir -
+         * phi) is the variable: linear in the node, phi = phi_tir - u^2,
+         * dphi = 2 u (u_lo - u_hi) dt, so the sqrt becomes a polynomial. */
+        int sqrt_map = q->tir_rule == RD_TIR_RULE_SQRT && phi_tir > R(0.0) && hi < phi_tir &&
+                       phi_tir - hi < L;
+        REAL u_lo = sqrt_map ? sqrt(phi_tir - lo) : R(0.0);
+        REAL u_hi = sqrt_map ? sqrt(phi_tir - hi) : R(0.0);
         if (L > R(0.0)) {
             for (int j = 0; j < n; ++j) {
                 REAL jac;
                 REAL t = bt_graded_map(R(0.5) * (gx[j] + R(1.0)), glo, ghi, &jac);
                 REAL phi = lo + L * t;
+                if (sqrt_map) {
+                    REAL tl = R(0.5) * (gx[j] + R(1.0));
+                    REAL u = u_lo + (u_hi - u_lo) * tl;
+                    phi = phi_tir - u * u;
+                    jac = R(2.0) * u * (u_lo - u_hi) / L; /* times L below */
+                }
                 REAL cp = bt_cos(phi), sp = bt_sin(phi);
                 REAL wq = R(0.5) * gw[j] * jac * L * fmax(va * cp + vb, R(0.0));
                 bt_vec3 m = bt_v3(ms * cp, ms * sp, mz);
@@ -638,6 +670,23 @@ BT_INLINE void rd_quad_add_inplane(const rd_quad_ctx* q, REAL top, REAL* e, int*
     }
 }
 
+/* tir_rule = sqrt: the rows on which a horizon level meets the TIR level.
+ * On a row the reflected weight is F G1(o_r)-like with F = 1 - O(sqrt(c -
+ * c_tir)) and a kink at the o_r horizon c_r = i.z / (2 m.z); the
+ * transmitted one is (1 - F) G1(o_t)-like with a kink at the o_t horizon.
+ * Where the kink and the TIR level coincide, the row integral has a
+ * (theta~ - theta~*)^(3/2) term: not at an in-plane normal, so the splits
+ * above miss it.  The o_r horizon meets c_tir at m.z = i.z / (2 c_tir); the
+ * o_t horizon (o_t.z = k(c) m.z - eW i.z, k(c_tir) = eW c_tir, eW = 1/eta)
+ * at m.z = i.z / c_tir.  Split there, graded with power 2. */
+BT_INLINE void rd_quad_add_crossings(const rd_quad_ctx* q, REAL top, REAL* e, int* g, int* ne)
+{
+    if (!(q->c_tir > R(0.0))) return;
+    REAL mz_r = q->i.z / (R(2.0) * q->c_tir), mz_t = q->i.z / q->c_tir;
+    if (mz_r < R(1.0)) rd_quad_add_psi(q, bt_acos(mz_r), 2, top, e, g, ne);
+    if (mz_t < R(1.0)) rd_quad_add_psi(q, bt_acos(mz_t), 2, top, e, g, ne);
+}
+
 /* Geometric refinement towards the graded (singular) outer points: the
  * row integral has features on scales set by alpha near them (the G1(o_r)
  * ramp, the Fresnel layer), compressed near theta~ = pi/2, so each interval
@@ -668,8 +717,8 @@ BT_INLINE int rd_quad_refine(REAL* e, int* g, int ne, REAL lo_end, REAL hi_end)
  * sub-interval in each direction, with facet reflectance mode `fresnel`
  * (rd_fresnel; a mode that does not read eta splits at no TIR or Fresnel
  * level, as it has none). */
-BT_INLINE void rd_albedo_quadrature_mode(const bt_microfacet* mf, bt_vec3 i, REAL eta, int fresnel,
-                                         int n, REAL* ar, REAL* at)
+BT_INLINE void rd_albedo_quadrature_rule(const bt_microfacet* mf, bt_vec3 i, REAL eta, int fresnel,
+                                         int n, int tir_rule, REAL* ar, REAL* at)
 {
     REAL gx[RD_QUAD_MAX_NODES], gw[RD_QUAD_MAX_NODES];
     /* n = 1 (one midpoint per sub-interval) only as the coarse rule of
@@ -681,6 +730,7 @@ BT_INLINE void rd_albedo_quadrature_mode(const bt_microfacet* mf, bt_vec3 i, REA
     q.i = i;
     q.eta = eta;
     q.fresnel = fresnel;
+    q.tir_rule = tir_rule;
     q.stretched = bt_mf_has_visible(mf);
     q.gi = bt_mf_g1_nochi(mf, i);
     REAL gs = bt_mf_g1_smith_nochi(mf, i);
@@ -728,6 +778,7 @@ BT_INLINE void rd_albedo_quadrature_mode(const bt_microfacet* mf, bt_vec3 i, REA
             if (k * alpha < top) rd_quad_insert(e, g, &ne, k * alpha, 1);
     }
     rd_quad_add_inplane(&q, top, e, g, &ne);
+    if (tir_rule == RD_TIR_RULE_SQRT) rd_quad_add_crossings(&q, top, e, g, &ne);
     ne = rd_quad_refine(e, g, ne, R(0.0), top);
 
     REAL alpha_p = bt_phong_exponent(alpha);
@@ -786,6 +837,13 @@ BT_INLINE void rd_albedo_quadrature_mode(const bt_microfacet* mf, bt_vec3 i, REA
     }
 }
 
+/* rd_albedo_quadrature_rule with the split rule near the TIR level. */
+BT_INLINE void rd_albedo_quadrature_mode(const bt_microfacet* mf, bt_vec3 i, REAL eta, int fresnel,
+                                         int n, REAL* ar, REAL* at)
+{
+    rd_albedo_quadrature_rule(mf, i, eta, fresnel, n, RD_TIR_RULE_SPLIT, ar, at);
+}
+
 /* rd_albedo_quadrature_mode with the dielectric Fresnel factor (eq. 22). */
 BT_INLINE void rd_albedo_quadrature(const bt_microfacet* mf, bt_vec3 i, REAL eta, int n, REAL* ar,
                                     REAL* at)
@@ -806,14 +864,14 @@ BT_INLINE int rd_quad_nodes(const REAL* p, const bt_sampler* s)
 
 /* Directional albedo (lobe) for light direction i (either side) by quadrature. */
 BT_INLINE REAL rd_albedo_quadrature_dir(const bt_microfacet* mf, bt_vec3 i, REAL eta, int lobe,
-                                        int fresnel, int n)
+                                        int fresnel, int n, int tir_rule)
 {
     if (i.z < R(0.0)) {
         i.z = -i.z;
         eta = R(1.0) / eta;
     }
     REAL ar, at;
-    rd_albedo_quadrature_mode(mf, i, eta, fresnel, n, &ar, &at);
+    rd_albedo_quadrature_rule(mf, i, eta, fresnel, n, tir_rule, &ar, &at);
     if (lobe == RD_LOBE_REFLECTION) return ar;
     if (lobe == RD_LOBE_TRANSMISSION) return at;
     return ar + at;
@@ -823,16 +881,38 @@ BT_INLINE REAL rd_albedo_quadrature_dir(const bt_microfacet* mf, bt_vec3 i, REAL
  * split at the critical cosine (the smooth-surface TIR edge, where E has a
  * kink that roughness only softens) and graded there (power 2). */
 BT_INLINE REAL rd_albedo_avg_quadrature(const bt_microfacet* mf, REAL eta, int side, int lobe,
-                                        int fresnel, int n)
+                                        int fresnel, int n, int tir_rule)
 {
     REAL gx[RD_QUAD_MAX_NODES], gw[RD_QUAD_MAX_NODES];
     int nn = n < 1 ? 1 : (n > RD_QUAD_MAX_NODES ? RD_QUAD_MAX_NODES : n); /* 1: see rd_albedo_quadrature */
     bt_gauss_legendre_rule(nn, gx, gw);
     REAL ec = side == 1 ? R(1.0) / eta : eta; /* canonical index */
-    REAL e[3];
+    REAL e[5];
     int ne = 0;
     e[ne++] = R(0.0);
-    if (rd_fresnel_reads_eta(fresnel) && ec < R(1.0)) e[ne++] = sqrt((R(1.0) - ec) * (R(1.0) + ec));
+    if (rd_fresnel_reads_eta(fresnel) && ec < R(1.0)) {
+        REAL mu_c = sqrt((R(1.0) - ec) * (R(1.0) + ec));
+        e[ne++] = mu_c;
+        /* tir_rule = sqrt: E(mu) is also not smooth where the TIR level
+         * meets the o_r horizon at the normal m = n (i.z = 2 mu_c, see
+         * rd_quad_add_crossings) and where the TIR circle i.m = mu_c
+         * reaches the facet horizon m.z = 0 (theta_i + acos(mu_c) = pi/2,
+         * i.z = sqrt(1 - mu_c^2) = eta): split and grade there too. */
+        if (tir_rule == RD_TIR_RULE_SQRT) {
+            REAL extra[2] = {R(2.0) * mu_c, ec};
+            for (int k = 0; k < 2; ++k) {
+                REAL x = extra[k];
+                if (!(x < R(1.0)) || x == mu_c) continue;
+                int j = ne - 1; /* insert into e[1 .. ne-1], ascending */
+                while (j >= 1 && e[j] > x) {
+                    e[j + 1] = e[j];
+                    --j;
+                }
+                e[j + 1] = x;
+                ++ne;
+            }
+        }
+    }
     e[ne] = R(1.0);
     REAL sum = R(0.0);
     for (int k = 0; k < ne; ++k) {
@@ -844,7 +924,7 @@ BT_INLINE REAL rd_albedo_avg_quadrature(const bt_microfacet* mf, REAL eta, int s
             REAL mu = fmax(lo + L * t, RD_MIN_COS);
             bt_vec3 i = bt_v3(bt_safe_sqrt(R(1.0) - mu * mu), R(0.0), mu);
             REAL ar, at;
-            rd_albedo_quadrature_mode(mf, i, ec, fresnel, nn, &ar, &at);
+            rd_albedo_quadrature_rule(mf, i, ec, fresnel, nn, tir_rule, &ar, &at);
             REAL a = lobe == RD_LOBE_REFLECTION ? ar : lobe == RD_LOBE_TRANSMISSION ? at : ar + at;
             sum += R(0.5) * gw[j] * jac * L * R(2.0) * mu * a;
         }
@@ -866,7 +946,7 @@ BT_INLINE REAL rd_albedo_avg_quadrature(const bt_microfacet* mf, REAL eta, int s
 #define RD_AVG_GRAZING_LEVELS 6
 #define RD_AVG_CRITICAL_LEVELS 4
 BT_INLINE REAL rd_albedo_avg_quadrature_graded(const bt_microfacet* mf, REAL eta, int side,
-                                               int lobe, int fresnel, int n)
+                                               int lobe, int fresnel, int n, int tir_rule)
 {
     REAL gx[RD_QUAD_MAX_NODES], gw[RD_QUAD_MAX_NODES];
     int nn = n < 1 ? 1 : (n > RD_QUAD_MAX_NODES ? RD_QUAD_MAX_NODES : n);
@@ -910,7 +990,7 @@ BT_INLINE REAL rd_albedo_avg_quadrature_graded(const bt_microfacet* mf, REAL eta
             REAL mu = fmax(lo + L * t, RD_MIN_COS);
             bt_vec3 i = bt_v3(bt_safe_sqrt(R(1.0) - mu * mu), R(0.0), mu);
             REAL ar, at;
-            rd_albedo_quadrature_mode(mf, i, ec, fresnel, nn, &ar, &at);
+            rd_albedo_quadrature_rule(mf, i, ec, fresnel, nn, tir_rule, &ar, &at);
             REAL a = lobe == RD_LOBE_REFLECTION ? ar : lobe == RD_LOBE_TRANSMISSION ? at : ar + at;
             sum += R(0.5) * gw[j] * jac * L * R(2.0) * mu * a;
         }
@@ -944,14 +1024,16 @@ BT_INLINE REAL rough_dielectric_sample(const REAL* p, const int* o, int quantity
         if (directional) {
             bt_vec3 i;
             bt_direction(p[0], p[1], RD_MIN_COS, BT_DIR_SIGNED_COS, &i);
-            return rd_albedo_quadrature_dir(&mf, i, p[RD_PARAM_ETA], lobe, fresnel, n);
+            return rd_albedo_quadrature_dir(&mf, i, p[RD_PARAM_ETA], lobe, fresnel, n,
+                                            o[RD_OPT_TIR_RULE]);
         }
         if (quantity == RD_Q_ALBEDO_AVG)
             return o[RD_OPT_MU_RULE] == RD_MU_RULE_GRADED
                        ? rd_albedo_avg_quadrature_graded(&mf, p[RD_PARAM_ETA], o[RD_OPT_SIDE],
-                                                         o[RD_OPT_LOBE], fresnel, n)
+                                                         o[RD_OPT_LOBE], fresnel, n,
+                                                         o[RD_OPT_TIR_RULE])
                        : rd_albedo_avg_quadrature(&mf, p[RD_PARAM_ETA], o[RD_OPT_SIDE],
-                                                  o[RD_OPT_LOBE], fresnel, n);
+                                                  o[RD_OPT_LOBE], fresnel, n, o[RD_OPT_TIR_RULE]);
         return R(0.0);
     }
     REAL u0 = bt_uniform(s, 0u), u1 = bt_uniform(s, 1u);
