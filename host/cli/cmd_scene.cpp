@@ -91,6 +91,22 @@ void check_scene_resources(const std::vector<Spec>& specs, const std::vector<Int
                          " is free on its file system; write elsewhere (-o) or ask for less");
 }
 
+// What was found in the scene, and what each material becomes (with the
+// parts of a tabulated material that stay closed forms).
+void print_materials(const std::string& scene, const std::vector<MappedMaterial>& materials) {
+    std::cout << "scene " << scene << ": " << materials.size() << " material(s)\n";
+    for (const MappedMaterial& m : materials) {
+        std::cout << "  " << std::left << std::setw(22) << m.source.name << " "
+                  << std::setw(18) << m.source.type << " " << to_string(m.status);
+        if (m.status == MaterialStatus::Tabulated) std::cout << " as " << m.model;
+        std::cout << "\n      " << m.reason << "\n";
+        if (m.status == MaterialStatus::Tabulated)
+            for (const auto& [part, why] : m.closed_forms)
+                std::cout << "      " << part << ": no-table-needed: " << why << "\n";
+        for (const std::string& n : m.notes) std::cout << "      note: " << n << "\n";
+    }
+}
+
 }  // namespace
 
 void register_scene(CLI::App& app) {
@@ -194,17 +210,7 @@ void register_scene(CLI::App& app) {
                                  : (fs::path(out_path).replace_extension(".json")).string();
 
         // What was found, and what each material becomes.
-        std::cout << "scene " << st.scene << ": " << plan.materials.size() << " material(s)\n";
-        for (const MappedMaterial& m : plan.materials) {
-            std::cout << "  " << std::left << std::setw(22) << m.source.name << " "
-                      << std::setw(18) << m.source.type << " " << to_string(m.status);
-            if (m.status == MaterialStatus::Tabulated) std::cout << " as " << m.model;
-            std::cout << "\n      " << m.reason << "\n";
-            for (const auto& [part, why] : m.closed_forms)
-                if (m.status == MaterialStatus::Tabulated)
-                    std::cout << "      " << part << ": no-table-needed: " << why << "\n";
-            for (const std::string& n : m.notes) std::cout << "      note: " << n << "\n";
-        }
+        print_materials(st.scene, plan.materials);
         std::cout << plan.sets.size() << " table set(s), " << cells_text(cells) << ":\n";
         for (std::size_t k = 0; k < plan.sets.size(); ++k) {
             const SceneTableSet& set = plan.sets[k];

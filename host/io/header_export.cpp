@@ -33,15 +33,23 @@ HeaderValueType parse_header_value_type(const std::string& name) {
     throw InputError("--type '" + name + "' is not one of float, half, uint16");
 }
 
-namespace {
-
-bool is_identifier(const std::string& s) {
+bool is_c_identifier(const std::string& s) {
     if (s.empty()) return false;
     if (!(std::isalpha(static_cast<unsigned char>(s[0])) || s[0] == '_')) return false;
     return std::all_of(s.begin(), s.end(), [](char c) {
         return std::isalnum(static_cast<unsigned char>(c)) || c == '_';
     });
 }
+
+std::string c_float_literal(float v) {
+    char buf[40];
+    std::snprintf(buf, sizeof buf, "%.9g", static_cast<double>(v));
+    std::string s = buf;
+    if (s.find_first_of(".eE") == std::string::npos) s += ".0";
+    return s + "f";
+}
+
+namespace {
 
 // %.17g round-trips a double; %.9g a float.
 std::string dbl(double v) {
@@ -51,14 +59,6 @@ std::string dbl(double v) {
     // A C literal without '.', 'e' or "inf" would be an int: "0" -> "0.0".
     if (s.find_first_of(".eEn") == std::string::npos) s += ".0";
     return s;
-}
-
-std::string flt(float v) {
-    char buf[40];
-    std::snprintf(buf, sizeof buf, "%.9g", static_cast<double>(v));
-    std::string s = buf;
-    if (s.find_first_of(".eE") == std::string::npos) s += ".0";
-    return s + "f";
 }
 
 // A C string literal (names and units are plain ASCII, but be safe).
@@ -107,7 +107,7 @@ void put_list(std::string& out, const std::vector<std::string>& items) {
 
 std::string header_identifier(const TableData& table, const HeaderExportOptions& options) {
     if (!options.name.empty()) {
-        if (!is_identifier(options.name))
+        if (!is_c_identifier(options.name))
             throw InputError("--name '" + options.name +
                              "' is not a C identifier (letters, digits and '_', not starting "
                              "with a digit)");
@@ -171,7 +171,7 @@ void export_c_header(const TableData& table, const std::string& out_path,
                 throw InputError(where + "values reach " + dbl(std::max(std::fabs(lo), hi)) +
                                  ", beyond the float range; use the library");
             for (std::size_t i = 0; i < cells; ++i)
-                items[i] = flt(static_cast<float>(table.value[i]));
+                items[i] = c_float_literal(static_cast<float>(table.value[i]));
             c_type = "float";
             storage = "float (each node value rounded to nearest float)";
             decode = "    return (double)" + id + "_values[i];\n";

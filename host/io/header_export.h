@@ -26,6 +26,12 @@ namespace brdftab {
 enum class HeaderValueType { Float, Half, Uint16 };
 
 HeaderValueType parse_header_value_type(const std::string& name);  // InputError
+// Whether s is a C identifier (letters, digits and '_', not starting with a
+// digit).
+bool is_c_identifier(const std::string& s);
+// v as a C float literal that reads back to the same float ("%.9g", with a
+// '.0' where it would otherwise read as an int, and the 'f' suffix).
+std::string c_float_literal(float v);
 
 struct HeaderExportOptions {
     // Prefix of every identifier in the header (a C identifier); empty: the

@@ -20,13 +20,6 @@ std::string axis_list(const TableData& t) {
     return "(" + s + ")";
 }
 
-bool is_c_identifier(const std::string& s) {
-    if (s.empty() || (std::isdigit(static_cast<unsigned char>(s[0])))) return false;
-    for (char c : s)
-        if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_')) return false;
-    return true;
-}
-
 // Cycles: (alpha), (mu_i|theta_i, alpha), (eta, alpha) or (eta, mu_i|theta_i, alpha).
 void check_cycles(const TableData& t) {
     const auto& ax = t.axes;
@@ -57,15 +50,6 @@ void check_texture(const std::vector<TableData>& ch, const char* layout) {
             throw InputError("tables '" + ch[0].name + "' and '" + ch[1].name +
                              "' differ in the nodes of axis '" + ch[0].axes[d].name +
                              "'; the two channels must share one grid");
-}
-
-std::string float_text(double v) {
-    char buf[48];
-    std::snprintf(buf, sizeof buf, "%.9gf", static_cast<double>(static_cast<float>(v)));
-    std::string s = buf;
-    // "1f" is not a C literal: keep a decimal point or exponent.
-    if (s.find_first_of(".e") == std::string::npos) s.insert(s.size() - 1, ".0");
-    return s;
 }
 
 }  // namespace
@@ -143,7 +127,7 @@ void export_renderer_header(const std::vector<TableData>& channels, const std::s
         const std::size_t nx = channels[0].axes.back().count;
         for (std::size_t k = 0; k < v.size(); ++k) {
             if (k % nx == 0) h << "  ";
-            h << float_text(v[k]) << (k + 1 < v.size() ? "," : "");
+            h << c_float_literal(static_cast<float>(v[k])) << (k + 1 < v.size() ? "," : "");
             h << ((k + 1) % nx == 0 || k + 1 == v.size() ? "\n" : " ");
         }
         h << "};\n";
@@ -167,7 +151,7 @@ void export_renderer_header(const std::vector<TableData>& channels, const std::s
             h << "static const float " << name << "[" << v.size() << "] = {";
             for (std::size_t k = 0; k < v.size(); ++k) {
                 if (k % 8 == 0) h << "\n   ";
-                h << " " << float_text(v[k]) << (k + 1 < v.size() ? "," : "");
+                h << " " << c_float_literal(static_cast<float>(v[k])) << (k + 1 < v.size() ? "," : "");
             }
             h << "\n};\n";
         }
