@@ -18,6 +18,7 @@
 #include "host/io/header_export.h"
 #include "host/io/merl_export.h"
 #include "host/io/renderer_layout.h"
+#include "host/io/rgl_export.h"
 #include "host/io/table_io.h"
 #include "host/lookup/lookup.h"
 
@@ -38,8 +39,12 @@ struct ExportArgs {
     std::string axes;
     // header
     std::string name, type, layout;
-    // MERL
+    // MERL and RGL
     std::string rgb;
+    // RGL
+    std::string rgl;
+    int rgl_res = 64, rgl_theta_i = 0, rgl_ndf_res = 64;
+    bool spectral = false;
 };
 
 // "a,b" -> {a, b}; "r,g,b" numbers.
@@ -101,13 +106,53 @@ void export_png(const TableData& table, const std::string& path, const ExrExport
               << number_text(scale / 2, 3) << "\n";
 }
 
+std::array<double, 3> parse_rgb(const std::string& text) {
+    const auto parts = split_commas(text);
+    if (parts.size() != 3) throw InputError("--rgb '" + text + "': expected three numbers, R,G,B");
+    std::array<double, 3> v{};
+    for (int c = 0; c < 3; ++c) v[c] = parse_number(parts[c], "--rgb");
+    return v;
+}
+
+// `export --rgl`: the RGL tensor file (host/io/rgl_export.h); prints the
+// grid, the distribution used and the measured resampling error.
+void export_rgl_file(const ExportArgs& a, const std::map<std::string, double>& slice) {
+    RglExportOptions o;
+    o.parameters = slice;
+    if (!a.rgb.empty()) {
+        o.rgb = true;
+        o.rgb_values = parse_rgb(a.rgb);
+    }
+    o.spectral = a.spectral;
+    o.resolution = a.rgl_res;
+    o.theta_i_count = a.rgl_theta_i;
+    o.ndf_resolution = a.rgl_ndf_res;
+    o.source = std::filesystem::path(a.file).filename().string();
+    const LookupTable lt = LookupTable::open(a.file, a.table);
+    const RglExportReport r = export_rgl(lt, a.rgl, o);
+    for (const auto& note : r.notes) std::cerr << "brdftab: note: " << note << "\n";
+    std::cout << "RGL " << (a.spectral ? "spectral" : "RGB") << " file: " << r.theta_i_nodes << " theta_i x "
+              << r.phi_i_nodes << " phi_i slices" << (r.reduction > 1 ? " (azimuth symmetry 360/" +
+                                                                              std::to_string(r.reduction) + ")"
+                                                                        : std::string())
+              << ", " << a.rgl_res << " x " << a.rgl_res << " samples each; microfacet distribution: "
+              << r.distribution << "\n"
+              << "resampling error against the table (relative, " << r.error.pairs
+              << " random direction pairs, theta_i <= " << number_text(r.error.theta_i_max_deg, 6)
+              << ", theta_o <= " << number_text(r.error.theta_o_max_deg, 6) << " deg): median "
+              << number_text(r.error.median, 3) << ", p99 " << number_text(r.error.p99, 3) << ", max "
+              << number_text(r.error.max, 3) << "\n";
+}
+
 void run_export(const ExportArgs& a) {
-    const int outputs =
-        int(!a.exr.empty()) + int(!a.header.empty()) + int(!a.merl.empty()) + int(!a.png.empty());
+    const int outputs = int(!a.exr.empty()) + int(!a.header.empty()) + int(!a.merl.empty()) +
+                        int(!a.png.empty()) + int(!a.rgl.empty());
     if (outputs != 1)
-        throw InputError("give exactly one output: --exr FILE.exr, --png FILE.png, --header FILE.h or "
-                         "--merl FILE.binary");
+        throw InputError("give exactly one output: --exr FILE.exr, --png FILE.png, --header FILE.h, "
+                         "--merl FILE.binary or --rgl FILE.bsdf");
     const bool exr = !a.exr.empty(), header = !a.header.empty(), merl = !a.merl.empty(), png = !a.png.empty();
+    const bool rgl = !a.rgl.empty();
+    refuse_unless(rgl, a.spectral, "--spectral", "--rgl");
     refuse_unless(exr, a.half, "--half", "--exr");
     refuse_unless(exr, a.layers, "--layers", "--exr");
     refuse_unless(exr, a.no_stderr, "--no-stderr", "--exr");
@@ -115,20 +160,22 @@ void run_export(const ExportArgs& a) {
     refuse_unless(header, !a.name.empty(), "--name", "--header");
     refuse_unless(header, !a.type.empty(), "--type", "--header");
     refuse_unless(header, !a.layout.empty(), "--layout", "--header");
-    refuse_unless(merl, !a.rgb.empty(), "--rgb", "--merl");
-    refuse_unless(!header, !a.slice.empty(), "--slice", "--exr, --png and --merl");
+    refuse_unless(merl || rgl, !a.rgb.empty(), "--rgb", "--merl and --rgl");
+    refuse_unless(!header, !a.slice.empty(), "--slice", "--exr, --png, --merl and --rgl");
     std::map<std::string, double> slice;
     for (const auto& s : a.slice) {
         auto [name, text] = split_assignment(s);
         if (!slice.emplace(name, parse_number(text, "--slice " + name)).second)
             throw InputError("--slice " + name + " is given twice");
     }
-    const std::string out = exr ? a.exr : header ? a.header : png ? a.png : a.merl;
+    const std::string out = exr ? a.exr : header ? a.header : png ? a.png : rgl ? a.rgl : a.merl;
     check_output_writable(out);
     const OutputLock lock(out);  // one writer of the output (docs/spec.md)
     guard_table_file(a.file);
 
-    if (exr || png) {
+    if (rgl) {
+        export_rgl_file(a, slice);
+    } else if (exr || png) {
         ExrExportOptions o;
         o.half = a.half;
         o.layers = a.layers;
@@ -183,11 +230,8 @@ void run_export(const ExportArgs& a) {
         MerlExportOptions o;
         o.parameters = slice;
         if (!a.rgb.empty()) {
-            const auto parts = split_commas(a.rgb);
-            if (parts.size() != 3)
-                throw InputError("--rgb '" + a.rgb + "': expected three numbers, R,G,B");
             o.rgb = true;
-            for (int c = 0; c < 3; ++c) o.rgb_values[c] = parse_number(parts[c], "--rgb");
+            o.rgb_values = parse_rgb(a.rgb);
         }
         const LookupTable lt = LookupTable::open(a.file, a.table);
         // The same slice rule as --exr and plot: say which values are
@@ -214,7 +258,8 @@ void register_export(CLI::App& app) {
     auto* cmd = app.add_subcommand(
         "export",
         "write a table for other tools: a 2-D slice (or a stack of slices) as an OpenEXR image "
-        "(R = value, G = stderr), a C99 header with a lookup function, or a MERL binary BRDF");
+        "(R = value, G = stderr), a C99 header with a lookup function, a MERL binary BRDF, or an "
+        "RGL .bsdf file (Mitsuba 3's and pbrt-v4's `measured`)");
     auto a = std::make_shared<ExportArgs>();  // owned by the callback
     cmd->add_option("FILE", a->file, "brdftab HDF5 file")->required();
     cmd->add_option("--table", a->table, "table name (see `brdftab info FILE`)")->required();
@@ -222,6 +267,23 @@ void register_export(CLI::App& app) {
     cmd->add_option("--header", a->header, "output C header path (.h)")->check(non_empty_path());
     cmd->add_option("--merl", a->merl, "output MERL .binary path (isotropic BRDF tables)")
         ->check(non_empty_path());
+    cmd->add_option("--rgl", a->rgl,
+                    "output RGL tensor file (.bsdf) of a reflection table, the format of Dupuy & Jakob "
+                    "2018 that Mitsuba 3's and pbrt-v4's `measured` BSDF read (docs/format.md); prints "
+                    "the resampling error")
+        ->check(non_empty_path());
+    cmd->add_flag("--spectral", a->spectral,
+                  "RGL: a flat spectrum (`spectra`, `wavelengths`: pbrt-v4, Mitsuba's spectral "
+                  "variants) instead of `rgb` (Mitsuba's RGB variants)");
+    cmd->add_option("--rgl-res", a->rgl_res, "RGL: samples per side of each slice's grid (default 64)")
+        ->check(CLI::Range(2, 512));
+    cmd->add_option("--rgl-theta-i", a->rgl_theta_i,
+                    "RGL: incidence slices evenly spaced in theta (default 0: the table's own theta_i "
+                    "nodes, each interval split into steps of at most 2.5 degrees)")
+        ->check(CLI::Range(0, 1024));
+    cmd->add_option("--rgl-ndf-res", a->rgl_ndf_res,
+                    "RGL: nodes per side of the microfacet-distribution grid (default 64)")
+        ->check(CLI::Range(2, 1024));
     cmd->add_option("--png", a->png,
                     "output .png path: a 2-D slice as a 16-bit greyscale PNG of the value (q / 65535 "
                     "when every value is in [0, 1], else min + (max - min) q / 65535; the mapping is "
@@ -249,7 +311,7 @@ void register_export(CLI::App& app) {
                     "cycles (one table, float), filament or ue4 (--table R,G: a two-channel "
                     "texture; half or float)");
     cmd->add_option("--rgb", a->rgb,
-                    "MERL: R,G,B values of a factored table's parameter (e.g. rho) for the red, "
+                    "MERL, RGL: R,G,B values of a factored table's parameter (e.g. rho) for the red, "
                     "green and blue channels (default: the same value in all three)");
     cmd->callback([a] { run_export(*a); });
 }
