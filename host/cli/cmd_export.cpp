@@ -43,7 +43,7 @@ struct ExportArgs {
     std::string rgb;
     // RGL
     std::string rgl;
-    int rgl_res = 64, rgl_theta_i = 0, rgl_ndf_res = 64;
+    int rgl_res = 0, rgl_theta_i = 0, rgl_phi_i = 0, rgl_ndf_res = 64;
     bool spectral = false;
 };
 
@@ -126,6 +126,7 @@ void export_rgl_file(const ExportArgs& a, const std::map<std::string, double>& s
     o.spectral = a.spectral;
     o.resolution = a.rgl_res;
     o.theta_i_count = a.rgl_theta_i;
+    o.phi_i_count = a.rgl_phi_i;
     o.ndf_resolution = a.rgl_ndf_res;
     o.source = std::filesystem::path(a.file).filename().string();
     const LookupTable lt = LookupTable::open(a.file, a.table);
@@ -135,7 +136,7 @@ void export_rgl_file(const ExportArgs& a, const std::map<std::string, double>& s
               << r.phi_i_nodes << " phi_i slices" << (r.reduction > 1 ? " (azimuth symmetry 360/" +
                                                                               std::to_string(r.reduction) + ")"
                                                                         : std::string())
-              << ", " << a.rgl_res << " x " << a.rgl_res << " samples each; microfacet distribution: "
+              << ", " << r.resolution << " x " << r.resolution << " samples each; microfacet distribution: "
               << r.distribution << "\n"
               << "resampling error against the table (relative, " << r.error.pairs
               << " random direction pairs, theta_i <= " << number_text(r.error.theta_i_max_deg, 6)
@@ -275,11 +276,17 @@ void register_export(CLI::App& app) {
     cmd->add_flag("--spectral", a->spectral,
                   "RGL: a flat spectrum (`spectra`, `wavelengths`: pbrt-v4, Mitsuba's spectral "
                   "variants) instead of `rgb` (Mitsuba's RGB variants)");
-    cmd->add_option("--rgl-res", a->rgl_res, "RGL: samples per side of each slice's grid (default 64)")
-        ->check(CLI::Range(2, 512));
+    cmd->add_option("--rgl-res", a->rgl_res,
+                    "RGL: samples per side of each slice's grid (default 0: 96 for isotropic tables, 64 "
+                    "for anisotropic ones)")
+        ->check(CLI::Range(0, 512));
     cmd->add_option("--rgl-theta-i", a->rgl_theta_i,
                     "RGL: incidence slices evenly spaced in theta (default 0: the table's own theta_i "
                     "nodes, each interval split into steps of at most 2.5 degrees)")
+        ->check(CLI::Range(0, 1024));
+    cmd->add_option("--rgl-phi-i", a->rgl_phi_i,
+                    "RGL, anisotropic tables: incidence azimuth slices (default 0: the table's count, "
+                    "each interval split into steps of at most 7.5 degrees)")
         ->check(CLI::Range(0, 1024));
     cmd->add_option("--rgl-ndf-res", a->rgl_ndf_res,
                     "RGL: nodes per side of the microfacet-distribution grid (default 64)")

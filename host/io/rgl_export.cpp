@@ -369,6 +369,7 @@ std::vector<float> ndf_grid(const TableView& view, int n, int n_phi, std::string
 // Everything the file holds, and its evaluation as the plugins do it.
 struct RglData {
     bool anisotropic = false;
+    bool derived = false;        // D derived from back-scattering
     int reduction = 1;
     int n = 0;                   // sample grid side
     int nd = 0, nd_phi = 0;      // ndf / sigma grid
@@ -417,13 +418,28 @@ void build_slice(RglData& r, std::size_t slice, const TableView& view, int value
     const double th_i = r.theta_i[slice % r.theta_i.size()], ph_i = r.phi_i[slice / r.theta_i.size()];
     const Vec3 wi = spherical(th_i, ph_i);
     float* vndf = r.vndf.data() + slice * nn;
+    // The vndf field is the sampling density of the half vector, which only
+    // has to be positive where it matters: the plugins sample with it and
+    // compute its pdf, and the values are made to match.  Its construction
+    // also decides how the sample grid is spread over half vectors: near the
+    // normal a bounded density gets a share of the grid ~ theta_m^2, so for a
+    // broad derived distribution 20 % of a narrow GGX (alpha = 0.1) visible-
+    // normal density is mixed in, for resolution around the mirror direction.
+    const double bump_w = r.derived ? 0.2 : 0.0, bump_a = 0.1;
+    std::vector<double> vt(nn), vb(nn);
+    double st = 0, sb = 0;
     for (int y = 0; y < n; ++y)
         for (int x = 0; x < n; ++x) {
             const double u = double(x) / (n - 1), v = double(y) / (n - 1), theta = u2theta(u);
             const Vec3 m = spherical(theta, u2phi(v) + (r.anisotropic ? 0 : ph_i));
-            vndf[std::size_t(y) * n + x] = float(bilinear(r.ndf.data(), r.nd, r.nd_phi, u, v) *
-                                                 std::max(0.0, dot(wi, m)) * 2 * kPi * kPi * u * std::sin(theta));
+            const double jac = std::max(0.0, dot(wi, m)) * 2 * kPi * kPi * u * std::sin(theta);
+            const double a2 = bump_a * bump_a, t = a2 * m.z * m.z + (1 - m.z * m.z);
+            vt[std::size_t(y) * n + x] = bilinear(r.ndf.data(), r.nd, r.nd_phi, u, v) * jac;
+            vb[std::size_t(y) * n + x] = a2 / (kPi * t * t) * jac;
+            st += vt[std::size_t(y) * n + x];
+            sb += vb[std::size_t(y) * n + x];
         }
+    for (std::size_t k = 0; k < nn; ++k) vndf[k] = float((1 - bump_w) * vt[k] / st + bump_w * vb[k] / sb);
     r.vndf_warp[slice] = build_warp_slice(vndf, n, n);
     Mix mix;
     mix.slice[0] = &r.vndf_warp[slice];
@@ -738,14 +754,17 @@ RglResamplingError measure(const RglData& r, const TableView& view, const RglExp
 RglExportReport export_rgl(const LookupTable& table, const std::string& out_path, const RglExportOptions& options) {
     const TableData& t = table.table();
     const std::string where = "RGL export of table '" + t.name + "': ";
-    if (options.resolution < 2 || options.resolution > 512)
-        throw InputError(where + "--rgl-res " + std::to_string(options.resolution) + " is outside [2, 512]");
+    if (options.resolution != 0 && (options.resolution < 2 || options.resolution > 512))
+        throw InputError(where + "--rgl-res " + std::to_string(options.resolution) + " is outside [2, 512] (0: 96 isotropic, 64 anisotropic)");
     if (options.ndf_resolution < 2 || options.ndf_resolution > 1024)
         throw InputError(where + "--rgl-ndf-res " + std::to_string(options.ndf_resolution) +
                          " is outside [2, 1024]");
     if (options.theta_i_count < 0 || options.theta_i_count == 1 || options.theta_i_count > 1024)
         throw InputError(where + "--rgl-theta-i " + std::to_string(options.theta_i_count) +
                          " is outside [2, 1024] (0: the table's own nodes)");
+    if (options.phi_i_count < 0 || options.phi_i_count == 1 || options.phi_i_count > 1024)
+        throw InputError(where + "--rgl-phi-i " + std::to_string(options.phi_i_count) +
+                         " is outside [2, 1024] (0: the table's own count, refined)");
     if (options.spectral && options.rgb)
         throw InputError(where + "--spectral writes one flat spectrum: give the parameter with --slice, "
                          "not --rgb");
@@ -759,14 +778,22 @@ RglExportReport export_rgl(const LookupTable& table, const std::string& out_path
     RglData r;
     r.anisotropic = view.anisotropic;
     r.reduction = view.reduction;
-    r.n = options.resolution;
+    r.n = options.resolution > 0 ? options.resolution : view.anisotropic ? 64 : 96;
     r.nd = options.ndf_resolution;
     r.nd_phi = view.anisotropic ? options.ndf_resolution : 2;
     r.channels = options.spectral ? 2 : 3;
     r.theta_i = theta_i_nodes(view, options.theta_i_count);
     if (view.anisotropic) {
         const Axis& a = t.axes[view.axis_phi_i];
-        const std::size_t np = std::max<std::size_t>(2, a.count);
+        // Evenly spaced over the reduced range: the table's node count with each
+        // interval split into steps of at most 7.5 degrees (a uniform table
+        // axis keeps its nodes), or the count asked for.
+        std::size_t np = std::size_t(options.phi_i_count);
+        if (np == 0) {
+            const std::size_t cells = std::max<std::size_t>(1, a.count - 1);
+            const double step = 360.0 / view.reduction / double(cells);
+            np = cells * std::size_t(std::max(1.0, std::ceil(step / 7.5 - 1e-9))) + 1;
+        }
         for (std::size_t k = 0; k < np; ++k)
             r.phi_i.push_back(float(-kPi + 2 * kPi / view.reduction * double(k) / double(np - 1)));
     } else {
@@ -774,6 +801,7 @@ RglExportReport export_rgl(const LookupTable& table, const std::string& out_path
     }
     if (options.spectral) r.wavelengths = {360.0f, 830.0f};
     r.ndf = ndf_grid(view, r.nd, r.nd_phi, report.distribution);
+    r.derived = report.distribution.rfind("derived", 0) == 0;
     r.sigma = sigma_grid(r.ndf, r.nd, r.nd_phi, view.anisotropic);
     const std::size_t nn = std::size_t(r.n) * r.n;
     r.vndf.assign(r.slices() * nn, 0.0f);
@@ -789,6 +817,7 @@ RglExportReport export_rgl(const LookupTable& table, const std::string& out_path
     report.theta_i_nodes = r.theta_i.size();
     report.phi_i_nodes = r.phi_i.size();
     report.reduction = r.reduction;
+    report.resolution = r.n;
     report.error = measure(r, view, options);
 
     std::string desc = "brdftab " BRDFTAB_VERSION ": table '" + t.name + "' (model " + t.model + ")";

@@ -28,12 +28,17 @@ struct RglExportOptions {
     // spectral variants) instead of `rgb` (Mitsuba's RGB variants).
     bool spectral = false;
     // Nodes per side of the square grids over the warped sample space
-    // (vndf, luminance, rgb/spectra), >= 2.
-    int resolution = 64;
+    // (vndf, luminance, rgb/spectra), >= 2; 0: 96 for isotropic tables, 64
+    // for anisotropic ones (whose files hold many more slices).
+    int resolution = 0;
     // Incidence nodes: 0 = the table's own theta_i (or mu_i) nodes, each
     // interval split into steps of at most 2.5 degrees; else this many
     // nodes evenly spaced in theta over [0, the table's maximum].
     int theta_i_count = 0;
+    // Incidence azimuths of an anisotropic table: 0 = the table's count with
+    // each interval split into steps of at most 7.5 degrees, else this many,
+    // evenly spaced over the range the file declares.
+    int phi_i_count = 0;
     // Nodes per side of the microfacet distribution and projected-area grids.
     int ndf_resolution = 64;
     // Random direction pairs at which the resampling error is measured.
@@ -59,6 +64,7 @@ struct RglExportReport {
     std::string distribution;  // how the microfacet distribution was chosen
     std::size_t theta_i_nodes = 0, phi_i_nodes = 0;
     int reduction = 1;  // 1, 2 or 4: the azimuthal symmetry the file declares
+    int resolution = 0;  // sample grid side used
     RglResamplingError error;
     std::string description;  // the file's `description` field
 };
