@@ -272,6 +272,21 @@ def test_refuses_non_brdf(tables, tmp_path):
     assert r.returncode == 2 and "units 1/sr" in r.stderr and not out.exists(), r.stderr
 
 
+@pytest.mark.parametrize("args, message", [
+    (["--slice", "sigma=20"], "give the value of 'rho'"),
+    (["--slice", "sigma=20", "--slice", "rho=0.5", "--slice", "c=1"], "'c' is not a parameter"),
+    (["--slice", "sigma=20", "--rgb", "1,1,1", "--spectral"], "--spectral writes one flat"),
+    (["--slice", "sigma=20", "--slice", "rho=0.5", "--rgl-theta-i", "1"], "--rgl-theta-i 1"),
+])
+def test_refusals_keep_existing_file(tables, tmp_path, args, message):
+    path = tables.generate("oren_nayar_rgl", OREN_NAYAR)
+    out = tmp_path / "keep.bsdf"
+    out.write_text("keep")
+    r = tables.run("export", path, "--table", "brdf", "--rgl", out, *args, check=False)
+    assert r.returncode == 2 and message in r.stderr, r.stderr
+    assert out.read_text() == "keep"
+
+
 # ---- an independent reader of the format, after pbrt-v4's loader ---------------
 
 def read_tensor_file(path):
