@@ -286,7 +286,7 @@ void register_export(CLI::App& app) {
         ->check(CLI::Range(0, 1024));
     cmd->add_option("--rgl-phi-i", a->rgl_phi_i,
                     "RGL, anisotropic tables: incidence azimuth slices (default 0: the table's count, "
-                    "each interval split into steps of at most 7.5 degrees)")
+                    "each interval split into steps of at most 3.75 degrees)")
         ->check(CLI::Range(0, 1024));
     cmd->add_option("--rgl-ndf-res", a->rgl_ndf_res,
                     "RGL: nodes per side of the microfacet-distribution grid (default 64)")

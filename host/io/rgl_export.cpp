@@ -786,13 +786,13 @@ RglExportReport export_rgl(const LookupTable& table, const std::string& out_path
     if (view.anisotropic) {
         const Axis& a = t.axes[view.axis_phi_i];
         // Evenly spaced over the reduced range: the table's node count with each
-        // interval split into steps of at most 7.5 degrees (a uniform table
+        // interval split into steps of at most 3.75 degrees (a uniform table
         // axis keeps its nodes), or the count asked for.
         std::size_t np = std::size_t(options.phi_i_count);
         if (np == 0) {
             const std::size_t cells = std::max<std::size_t>(1, a.count - 1);
             const double step = 360.0 / view.reduction / double(cells);
-            np = cells * std::size_t(std::max(1.0, std::ceil(step / 7.5 - 1e-9))) + 1;
+            np = cells * std::size_t(std::max(1.0, std::ceil(step / 3.75 - 1e-9))) + 1;
         }
         for (std::size_t k = 0; k < np; ++k)
             r.phi_i.push_back(float(-kPi + 2 * kPi / view.reduction * double(k) / double(np - 1)));

@@ -36,7 +36,7 @@ struct RglExportOptions {
     // nodes evenly spaced in theta over [0, the table's maximum].
     int theta_i_count = 0;
     // Incidence azimuths of an anisotropic table: 0 = the table's count with
-    // each interval split into steps of at most 7.5 degrees, else this many,
+    // each interval split into steps of at most 3.75 degrees, else this many,
     // evenly spaced over the range the file declares.
     int phi_i_count = 0;
     // Nodes per side of the microfacet distribution and projected-area grids.
