@@ -120,8 +120,8 @@ def _wrap(phi):
     return (phi + math.pi) % (2 * math.pi) - math.pi
 
 
-def cell_probabilities(bound, wi, res=RES, tilt=0.0):
-    """Exact probability of each chi^2 cell (shape (res, 2 res): cos theta
+def cell_probabilities(bound, wi, rows=RES, cols=2 * RES, tilt=0.0):
+    """Exact probability of each chi^2 cell (shape (rows, cols): cos theta
     rows over [-1, 1], phi columns over [-pi, pi]) under bound.pdf, times
     (1 + tilt cos theta) and renormalised when tilt != 0.  bound.pdf is
     constant on every sub-rectangle between the chi^2 edges and the table's
@@ -132,8 +132,8 @@ def cell_probabilities(bound, wi, res=RES, tilt=0.0):
     mu_nodes = ao.values if ao.name == "mu_o" else np.cos(np.radians(ao.values))
     phi_i = math.atan2(wi[1], wi[0])
     phi_nodes = np.radians(axes[2].values) if len(axes) > 2 and axes[2].name == "phi_d" else []
-    mu_edges = np.linspace(-1, 1, res + 1)
-    phi_edges = np.linspace(-math.pi, math.pi, 2 * res + 1)
+    mu_edges = np.linspace(-1, 1, rows + 1)
+    phi_edges = np.linspace(-math.pi, math.pi, cols + 1)
     mus = np.unique(np.concatenate([mu_edges, np.clip(mu_nodes, -1, 1)]))
     phis = np.unique(np.concatenate(
         [phi_edges, [_wrap(phi_i + s * p) for p in phi_nodes for s in (1, -1)]]))
@@ -143,19 +143,19 @@ def cell_probabilities(bound, wi, res=RES, tilt=0.0):
     s = np.sqrt(1 - m * m)
     wo = np.stack([s * np.cos(p), s * np.sin(p), m], axis=-1).reshape(-1, 3)
     dens = bound.pdf(np.broadcast_to(wi, wo.shape), wo).reshape(m.shape)
-    rows = np.clip(np.searchsorted(mu_edges, mid_mu) - 1, 0, res - 1)
-    cols = np.clip(np.searchsorted(phi_edges, mid_phi) - 1, 0, 2 * res - 1)
-    prob = np.zeros((res, 2 * res))
-    np.add.at(prob, (rows[:, None], cols[None, :]), dens * area * (1 + tilt * m))
+    r = np.clip(np.searchsorted(mu_edges, mid_mu) - 1, 0, rows - 1)
+    c = np.clip(np.searchsorted(phi_edges, mid_phi) - 1, 0, cols - 1)
+    prob = np.zeros((rows, cols))
+    np.add.at(prob, (r[:, None], c[None, :]), dens * area * (1 + tilt * m))
     return prob / prob.sum() if tilt else prob
 
 
-def histogram(wo, res=RES):
-    rows = np.clip(np.floor((wo[:, 2] + 1) / 2 * res).astype(int), 0, res - 1)
-    cols = np.clip(np.floor((np.arctan2(wo[:, 1], wo[:, 0]) + math.pi) / (2 * math.pi)
-                            * 2 * res).astype(int), 0, 2 * res - 1)
-    h = np.zeros((res, 2 * res))
-    np.add.at(h, (rows, cols), 1.0)
+def histogram(wo, rows=RES, cols=2 * RES):
+    r = np.clip(np.floor((wo[:, 2] + 1) / 2 * rows).astype(int), 0, rows - 1)
+    c = np.clip(np.floor((np.arctan2(wo[:, 1], wo[:, 0]) + math.pi) / (2 * math.pi)
+                         * cols).astype(int), 0, cols - 1)
+    h = np.zeros((rows, cols))
+    np.add.at(h, (r, c), 1.0)
     return h
 
 
