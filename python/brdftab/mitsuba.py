@@ -245,13 +245,34 @@ class _TableBSDF:
         a = self.reflectance.eval(si, active)
         return _f32(a[0]), _f32(a[1]), _f32(a[2])
 
+    def _outputs(self, n, count):
+        """In JIT variants, `count` new Dr.Jit arrays of n floats and writable
+        numpy views of them: the kernel writes its results straight into
+        Dr.Jit's memory (no numpy allocation, no copy)."""
+        if self._scalar:
+            return None, None
+        arrays = [dr.empty(mi.Float, n) for _ in range(count)]
+        dr.eval(*arrays)
+        return arrays, tuple(np.asarray(a) for a in arrays)
+
     def _kernel_eval_pdf(self, si, wo, active, want_f, want_pdf):
         wi = si.wi
-        f, p = self.kernel.eval_pdf(_f32(wi.x), _f32(wi.y), _f32(wi.z), _f32(wo.x), _f32(wo.y),
-                                    _f32(wo.z), *self._albedo(si, active), _mask(active),
-                                    want_f, want_pdf)
-        f = None if f is None else dr.select(active, self._spectrum(f), 0.0)
-        p = None if p is None else dr.select(active, self._float(p), 0.0)
+        lanes = (_f32(wi.x), _f32(wi.y), _f32(wi.z), _f32(wo.x), _f32(wo.y), _f32(wo.z),
+                 *self._albedo(si, active), _mask(active))
+        n = max(a.size for a in lanes)
+        arrays, views = self._outputs(n, 4)
+        if views is not None:
+            views = tuple(v if want else None for v, want in
+                          zip(views, (want_f, want_f, want_f, want_pdf)))
+        f, p = self.kernel.eval_pdf(*lanes, want_f, want_pdf, views)
+        if arrays is not None:
+            f = mi.Spectrum(*arrays[:3]) if want_f else None
+            p = arrays[3] if want_pdf else None
+        else:
+            f = None if f is None else self._spectrum(f)
+            p = None if p is None else self._float(p)
+        f = None if f is None else dr.select(active, f, 0.0)
+        p = None if p is None else dr.select(active, p, 0.0)
         return f, p
 
     def eval(self, ctx, si, wo, active=True):
@@ -275,28 +296,43 @@ class _TableBSDF:
         return self.eval(ctx, si, wo, active), self.pdf(ctx, si, wo, active)
 
     def _finish_sample(self, wo, pdf, weight, valid, wi_z, active):
+        """BSDFSample3f and weight from numpy results, or (JIT variants) from
+        Dr.Jit arrays the kernel wrote (wo, pdf and weight as lists of
+        mi.Float)."""
         bs = dr.zeros(mi.BSDFSample3f)
-        bs.wo = mi.Vector3f(self._float(wo[0]), self._float(wo[1]), self._float(wo[2]))
-        bs.pdf = self._float(pdf)
+        if isinstance(pdf, np.ndarray):
+            bs.wo = mi.Vector3f(self._float(wo[0]), self._float(wo[1]), self._float(wo[2]))
+            bs.pdf = self._float(pdf)
+            weight = self._spectrum(weight)
+            transmitted = wo[2] * wi_z < 0
+        else:
+            bs.wo = mi.Vector3f(*wo)
+            bs.pdf = pdf
+            weight = mi.Spectrum(*weight)
+            transmitted = None
         bs.eta = 1.0
-        transmitted = wo[2] * wi_z < 0
         reflect = mi.UInt32(+mi.BSDFFlags.GlossyReflection)
         transmit = mi.UInt32(+mi.BSDFFlags.GlossyTransmission)
         if self._scalar:
             bs.sampled_type = transmit if transmitted[0] else reflect
+        elif transmitted is None:
+            bs.sampled_type = dr.select(bs.wo.z * wi_z < 0, transmit, reflect)
         else:
             bs.sampled_type = dr.select(mi.Bool(transmitted), transmit, reflect)
         bs.sampled_component = mi.UInt32(0)
         active = active & mi.Bool(bool(valid[0])) if self._scalar else active & mi.Bool(valid)
-        return bs, dr.select(active, self._spectrum(weight), 0.0)
+        return bs, dr.select(active, weight, 0.0)
 
     def sample(self, ctx, si, sample1, sample2, active=True):
         if self.kernel is not None:
             wi = si.wi
             wi_z = _f32(wi.z)
-            wo, pdf, weight, valid = self.kernel.sample(
-                _f32(wi.x), _f32(wi.y), wi_z, _f32(sample2[0]), _f32(sample2[1]),
-                *self._albedo(si, active), _mask(active))
+            lanes = (_f32(wi.x), _f32(wi.y), wi_z, _f32(sample2[0]), _f32(sample2[1]),
+                     *self._albedo(si, active), _mask(active))
+            arrays, views = self._outputs(max(a.size for a in lanes), 7)
+            wo, pdf, weight, valid = self.kernel.sample(*lanes, views)
+            if arrays is not None:
+                wo, pdf, weight, wi_z = arrays[:3], arrays[3], arrays[4:], wi.z
             return self._finish_sample(wo, pdf, weight, valid, wi_z, active)
         wi_np, bad = _vectors(si.wi)
         u1, u2 = _lanes(sample2[0], sample2[1])

@@ -256,6 +256,19 @@ std::size_t common_size(const L&... lanes) {
     return n;
 }
 
+// Pointer to the float32 output array `h` (1-D, contiguous, writable, n
+// values): the plugin passes views of Dr.Jit arrays so that the results land
+// in Dr.Jit's own (reused) memory.
+float* out_ptr(const py::handle& h, std::size_t n, const char* what) {
+    py::array a = h.cast<py::array>();
+    if (!a.dtype().is(py::dtype::of<float>()) || a.ndim() != 1 || std::size_t(a.shape(0)) != n ||
+        !(a.flags() & py::array::c_style) || !a.writeable())
+        throw InputError(std::string("plugin kernel: output '") + what +
+                         "' must be a writable contiguous float32 array of " +
+                         std::to_string(n) + " values");
+    return static_cast<float*>(a.mutable_data());
+}
+
 // A direction from three lanes; false for a zero or non-finite vector
 // (Dr.Jit's inactive lanes), which becomes +z.
 bool direction_at(const FloatLane& x, const FloatLane& y, const FloatLane& z, std::size_t k,
@@ -327,20 +340,33 @@ PYBIND11_MODULE(_brdftab, m) {
              [](const PluginKernel& pk, const py::array& wix, const py::array& wiy,
                 const py::array& wiz, const py::array& wox, const py::array& woy,
                 const py::array& woz, const py::array& pr, const py::array& pg,
-                const py::array& pb, const py::array& active_in, bool want_f, bool want_pdf) {
+                const py::array& pb, const py::array& active_in, bool want_f, bool want_pdf,
+                const py::object& out) {
                  // (f |cos theta_o| as a (3, n) float32 array or None, pdf as
                  // (n,) float32 or None); inactive lanes are skipped (0).
+                 // With `out` = (f_r, f_g, f_b, pdf) (float32 arrays of n
+                 // values, None where not wanted) the results go there and
+                 // (None, None) is returned.
                  const FloatLane ix(wix, "wi.x"), iy(wiy, "wi.y"), iz(wiz, "wi.z"),
                      ox(wox, "wo.x"), oy(woy, "wo.y"), oz(woz, "wo.z"), r(pr, "p.r"),
                      g(pg, "p.g"), b(pb, "p.b");
                  const MaskLane active(active_in, "active");
                  const std::size_t n = common_size(ix, iy, iz, ox, oy, oz, r, g, b, active);
                  if (want_pdf && !pk.sampler) throw InputError("plugin kernel: no sampler");
-                 py::array_t<float> f(want_f ? std::vector<py::ssize_t>{3, py::ssize_t(n)}
-                                             : std::vector<py::ssize_t>{0});
-                 py::array_t<float> pdf(want_pdf ? py::ssize_t(n) : 0);
-                 float* pf = f.mutable_data();
+                 const bool given = !out.is_none();
+                 py::array_t<float> f(want_f && !given ? std::vector<py::ssize_t>{3, py::ssize_t(n)}
+                                                       : std::vector<py::ssize_t>{0});
+                 py::array_t<float> pdf(want_pdf && !given ? py::ssize_t(n) : 0);
+                 float* fo[3] = {f.mutable_data(), f.mutable_data() + n, f.mutable_data() + 2 * n};
                  float* pp = pdf.mutable_data();
+                 if (given) {
+                     const py::tuple o = out.cast<py::tuple>();
+                     if (o.size() != 4) throw InputError("plugin kernel: out needs 4 arrays");
+                     const char* names[3] = {"f_r", "f_g", "f_b"};
+                     for (int ch = 0; ch < 3; ++ch)
+                         fo[ch] = want_f ? out_ptr(o[ch], n, names[ch]) : nullptr;
+                     pp = want_pdf ? out_ptr(o[3], n, "pdf") : nullptr;
+                 }
                  {
                      py::gil_scoped_release release;
                      parallel_for(n, [&](std::size_t a, std::size_t e) {
@@ -357,33 +383,49 @@ PYBIND11_MODULE(_brdftab, m) {
                                      pk.f_rgb(wi, wo, p, v);
                                  }
                                  const double c = std::fabs(wo.z);
-                                 for (int ch = 0; ch < 3; ++ch) pf[ch * n + k] = float(v[ch] * c);
+                                 for (int ch = 0; ch < 3; ++ch) fo[ch][k] = float(v[ch] * c);
                              }
                              if (want_pdf) pp[k] = ok ? float(pk.sampler->pdf(wi, wo)) : 0.0f;
                          }
                      });
                  }
-                 return py::make_tuple(want_f ? py::object(f) : py::none(),
-                                       want_pdf ? py::object(pdf) : py::none());
+                 return py::make_tuple(want_f && !given ? py::object(f) : py::none(),
+                                       want_pdf && !given ? py::object(pdf) : py::none());
              })
         .def("sample",
              [](const PluginKernel& pk, const py::array& wix, const py::array& wiy,
                 const py::array& wiz, const py::array& u1_in, const py::array& u2_in,
                 const py::array& pr, const py::array& pg, const py::array& pb,
-                const py::array& active_in) {
+                const py::array& active_in, const py::object& out) {
                  // (wo (3, n), pdf (n,), weight (3, n) = f |cos theta_o| / pdf,
                  // valid (n,) bool), float32; invalid lanes have pdf = weight =
-                 // 0, and inactive ones are not sampled (wo = +z).
+                 // 0, and inactive ones are not sampled (wo = +z).  With `out`
+                 // = (wo_x, wo_y, wo_z, pdf, w_r, w_g, w_b) (float32 arrays of
+                 // n values) those results go there and (None, None, None,
+                 // valid) is returned.
                  const FloatLane ix(wix, "wi.x"), iy(wiy, "wi.y"), iz(wiz, "wi.z"),
                      u1(u1_in, "u.x"), u2(u2_in, "u.y"), r(pr, "p.r"), g(pg, "p.g"),
                      b(pb, "p.b");
                  const MaskLane active(active_in, "active");
                  const std::size_t n = common_size(ix, iy, iz, u1, u2, r, g, b, active);
                  if (!pk.sampler) throw InputError("plugin kernel: no sampler");
-                 py::array_t<float> wo({py::ssize_t(3), py::ssize_t(n)});
-                 py::array_t<float> pdf(n), weight({py::ssize_t(3), py::ssize_t(n)});
+                 const bool given = !out.is_none();
+                 const py::ssize_t m = given ? 0 : py::ssize_t(n);
+                 py::array_t<float> wo({py::ssize_t(3), m});
+                 py::array_t<float> pdf(m), weight({py::ssize_t(3), m});
                  py::array_t<bool> valid(n);
-                 float *pw = wo.mutable_data(), *pp = pdf.mutable_data(), *pwt = weight.mutable_data();
+                 float* pw[3] = {wo.mutable_data(), wo.mutable_data() + n, wo.mutable_data() + 2 * n};
+                 float* pp = pdf.mutable_data();
+                 float* pwt[3] = {weight.mutable_data(), weight.mutable_data() + n,
+                                  weight.mutable_data() + 2 * n};
+                 if (given) {
+                     const py::tuple o = out.cast<py::tuple>();
+                     if (o.size() != 7) throw InputError("plugin kernel: out needs 7 arrays");
+                     const char* names[7] = {"wo_x", "wo_y", "wo_z", "pdf", "w_r", "w_g", "w_b"};
+                     for (int c = 0; c < 3; ++c) pw[c] = out_ptr(o[c], n, names[c]);
+                     pp = out_ptr(o[3], n, names[3]);
+                     for (int c = 0; c < 3; ++c) pwt[c] = out_ptr(o[4 + c], n, names[4 + c]);
+                 }
                  bool* pv = valid.mutable_data();
                  {
                      py::gil_scoped_release release;
@@ -411,16 +453,17 @@ PYBIND11_MODULE(_brdftab, m) {
                                  }
                              }
                              const double c = std::fabs(s.wo.z);
-                             pw[k] = float(s.wo.x);
-                             pw[n + k] = float(s.wo.y);
-                             pw[2 * n + k] = float(s.wo.z);
+                             pw[0][k] = float(s.wo.x);
+                             pw[1][k] = float(s.wo.y);
+                             pw[2][k] = float(s.wo.z);
                              pp[k] = ok ? float(s.pdf) : 0.0f;
                              for (int ch = 0; ch < 3; ++ch)
-                                 pwt[ch * n + k] = ok ? float(v[ch] * c / s.pdf) : 0.0f;
+                                 pwt[ch][k] = ok ? float(v[ch] * c / s.pdf) : 0.0f;
                              pv[k] = ok;
                          }
                      });
                  }
+                 if (given) return py::make_tuple(py::none(), py::none(), py::none(), valid);
                  return py::make_tuple(wo, pdf, weight, valid);
              });
 
