@@ -341,7 +341,7 @@ PYBIND11_MODULE(_brdftab, m) {
                 const py::array& wiz, const py::array& wox, const py::array& woy,
                 const py::array& woz, const py::array& pr, const py::array& pg,
                 const py::array& pb, const py::array& active_in, bool want_f, bool want_pdf,
-                const py::object& out) {
+                const py::object& out) -> py::tuple {
                  // (f |cos theta_o| as a (3, n) float32 array or None, pdf as
                  // (n,) float32 or None); inactive lanes are skipped (0).
                  // With `out` = (f_r, f_g, f_b, pdf) (float32 arrays of n
@@ -396,7 +396,7 @@ PYBIND11_MODULE(_brdftab, m) {
              [](const PluginKernel& pk, const py::array& wix, const py::array& wiy,
                 const py::array& wiz, const py::array& u1_in, const py::array& u2_in,
                 const py::array& pr, const py::array& pg, const py::array& pb,
-                const py::array& active_in, const py::object& out) {
+                const py::array& active_in, const py::object& out) -> py::tuple {
                  // (wo (3, n), pdf (n,), weight (3, n) = f |cos theta_o| / pdf,
                  // valid (n,) bool), float32; invalid lanes have pdf = weight =
                  // 0, and inactive ones are not sampled (wo = +z).  With `out`
