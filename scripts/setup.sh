@@ -32,13 +32,14 @@ packages=(
   doctest-dev libtomlplusplus-dev libcli11-dev nlohmann-json3-dev
   python3-h5py python3-numpy                                # format tests read files with h5py
   python3-dev pybind11-dev python3-pybind11 python3-pytest   # Python module brdftab and its tests
+  python3-venv                                              # `pip install .` test in a fresh venv
   libopenmpi-dev openmpi-bin                                # the MPI build (docs/cluster.md)
 )
 if [ $with_fuzz -eq 1 ]; then
   packages+=(clang libclang-rt-dev)
 fi
 if [ $with_mitsuba -eq 1 ]; then
-  packages+=(python3-venv python3-pip libllvm19)
+  packages+=(python3-pip libllvm19)
 fi
 
 # The Mitsuba venv, after the packages (needs python3-venv).

@@ -8,7 +8,9 @@ as pbrt writes it (right), same roughness and albedo.  Writes one PNG.
         .venv-mitsuba/bin/python examples/mitsuba/render_oren_nayar.py oren-nayar-sphere.h5 \\
         docs/figures/mitsuba-oren-nayar.png
 
-docs/python.md shows the result and the measured time.
+docs/python.md shows the result and the measured time.  With --table-only
+the script renders (and writes) the table's image alone, for timing the
+plugin.
 """
 
 import math
@@ -112,26 +114,29 @@ def scene(material):
     })
 
 
-def main(table_path, png_path):
+def main(table_path, png_path, table_only=False):
     brdftab.mitsuba.register()
     mi.register_bsdf("qualitative_oren_nayar", lambda props: QualitativeOrenNayar(props))
     albedo = {"type": "rgb", "value": ALBEDO}
     exact = {"type": "brdftab", "filename": table_path, "table": "brdf", "reflectance": albedo}
     approx = {"type": "qualitative_oren_nayar", "sigma": SIGMA_DEG, "reflectance": albedo}
     images = []
-    for name, material in (("exact table", exact), ("pbrt approximation", approx)):
+    materials = [("exact table", exact), ("pbrt approximation", approx)]
+    for name, material in materials[:1] if table_only else materials:
         start = time.time()
         images.append(mi.render(scene(material), seed=1))
         dr.eval(images[-1])
         print(f"{name}: {time.time() - start:.1f} s ({RESOLUTION}x{RESOLUTION}, {SPP} spp)")
     # Side by side, 4 white columns between.
     gap = np.ones((RESOLUTION, 4, 3))
-    both = np.concatenate([np.array(images[0]), gap, np.array(images[1])], axis=1)
+    both = np.array(images[0]) if table_only else \
+        np.concatenate([np.array(images[0]), gap, np.array(images[1])], axis=1)
     mi.util.write_bitmap(png_path, mi.TensorXf(both.astype(np.float32)))
     print(f"wrote {png_path}")
 
 
 if __name__ == "__main__":
-    if len(sys.argv) != 3:
-        sys.exit("usage: render_oren_nayar.py TABLE.h5 OUT.png")
-    main(sys.argv[1], sys.argv[2])
+    args = [a for a in sys.argv[1:] if a != "--table-only"]
+    if len(args) != 2:
+        sys.exit("usage: render_oren_nayar.py TABLE.h5 OUT.png [--table-only]")
+    main(args[0], args[1], table_only="--table-only" in sys.argv[1:])

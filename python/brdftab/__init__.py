@@ -19,9 +19,10 @@ from collections.abc import Mapping
 import numpy as np
 
 from . import _brdftab
-from ._brdftab import Axis, Error, InputError
+from ._brdftab import Axis, Error, InputError, set_threads, threads
 
-__all__ = ["open", "File", "Table", "BoundTable", "Axis", "Error", "InputError", "to_xarray"]
+__all__ = ["open", "File", "Table", "BoundTable", "Axis", "Error", "InputError", "to_xarray",
+           "set_threads", "threads"]
 
 
 def _rows(coords, order, names):

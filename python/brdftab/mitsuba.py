@@ -40,6 +40,7 @@ import drjit as dr
 import mitsuba as mi
 
 import brdftab
+from brdftab import _brdftab
 
 PLUGIN_NAME = "brdftab"
 
@@ -61,6 +62,19 @@ def _vectors(v):
     bad = ~(np.einsum("ij,ij->i", w, w) > 0)
     w[bad] = (0.0, 0.0, 1.0)
     return w, bad
+
+
+def _f32(v):
+    """A Dr.Jit scalar/array as a 1-D float32 numpy array (length n or 1)."""
+    return np.asarray(v, dtype=np.float32).reshape(-1)
+
+
+_ONE = np.ones(1, dtype=np.float32)
+
+
+def _mask(active):
+    """Dr.Jit's active mask as a 1-D bool numpy array (length n or 1)."""
+    return np.asarray(active, dtype=bool).reshape(-1)
 
 
 def _polynomial(coeffs, p):
@@ -141,6 +155,18 @@ class _TableBSDF:
                                       **dict(params, **{recipe["parameter"]: 0.5 * (lo + hi)}))
         if self.sampler is not None and not self.sampler.can_sample:
             raise ValueError(f"brdftab plugin: {self.sampler.sampling_error}")
+        # Isotropic tables: one C++ call per BSDF method and wavefront
+        # (_brdftab._PluginKernel, threaded over the lanes).
+        self.kernel = None
+        if not self.anisotropic:
+            if self.reflectance is None:
+                self.kernel = _brdftab._PluginKernel(bound._b, [], [1.0], [1.0], bound._b,
+                                                     self.lit_from_below, self.transmits)
+            else:
+                self.kernel = _brdftab._PluginKernel(
+                    None, [(b._b, [float(c) for c in coeffs]) for b, coeffs in self.terms],
+                    [float(c) for c in self.num], [float(c) for c in self.den],
+                    self.sampler._b, self.lit_from_below, self.transmits)
 
         flags = mi.BSDFFlags.GlossyReflection | mi.BSDFFlags.FrontSide
         if self.transmits:
@@ -212,21 +238,102 @@ class _TableBSDF:
         bad = np.broadcast_to(bad_i, (n,)) | np.broadcast_to(bad_o, (n,))
         return np.broadcast_to(wi_np, (n, 3)), np.broadcast_to(wo_np, (n, 3)), bad
 
+    def _albedo(self, si, active):
+        """The reflectance texture's value per channel (three float32 lanes)."""
+        if self.reflectance is None:
+            return _ONE, _ONE, _ONE
+        a = self.reflectance.eval(si, active)
+        return _f32(a[0]), _f32(a[1]), _f32(a[2])
+
+    def _outputs(self, n, count):
+        """In JIT variants, `count` new Dr.Jit arrays of n floats and writable
+        numpy views of them: the kernel writes its results straight into
+        Dr.Jit's memory (no numpy allocation, no copy)."""
+        if self._scalar:
+            return None, None
+        arrays = [dr.empty(mi.Float, n) for _ in range(count)]
+        dr.eval(*arrays)
+        return arrays, tuple(np.asarray(a) for a in arrays)
+
+    def _kernel_eval_pdf(self, si, wo, active, want_f, want_pdf):
+        wi = si.wi
+        lanes = (_f32(wi.x), _f32(wi.y), _f32(wi.z), _f32(wo.x), _f32(wo.y), _f32(wo.z),
+                 *self._albedo(si, active), _mask(active))
+        n = max(a.size for a in lanes)
+        arrays, views = self._outputs(n, 4)
+        if views is not None:
+            views = tuple(v if want else None for v, want in
+                          zip(views, (want_f, want_f, want_f, want_pdf)))
+        f, p = self.kernel.eval_pdf(*lanes, want_f, want_pdf, views)
+        if arrays is not None:
+            f = mi.Spectrum(*arrays[:3]) if want_f else None
+            p = arrays[3] if want_pdf else None
+        else:
+            f = None if f is None else self._spectrum(f)
+            p = None if p is None else self._float(p)
+        f = None if f is None else dr.select(active, f, 0.0)
+        p = None if p is None else dr.select(active, p, 0.0)
+        return f, p
+
     def eval(self, ctx, si, wo, active=True):
+        if self.kernel is not None:
+            return self._kernel_eval_pdf(si, wo, active, True, False)[0]
         wi_np, wo_np, bad = self._pair(si.wi, wo)
         f = self._f_rgb(si, wi_np, wo_np, active) * np.abs(wo_np[:, 2])
         f = np.where(self._valid(wi_np, wo_np, bad), f, 0.0)
         return dr.select(active, self._spectrum(f), 0.0)
 
     def pdf(self, ctx, si, wo, active=True):
+        if self.kernel is not None:
+            return self._kernel_eval_pdf(si, wo, active, False, True)[1]
         wi_np, wo_np, bad = self._pair(si.wi, wo)
         p = np.where(self._valid(wi_np, wo_np, bad), self._pdf_np(wi_np, wo_np), 0.0)
         return dr.select(active, self._float(p), 0.0)
 
     def eval_pdf(self, ctx, si, wo, active=True):
+        if self.kernel is not None:
+            return self._kernel_eval_pdf(si, wo, active, True, True)
         return self.eval(ctx, si, wo, active), self.pdf(ctx, si, wo, active)
 
+    def _finish_sample(self, wo, pdf, weight, valid, wi_z, active):
+        """BSDFSample3f and weight from numpy results, or (JIT variants) from
+        Dr.Jit arrays the kernel wrote (wo, pdf and weight as lists of
+        mi.Float)."""
+        bs = dr.zeros(mi.BSDFSample3f)
+        if isinstance(pdf, np.ndarray):
+            bs.wo = mi.Vector3f(self._float(wo[0]), self._float(wo[1]), self._float(wo[2]))
+            bs.pdf = self._float(pdf)
+            weight = self._spectrum(weight)
+            transmitted = wo[2] * wi_z < 0
+        else:
+            bs.wo = mi.Vector3f(*wo)
+            bs.pdf = pdf
+            weight = mi.Spectrum(*weight)
+            transmitted = None
+        bs.eta = 1.0
+        reflect = mi.UInt32(+mi.BSDFFlags.GlossyReflection)
+        transmit = mi.UInt32(+mi.BSDFFlags.GlossyTransmission)
+        if self._scalar:
+            bs.sampled_type = transmit if transmitted[0] else reflect
+        elif transmitted is None:
+            bs.sampled_type = dr.select(bs.wo.z * wi_z < 0, transmit, reflect)
+        else:
+            bs.sampled_type = dr.select(mi.Bool(transmitted), transmit, reflect)
+        bs.sampled_component = mi.UInt32(0)
+        active = active & mi.Bool(bool(valid[0])) if self._scalar else active & mi.Bool(valid)
+        return bs, dr.select(active, weight, 0.0)
+
     def sample(self, ctx, si, sample1, sample2, active=True):
+        if self.kernel is not None:
+            wi = si.wi
+            wi_z = _f32(wi.z)
+            lanes = (_f32(wi.x), _f32(wi.y), wi_z, _f32(sample2[0]), _f32(sample2[1]),
+                     *self._albedo(si, active), _mask(active))
+            arrays, views = self._outputs(max(a.size for a in lanes), 7)
+            wo, pdf, weight, valid = self.kernel.sample(*lanes, views)
+            if arrays is not None:
+                wo, pdf, weight, wi_z = arrays[:3], arrays[3], arrays[4:], wi.z
+            return self._finish_sample(wo, pdf, weight, valid, wi_z, active)
         wi_np, bad = _vectors(si.wi)
         u1, u2 = _lanes(sample2[0], sample2[1])
         n = max(len(wi_np), len(u1))
@@ -242,22 +349,8 @@ class _TableBSDF:
         valid = self._valid(wi_np, wo_np, bad) & (pdf > 0)
         f = self._f_rgb(si, wi_np, wo_np, active) * np.abs(wo_np[:, 2])
         weight = np.where(valid, f / np.where(valid, pdf, 1.0), 0.0)
-
-        bs = dr.zeros(mi.BSDFSample3f)
-        bs.wo = mi.Vector3f(self._float(wo_np[:, 0]), self._float(wo_np[:, 1]),
-                            self._float(wo_np[:, 2]))
-        bs.pdf = self._float(np.where(valid, pdf, 0.0))
-        bs.eta = 1.0
-        transmitted = wo_np[:, 2] * wi_np[:, 2] < 0
-        reflect = mi.UInt32(+mi.BSDFFlags.GlossyReflection)
-        transmit = mi.UInt32(+mi.BSDFFlags.GlossyTransmission)
-        if self._scalar:
-            bs.sampled_type = transmit if transmitted[0] else reflect
-        else:
-            bs.sampled_type = dr.select(mi.Bool(transmitted), transmit, reflect)
-        bs.sampled_component = mi.UInt32(0)
-        active = active & mi.Bool(bool(valid[0])) if self._scalar else active & mi.Bool(valid)
-        return bs, dr.select(active, self._spectrum(weight), 0.0)
+        return self._finish_sample(wo_np.T, np.where(valid, pdf, 0.0), weight, valid,
+                                   wi_np[:, 2], active)
 
     def traverse(self, callback):
         pass

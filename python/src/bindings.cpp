@@ -14,10 +14,14 @@
 #include <pybind11/stl.h>
 
 #include <algorithm>
+#include <atomic>
+#include <cmath>
 #include <cstdint>
+#include <exception>
 #include <map>
 #include <memory>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "host/core/error.h"
@@ -32,6 +36,59 @@ using namespace brdftab;
 namespace {
 
 using DoubleArray = py::array_t<double, py::array::c_style | py::array::forcecast>;
+using FloatArray = py::array_t<float, py::array::c_style | py::array::forcecast>;
+
+// Worker threads of the batch loops (set_threads); 0 = one per hardware thread.
+std::atomic<unsigned> g_threads{0};
+
+unsigned thread_count() {
+    const unsigned t = g_threads.load();
+    return t ? t : std::max(1u, std::thread::hardware_concurrency());
+}
+
+// Clears the upper halves of the AVX registers (vzeroupper) where the CPU
+// has AVX.  Code JIT-compiled by Dr.Jit (the Mitsuba plugin's caller) can
+// return with them dirty; the scalar SSE code of the lookups then pays a
+// state-transition penalty on its floating-point instructions (measured:
+// the plugin's lookups 3-4x slower inside a render than outside).
+inline void clean_vector_state() {
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+    static const bool has_avx = __builtin_cpu_supports("avx");
+    if (has_avx) __asm__ volatile("vzeroupper" ::: "memory");
+#endif
+}
+
+// Runs body(begin, end) over [0, n) in contiguous chunks on up to
+// thread_count() threads (chunks of at least 8192 points; one thread below
+// that).  Every point is computed by the same scalar code whatever the split,
+// so results do not depend on the thread count.  The exception of the
+// lowest chunk that threw is rethrown: the first bad point's, as in a serial
+// loop.  Call with the GIL released.
+template <class Body>
+void parallel_for(std::size_t n, const Body& body) {
+    const std::size_t min_chunk = 8192;
+    const std::size_t t = std::min<std::size_t>(thread_count(), std::max<std::size_t>(1, n / min_chunk));
+    clean_vector_state();
+    if (t <= 1) {
+        body(std::size_t(0), n);
+        return;
+    }
+    std::vector<std::exception_ptr> errors(t);
+    std::vector<std::thread> pool;
+    pool.reserve(t - 1);
+    auto run = [&](std::size_t c) {
+        try {
+            body(n * c / t, n * (c + 1) / t);
+        } catch (...) {
+            errors[c] = std::current_exception();
+        }
+    };
+    for (std::size_t c = 1; c < t; ++c) pool.emplace_back(run, c);
+    run(0);
+    for (auto& th : pool) th.join();
+    for (auto& e : errors)
+        if (e) std::rethrow_exception(e);
+}
 
 py::object json_to_python(const nlohmann::json& j) {
     return py::module_::import("json").attr("loads")(j.dump());
@@ -108,9 +165,12 @@ struct PyTable {
         double* dst = out.mutable_data();
         const double* src = rows.data();
         const std::size_t n = std::size_t(rows.shape(0));
+        const std::size_t width = std::size_t(rows.shape(1));
         {
             py::gil_scoped_release release;
-            lt->eval_many(src, n, dst, ip, om);
+            parallel_for(n, [&](std::size_t a, std::size_t b) {
+                lt->eval_many(src + a * width, b - a, dst + a, ip, om);
+            });
         }
         return out;
     }
@@ -120,6 +180,105 @@ struct PyBound {
     std::shared_ptr<const BoundTable> bound;
 };
 
+
+// The Mitsuba plugin's per-wavefront work (python/brdftab/mitsuba.py) in one
+// call per BSDF method: Dr.Jit's single-precision arrays in (one array per
+// component, each of length n or 1), f |cos theta_o|, pdf and samples out.
+// An isotropic table only.  f is either one bound table (the same in the
+// three channels) or, under a reflectance texture p, a factored table:
+//     f_c = num(p_c) / den(p_c) * sum_k poly_k(p_c) T_k(wi, wo)
+// with each term table T_k bound once.  A lane is invalid (f = pdf = 0)
+// when a direction is zero or not finite, when wi is below the surface and
+// the table is lit from above only, or when wo is below and the table does
+// not transmit.
+struct PluginKernel {
+    std::shared_ptr<const BoundTable> single;               // no texture
+    std::vector<std::shared_ptr<const BoundTable>> terms;   // factored
+    std::vector<std::vector<double>> coeffs;
+    std::vector<double> num{1.0}, den{1.0};
+    std::shared_ptr<const BoundTable> sampler;
+    bool lit_from_below = false, transmits = false;
+
+    static double poly(const std::vector<double>& c, double p) {
+        double v = 0;
+        for (std::size_t k = c.size(); k-- > 0;) v = v * p + c[k];
+        return v;
+    }
+
+    // f per channel at a valid pair.
+    void f_rgb(const Vec3& wi, const Vec3& wo, const double p[3], double out[3]) const {
+        if (single) {
+            out[0] = out[1] = out[2] = single->eval(wi, wo);
+            return;
+        }
+        double t[8];
+        const std::size_t nt = std::min<std::size_t>(terms.size(), 8);
+        for (std::size_t k = 0; k < nt; ++k) t[k] = terms[k]->eval(wi, wo);
+        for (int c = 0; c < 3; ++c) {
+            double sum = 0;
+            for (std::size_t k = 0; k < nt; ++k) sum += poly(coeffs[k], p[c]) * t[k];
+            out[c] = sum * poly(num, p[c]) / poly(den, p[c]);
+        }
+    }
+};
+
+// One component of a Dr.Jit array (float32 numbers, or the active mask as
+// bools) as a numpy array of length n or 1.
+template <class T>
+struct Lane {
+    py::array_t<T, py::array::c_style | py::array::forcecast> a;
+    const T* p = nullptr;
+    bool scalar = true;
+    Lane(const py::array& in, const char* what) : a(decltype(a)::ensure(in)) {
+        if (!a) throw InputError(std::string(what) + ": expected an array");
+        if (a.ndim() > 1) throw InputError(std::string(what) + ": expected a 1-D array");
+        if (a.size() == 0) throw InputError(std::string(what) + ": empty array");
+        p = a.data();
+        scalar = a.size() == 1;
+    }
+    std::size_t size() const { return std::size_t(a.size()); }
+    T operator[](std::size_t k) const { return p[scalar ? 0 : k]; }
+};
+using FloatLane = Lane<float>;
+using MaskLane = Lane<bool>;
+
+template <class... L>
+std::size_t common_size(const L&... lanes) {
+    std::size_t n = 1;
+    for (auto size_scalar : {std::make_pair(lanes.size(), lanes.scalar)...})
+        if (!size_scalar.second) {
+            const std::size_t size = size_scalar.first;
+            if (n != 1 && size != n)
+                throw InputError("plugin arrays: lengths " + std::to_string(n) + " and " +
+                                 std::to_string(size) + " differ");
+            n = size;
+        }
+    return n;
+}
+
+// Pointer to the float32 output array `h` (1-D, contiguous, writable, n
+// values): the plugin passes views of Dr.Jit arrays so that the results land
+// in Dr.Jit's own (reused) memory.
+float* out_ptr(const py::handle& h, std::size_t n, const char* what) {
+    py::array a = h.cast<py::array>();
+    if (!a.dtype().is(py::dtype::of<float>()) || a.ndim() != 1 || std::size_t(a.shape(0)) != n ||
+        !(a.flags() & py::array::c_style) || !a.writeable())
+        throw InputError(std::string("plugin kernel: output '") + what +
+                         "' must be a writable contiguous float32 array of " +
+                         std::to_string(n) + " values");
+    return static_cast<float*>(a.mutable_data());
+}
+
+// A direction from three lanes; false for a zero or non-finite vector
+// (Dr.Jit's inactive lanes), which becomes +z.
+bool direction_at(const FloatLane& x, const FloatLane& y, const FloatLane& z, std::size_t k,
+                  Vec3& w) {
+    w = {x[k], y[k], z[k]};
+    const double n2 = w.x * w.x + w.y * w.y + w.z * w.z;
+    if (n2 > 0 && std::isfinite(n2)) return true;
+    w = {0, 0, 1};
+    return false;
+}
 }  // namespace
 
 PYBIND11_MODULE(_brdftab, m) {
@@ -148,6 +307,165 @@ PYBIND11_MODULE(_brdftab, m) {
     m.def("file_attributes",
           [](const std::string& path) { return json_to_python(read_file_attributes(path)); },
           py::arg("path"), "file-level attributes (version, spec, creation time) as a dict");
+
+
+    m.def("set_threads", [](unsigned n) { g_threads = n; }, py::arg("n"),
+          "threads of the batch calls (0: one per hardware thread, the default)");
+    m.def("threads", &thread_count, "threads the batch calls use");
+
+
+    py::class_<PluginKernel>(m, "_PluginKernel")
+        .def(py::init([](py::object single, py::list terms, std::vector<double> num,
+                         std::vector<double> den, py::object sampler, bool lit_from_below,
+                         bool transmits) {
+                 PluginKernel k;
+                 if (!single.is_none()) k.single = single.cast<const PyBound&>().bound;
+                 for (auto item : terms) {
+                     auto pair = item.cast<py::tuple>();
+                     k.terms.push_back(pair[0].cast<const PyBound&>().bound);
+                     k.coeffs.push_back(pair[1].cast<std::vector<double>>());
+                 }
+                 if (!k.single && (k.terms.empty() || k.terms.size() > 8))
+                     throw InputError("plugin kernel: one bound table or 1 to 8 terms");
+                 k.num = num;
+                 k.den = den;
+                 if (!sampler.is_none()) k.sampler = sampler.cast<const PyBound&>().bound;
+                 k.lit_from_below = lit_from_below;
+                 k.transmits = transmits;
+                 return k;
+             }),
+             py::arg("single"), py::arg("terms"), py::arg("num"), py::arg("den"),
+             py::arg("sampler"), py::arg("lit_from_below"), py::arg("transmits"))
+        .def("eval_pdf",
+             [](const PluginKernel& pk, const py::array& wix, const py::array& wiy,
+                const py::array& wiz, const py::array& wox, const py::array& woy,
+                const py::array& woz, const py::array& pr, const py::array& pg,
+                const py::array& pb, const py::array& active_in, bool want_f, bool want_pdf,
+                const py::object& out) -> py::tuple {
+                 // (f |cos theta_o| as a (3, n) float32 array or None, pdf as
+                 // (n,) float32 or None); inactive lanes are skipped (0).
+                 // With `out` = (f_r, f_g, f_b, pdf) (float32 arrays of n
+                 // values, None where not wanted) the results go there and
+                 // (None, None) is returned.
+                 const FloatLane ix(wix, "wi.x"), iy(wiy, "wi.y"), iz(wiz, "wi.z"),
+                     ox(wox, "wo.x"), oy(woy, "wo.y"), oz(woz, "wo.z"), r(pr, "p.r"),
+                     g(pg, "p.g"), b(pb, "p.b");
+                 const MaskLane active(active_in, "active");
+                 const std::size_t n = common_size(ix, iy, iz, ox, oy, oz, r, g, b, active);
+                 if (want_pdf && !pk.sampler) throw InputError("plugin kernel: no sampler");
+                 const bool given = !out.is_none();
+                 py::array_t<float> f(want_f && !given ? std::vector<py::ssize_t>{3, py::ssize_t(n)}
+                                                       : std::vector<py::ssize_t>{0});
+                 py::array_t<float> pdf(want_pdf && !given ? py::ssize_t(n) : 0);
+                 float* fo[3] = {f.mutable_data(), f.mutable_data() + n, f.mutable_data() + 2 * n};
+                 float* pp = pdf.mutable_data();
+                 if (given) {
+                     const py::tuple o = out.cast<py::tuple>();
+                     if (o.size() != 4) throw InputError("plugin kernel: out needs 4 arrays");
+                     const char* names[3] = {"f_r", "f_g", "f_b"};
+                     for (int ch = 0; ch < 3; ++ch)
+                         fo[ch] = want_f ? out_ptr(o[ch], n, names[ch]) : nullptr;
+                     pp = want_pdf ? out_ptr(o[3], n, "pdf") : nullptr;
+                 }
+                 {
+                     py::gil_scoped_release release;
+                     parallel_for(n, [&](std::size_t a, std::size_t e) {
+                         for (std::size_t k = a; k < e; ++k) {
+                             Vec3 wi, wo;
+                             bool ok = active[k] && direction_at(ix, iy, iz, k, wi);
+                             ok = ok && direction_at(ox, oy, oz, k, wo);
+                             ok = ok && (pk.lit_from_below || wi.z > 0) &&
+                                  (pk.transmits || wo.z > 0);
+                             if (want_f) {
+                                 double v[3] = {0, 0, 0};
+                                 if (ok) {
+                                     const double p[3] = {r[k], g[k], b[k]};
+                                     pk.f_rgb(wi, wo, p, v);
+                                 }
+                                 const double c = std::fabs(wo.z);
+                                 for (int ch = 0; ch < 3; ++ch) fo[ch][k] = float(v[ch] * c);
+                             }
+                             if (want_pdf) pp[k] = ok ? float(pk.sampler->pdf(wi, wo)) : 0.0f;
+                         }
+                     });
+                 }
+                 return py::make_tuple(want_f && !given ? py::object(f) : py::none(),
+                                       want_pdf && !given ? py::object(pdf) : py::none());
+             })
+        .def("sample",
+             [](const PluginKernel& pk, const py::array& wix, const py::array& wiy,
+                const py::array& wiz, const py::array& u1_in, const py::array& u2_in,
+                const py::array& pr, const py::array& pg, const py::array& pb,
+                const py::array& active_in, const py::object& out) -> py::tuple {
+                 // (wo (3, n), pdf (n,), weight (3, n) = f |cos theta_o| / pdf,
+                 // valid (n,) bool), float32; invalid lanes have pdf = weight =
+                 // 0, and inactive ones are not sampled (wo = +z).  With `out`
+                 // = (wo_x, wo_y, wo_z, pdf, w_r, w_g, w_b) (float32 arrays of
+                 // n values) those results go there and (None, None, None,
+                 // valid) is returned.
+                 const FloatLane ix(wix, "wi.x"), iy(wiy, "wi.y"), iz(wiz, "wi.z"),
+                     u1(u1_in, "u.x"), u2(u2_in, "u.y"), r(pr, "p.r"), g(pg, "p.g"),
+                     b(pb, "p.b");
+                 const MaskLane active(active_in, "active");
+                 const std::size_t n = common_size(ix, iy, iz, u1, u2, r, g, b, active);
+                 if (!pk.sampler) throw InputError("plugin kernel: no sampler");
+                 const bool given = !out.is_none();
+                 const py::ssize_t m = given ? 0 : py::ssize_t(n);
+                 py::array_t<float> wo({py::ssize_t(3), m});
+                 py::array_t<float> pdf(m), weight({py::ssize_t(3), m});
+                 py::array_t<bool> valid(n);
+                 float* pw[3] = {wo.mutable_data(), wo.mutable_data() + n, wo.mutable_data() + 2 * n};
+                 float* pp = pdf.mutable_data();
+                 float* pwt[3] = {weight.mutable_data(), weight.mutable_data() + n,
+                                  weight.mutable_data() + 2 * n};
+                 if (given) {
+                     const py::tuple o = out.cast<py::tuple>();
+                     if (o.size() != 7) throw InputError("plugin kernel: out needs 7 arrays");
+                     const char* names[7] = {"wo_x", "wo_y", "wo_z", "pdf", "w_r", "w_g", "w_b"};
+                     for (int c = 0; c < 3; ++c) pw[c] = out_ptr(o[c], n, names[c]);
+                     pp = out_ptr(o[3], n, names[3]);
+                     for (int c = 0; c < 3; ++c) pwt[c] = out_ptr(o[4 + c], n, names[4 + c]);
+                 }
+                 bool* pv = valid.mutable_data();
+                 {
+                     py::gil_scoped_release release;
+                     parallel_for(n, [&](std::size_t a, std::size_t e) {
+                         for (std::size_t k = a; k < e; ++k) {
+                             Vec3 wi;
+                             bool ok = active[k] && direction_at(ix, iy, iz, k, wi);
+                             ok = ok && (pk.lit_from_below || wi.z > 0);
+                             SampleResult s;
+                             s.wo = {0, 0, 1};
+                             if (ok) {
+                                 // u below 1: u = 1 in float32 stays in the last cell.
+                                 const double a1 = std::min(double(u1[k]), 1 - 1e-12);
+                                 const double a2 = std::min(double(u2[k]), 1 - 1e-12);
+                                 s = pk.sampler->sample(wi, a1, a2);
+                             }
+                             ok = ok && (pk.transmits || s.wo.z > 0) && s.pdf > 0;
+                             double v[3] = {0, 0, 0};
+                             if (ok) {
+                                 if (pk.single) {
+                                     v[0] = v[1] = v[2] = s.value;
+                                 } else {
+                                     const double p[3] = {r[k], g[k], b[k]};
+                                     pk.f_rgb(wi, s.wo, p, v);
+                                 }
+                             }
+                             const double c = std::fabs(s.wo.z);
+                             pw[0][k] = float(s.wo.x);
+                             pw[1][k] = float(s.wo.y);
+                             pw[2][k] = float(s.wo.z);
+                             pp[k] = ok ? float(s.pdf) : 0.0f;
+                             for (int ch = 0; ch < 3; ++ch)
+                                 pwt[ch][k] = ok ? float(v[ch] * c / s.pdf) : 0.0f;
+                             pv[k] = ok;
+                         }
+                     });
+                 }
+                 if (given) return py::make_tuple(py::none(), py::none(), py::none(), valid);
+                 return py::make_tuple(wo, pdf, weight, valid);
+             });
 
     py::class_<Axis>(m, "Axis", "one table axis: node placement in user units")
         .def_readonly("name", &Axis::name)
@@ -291,8 +609,10 @@ PYBIND11_MODULE(_brdftab, m) {
                  double* dst = out.mutable_data();
                  {
                      py::gil_scoped_release release;
-                     for (py::ssize_t k = 0; k < n; ++k)
-                         dst[k] = b.bound->eval(vec_at(wi, k), vec_at(wo, k));
+                     parallel_for(std::size_t(n), [&](std::size_t a, std::size_t e) {
+                         for (std::size_t k = a; k < e; ++k)
+                             dst[k] = b.bound->eval(vec_at(wi, py::ssize_t(k)), vec_at(wo, py::ssize_t(k)));
+                     });
                  }
                  return out;
              })
@@ -304,8 +624,10 @@ PYBIND11_MODULE(_brdftab, m) {
                  double* dst = out.mutable_data();
                  {
                      py::gil_scoped_release release;
-                     for (py::ssize_t k = 0; k < n; ++k)
-                         dst[k] = b.bound->pdf(vec_at(wi, k), vec_at(wo, k));
+                     parallel_for(std::size_t(n), [&](std::size_t a, std::size_t e) {
+                         for (std::size_t k = a; k < e; ++k)
+                             dst[k] = b.bound->pdf(vec_at(wi, py::ssize_t(k)), vec_at(wo, py::ssize_t(k)));
+                     });
                  }
                  return out;
              })
@@ -318,16 +640,18 @@ PYBIND11_MODULE(_brdftab, m) {
                    *ppdf = pdf.mutable_data(), *pvalue = value.mutable_data();
             {
                 py::gil_scoped_release release;
-                for (py::ssize_t k = 0; k < n; ++k) {
-                    const double* uk = u.data(k, 0);
-                    const SampleResult s = b.bound->sample(vec_at(wi, k), uk[0], uk[1]);
-                    pw[3 * k] = s.wo.x;
-                    pw[3 * k + 1] = s.wo.y;
-                    pw[3 * k + 2] = s.wo.z;
-                    pweight[k] = s.weight;
-                    ppdf[k] = s.pdf;
-                    pvalue[k] = s.value;
-                }
+                parallel_for(std::size_t(n), [&](std::size_t a, std::size_t e) {
+                    for (std::size_t k = a; k < e; ++k) {
+                        const double* uk = u.data(py::ssize_t(k), 0);
+                        const SampleResult s = b.bound->sample(vec_at(wi, py::ssize_t(k)), uk[0], uk[1]);
+                        pw[3 * k] = s.wo.x;
+                        pw[3 * k + 1] = s.wo.y;
+                        pw[3 * k + 2] = s.wo.z;
+                        pweight[k] = s.weight;
+                        ppdf[k] = s.pdf;
+                        pvalue[k] = s.value;
+                    }
+                });
             }
             return py::make_tuple(wo, weight, pdf, value);
         });

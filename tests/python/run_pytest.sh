@@ -11,7 +11,7 @@ if [ ! -x "$python" ]; then
   echo "SKIPPED: no Python at $python (for the mitsuba tests: bash scripts/setup.sh --mitsuba)"
   exit 77
 fi
-if [[ " $* " == *" test_mitsuba.py "* || " $* " == *" test_rgl.py "* ]]; then
+if [[ " $* " == *"mitsuba"* || " $* " == *" test_rgl.py "* ]]; then
   llvm=${DRJIT_LIBLLVM_PATH:-/usr/lib/x86_64-linux-gnu/libLLVM-19.so}
   if ! "$python" -c "import mitsuba" 2>/dev/null; then
     echo "SKIPPED: $python cannot import mitsuba (bash scripts/setup.sh --mitsuba)"

@@ -140,7 +140,8 @@ def incidence(theta_deg, phi=0.0):
 # samples).  Aligned grids make the expected counts exact: theta_o axes with
 # "cos" spacing in steps of 1/6 in cos theta, phi_d in 30-degree steps, wi at
 # azimuth 0, and the test's cells 1/24 in cos theta (res = 48) by 15 degrees
-# in phi (res/2 = 24 columns).
+# in phi (res/2 = 24 columns).  Unaligned grids, with exact expected counts
+# and p-value uniformity over 40 seeds: test_chi2.py, test_chi2_mitsuba.py.
 CHI2_RES = 48
 
 

@@ -263,3 +263,32 @@ def test_certificate_read_as_stored(tables, oren_nayar):
         assert c["measure"] == "relative" and c["interpolation"] == "linear"
     assert f"certified max total error {c['max_error']:.3g} relative" in repr(
         brdftab.open(certified).tables["brdf_direct"])
+
+
+def test_batch_results_do_not_depend_on_threads(oren_nayar, rough_dielectric):
+    """The batch loops split large arrays over threads: every number must be
+    bit-identical to the one-thread result, and an error must be the first
+    bad point's, as in a serial loop."""
+    rng = np.random.default_rng(11)
+    n = 40_000  # several chunks of the threaded loops
+    t = brdftab.open(rough_dielectric).tables["bsdf"]
+    coords = dict(mu_i=rng.uniform(0, 1, n), theta_o=rng.uniform(0, 180, n),
+                  phi_d=rng.uniform(0, 180, n), alpha=rng.uniform(0.2, 0.8, n))
+    b = brdftab.open(oren_nayar).tables["brdf"].bind(sigma=25.0, rho=0.7)
+    wi = np.stack([np.full(n, 0.6), np.zeros(n), np.full(n, 0.8)], axis=1)
+    u = rng.random((n, 2))
+    wo = b.sample(wi, u)[0]
+    results = {}
+    try:
+        for threads in (1, 3):
+            brdftab.set_threads(threads)
+            assert brdftab.threads() == threads
+            results[threads] = (t.eval(**coords), b.eval(wi, wo), b.pdf(wi, wo), *b.sample(wi, u))
+            bad = dict(coords, alpha=coords["alpha"].copy())
+            bad["alpha"][[20_000, 35_000]] = [0.95, 0.99]  # in the 2nd and 3rd chunk
+            with pytest.raises(brdftab.InputError, match="0.95"):
+                t.eval(out_of_range="reject", **bad)
+    finally:
+        brdftab.set_threads(0)  # the default: one per hardware thread
+    for one, many in zip(results[1], results[3]):
+        assert np.array_equal(one, many)
