@@ -1,13 +1,16 @@
 // cli_adaptive.cpp — `generate --representation adaptive` (cli_adaptive.h).
 #include "host/cli/cli_adaptive.h"
 
+#include <cstdio>
 #include <filesystem>
 #include <iostream>
+#include <sstream>
 
 #include "host/adaptive/adaptive_generate.h"
 #include "host/adaptive/adaptive_io.h"
 #include "host/core/atomic_file.h"
 #include "host/core/error.h"
+#include "host/io/point_file.h"
 #include "host/plan/certify.h"
 #include "host/spec/spec.h"
 
@@ -135,6 +138,128 @@ void run_adaptive_generate(const std::string& spec_path, const std::string& outp
                   << (certs[i].passed ? " (passed)" : " (FAILED)") << "\n";
     for (const Certificate& c : certs)
         if (!c.passed) throw Error("certificate of '" + c.table + "' misses --accuracy " + sci_text(*accuracy));
+}
+
+namespace {
+
+std::string full(double v) {
+    char b[40];
+    std::snprintf(b, sizeof b, "%.17g", v);
+    return b;
+}
+
+// The axis values of a point, in axis order, from names; out-of-range
+// values clamped (a warning on stderr) or, with `reject`, refused.
+std::vector<double> axis_values(const AdaptiveTable& t, const std::map<std::string, double>& named,
+                                bool reject, const std::string& where) {
+    std::vector<double> x;
+    std::string names;
+    for (const Axis& a : t.data.axes) names += (names.empty() ? "" : ", ") + a.name;
+    for (const auto& [k, v] : named)
+        if (std::none_of(t.data.axes.begin(), t.data.axes.end(), [&](const Axis& a) { return a.name == k; }))
+            throw InputError(where + ": '" + k + "' is not a coordinate of table '" + t.data.name +
+                             "' (coordinates: " + names + ")");
+    for (const Axis& a : t.data.axes) {
+        const auto it = named.find(a.name);
+        if (it == named.end())
+            throw InputError(where + ": missing coordinate '" + a.name + "' (table '" + t.data.name +
+                             "' needs " + names + ")");
+        const double lo = std::min(a.min, a.max), hi = std::max(a.min, a.max);
+        double v = it->second;
+        if (v < lo || v > hi) {
+            if (reject)
+                throw InputError(where + ": " + a.name + " = " + full(v) + " outside [" + full(lo) + ", " +
+                                 full(hi) + "]");
+            std::cerr << "warning: " << where << ": " << a.name << " = " << v << " clamped to [" << lo << ", "
+                      << hi << "]\n";
+            v = std::clamp(v, lo, hi);
+        }
+        x.push_back(v);
+    }
+    return x;
+}
+
+}  // namespace
+
+void print_adaptive_summary(const AdaptiveTable& t, bool values) {
+    const TableData& d = t.data;
+    std::cout << "  " << d.name << ": " << d.model << " " << d.quantity << " [" << d.units << "], adaptive: "
+              << t.value_count() << " values in " << t.layout.leaf_count() << " patches of " << t.layout.patch_nodes
+              << "^" << d.axes.size() << " nodes, " << method_attribute(d) << ", " << stored_type_name(d.stored_type)
+              << "\n";
+    for (std::size_t a = 0; a < d.axes.size(); ++a) {
+        const Axis& ax = d.axes[a];
+        std::cout << "    " << ax.name << " [" << ax.min << ", " << ax.max << "] " << ax.unit << ", warp "
+                  << spacing_name(ax.spacing) << (ax.dependent() ? " (following " + ax.depends_on + ")" : "");
+        if (a < t.breakpoints_t.size() && !t.breakpoints_t[a].empty()) {
+            std::cout << ", faces at t =";
+            for (std::size_t k = 0; k < t.breakpoints_t[a].size(); ++k)
+                std::cout << " " << t.breakpoints_t[a][k]
+                          << (k < t.breakpoint_jump[a].size() && t.breakpoint_jump[a][k] ? " (jump)" : "");
+        }
+        std::cout << "\n";
+    }
+    std::cout << "    refined for max " << (t.absolute ? "absolute" : "relative") << " error " << sci_text(t.target)
+              << " (largest probe error at the end " << sci_text(t.estimated_max) << ")\n";
+    if (values && !d.value.empty()) {
+        const auto [lo, hi] = std::minmax_element(d.value.begin(), d.value.end());
+        std::cout << "    values in [" << *lo << ", " << *hi << "]\n";
+    }
+}
+
+void run_adaptive_query(const std::string& file, const std::string& table,
+                        const std::map<std::string, double>& fixed, bool cubic, bool reject,
+                        const std::string& points_file, const std::string& output, bool json) {
+    if (cubic)
+        throw InputError("table '" + table + "' of '" + file +
+                         "' is adaptive: its patches interpolate linearly only (no --cubic)");
+    const AdaptiveTable t = read_adaptive_table(file, table);
+    const std::optional<StoredCertificate> cert = read_stored_certificate(file, table);
+    if (points_file.empty()) {
+        const std::vector<double> x = axis_values(t, fixed, reject, "arguments");
+        const double v = t.eval(x.data());
+        if (json) {
+            nlohmann::json j = {{"table", t.data.name}, {"model", t.data.model}, {"quantity", t.data.quantity},
+                                {"value", v}, {"units", t.data.units}, {"interpolation", "linear"},
+                                {"representation", "adaptive"}};
+            if (cert)
+                j["certified_error"] = {{"max", cert->max_error}, {"rms", cert->rms_error},
+                                        {"measure", cert->absolute ? "absolute" : "relative"},
+                                        {"abs_floor", cert->abs_floor}, {"interpolation", cert->interpolation},
+                                        {"target", cert->target}, {"passed", cert->passed}};
+            std::cout << j.dump() << "\n";
+        } else {
+            std::cout << t.data.name << " = " << full(v) << " [" << t.data.units << "] (linear, adaptive)";
+            if (cert)
+                std::cout << "; certified max total error " << sci_text(cert->max_error)
+                          << (cert->absolute ? " absolute" : " relative") << (cert->passed ? "" : " (missed its target)");
+            std::cout << "\n";
+        }
+        return;
+    }
+    std::ostringstream rows;
+    PointFileRules rules;
+    rules.unique_columns = true;
+    rules.column_problem = [&](const std::string& h) {
+        for (const Axis& a : t.data.axes)
+            if (a.name == h) return std::string();
+        return "is not a coordinate of table '" + table + "'";
+    };
+    rules.on_row = [&](const PointFile& pf, const PointRow& row) {
+        const std::vector<double> x = axis_values(t, pf.named(row, fixed), reject, pf.where(row));
+        for (const auto& cell : row.cells) rows << cell << ",";
+        rows << full(t.eval(x.data())) << "\n";
+    };
+    const PointFile pf = read_point_file(points_file, rules);
+    std::ostringstream csv;
+    for (const auto& h : pf.header) csv << h << ",";
+    csv << "value\n" << rows.str();
+    if (output.empty()) {
+        std::cout << csv.str();
+    } else {
+        write_text_atomically(output, csv.str());
+        std::cerr << "wrote " << pf.rows.size() << " rows to " << output << "\n";
+    }
 }
 
 }  // namespace brdftab::cli

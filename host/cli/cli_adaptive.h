@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstddef>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -10,6 +11,10 @@
 #include <CLI/CLI.hpp>
 
 #include "host/cli/cli_common.h"
+
+namespace brdftab {
+struct AdaptiveTable;
+}
 
 namespace brdftab::cli {
 
@@ -30,5 +35,17 @@ void add_adaptive_options(CLI::App& cmd, AdaptiveCliOptions& o);
 void run_adaptive_generate(const std::string& spec_path, const std::string& output,
                            const ComputeOptions& compute, std::optional<double> accuracy, bool absolute,
                            bool quiet, const AdaptiveCliOptions& o);
+
+// `info`'s lines for an adaptive table (axes and warps, patches, values,
+// breakpoints, storage; value range with `values`).
+void print_adaptive_summary(const AdaptiveTable& t, bool values);
+
+// `query` on an adaptive table (run_query hands it over): one point from
+// `fixed` (axis name -> value) or every row of `points_file`; linear only.
+// Coordinates outside an axis are clamped with a warning, or refused with
+// `reject`.
+void run_adaptive_query(const std::string& file, const std::string& table,
+                        const std::map<std::string, double>& fixed, bool cubic, bool reject,
+                        const std::string& points_file, const std::string& output, bool json);
 
 }  // namespace brdftab::cli
