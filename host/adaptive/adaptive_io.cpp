@@ -93,8 +93,12 @@ void write_table_file(const std::string& path, const std::vector<TableData>& ten
 
 bool is_adaptive_table(const TableReader& reader, const std::string& name) {
     const std::vector<std::string> names = reader.table_names();
-    if (std::find(names.begin(), names.end(), name) == names.end())
-        throw InputError("'" + reader.path() + "' has no table '" + name + "'");
+    if (std::find(names.begin(), names.end(), name) == names.end()) {
+        std::string avail;
+        for (const std::string& g : names) avail += (avail.empty() ? "" : ", ") + g;
+        throw InputError("'" + reader.path() + "' has no table '" + name + "' (available: " +
+                         (avail.empty() ? "none" : avail) + ")");
+    }
     try {
         return detail::representation(reader.hdf5_file(), name) == "adaptive";
     } catch (const InputError&) {
