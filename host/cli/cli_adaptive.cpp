@@ -91,6 +91,7 @@ void run_adaptive_generate(const std::string& spec_path, const std::string& outp
     }
     std::vector<AdaptiveTable> tables;
     std::vector<Certificate> certs;
+    std::vector<double> predicted;  // the refinements' largest probe errors
     for (std::size_t i = 0; i < spec.tables.size(); ++i) {
         const TableSpec& ts = spec.tables[i];
         AdaptiveGenerateOptions tgo = go;
@@ -112,23 +113,35 @@ void run_adaptive_generate(const std::string& spec_path, const std::string& outp
         });
         std::cerr << "  " << ts.name << ": " << g.report.values << " values in " << g.report.leaves << " patches ("
                   << g.report.evaluations << " evaluations, " << format_seconds(g.seconds) << ")"
-                  << (g.report.budget_hit ? ", value budget reached" : "") << "; certifying\n";
+                  << (g.report.budget_hit ? ", value budget reached" : "") << "\n";
+        tables.push_back(g.table);
+        // Stored values keep the bits the accuracy needs (rounding error
+        // <= 0.1 E, as generate --accuracy does), unless the spec rounds.
+        AdaptiveTable& stored = tables.back();
+        if (!(stored.data.round_accuracy > 0)) {
+            stored.data.round_accuracy = *accuracy;
+            stored.data.round_absolute = absolute;
+        }
+        predicted.push_back(g.report.estimated_max);
+    }
+    // Written whole to the temporary file, read back and certified there (so
+    // the certificate includes the storage rounding), the certificates
+    // added, then renamed: a failure leaves no partial output.
+    AtomicOutput out(out_path);
+    write_table_file(out.path(), {}, tables);
+    for (std::size_t i = 0; i < tables.size(); ++i) {
+        const std::string& name = tables[i].data.name;
         CertifyOptions co;
         co.target = *accuracy;
         co.absolute = absolute;
         if (compute.abs_floor > 0) co.abs_floor = compute.abs_floor;
-        Certificate c = certify_adaptive(g.table, *backend, co);
-        c.predicted_max = g.report.estimated_max;
-        std::cerr << "  " << ts.name << ": certificate max " << sci_text(c.max_error) << ", RMS "
+        Certificate c = certify_adaptive_file(out.path(), name, *backend, co);
+        c.predicted_max = predicted[i];
+        std::cerr << "  " << name << ": certificate max " << sci_text(c.max_error) << ", RMS "
                   << sci_text(c.rms_error) << " over " << c.probes << " probes: "
                   << (c.passed ? "passed" : "FAILED") << " (" << format_seconds(c.seconds) << ")\n";
-        tables.push_back(g.table);
         certs.push_back(c);
     }
-    // Written whole, then the certificates added (to the temporary file),
-    // then renamed: a failure leaves no partial output.
-    AtomicOutput out(out_path);
-    write_table_file(out.path(), {}, tables);
     for (const Certificate& c : certs) write_certificate(out.path(), c);
     out.commit();
     std::cout << "wrote " << out_path << "\n";
