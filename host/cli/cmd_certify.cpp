@@ -11,6 +11,7 @@
 #include <optional>
 #include <string>
 
+#include "host/adaptive/adaptive_io.h"
 #include "host/cli/cli_common.h"
 #include "host/cli/commands.h"
 #include "host/core/atomic_file.h"
@@ -138,7 +139,8 @@ void run_certify(const CertifyArgs& st) {
         out.commit();
         std::cout << "stored the certificate in " << st.file << "\n";
     }
-    if (!c.passed && !st.no_advice) print_failure_advice(c, st, *backend);
+    // The advice plans a tensor table; an adaptive one is refined by generate.
+    if (!c.passed && !st.no_advice && !is_adaptive_table(st.file, st.table)) print_failure_advice(c, st, *backend);
     if (!c.passed)
         throw Error("the certificate missed --accuracy " + sci_text(st.accuracy) + ": max total error " +
                     sci_text(c.max_error));

@@ -15,6 +15,7 @@
 #include <unistd.h>
 
 #include "host/core/atomic_file.h"
+#include "host/cli/cli_adaptive.h"
 #include "host/cli/cli_common.h"
 #include "host/cli/commands.h"
 #include "host/core/error.h"
@@ -222,6 +223,7 @@ struct GenerateArgs {
     std::optional<int> max_refinements;
     bool yes = false;  // accept a plan beyond the cost limits (approve_costly_plan)
     bool full_precision = false;  // --accuracy: no rounded storage
+    AdaptiveCliOptions adaptive;  // --representation adaptive (cli_adaptive.h)
     bool certified() const { return accuracy || budget; }
 };
 
@@ -798,8 +800,12 @@ void register_generate(CLI::App& app) {
                   "with --accuracy: keep every mantissa bit of the stored type (default: the values "
                   "keep only the bits E needs, rounding error <= 0.1 E, measured by the "
                   "certificate; docs/spec.md, round_to_accuracy)");
+    add_adaptive_options(*cmd, state->adaptive);
     state->compute.add_to(*cmd);
     cmd->callback([state] {
+        if (state->adaptive.adaptive())
+            return run_adaptive_generate(state->spec_path, state->output, state->compute, state->accuracy,
+                                         state->absolute, state->quiet, state->adaptive);
         if (state->certified()) {
 #ifdef BRDFTAB_MPI
             if (MpiSession::launched())

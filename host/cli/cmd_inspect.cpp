@@ -5,6 +5,8 @@
 #include <iostream>
 #include <memory>
 
+#include "host/adaptive/adaptive_io.h"
+#include "host/cli/cli_adaptive.h"
 #include "host/cli/cli_common.h"
 #include "host/cli/commands.h"
 #include "host/cli/read_guard.h"
@@ -249,7 +251,12 @@ void register_info(CLI::App& app) {
         const auto names = reader.table_names();
         const auto attrs = reader.file_attributes();
         std::vector<TableData> tables;
-        for (const auto& n : names) tables.push_back(reader.read(n));
+        std::vector<AdaptiveTable> adaptive;  // docs/adaptive.md
+        for (const auto& n : names)
+            if (is_adaptive_table(reader, n))
+                adaptive.push_back(read_adaptive_table(reader, n));
+            else
+                tables.push_back(reader.read(n));
         std::cout << path << ": " << names.size() << " table(s)";
         if (attrs.contains("brdftab_version") && attrs["brdftab_version"].is_string())
             std::cout << ", written by brdftab " << attrs["brdftab_version"].get<std::string>();
@@ -257,6 +264,10 @@ void register_info(CLI::App& app) {
         for (const auto& t : tables) {
             print_table_summary(t, values);
             if (const auto c = read_certificate(reader, t.name)) print_certificate(*c);
+        }
+        for (const auto& t : adaptive) {
+            print_adaptive_summary(t, values);
+            if (const auto c = read_certificate(reader, t.data.name)) print_certificate(*c);
         }
     });
 }

@@ -10,6 +10,8 @@
 #include <sstream>
 
 #include "host/core/atomic_file.h"
+#include "host/adaptive/adaptive_io.h"
+#include "host/cli/cli_adaptive.h"
 #include "host/cli/cli_common.h"
 #include "host/cli/commands.h"
 #include "host/core/error.h"
@@ -98,6 +100,8 @@ void run_query(const std::string& file, const std::string& table,
         throw InputError("-o/--output needs --points (a single point is printed)");
     if (!output.empty()) check_output_writable(output);
     guard_table_file(file);
+    if (is_adaptive_table(file, table))
+        return run_adaptive_query(file, table, fixed, cubic, reject, points_file, output, json);
     const LookupTable lt = LookupTable::open(file, table);
     const auto se_table = stderr_lookup(lt);
     const char* interp_name = cubic ? "cubic" : "linear";

@@ -1,6 +1,8 @@
 // read_guard.cpp — the forked, time-limited trial read of read_guard.h.
 #include "host/cli/read_guard.h"
 
+#include "host/adaptive/adaptive_io.h"
+
 #include <fcntl.h>
 #include <signal.h>
 #include <sys/wait.h>
@@ -73,7 +75,12 @@ int trial_read(const std::string& path, int report_fd) {
             "HDF5 library on another; docs/format.md, \"Reading untrusted files\")";
         attempt([&] { (void)reader->file_attributes(); });
         for (const std::string& name : names) {
-            attempt([&] { (void)reader->read(name); });
+            attempt([&] {
+                if (is_adaptive_table(*reader, name))
+                    (void)read_adaptive_table(*reader, name);
+                else
+                    (void)reader->read(name);
+            });
             attempt([&] { (void)read_certificate(*reader, name); });
         }
         if (!first_error.empty()) first_error += note;

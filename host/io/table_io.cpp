@@ -6,6 +6,7 @@
 // stack, attributes) is in hdf5_handles.h and hdf5_attributes.h, the
 // binary16 rounding in half_float.h.
 #include "host/io/table_io.h"
+#include "host/io/table_io_detail.h"
 
 #include "host/core/atomic_file.h"
 
@@ -163,6 +164,24 @@ void write_spacing_parameters(hid_t ds, const Axis& a) {
         write_double_attr(ds, "critical_eta", a.critical_eta);
 }
 
+// Axis a's node list as a dataset of `group`, with its attributes, marked as
+// a dimension scale.
+Handle write_axis_dataset(hid_t group, const Axis& a) {
+    const hsize_t n = a.count;
+    // Chunked (one chunk up to 1 MiB) so that the node list carries a
+    // checksum too; not compressed, as before.
+    Handle ds = create_dataset(group, a.name.c_str(), H5T_IEEE_F64LE, {n}, 0);
+    check(H5Dwrite(ds, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, a.values.data()),
+          "H5Dwrite", a.name);
+    write_string_attr(ds, "unit", a.unit);
+    write_string_attr(ds, "spacing", spacing_name(a.spacing));
+    write_double_attr(ds, "min", a.min);
+    write_double_attr(ds, "max", a.max);
+    write_spacing_parameters(ds, a);
+    check(H5DSset_scale(ds, a.name.c_str()), "H5DSset_scale", a.name);
+    return ds;
+}
+
 // The HDF5 objects of one table being written: its group, the axis datasets
 // (dimension scales) and the data datasets (value, then stderr and samples
 // when present).  Shared by the whole-table writer (write_table) and the
@@ -188,20 +207,8 @@ TableObjects create_table_objects(hid_t file, const TableData& t, bool with_stde
 
     // Axis datasets first: they become the dimension scales.
     for (const Axis& a : t.axes) {
-        const hsize_t n = a.count;
-        // Chunked (one chunk up to 1 MiB) so that the node list carries a
-        // checksum too; not compressed, as before.
-        Handle ds = create_dataset(group, a.name.c_str(), H5T_IEEE_F64LE, {n}, 0);
-        check(H5Dwrite(ds, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, a.values.data()),
-              "H5Dwrite", a.name);
-        write_string_attr(ds, "unit", a.unit);
-        write_string_attr(ds, "spacing", spacing_name(a.spacing));
-        write_double_attr(ds, "min", a.min);
-        write_double_attr(ds, "max", a.max);
-        write_spacing_parameters(ds, a);
-        check(H5DSset_scale(ds, a.name.c_str()), "H5DSset_scale", a.name);
-        o.axis_ds.push_back(std::move(ds));
-        o.dims.push_back(n);
+        o.axis_ds.push_back(write_axis_dataset(group, a));
+        o.dims.push_back(a.count);
     }
     Handle half;
     auto real_type = [&]() -> hid_t {
@@ -682,8 +689,9 @@ void write_tables(const std::string& path, const std::vector<TableData>& tables)
 
 namespace {
 
-// One table of an open file; throws InputError (callers wrap HDF5 failures).
-TableData read_group(hid_t file, const std::string& path, const std::string& name) {
+// The description of one table of an open file (its attributes and axes,
+// no data); throws InputError (callers wrap HDF5 failures).
+TableData read_description(hid_t file, const std::string& path, const std::string& name) {
     if (name.empty() || name.find('/') != std::string::npos || !has_link(file, name) ||
         [&] {
             Handle o(H5Oopen(file, name.c_str(), H5P_DEFAULT), H5Oclose, "H5Oopen", name);
@@ -777,6 +785,39 @@ TableData read_group(hid_t file, const std::string& path, const std::string& nam
         t.axes.push_back(std::move(a));
     }
     check_dependent_axes(t.axes, where);
+    if (has_attr(group, "rounding")) {
+        const std::string r = str("rounding");
+        if (r != "relative" && r != "absolute")
+            throw InputError(where + "attribute 'rounding' is '" + r + "'; allowed: relative, absolute");
+        t.round_absolute = r == "absolute";
+        t.round_accuracy = dbl("rounding_accuracy");
+        if (!(t.round_accuracy > 0) || !std::isfinite(t.round_accuracy))
+            throw InputError(where + "attribute 'rounding_accuracy' must be a positive number");
+    }
+    return t;
+}
+
+// The representation attribute of table group `name` ("tensor" when absent).
+std::string representation_of(hid_t file, const std::string& name) {
+    Handle group(H5Gopen2(file, name.c_str(), H5P_DEFAULT), H5Gclose, "H5Gopen2", name);
+    return has_attr(group, "representation") ? read_string_attr(group, "representation") : "tensor";
+}
+
+// One tensor table of an open file; throws InputError (callers wrap HDF5
+// failures).  An adaptive table (docs/format.md "Adaptive tables") is
+// refused here: every reader of tensor tables goes through this function,
+// so one that does not know the other representation never misreads it.
+TableData read_group(hid_t file, const std::string& path, const std::string& name) {
+    TableData t = read_description(file, path, name);
+    const std::string where = "'" + path + "', table '" + name + "': ";
+    if (const std::string r = representation_of(file, name); r != "tensor")
+        throw InputError(where + "is an " + r + " table (docs/adaptive.md): this command and the lookup "
+                         "library read tensor tables only; `brdftab query`, `info` and `certify` read " + r +
+                         " tables");
+    Handle group(H5Gopen2(file, name.c_str(), H5P_DEFAULT), H5Gclose, "H5Gopen2", name);
+    auto str = [&](const char* key) {
+        return has_attr(group, key) ? read_string_attr(group, key) : std::string();
+    };
     const std::vector<std::size_t> shape = t.shape();
     const std::size_t n = checked_cell_count(t.axes, where);
     check_fits_in_memory(n, sizeof(double), where);
@@ -795,15 +836,6 @@ TableData read_group(hid_t file, const std::string& path, const std::string& nam
         t.compression = deflate_level(ds, "value");
     });
     if (has_attr(group, "stored_type")) t.stored_type = parse_stored_type(str("stored_type"));
-    if (has_attr(group, "rounding")) {
-        const std::string r = str("rounding");
-        if (r != "relative" && r != "absolute")
-            throw InputError(where + "attribute 'rounding' is '" + r + "'; allowed: relative, absolute");
-        t.round_absolute = r == "absolute";
-        t.round_accuracy = dbl("rounding_accuracy");
-        if (!(t.round_accuracy > 0) || !std::isfinite(t.round_accuracy))
-            throw InputError(where + "attribute 'rounding_accuracy' must be a positive number");
-    }
     t.keep_stderr = has_link(group, "stderr");
     if (t.keep_stderr)
         read_cells("stderr", [&](hid_t ds) { t.stderr_ = read_real(ds, "stderr", n); });
@@ -991,5 +1023,78 @@ void TableFileWriter::commit() {
     close_written_file(impl_->file, impl_->tmp->path());
     impl_->tmp->commit();
 }
+
+std::int64_t TableFileWriter::hdf5_file() const { return impl_->file.get(); }
+
+// ------------------------------------------- shared with other representations --
+
+namespace table_io_detail {
+
+void create_table_group(std::int64_t file, const TableData& t) {
+    validate_table(t, false);
+    htri_t exists = H5Lexists(file, t.name.c_str(), H5P_DEFAULT);
+    check(exists, "H5Lexists", t.name);
+    if (exists > 0) throw InputError("table name '" + t.name + "' used twice in one file");
+    Handle group(H5Gcreate2(file, t.name.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose,
+                 "H5Gcreate2", t.name);
+    for (const Axis& a : t.axes) write_axis_dataset(group, a);
+}
+
+void write_description(std::int64_t group, const TableData& t, double max_abs, bool with_stderr) {
+    write_table_attributes(group, t);
+    write_rounding_attributes(group, t, max_abs, with_stderr);
+}
+
+void write_real_dataset(std::int64_t group, const char* name, const std::vector<double>& v,
+                        const TableData& t, bool is_stderr) {
+    Handle half;
+    hid_t type = t.stored_type == StoredType::Float64   ? H5T_IEEE_F64LE
+                 : t.stored_type == StoredType::Float32 ? H5T_IEEE_F32LE
+                                                        : (half = half_type()).get();
+    const std::vector<hsize_t> dims{v.size()};
+    Handle ds = create_dataset(group, name, type, dims, t.compression);
+    write_real_cells(ds, name, v.data(), t.stored_type, dims, 0, v.size(),
+                     is_stderr ? stderr_rounding(t) : value_rounding(t));
+}
+
+void write_plain_dataset(std::int64_t group, const char* name, std::int64_t file_type,
+                         std::int64_t mem_type, const std::vector<std::uint64_t>& dims,
+                         const void* data, int compression) {
+    const std::vector<hsize_t> d(dims.begin(), dims.end());
+    Handle ds = create_dataset(group, name, file_type, d, compression);
+    check(H5Dwrite(ds, mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data), "H5Dwrite", name);
+}
+
+TableData read_description(std::int64_t file, const std::string& path, const std::string& name) {
+    return brdftab::read_description(file, path, name);
+}
+
+std::string representation(std::int64_t file, const std::string& name) {
+    return representation_of(file, name);
+}
+
+bool has_dataset(std::int64_t group, const std::string& name) { return has_link(group, name); }
+
+std::vector<std::uint64_t> dataset_shape(std::int64_t group, const std::string& name) {
+    Handle ds(H5Dopen2(group, name.c_str(), H5P_DEFAULT), H5Dclose, "H5Dopen2", name);
+    const std::vector<hsize_t> d = dataset_dims(ds, name);
+    return std::vector<std::uint64_t>(d.begin(), d.end());
+}
+
+std::vector<double> read_reals(std::int64_t group, const std::string& name, std::size_t count,
+                               StoredType* stored, int* compression) {
+    Handle ds(H5Dopen2(group, name.c_str(), H5P_DEFAULT), H5Dclose, "H5Dopen2", name);
+    check_fits_in_memory(count, sizeof(double), name + ": ");
+    if (stored) *stored = stored_type_of(ds, name);
+    if (compression) *compression = deflate_level(ds, name);
+    return read_real(ds, name, count);
+}
+
+void read_native(std::int64_t group, const std::string& name, std::int64_t mem_type, void* out) {
+    Handle ds(H5Dopen2(group, name.c_str(), H5P_DEFAULT), H5Dclose, "H5Dopen2", name);
+    check(H5Dread(ds, mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, out), "H5Dread", name);
+}
+
+}  // namespace table_io_detail
 
 }  // namespace brdftab

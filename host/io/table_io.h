@@ -52,6 +52,9 @@ public:
     // Closes the file and renames it over `path`.  Throws Error.
     void commit();
     const std::string& temporary_path() const;
+    // The open HDF5 file (an hid_t) until commit(), for writers of other
+    // table representations (host/adaptive/adaptive_io.h).
+    std::int64_t hdf5_file() const;
 
 private:
     struct Impl;

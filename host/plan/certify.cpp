@@ -2,6 +2,9 @@
 // certify -> refine loop (certify.h, docs/planning.md "Certified generation").
 #include "host/plan/certify.h"
 
+#include "host/adaptive/adaptive_generate.h"
+#include "host/adaptive/adaptive_io.h"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -666,6 +669,8 @@ SparseCertificate certify_spec_recombined(const Spec& spec, std::size_t recombin
 Certificate certify_file_table(const std::string& path, const std::string& table, Backend& backend,
                                const CertifyOptions& options, const ProgressFn& progress) {
     check_certify_options(options);
+    // An adaptive table has its own probes (host/adaptive/adaptive_generate.h).
+    if (is_adaptive_table(path, table)) return certify_adaptive_file(path, table, backend, options, progress);
     return certify_table(read_table(path, table), backend, options, progress);
 }
 

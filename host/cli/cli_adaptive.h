@@ -1,0 +1,51 @@
+// cli_adaptive.h — `generate --representation adaptive` (docs/adaptive.md):
+// the options and the run, kept apart from cmd_compute.cpp's tensor paths.
+#pragma once
+
+#include <cstddef>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+
+#include "host/cli/cli_common.h"
+
+namespace brdftab {
+struct AdaptiveTable;
+}
+
+namespace brdftab::cli {
+
+struct AdaptiveCliOptions {
+    std::string representation = "tensor";  // "tensor" | "adaptive"
+    std::size_t max_values = 65536;
+    std::size_t patch_nodes = 3;
+    std::vector<std::string> breakpoints, jumps, initial_levels;  // NAME=X / NAME=L
+    bool adaptive() const { return representation == "adaptive"; }
+};
+
+void add_adaptive_options(CLI::App& cmd, AdaptiveCliOptions& o);
+
+// Every table of the spec as an adaptive table refined to `accuracy`
+// (absolute with `absolute`, else relative to max(|value|, floor)), each
+// certified (certify_adaptive) and written with its certificate.  Exit code
+// 1 (Error) when a certificate misses the accuracy; the file is written.
+void run_adaptive_generate(const std::string& spec_path, const std::string& output,
+                           const ComputeOptions& compute, std::optional<double> accuracy, bool absolute,
+                           bool quiet, const AdaptiveCliOptions& o);
+
+// `info`'s lines for an adaptive table (axes and warps, patches, values,
+// breakpoints, storage; value range with `values`).
+void print_adaptive_summary(const AdaptiveTable& t, bool values);
+
+// `query` on an adaptive table (run_query hands it over): one point from
+// `fixed` (axis name -> value) or every row of `points_file`; linear only.
+// Coordinates outside an axis are clamped with a warning, or refused with
+// `reject`.
+void run_adaptive_query(const std::string& file, const std::string& table,
+                        const std::map<std::string, double>& fixed, bool cubic, bool reject,
+                        const std::string& points_file, const std::string& output, bool json);
+
+}  // namespace brdftab::cli

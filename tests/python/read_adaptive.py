@@ -1,0 +1,120 @@
+#!/usr/bin/env python3
+"""An independent reader of brdftab's adaptive tables, written from
+docs/format.md ("Adaptive tables", "Axis datasets", "Spacings with
+parameters") with numpy and h5py only.
+
+    read_adaptive.py FILE TABLE POINTS.csv
+
+POINTS.csv has a header of axis names and one point per row; prints the
+rows with a `value` column, each value with 17 significant digits.
+"""
+import csv
+import json
+import math
+import sys
+
+import h5py
+import numpy as np
+
+
+def inverse_warp(ds, x, point):
+    """t(x) of the axis dataset `ds` (format.md's tables), x in axis units."""
+    a = ds.attrs
+    spacing = a["spacing"]
+    if isinstance(spacing, bytes):
+        spacing = spacing.decode()
+    lo, hi = float(a["min"]), float(a["max"])
+    x = min(max(x, lo), hi)
+    if x == lo:
+        return 0.0
+    if x == hi:
+        return 1.0
+    if spacing == "linear":
+        return (x - lo) / (hi - lo)
+    if spacing == "cos":
+        c0, c1 = math.cos(math.radians(lo)), math.cos(math.radians(hi))
+        return (math.cos(math.radians(x)) - c0) / (c1 - c0)
+    if spacing == "log":
+        return math.log(x / lo) / math.log(hi / lo)
+    if spacing == "quadratic":
+        return math.sqrt((x - lo) / (hi - lo))
+    if spacing == "log-complement":
+        p = float(a["pivot"])
+        return math.log((p - x) / (p - lo)) / math.log((p - hi) / (p - lo))
+    if spacing == "explicit":
+        v = ds[...]
+        k = min(max(int(np.searchsorted(v, x, side="right")) - 1, 0), len(v) - 2)
+        return (k + (x - v[k]) / (v[k + 1] - v[k])) / (len(v) - 1)
+    if spacing == "critical":
+        count = ds.shape[0]
+        tc = float(a["critical_node"]) / (count - 1)
+        q = float(a["grading"])
+        if "depends_on" in a:
+            dep = a["depends_on"]
+            eta = point[dep.decode() if isinstance(dep, bytes) else dep]
+        else:
+            eta = float(a["critical_eta"])
+        inside = hi <= 0
+        r = 1 / eta if inside else eta
+        mu_c = math.sqrt(max(0.0, 1 - r * r))
+        w, span = 1 / 16, hi - lo
+        xc = min(max(-mu_c if inside else mu_c, lo + w * tc * span), hi - w * (1 - tc) * span)
+        if x <= xc:
+            return tc * (1 - ((xc - x) / (xc - lo)) ** (1 / q))
+        return tc + (1 - tc) * ((x - xc) / (hi - xc)) ** (1 / q)
+    raise SystemExit(f"unknown spacing {spacing!r}")
+
+
+def main():
+    path, table, points = sys.argv[1:4]
+    with h5py.File(path, "r") as f:
+        g = f[table]
+        rep = g.attrs["representation"]
+        assert (rep.decode() if isinstance(rep, bytes) else rep) == "adaptive"
+        names = json.loads(g.attrs["axes"])
+        d = len(names)
+        n = int(g.attrs["patch_nodes"])
+        value = g["value"][...].astype(np.float64)
+        tree_axis = g["tree_axis"][...]
+        tree_split = g["tree_split"][...]
+        tree_child = g["tree_child"][...]
+        box = g["leaf_box"][...]
+        nodes = g["leaf_nodes"][...]
+        axes = [g[name] for name in names]
+        with open(points, newline="") as fp:
+            rows = list(csv.reader(fp))
+        header = rows[0]
+        out = csv.writer(sys.stdout, lineterminator="\n")
+        out.writerow(header + ["value"])
+        for row in rows[1:]:
+            point = {h: float(v) for h, v in zip(header, row)}
+            # The axes a critical axis depends on are clamped first.
+            for name, ds in zip(names, axes):
+                point[name] = min(max(point[name], float(ds.attrs["min"])), float(ds.attrs["max"]))
+            t = [min(max(inverse_warp(ds, point[name], point), 0.0), 1.0) for name, ds in zip(names, axes)]
+            k = 0
+            while tree_axis[k] >= 0:
+                k = tree_child[k][0] if t[tree_axis[k]] < tree_split[k] else tree_child[k][1]
+            leaf = tree_child[k][0]
+            base, frac = [], []
+            for a in range(d):
+                lo, hi = box[leaf, a]
+                u = (min(max(t[a], lo), hi) - lo) / (hi - lo) * (n - 1)
+                u = min(max(u, 0.0), n - 1.0)
+                i = min(int(math.floor(u)), n - 2)
+                base.append(i)
+                frac.append(u - i)
+            total = 0.0
+            for corner in range(1 << d):
+                w, idx = 1.0, 0
+                for a in range(d):
+                    c = (corner >> a) & 1
+                    w *= frac[a] if c else 1 - frac[a]
+                    idx = idx * n + base[a] + c
+                if w != 0:
+                    total += w * value[nodes[leaf, idx]]
+            out.writerow(row + [repr(float(total))])
+
+
+if __name__ == "__main__":
+    main()
