@@ -54,7 +54,11 @@ void axis_weights(const Axis& a, double x, Interpolation interp, AxisWeights& ou
 }
 
 void axis_weights_t(const Axis& a, double t, Interpolation interp, AxisWeights& out) {
-    const std::size_t n = a.count;
+    axis_weights_n(a.count, is_mirror_phi(a), t, interp, out);
+}
+
+void axis_weights_n(std::size_t n, bool mirror, double t, Interpolation interp,
+                    AxisWeights& out) {
     out.n = 0;
     double u = t * double(n - 1);
     if (!(u >= 0)) u = 0;  // also catches NaN from a degenerate warp
@@ -72,7 +76,6 @@ void axis_weights_t(const Axis& a, double t, Interpolation interp, AxisWeights& 
     const double w0 = 0.5 * (3 * s3 - 5 * s2 + 2);
     const double w1 = 0.5 * (-3 * s3 + 4 * s2 + s);
     const double w2 = 0.5 * (s3 - s2);
-    const bool mirror = is_mirror_phi(a);
     out.add(k, w0);
     out.add(k + 1, w1);
     // Ghost below node 0.
@@ -123,24 +126,24 @@ using namespace lookup_internal;
 namespace {
 
 // The per-axis weights of a lookup at `coords` (the table axes first; a
-// recombination parameter after them is not read here), shared by eval()
-// and stencil_cells() so both see the same cells.
-void point_weights(const std::vector<Axis>& ax, const std::vector<int>& dependency,
-                   const std::vector<double>& coords, Interpolation interp, OutOfRange mode,
-                   const std::string& table, std::vector<AxisWeights>& ws) {
+// recombination parameter after them is not read here), shared by the
+// general path of eval() and by stencil_cells() so both see the same cells.
+// ws: one entry per axis.
+void point_weights(const std::vector<Axis>& ax, const FastAxis* fast,
+                   const std::vector<int>& dependency, const double* coords,
+                   Interpolation interp, OutOfRange mode, const std::string& table,
+                   AxisWeights* ws, double* x) {
     const std::size_t dims = ax.size();
-    ws.assign(dims, AxisWeights{});
-    std::vector<double> x(dims);
-    for (std::size_t d = 0; d < dims; ++d) x[d] = resolve(ax[d], coords[d], mode, table);
+    for (std::size_t d = 0; d < dims; ++d)
+        x[d] = resolve_fast(fast[d], ax[d], coords[d], mode, table);
     for (std::size_t d = 0; d < dims; ++d) {
         // An axis whose nodes depend on another (critical: mu_i on eta) is
         // unwarped at this point's value of that axis: the table is a tensor
         // product in (t, eta), not in (mu_i, eta).
-        if (dependency[d] >= 0)
-            axis_weights_t(ax[d], ax[d].unwarp_at(x[d], x[std::size_t(dependency[d])]), interp,
-                           ws[d]);
-        else
-            axis_weights(ax[d], x[d], interp, ws[d]);
+        const double t = dependency[d] >= 0
+                             ? ax[d].unwarp_at(x[d], x[std::size_t(dependency[d])])
+                             : unwarp_fast(fast[d], ax[d], x[d]);
+        axis_weights_n(fast[d].count, fast[d].mirror, t, interp, ws[d]);
     }
 }
 
@@ -166,29 +169,73 @@ void LookupTable::stencil_cells(const std::vector<double>& coords, Interpolation
         throw InputError("table '" + table().name + "': stencil_cells needs " +
                          std::to_string(ax.size()) + " coordinates, got " +
                          std::to_string(coords.size()));
-    std::vector<AxisWeights> ws;
-    point_weights(ax, dependency_, coords, interp, mode, table().name, ws);
+    std::vector<AxisWeights> ws(ax.size());
+    std::vector<double> x(ax.size());
+    point_weights(ax, fast_.data(), dependency_, coords.data(), interp, mode, table().name,
+                  ws.data(), x.data());
     stencil_indices(ws.data(), strides_.data(), ax.size(), cells);
 }
 
 double LookupTable::eval(const std::vector<double>& coords, Interpolation interp,
                          OutOfRange mode) const {
-    const auto& ax = axes();
-    const std::size_t dims = ax.size();
-    const std::size_t want = dims + (terms_.empty() ? 0 : 1);
+    const std::size_t want = axes().size() + (terms_.empty() ? 0 : 1);
     if (coords.size() != want)
         throw InputError("table '" + table().name + "': eval needs " + std::to_string(want) +
                          " coordinates, got " + std::to_string(coords.size()));
-    std::vector<AxisWeights> ws;
-    point_weights(ax, dependency_, coords, interp, mode, table().name, ws);
+    return eval_point(coords.data(), interp, mode);
+}
+
+double LookupTable::eval(const double* coords, Interpolation interp, OutOfRange mode) const {
+    return eval_point(coords, interp, mode);
+}
+
+// The value at checked coordinates.  Up to kMaxUnrolledDims axes and 8
+// pieces everything lives on the stack; linear lookups on axes that depend
+// on no other take the unrolled multilinear path, the rest the general
+// weights and contract() (the same arithmetic either way).
+double LookupTable::eval_point(const double* coords, Interpolation interp,
+                               OutOfRange mode) const {
+    const auto& ax = axes();
+    const std::size_t dims = ax.size();
+    const std::size_t np = pieces_.size();
+    double pv_buf[8];
+    std::vector<double> pv_heap;
+    double* pv = np <= 8 ? pv_buf : (pv_heap.resize(np), pv_heap.data());
     double p = 0;
+    if (interp == Interpolation::Linear && dims <= kMaxUnrolledDims && !has_dependent_) {
+        double s[kMaxUnrolledDims];
+        std::size_t offset = 0;
+        for (std::size_t d = 0; d < dims; ++d) {
+            const double x = resolve_fast(fast_[d], ax[d], coords[d], mode, table().name);
+            offset += linear_cell(fast_[d], unwarp_fast(fast_[d], ax[d], x), s[d]) * strides_[d];
+        }
+        if (!terms_.empty()) {
+            p = coords[dims];
+            resolve_param(p, mode);
+        }
+        for (std::size_t k = 0; k < np; ++k)
+            pv[k] = multilinear_n(dims, pieces_[k].value.data() + offset, strides_.data(), s);
+        return combine(pv, p);
+    }
+    AxisWeights ws_buf[kMaxUnrolledDims];
+    double x_buf[kMaxUnrolledDims];
+    std::vector<AxisWeights> ws_heap;
+    std::vector<double> x_heap;
+    AxisWeights* ws = ws_buf;
+    double* x = x_buf;
+    if (dims > kMaxUnrolledDims) {
+        ws_heap.resize(dims);
+        x_heap.resize(dims);
+        ws = ws_heap.data();
+        x = x_heap.data();
+    }
+    point_weights(ax, fast_.data(), dependency_, coords, interp, mode, table().name, ws, x);
     if (!terms_.empty()) {
         p = coords[dims];
         resolve_param(p, mode);
     }
-    std::vector<double> pv(pieces_.size());
-    for (std::size_t k = 0; k < pieces_.size(); ++k)
-        pv[k] = contract(ws.data(), strides_.data(), dims, pieces_[k].value.data());
+    for (std::size_t k = 0; k < np; ++k)
+        pv[k] = contract(ws, strides_.data(), dims, pieces_[k].value.data());
     return combine(pv, p);
 }
 
@@ -222,11 +269,7 @@ std::vector<double> LookupTable::ordered_coordinates(
 void LookupTable::eval_many(const double* coords, std::size_t count, double* out,
                             Interpolation interp, OutOfRange mode) const {
     const std::size_t width = axes().size() + (terms_.empty() ? 0 : 1);
-    std::vector<double> row(width);
-    for (std::size_t k = 0; k < count; ++k) {
-        row.assign(coords + k * width, coords + (k + 1) * width);
-        out[k] = eval(row, interp, mode);
-    }
+    for (std::size_t k = 0; k < count; ++k) out[k] = eval_point(coords + k * width, interp, mode);
 }
 
 double LookupTable::eval(const std::map<std::string, double>& coords, Interpolation interp,
