@@ -356,3 +356,22 @@ TEST_CASE("batch calls keep the scalar checks and messages") {
     // theta_o over [0, 90] without phi_d: sampleable; a zero wi is refused.
     CHECK_THROWS_AS(bt.pdf_many(wi.data(), wo.data(), 2, out.data()), InputError);
 }
+
+TEST_CASE("a non-finite node value is not read where its weight is zero") {
+    // Zero weights are skipped, not multiplied: a lookup on a node next to an
+    // infinite value sees only finite nodes; inside the infinite node's cell
+    // the value is infinite.  Linear eval and bound direction lookups alike.
+    TableData t = make_table("brdf",
+                             {test::axis("theta_i", "deg", 0, 90, 4, Spacing::Linear),
+                              test::axis("theta_o", "deg", 0, 90, 4, Spacing::Linear)},
+                             [](const std::vector<double>& x) { return 1 + x[0] + 2 * x[1]; });
+    t.value[0] = INFINITY;  // theta_i = theta_o = 0
+    const LookupTable lt(t);
+    CHECK(lt.eval({30.0, 30.0}) == 1 + 30 + 60);
+    CHECK(lt.eval({30.0, 60.0}) == 1 + 30 + 120);
+    CHECK(std::isinf(lt.eval({10.0, 10.0})));
+    const BoundTable bt = lt.bind();
+    // (From vectors theta is a node only up to rounding: read away from node 0.)
+    CHECK(bt.eval(dir(60, 0), dir(60, 90)) == doctest::Approx(181).epsilon(1e-12));
+    CHECK(std::isinf(bt.eval(dir(10, 0), dir(10, 90))));
+}

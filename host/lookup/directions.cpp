@@ -185,8 +185,9 @@ BoundTable LookupTable::bind(const std::map<std::string, double>& params,
     for (int d = 0; d < 3; ++d) b.fast_[d].build(b.axes_[d]);
     b.stride_i_ = no * np;
     b.stride_o_ = np;
-    b.kernel_ = interp == Interpolation::Linear ? BoundTable::Kernel::GridLinear
-                                                : BoundTable::Kernel::GridCubic;
+    b.kernel_ = interp == Interpolation::Cubic ? BoundTable::Kernel::GridCubic
+                : all_finite(b.values_)            ? BoundTable::Kernel::GridLinear
+                                                   : BoundTable::Kernel::GridLinearNonFinite;
     b.build_sampling();
     return b;
 }
@@ -200,13 +201,17 @@ double BoundTable::eval_angles(double xi, double xo, double xphi) const {
                          resolve_fast(fast_[2], axes_[2], xphi, mode_, name_)};
     const std::size_t strides[3] = {stride_i_, stride_o_, 1};
     switch (kernel_) {
-        case Kernel::GridLinear: {
+        case Kernel::GridLinear:
+        case Kernel::GridLinearNonFinite: {
             double s[3];
             std::size_t offset = 0;
+#pragma GCC unroll 3
             for (int d = 0; d < 3; ++d)
                 offset += linear_cell(fast_[d], unwarp_fast(fast_[d], axes_[d], x[d]), s[d]) *
                           strides[d];
-            return multilinear<3>(values_.data() + offset, strides, s);
+            const double* v = values_.data() + offset;
+            return kernel_ == Kernel::GridLinear ? multilinear<3, false>(v, strides, s)
+                                                 : multilinear<3, true>(v, strides, s);
         }
         case Kernel::GridCubic:
             break;
@@ -227,16 +232,15 @@ BoundTable::Incident BoundTable::incident(const Vec3& wi) const {
     return in;
 }
 
-double BoundTable::eval_from(const Incident& in, const Vec3& wo) const {
-    const double mo = unit_z(wo);
+double BoundTable::eval_from(const Incident& in, double mo, double d) const {
     const double xo = layout_.mu_o ? mo : std::acos(mo) / layout_.scale_o;
-    const double xphi =
-        phi_coordinate(layout_, axes_[2].min, phi_difference(in.x, in.y, wo.x, wo.y));
-    return eval_angles(in.xi, xo, xphi);
+    return eval_angles(in.xi, xo, phi_coordinate(layout_, axes_[2].min, d));
 }
 
 double BoundTable::eval(const Vec3& wi, const Vec3& wo) const {
-    return eval_from(incident(wi), wo);
+    const Incident in = incident(wi);
+    const double mo = unit_z(wo);
+    return eval_from(in, mo, phi_difference(in.x, in.y, wo.x, wo.y));
 }
 
 void BoundTable::eval_many(const double* wi, const double* wo, std::size_t count,
@@ -244,7 +248,7 @@ void BoundTable::eval_many(const double* wi, const double* wo, std::size_t count
     for (std::size_t k = 0; k < count; ++k) {
         const double* a = wi + 3 * k;
         const double* b = wo + 3 * k;
-        out[k] = eval_from(incident({a[0], a[1], a[2]}), {b[0], b[1], b[2]});
+        out[k] = eval({a[0], a[1], a[2]}, {b[0], b[1], b[2]});
     }
 }
 

@@ -94,6 +94,19 @@ void FastAxis::build(const Axis& a) {
 
 namespace lookup_internal {
 
+double reduce_periodic(const FastAxis& f, double x) {
+    if (f.periodic == FastAxis::Periodic::Fold) {
+        // Into (-half, half], then |.|: phi_d and -phi_d are one configuration.
+        double d = std::fmod(x, f.turn);
+        if (d > f.half_turn) d -= f.turn;
+        if (d <= -f.half_turn) d += f.turn;
+        return std::fabs(d);
+    }
+    double v = std::fmod(x - f.min, f.turn);
+    if (v < 0) v += f.turn;
+    return f.min + v;
+}
+
 void throw_nan(const Axis& a, const std::string& table) {
     throw InputError("table '" + table + "': axis '" + a.name + "' value is NaN");
 }

@@ -189,12 +189,65 @@ double LookupTable::eval(const double* coords, Interpolation interp, OutOfRange 
     return eval_point(coords, interp, mode);
 }
 
-// The value at checked coordinates.  Up to kMaxUnrolledDims axes and 8
-// pieces everything lives on the stack; linear lookups on axes that depend
-// on no other take the unrolled multilinear path, the rest the general
-// weights and contract() (the same arithmetic either way).
+// The value at checked coordinates.  Nothing is allocated for up to
+// kMaxUnrolledDims axes and 8 pieces.  Linear lookups on independent axes
+// take the unrolled kernel, the rest the general weights and contract(): the
+// same arithmetic either way.
+template <int D, bool Skip>
+double LookupTable::linear_kernel(const LookupTable& lt, const double* coords, OutOfRange mode) {
+    const FastAxis* fast = lt.fast_.data();
+    const Axis* ax = lt.pieces_.front().axes.data();
+    const std::size_t* strides = lt.strides_.data();
+    double s[D];
+    std::size_t offset = 0;
+#pragma GCC unroll 8
+    for (int d = 0; d < D; ++d) {
+        const double x = resolve_fast(fast[d], ax[d], coords[d], mode, lt.pieces_.front().name);
+        offset += linear_cell(fast[d], unwarp_fast(fast[d], ax[d], x), s[d]) * strides[d];
+    }
+    if (lt.terms_.empty()) return multilinear<D, Skip>(lt.pieces_.front().value.data() + offset, strides, s);
+    double p = coords[D];
+    lt.resolve_param(p, mode);
+    const std::size_t np = lt.pieces_.size();
+    double pv_buf[8];
+    std::vector<double> pv_heap;
+    double* pv = np <= 8 ? pv_buf : (pv_heap.resize(np), pv_heap.data());
+    for (std::size_t k = 0; k < np; ++k)
+        pv[k] = multilinear<D, Skip>(lt.pieces_[k].value.data() + offset, strides, s);
+    return lt.combine(pv, p);
+}
+
+// Linear lookups of tables with at most kMaxUnrolledDims axes, none
+// depending on another, go to a kernel unrolled for their axis count (the
+// unskipped form when every value of every piece is finite).
+void LookupTable::choose_linear_kernel() {
+    linear_ = nullptr;
+    const std::size_t dims = axes().size();
+    if (dims > kMaxUnrolledDims || has_dependent_) return;
+    bool finite = true;
+    for (const auto& p : pieces_) finite = finite && all_finite(p.value);
+    using Fn = double (*)(const LookupTable&, const double*, OutOfRange);
+    static const Fn skip[] = {&linear_kernel<1, true>, &linear_kernel<2, true>,
+                              &linear_kernel<3, true>, &linear_kernel<4, true>,
+                              &linear_kernel<5, true>, &linear_kernel<6, true>,
+                              &linear_kernel<7, true>, &linear_kernel<8, true>};
+    static const Fn plain[] = {&linear_kernel<1, false>, &linear_kernel<2, false>,
+                               &linear_kernel<3, false>, &linear_kernel<4, false>,
+                               &linear_kernel<5, false>, &linear_kernel<6, false>,
+                               &linear_kernel<7, false>, &linear_kernel<8, false>};
+    linear_ = finite ? plain[dims - 1] : skip[dims - 1];
+}
+
 double LookupTable::eval_point(const double* coords, Interpolation interp,
                                OutOfRange mode) const {
+    if (interp == Interpolation::Linear && linear_) return linear_(*this, coords, mode);
+    return eval_general(coords, interp, mode);
+}
+
+// Cubic lookups, axes that depend on another, more than kMaxUnrolledDims
+// axes: the per-axis weights and contract().
+double LookupTable::eval_general(const double* coords, Interpolation interp,
+                                 OutOfRange mode) const {
     const auto& ax = axes();
     const std::size_t dims = ax.size();
     const std::size_t np = pieces_.size();
@@ -202,21 +255,6 @@ double LookupTable::eval_point(const double* coords, Interpolation interp,
     std::vector<double> pv_heap;
     double* pv = np <= 8 ? pv_buf : (pv_heap.resize(np), pv_heap.data());
     double p = 0;
-    if (interp == Interpolation::Linear && dims <= kMaxUnrolledDims && !has_dependent_) {
-        double s[kMaxUnrolledDims];
-        std::size_t offset = 0;
-        for (std::size_t d = 0; d < dims; ++d) {
-            const double x = resolve_fast(fast_[d], ax[d], coords[d], mode, table().name);
-            offset += linear_cell(fast_[d], unwarp_fast(fast_[d], ax[d], x), s[d]) * strides_[d];
-        }
-        if (!terms_.empty()) {
-            p = coords[dims];
-            resolve_param(p, mode);
-        }
-        for (std::size_t k = 0; k < np; ++k)
-            pv[k] = multilinear_n(dims, pieces_[k].value.data() + offset, strides_.data(), s);
-        return combine(pv, p);
-    }
     AxisWeights ws_buf[kMaxUnrolledDims];
     double x_buf[kMaxUnrolledDims];
     std::vector<AxisWeights> ws_heap;

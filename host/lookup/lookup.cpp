@@ -245,6 +245,7 @@ void LookupTable::init() {
             }
         }
     }
+    choose_linear_kernel();
 }
 
 TableData without_recombination(const TableData& table) {

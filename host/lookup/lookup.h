@@ -237,6 +237,13 @@ private:
     double combine(const double* piece_values, double p) const;
     // eval() of checked coordinates (coords: the table axes, then p).
     double eval_point(const double* coords, Interpolation interp, OutOfRange mode) const;
+    double eval_general(const double* coords, Interpolation interp, OutOfRange mode) const;
+    // The linear lookup of a table of D independent axes, unrolled; chosen
+    // once per table by choose_linear_kernel() (interpolate.cpp).
+    template <int D, bool Skip>
+    static double linear_kernel(const LookupTable& lt, const double* coords, OutOfRange mode);
+    void choose_linear_kernel();
+    double (*linear_)(const LookupTable&, const double*, OutOfRange) = nullptr;
     void dirs_point(const double* param_coords, const Vec3& wi, const Vec3& wo,
                     double* coords) const;
     void resolve_param(double& p, OutOfRange mode) const;
@@ -316,13 +323,14 @@ private:
     // How the bound values are stored and interpolated, chosen once by
     // bind(); eval_angles() dispatches on it.  A second representation of
     // the angular table gets its own enumerator here.
-    enum class Kernel : std::uint8_t { GridLinear, GridCubic };
+    enum class Kernel : std::uint8_t { GridLinear, GridLinearNonFinite, GridCubic };
 
     double eval_angles(double x_i, double x_o, double phi) const;
     Incident incident(const Vec3& wi) const;          // without the node mixture
     Incident incident_sampled(const Vec3& wi) const;  // with it (sampling only)
-    double eval_from(const Incident& in, const Vec3& wo) const;
-    double pdf_from(const Incident& in, const Vec3& wo) const;
+    // At an outgoing direction given by mo = cos(theta_o) and d = phi_o - phi_i.
+    double eval_from(const Incident& in, double mo, double d) const;
+    double pdf_from(const Incident& in, double mo, double d) const;
     SampleResult sample_from(const Incident& in, double u1, double u2) const;
     void build_sampling();
     void node_mixture(double x_i, std::size_t& j0, double& w1) const;

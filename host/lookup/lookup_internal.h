@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
+#include <cstdint>
 #include <limits>
 #include <string>
 #include <vector>
@@ -38,6 +39,19 @@ double resolve(const Axis& a, double x, OutOfRange mode, const std::string& tabl
 using lookup_detail::FastAxis;
 using lookup_detail::NodeIndex;
 
+// The per-lookup helpers below are small enough to inline into the lookup
+// kernels, where the axes' independent work can then overlap; GCC and Clang
+// otherwise outline them from -O2 on.
+#if defined(__GNUC__)
+#define BT_LOOKUP_INLINE inline __attribute__((always_inline))
+#else
+#define BT_LOOKUP_INLINE inline
+#endif
+
+// A phi_d value outside its axis reduced as fold_periodic() does (f.periodic
+// is Fold or Wrap, x finite); out of line, lookups rarely need it.
+double reduce_periodic(const FastAxis& f, double x);
+
 // The InputErrors of resolve(), out of line so that the lookups' hot code
 // stays small (fast_axis.cpp).
 [[noreturn]] void throw_nan(const Axis& a, const std::string& table);
@@ -45,22 +59,12 @@ using lookup_detail::NodeIndex;
 
 // resolve() on a prepared axis: the same checks, reduction and clamp, bit
 // for bit (f was built from a).
-inline double resolve_fast(const FastAxis& f, const Axis& a, double x, OutOfRange mode,
-                           const std::string& table) {
+BT_LOOKUP_INLINE double resolve_fast(const FastAxis& f, const Axis& a, double x, OutOfRange mode,
+                                     const std::string& table) {
     if (std::isnan(x)) throw_nan(a, table);
     if (x < f.min || x > f.max) {
         if (f.periodic != FastAxis::Periodic::None && std::isfinite(x)) {
-            // fold_periodic(): phi_d and -phi_d (and +360) are one configuration.
-            if (f.periodic == FastAxis::Periodic::Fold) {
-                double d = std::fmod(x, f.turn);
-                if (d > f.half_turn) d -= f.turn;
-                if (d <= -f.half_turn) d += f.turn;
-                x = std::fabs(d);
-            } else {
-                double v = std::fmod(x - f.min, f.turn);
-                if (v < 0) v += f.turn;
-                x = f.min + v;
-            }
+            x = reduce_periodic(f, x);
             if (!(x < f.min || x > f.max)) return x;
         }
         if (mode == OutOfRange::Reject && (x < f.min - f.tol || x > f.max + f.tol))
@@ -72,7 +76,7 @@ inline double resolve_fast(const FastAxis& f, const Axis& a, double x, OutOfRang
 
 // Axis::unwarp(x) from the prepared constants (a: the axis f was built from,
 // used by the critical warp only).  Not for dependent axes (unwarp_at).
-inline double unwarp_fast(const FastAxis& f, const Axis& a, double x) {
+BT_LOOKUP_INLINE double unwarp_fast(const FastAxis& f, const Axis& a, double x) {
     constexpr double kDegToRad = kPi / 180.0;  // as in grid.cpp
     switch (f.warp) {
         case FastAxis::Warp::General:
@@ -113,44 +117,49 @@ inline double unwarp_fast(const FastAxis& f, const Axis& a, double x) {
 // The linear cell of normalised coordinate t: node k = min(floor(u),
 // count - 2) for u = t (count - 1) clamped to [0, count - 1], and the
 // fraction s in [0, 1] (the weights 1 - s, s of nodes k, k + 1).
-inline std::size_t linear_cell(const FastAxis& f, double t, double& s) {
+BT_LOOKUP_INLINE std::size_t linear_cell(const FastAxis& f, double t, double& s) {
     double u = t * f.last;
     if (!(u >= 0)) u = 0;  // also catches NaN from a degenerate warp
     if (u > f.last) u = f.last;
-    const std::size_t k = std::min<std::size_t>(std::size_t(u), f.count - 2);
-    s = std::min(std::max(u - double(k), 0.0), 1.0);
+    // Signed conversions: u and k are small non-negative numbers, and the
+    // unsigned ones cost a branch each.
+    const std::size_t k =
+        std::min<std::size_t>(std::size_t(std::int64_t(u)), f.count - 2);
+    s = std::min(std::max(u - double(std::int64_t(k)), 0.0), 1.0);
     return k;
 }
 
 // Multilinear interpolation of the cell whose first corner is v: the
 // tensor-product contraction of contract() for linear weights (1 - s[d],
-// s[d]), in its order of operations, zero weights skipped, so the result is
-// contract()'s bit for bit.  Unrolled at compile time for D axes.
-template <int D, int d = 0>
-inline double multilinear(const double* v, const std::size_t* strides, const double* s) {
+// s[d]), in its order of operations, so the result is contract()'s bit for
+// bit.  contract() skips zero weights; with Skip the products are selected
+// away the same way, without it they are formed, which gives the same bits
+// as long as the values are finite (0 * v = +-0, and 0.0 + (+-0) = +0 in
+// both).  Unrolled at compile time for D axes.
+template <int D, bool Skip, int d = 0>
+BT_LOOKUP_INLINE double multilinear(const double* v, const std::size_t* strides, const double* s) {
     if constexpr (d == D) {
         return *v;
     } else {
-        const double a = multilinear<D, d + 1>(v, strides, s);
-        const double b = multilinear<D, d + 1>(v + strides[d], strides, s);
+        const double a = multilinear<D, Skip, d + 1>(v, strides, s);
+        const double b = multilinear<D, Skip, d + 1>(v + strides[d], strides, s);
         const double w0 = 1.0 - s[d], w1 = s[d];
-        return (0.0 + (w0 != 0 ? w0 * a : 0.0)) + (w1 != 0 ? w1 * b : 0.0);
+        if constexpr (Skip)
+            return (0.0 + (w0 != 0 ? w0 * a : 0.0)) + (w1 != 0 ? w1 * b : 0.0);
+        else
+            return (0.0 + w0 * a) + w1 * b;
     }
 }
+
+// Whether every value is finite (the unskipped multilinear path applies).
+inline bool all_finite(const std::vector<double>& v) {
+    for (double x : v)
+        if (!std::isfinite(x)) return false;
+    return true;
+}
+
+// Linear lookups on up to this many axes take the unrolled path.
 constexpr std::size_t kMaxUnrolledDims = 8;
-inline double multilinear_n(std::size_t dims, const double* v, const std::size_t* strides,
-                            const double* s) {
-    switch (dims) {
-        case 1: return multilinear<1>(v, strides, s);
-        case 2: return multilinear<2>(v, strides, s);
-        case 3: return multilinear<3>(v, strides, s);
-        case 4: return multilinear<4>(v, strides, s);
-        case 5: return multilinear<5>(v, strides, s);
-        case 6: return multilinear<6>(v, strides, s);
-        case 7: return multilinear<7>(v, strides, s);
-        default: return multilinear<8>(v, strides, s);
-    }
-}
 
 // Sparse 1-D interpolation weights over real node indices of one axis.
 struct AxisWeights {
@@ -193,7 +202,7 @@ std::vector<std::string> recombine_tables(const TableData& head);
 
 // w.z / |w| clamped to [-1, 1]: the cosine of w's polar angle.  A zero or
 // NaN length is an InputError.
-inline double unit_z(const Vec3& w) {
+BT_LOOKUP_INLINE double unit_z(const Vec3& w) {
     const double l = std::sqrt(w.x * w.x + w.y * w.y + w.z * w.z);
     if (!(l > 0)) throw_zero_direction();
     return std::min(1.0, std::max(-1.0, w.z / l));
@@ -204,7 +213,7 @@ inline double unit_z(const Vec3& w) {
 // products instead of the difference of two: the same angle up to rounding
 // (a few 1e-16 rad).  A direction on the pole keeps azimuth 0, as in the
 // sampler.
-inline double phi_difference(double ix, double iy, double ox, double oy) {
+BT_LOOKUP_INLINE double phi_difference(double ix, double iy, double ox, double oy) {
     double d;
     if (ix == 0 && iy == 0)
         d = std::atan2(oy, ox);
@@ -219,7 +228,7 @@ inline double phi_difference(double ix, double iy, double ox, double oy) {
 // The phi_d coordinate (axis units) of an azimuth difference d in (-pi, pi]:
 // |d| when the axis is folded (isotropy), else wrapped into
 // [min, min + 360).
-inline double phi_coordinate(const LookupTable::AngleLayout& L, double axis_min, double d) {
+BT_LOOKUP_INLINE double phi_coordinate(const LookupTable::AngleLayout& L, double axis_min, double d) {
     if (L.fold_phi) return std::fabs(d) / L.scale_phi;
     const double period = 2 * kPi / L.scale_phi;
     double v = std::fmod(d / L.scale_phi - axis_min, period);

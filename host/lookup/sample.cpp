@@ -176,9 +176,7 @@ BoundTable::Incident BoundTable::incident_sampled(const Vec3& wi) const {
 }
 
 // The mixture of the two theta_i nodes' piecewise-constant densities at wo.
-double BoundTable::pdf_from(const Incident& in, const Vec3& wo) const {
-    const double mu = unit_z(wo);
-    const double d = phi_difference(in.x, in.y, wo.x, wo.y);
+double BoundTable::pdf_from(const Incident& in, double mu, double d) const {
     const double phi = phi_coordinate(layout_, axes_[2].min, d) * layout_.scale_phi;
     // theta_o cell: mu outside the nodes' range has density 0.
     const std::size_t no = mu_nodes_o_.size(), np = phi_nodes_.size();
@@ -197,9 +195,9 @@ double BoundTable::pdf_from(const Incident& in, const Vec3& wo) const {
 
 double BoundTable::pdf(const Vec3& wi, const Vec3& wo) const {
     if (!can_sample()) throw Error(sampling_error_);
-    // Both directions are checked before the mixture is formed.
-    unit_z(wo);
-    return pdf_from(incident_sampled(wi), wo);
+    const double mo = unit_z(wo);
+    const Incident in = incident_sampled(wi);
+    return pdf_from(in, mo, phi_difference(in.x, in.y, wo.x, wo.y));
 }
 
 void BoundTable::pdf_many(const double* wi, const double* wo, std::size_t count,
@@ -208,9 +206,7 @@ void BoundTable::pdf_many(const double* wi, const double* wo, std::size_t count,
     for (std::size_t k = 0; k < count; ++k) {
         const double* a = wi + 3 * k;
         const double* b = wo + 3 * k;
-        const Vec3 o{b[0], b[1], b[2]};
-        unit_z(o);
-        out[k] = pdf_from(incident_sampled({a[0], a[1], a[2]}), o);
+        out[k] = pdf({a[0], a[1], a[2]}, {b[0], b[1], b[2]});
     }
 }
 
@@ -254,8 +250,10 @@ SampleResult BoundTable::sample_from(const Incident& in, double u1, double u2) c
     const double cp_ = std::cos(pd), sp = sign * std::sin(pd);
     SampleResult res;
     res.wo = {st * (ci * cp_ - si * sp), st * (si * cp_ + ci * sp), mu};
-    res.pdf = pdf_from(in, res.wo);
-    res.value = eval_from(in, res.wo);
+    // pdf() and eval() at wo, sharing its cosine and azimuth difference.
+    const double mo = unit_z(res.wo), d = phi_difference(in.x, in.y, res.wo.x, res.wo.y);
+    res.pdf = pdf_from(in, mo, d);
+    res.value = eval_from(in, mo, d);
     res.weight = res.pdf > 0 ? res.value * std::fabs(mu) / res.pdf : 0.0;
     return res;
 }
