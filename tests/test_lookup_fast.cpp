@@ -370,6 +370,13 @@ TEST_CASE("a non-finite node value is not read where its weight is zero") {
     CHECK(lt.eval({30.0, 30.0}) == 1 + 30 + 60);
     CHECK(lt.eval({30.0, 60.0}) == 1 + 30 + 120);
     CHECK(std::isinf(lt.eval({10.0, 10.0})));
+    // The batch form takes the same skipping kernel.
+    const std::vector<double> rows = {30, 30, 30, 60, 10, 10, 0, 90, 90, 0};
+    std::vector<double> out(5);
+    lt.eval_many(rows.data(), 5, out.data());
+    for (std::size_t k = 0; k < 5; ++k)
+        CHECK(same_bits(out[k], lt.eval({rows[2 * k], rows[2 * k + 1]})));
+    CHECK(out[1] == 1 + 30 + 120);
     const BoundTable bt = lt.bind();
     // (From vectors theta is a node only up to rounding: read away from node 0.)
     CHECK(bt.eval(dir(60, 0), dir(60, 90)) == doctest::Approx(181).epsilon(1e-12));

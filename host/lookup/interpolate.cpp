@@ -304,9 +304,98 @@ std::vector<double> LookupTable::ordered_coordinates(
     return out;
 }
 
+namespace {
+
+// Batch linear lookups of a single table (no recombination) on D independent
+// axes, in blocks: first every point of the block is located (range checks,
+// inverse warps, cells) and the cache lines of its corners are prefetched,
+// then the corners are contracted.  The loads of one point then overlap the
+// work on the others, which pays on tables larger than the caches.  The
+// same functions as the scalar kernel: the same bits.
+struct ManyLinear {
+    const FastAxis* fast;
+    const Axis* axes;
+    const std::size_t* strides;
+    const double* values;
+    const std::string* table;
+};
+
+template <int D, bool Skip>
+void linear_many(const ManyLinear& m, const double* coords, std::size_t count, double* out,
+                 OutOfRange mode) {
+    constexpr std::size_t kBlock = 8;
+    std::size_t offset[kBlock];
+    double s[kBlock][D];
+    for (std::size_t b = 0; b < count; b += kBlock) {
+        const std::size_t n = std::min(kBlock, count - b);
+        std::size_t located = 0;
+        try {
+            for (; located < n; ++located) {
+                const double* c = coords + (b + located) * D;
+                std::size_t off = 0;
+#pragma GCC unroll 8
+                for (int d = 0; d < D; ++d) {
+                    const double x = resolve_fast(m.fast[d], m.axes[d], c[d], mode, *m.table);
+                    off += linear_cell(m.fast[d], unwarp_fast(m.fast[d], m.axes[d], x),
+                                       s[located][d]) *
+                           m.strides[d];
+                }
+                offset[located] = off;
+                // Corners differ on the last axis by one element: one line
+                // (or two) per combination of the other axes.
+                for (std::size_t corner = 0; corner < (std::size_t(1) << (D - 1)); ++corner) {
+                    std::size_t o = off;
+                    for (int d = 0; d + 1 < D; ++d)
+                        if ((corner >> d) & 1) o += m.strides[d];
+                    __builtin_prefetch(m.values + o);
+                    __builtin_prefetch(m.values + o + m.strides[D - 1]);
+                }
+            }
+        } catch (...) {
+            // The points before the bad one are written, as the scalar loop does.
+            for (std::size_t i = 0; i < located; ++i)
+                out[b + i] = multilinear<D, Skip>(m.values + offset[i], m.strides, s[i]);
+            throw;
+        }
+        for (std::size_t i = 0; i < n; ++i)
+            out[b + i] = multilinear<D, Skip>(m.values + offset[i], m.strides, s[i]);
+    }
+}
+
+template <bool Skip>
+bool linear_many_dims(std::size_t dims, const ManyLinear& m, const double* coords,
+                      std::size_t count, double* out, OutOfRange mode) {
+    switch (dims) {
+        case 1: linear_many<1, Skip>(m, coords, count, out, mode); return true;
+        case 2: linear_many<2, Skip>(m, coords, count, out, mode); return true;
+        case 3: linear_many<3, Skip>(m, coords, count, out, mode); return true;
+        case 4: linear_many<4, Skip>(m, coords, count, out, mode); return true;
+        case 5: linear_many<5, Skip>(m, coords, count, out, mode); return true;
+        case 6: linear_many<6, Skip>(m, coords, count, out, mode); return true;
+        default: return false;
+    }
+}
+
+}  // namespace
+
 void LookupTable::eval_many(const double* coords, std::size_t count, double* out,
                             Interpolation interp, OutOfRange mode) const {
-    const std::size_t width = axes().size() + (terms_.empty() ? 0 : 1);
+    const std::size_t dims = axes().size();
+    const std::size_t width = dims + (terms_.empty() ? 0 : 1);
+    if (interp == Interpolation::Linear && linear_ && terms_.empty()) {
+        const ManyLinear m{fast_.data(), axes().data(), strides_.data(),
+                           pieces_.front().value.data(), &table().name};
+        // The choice of choose_linear_kernel(): the unskipped kernel when finite.
+        using Fn = double (*)(const LookupTable&, const double*, OutOfRange);
+        static const Fn plain[] = {&linear_kernel<1, false>, &linear_kernel<2, false>,
+                                   &linear_kernel<3, false>, &linear_kernel<4, false>,
+                                   &linear_kernel<5, false>, &linear_kernel<6, false>,
+                                   &linear_kernel<7, false>, &linear_kernel<8, false>};
+        const bool skip = linear_ != plain[dims - 1];
+        if (skip ? linear_many_dims<true>(dims, m, coords, count, out, mode)
+                 : linear_many_dims<false>(dims, m, coords, count, out, mode))
+            return;
+    }
     for (std::size_t k = 0; k < count; ++k) out[k] = eval_point(coords + k * width, interp, mode);
 }
 
