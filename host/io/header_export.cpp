@@ -8,8 +8,9 @@
 // ratios, the uniform index of an explicit node list), written into the
 // header so that a lookup computes none of them; the cell is
 // k = min(floor(u), count - 2) for u = t (count - 1), s = u - k clamped to
-// [0, 1]; the 2^D corners are then contracted last axis first, (1 - s) f_k +
-// s f_{k+1} with zero weights skipped, as lookup_internal::multilinear does.
+// [0, 1]; contract() sums (1 - s) f_k + s f_{k+1} axis by axis, first axis
+// outermost, skipping zero weights.  (Gathering the 2^D corners first and
+// contracting them in place measured slower in C than this recursion.)
 #include "host/io/header_export.h"
 
 #include <algorithm>
@@ -376,7 +377,7 @@ std::string axis_arrays(const TableData& table, const std::string& id, bool has_
 // so that several headers (different ids) and several translation units can
 // include them, and unused ones draw no warning.
 std::string lookup_functions(const std::string& id, const Storage& st, bool has_pivot,
-                             bool has_explicit, std::size_t dims) {
+                             bool has_explicit) {
     const std::string D = id + "_DIMS";
     std::string h;
     h += "/* Node value i (flat row-major index) as a double. */\n";
@@ -426,24 +427,20 @@ std::string lookup_functions(const std::string& id, const Storage& st, bool has_
          "        return (x - lo) / (hi - lo);\n"
          "    }\n"
          "}\n\n";
-    // Up to 12 axes the 2^D corners are gathered and contracted in place
-    // (4096 doubles of stack at most); beyond, recursively.
-    const bool corners = dims <= 12;
-    if (!corners)
-        h += "static inline double " + id + "_contract_(const size_t* cell, const double* s, int d,\n"
-             "                                  size_t offset) {\n"
-             "    double sum = 0, w0, w1;\n"
-             "    if (d == " + D + ") return " + id + "_value(offset);\n"
-             "    w0 = 1.0 - s[d];\n"
-             "    w1 = s[d];\n"
-             "    if (w0 != 0) sum += w0 * " + id + "_contract_(cell, s, d + 1, offset + cell[d] * " +
-             id + "_stride[d]);\n"
-             "    if (w1 != 0) sum += w1 * " + id + "_contract_(cell, s, d + 1, offset + (cell[d] + 1) * " +
-             id + "_stride[d]);\n"
-             "    return sum;\n"
-             "}\n\n";
+    h += "static inline double " + id + "_contract_(const size_t* cell, const double* s, int d,\n"
+         "                                  size_t offset) {\n"
+         "    double sum = 0, w0, w1;\n"
+         "    if (d == " + D + ") return " + id + "_value(offset);\n"
+         "    w0 = 1.0 - s[d];\n"
+         "    w1 = s[d];\n"
+         "    if (w0 != 0) sum += w0 * " + id + "_contract_(cell, s, d + 1, offset + cell[d] * " +
+         id + "_stride[d]);\n"
+         "    if (w1 != 0) sum += w1 * " + id + "_contract_(cell, s, d + 1, offset + (cell[d] + 1) * " +
+         id + "_stride[d]);\n"
+         "    return sum;\n"
+         "}\n\n";
     h += "static inline double " + id + "_eval(const double x[" + D + "]) {\n"
-         "    size_t cell[" + D + "], offset = 0;\n"
+         "    size_t cell[" + D + "];\n"
          "    double s[" + D + "];\n"
          "    int k;\n"
          "    for (k = 0; k < " + D + "; ++k) {\n"
@@ -459,38 +456,12 @@ std::string lookup_functions(const std::string& id, const Storage& st, bool has_
          "        c = (size_t)u;\n"
          "        if (c > n - 2) c = n - 2;\n"
          "        cell[k] = c;\n"
-         "        offset += c * " + id + "_stride[k];\n"
          "        s[k] = u - (double)c;\n"
          "        if (s[k] < 0) s[k] = 0;\n"
          "        if (s[k] > 1) s[k] = 1;\n"
          "    }\n";
-    if (corners)
-        h += "    {\n"
-             "        /* corner i: bit D-1-k selects node cell[k] + 1 on axis k; then the\n"
-             "           last axis is contracted first, zero weights skipped */\n"
-             "        double c[1u << " + D + "];\n"
-             "        size_t i, half;\n"
-             "        for (i = 0; i < (1u << " + D + "); ++i) {\n"
-             "            size_t o = offset;\n"
-             "            for (k = 0; k < " + D + "; ++k)\n"
-             "                if ((i >> (" + D + " - 1 - k)) & 1u) o += " + id + "_stride[k];\n"
-             "            c[i] = " + id + "_value(o);\n"
-             "        }\n"
-             "        for (k = " + D + " - 1; k >= 0; --k) {\n"
-             "            const double w0 = 1.0 - s[k], w1 = s[k];\n"
-             "            half = (size_t)1 << k;\n"
-             "            for (i = 0; i < half; ++i)\n"
-             "                c[i] = (0.0 + (w0 != 0 ? w0 * c[2 * i] : 0.0)) +\n"
-             "                       (w1 != 0 ? w1 * c[2 * i + 1] : 0.0);\n"
-             "        }\n"
-             "        (void)cell;\n"
-             "        return c[0];\n"
-             "    }\n"
-             "}\n\n";
-    else
-        h += "    (void)offset;\n"
-             "    return " + id + "_contract_(cell, s, 0, 0);\n"
-             "}\n\n";
+    h += "    return " + id + "_contract_(cell, s, 0, 0);\n"
+         "}\n\n";
     return h;
 }
 
@@ -525,7 +496,7 @@ void export_c_header(const TableData& table, const std::string& out_path,
     }
     h += "\n" + axis_arrays(table, id, has_pivot, has_explicit) + "\n";
     put_array(h, st.c_type + " " + id + "_values[" + id + "_CELLS]", st.items);
-    h += "\n" + lookup_functions(id, st, has_pivot, has_explicit, dims);
+    h += "\n" + lookup_functions(id, st, has_pivot, has_explicit);
     h += "#endif /* " + guard + " */\n";
     write_text_atomically(out_path, h);
 }
