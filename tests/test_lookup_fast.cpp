@@ -382,3 +382,34 @@ TEST_CASE("a non-finite node value is not read where its weight is zero") {
     CHECK(bt.eval(dir(60, 0), dir(60, 90)) == doctest::Approx(181).epsilon(1e-12));
     CHECK(std::isinf(bt.eval(dir(10, 0), dir(10, 90))));
 }
+
+TEST_CASE("linear and cubic eval equal the reference weights and contraction bit for bit") {
+    // The reference: Axis::unwarp, the per-axis weights of axis_weights_t and
+    // the recursive contract() over the stored values.
+    const TableData t = random_table({test::axis("theta_i", "deg", 0, 90, 7, Spacing::Cos),
+                                      test::axis("alpha", "1", 0.01, 1, 5, Spacing::Log),
+                                      make_axis("e", "1", 0, 1, 5, Spacing::Explicit,
+                                                {0, 0.05, 0.1, 0.6, 1}),
+                                      test::axis("phi_d", "deg", 0, 180, 6, Spacing::Linear)},
+                                     13);
+    const LookupTable lt(t);
+    std::vector<std::size_t> strides(4, 1);
+    for (std::size_t d = 3; d-- > 0;) strides[d] = strides[d + 1] * t.axes[d + 1].count;
+    std::mt19937_64 rng(14);
+    std::uniform_real_distribution<double> U(0, 1);
+    int bad = 0;
+    for (Interpolation interp : {Interpolation::Linear, Interpolation::Cubic})
+        for (int n = 0; n < 3000; ++n) {
+            std::vector<double> x(4);
+            lookup_internal::AxisWeights ws[4];
+            for (std::size_t d = 0; d < 4; ++d) {
+                const Axis& a = t.axes[d];
+                x[d] = n % 9 == 0 ? a.values[std::size_t(U(rng) * double(a.count)) % a.count]
+                                  : a.min + (a.max - a.min) * U(rng);
+                lookup_internal::axis_weights_t(a, a.unwarp(x[d]), interp, ws[d]);
+            }
+            const double want = lookup_internal::contract(ws, strides.data(), 4, t.value.data());
+            if (!same_bits(lt.eval(x, interp), want)) ++bad;
+        }
+    CHECK(bad == 0);
+}

@@ -160,7 +160,7 @@ public:
     // coordinate_names() in that order; one value per point into `out`,
     // each bit-identical to eval() of that row.  The same checks and
     // messages as eval(); the first bad point throws (points before it are
-    // written).  Allocates nothing.
+    // written).  Allocates nothing for tables of up to 8 axes.
     void eval_many(const double* coords, std::size_t count, double* out,
                    Interpolation interp = Interpolation::Linear,
                    OutOfRange mode = OutOfRange::Clamp) const;
@@ -195,7 +195,7 @@ public:
 
     // Batch eval_dirs: wi and wo hold `count` directions as rows of 3
     // doubles (x, y, z); one value per pair into `out`, each bit-identical
-    // to eval_dirs() of that pair.  `params` is checked once.
+    // to eval_dirs() of that pair.  `params` is checked once per call.
     void eval_dirs_many(const double* wi, const double* wo, std::size_t count, double* out,
                         const std::map<std::string, double>& params = {},
                         Interpolation interp = Interpolation::Linear,
