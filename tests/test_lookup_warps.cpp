@@ -13,7 +13,9 @@
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <cstring>
 #include <functional>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -318,4 +320,82 @@ TEST_CASE("C header export: log-complement inverted exactly, critical refused") 
         CHECK(got == doctest::Approx(lt.eval({c, 0.4})).epsilon(1e-6));
     }
     for (const std::string& p : {header, prog, exe, exe + ".out"}) std::remove(p.c_str());
+}
+
+TEST_CASE("C header export: the lookup equals the library's linear eval bit for bit") {
+    // Every spacing the header implements, values exactly representable as
+    // float: a float header then stores them exactly, and its lookup (the
+    // prepared inverse-warp constants, the explicit node index, the corner
+    // contraction) must reproduce LookupTable::eval with clamping exactly.
+    TableData t;
+    t.name = "allwarps";
+    t.model = "test";
+    t.quantity = "albedo";
+    t.units = "1";
+    t.axes = {make_axis("theta", "deg", 0, 90, 6, Spacing::Cos),
+              make_axis("alpha", "1", 0.05, 1, 4, Spacing::Log),
+              make_axis("b", "1", 0, 2, 4, Spacing::Quadratic),
+              make_axis("e", "1", 0, 1, 5, Spacing::Explicit, {0, 0.02, 0.1, 0.5, 1}),
+              make_log_complement_axis("c", "1", 0, 0.99, 5, 1.0),
+              make_axis("g", "1", -1, 1, 3, Spacing::Linear)};
+    std::mt19937_64 rng(12);
+    std::uniform_real_distribution<double> U(0, 1);
+    t.value.resize(checked_cell_count(t.axes));
+    for (double& v : t.value) v = double(float(4 * U(rng) - 1));
+    const std::string dir = std::string(BT_BINARY_DIR);
+    const std::string header = dir + "/test_warps_all.h";
+    HeaderExportOptions opt;
+    opt.type = HeaderValueType::Float;
+    export_c_header(t, header, opt);
+    const LookupTable lt(t);
+    // Random points, some outside the ranges (clamped), some on nodes.
+    std::vector<std::vector<double>> pts;
+    for (int n = 0; n < 400; ++n) {
+        std::vector<double> x;
+        for (const Axis& a : t.axes) {
+            const double w = a.max - a.min;
+            x.push_back(n % 7 == 0 ? a.values[std::size_t(U(rng) * double(a.count)) % a.count]
+                                   : a.min - 0.05 * w + 1.1 * w * U(rng));
+        }
+        pts.push_back(x);
+    }
+    const std::string prog = dir + "/test_warps_all.c", exe = dir + "/test_warps_all";
+    {
+        std::ofstream c(prog);
+        c << "#include <stdio.h>\n#include \"test_warps_all.h\"\nstatic const double p[][6] = {\n";
+        char buf[40];
+        for (const auto& x : pts) {
+            c << "  {";
+            for (double v : x) {
+                std::snprintf(buf, sizeof buf, "%a", v);
+                c << buf << ",";
+            }
+            c << "},\n";
+        }
+        c << "};\nint main(void) {\n  size_t i;\n  for (i = 0; i < sizeof p / sizeof p[0]; ++i)"
+             " printf(\"%a\\n\", allwarps_eval(p[i]));\n  return 0;\n}\n";
+    }
+    const char* cc = std::getenv("CC");
+    const std::string compiler = cc && *cc ? cc : "cc";
+    const std::string cmd = compiler + " -std=c99 -Wall -Wextra -Werror -I" + dir + " " + prog +
+                            " -o " + exe + " -lm 2>" + exe + ".err && " + exe + " > " + exe + ".out";
+    if (std::system(cmd.c_str()) != 0) {
+        std::ifstream err(exe + ".err");
+        const std::string text((std::istreambuf_iterator<char>(err)), {});
+        // A compiler that exists but rejects the header is a failure.
+        CHECK_MESSAGE(text.find("allwarps") == std::string::npos, text);
+        MESSAGE("no working C compiler ('" << compiler << "'): header not compiled");
+        return;
+    }
+    std::ifstream in(exe + ".out");
+    int mismatches = 0;
+    for (const auto& x : pts) {
+        std::string line;
+        REQUIRE(static_cast<bool>(std::getline(in, line)));
+        const double got = std::strtod(line.c_str(), nullptr), want = lt.eval(x);
+        if (std::memcmp(&got, &want, sizeof got) != 0) ++mismatches;
+    }
+    CHECK(mismatches == 0);
+    for (const std::string& p : {header, prog, exe, exe + ".out", exe + ".err"})
+        std::remove(p.c_str());
 }

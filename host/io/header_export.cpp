@@ -2,11 +2,15 @@
 //
 // The generated lookup mirrors the library's linear path step by step, so
 // that with float storage the two differ only by the rounding of the stored
-// values: resolve() clamps to [min, max]; Axis::unwarp() maps x to t with the
-// exact end points; axis_weights() forms u = t (count - 1), the cell
-// k = min(floor(u), count - 2) and s = u - k clamped to [0, 1]; contract()
-// sums (1 - s) f_k + s f_{k+1} axis by axis, first axis outermost, skipping
-// zero weights.
+// values: resolve() clamps to [min, max]; the inverse warp maps x to t with
+// the exact end points, from the constants the library prepares once per
+// axis (lookup_detail::FastAxis: cos(min), cos(max) - cos(min), the log
+// ratios, the uniform index of an explicit node list), written into the
+// header so that a lookup computes none of them; the cell is
+// k = min(floor(u), count - 2) for u = t (count - 1), s = u - k clamped to
+// [0, 1]; contract() sums (1 - s) f_k + s f_{k+1} axis by axis, first axis
+// outermost, skipping zero weights.  (Gathering the 2^D corners first and
+// contracting them in place measured slower in C than this recursion.)
 #include "host/io/header_export.h"
 
 #include <algorithm>
@@ -19,6 +23,7 @@
 #include "host/core/error.h"
 #include "host/core/text.h"
 #include "host/io/half_float.h"
+#include "host/lookup/lookup.h"
 
 #ifndef BRDFTAB_VERSION
 #define BRDFTAB_VERSION "unknown"
@@ -120,9 +125,11 @@ std::string header_identifier(const TableData& table, const HeaderExportOptions&
     return s;
 }
 
-void export_c_header(const TableData& table, const std::string& out_path,
-                     const HeaderExportOptions& options) {
-    const std::string where = "C header export of table '" + table.name + "': ";
+namespace {
+
+// Checks what the header format cannot hold; returns whether some axis has
+// log-complement spacing (its pivot array is written only then).
+bool check_exportable(const TableData& table, const std::string& where) {
     if (table.parameters.is_object() && table.parameters.contains("recombine"))
         throw InputError(where +
                          "the table is recombined from other tables at lookup time; export "
@@ -145,38 +152,42 @@ void export_c_header(const TableData& table, const std::string& out_path,
     if (table.value.size() != cells)
         throw Error(where + "value has " + std::to_string(table.value.size()) +
                     " entries, the axes need " + std::to_string(cells));
-    const std::string id = header_identifier(table, options);
-    std::string guard = "BRDFTAB_" + id + "_H";
-    for (char& c : guard) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
-
-    double lo = std::numeric_limits<double>::infinity(), hi = -lo;
-    for (std::size_t i = 0; i < cells; ++i) {
-        const double v = table.value[i];
-        if (!std::isfinite(v))
+    for (std::size_t i = 0; i < cells; ++i)
+        if (!std::isfinite(table.value[i]))
             throw InputError(where + "value #" + std::to_string(i) +
                              " is not finite; a header can only hold finite values");
+    return has_pivot;
+}
+
+// The stored values and how the header decodes them.
+struct Storage {
+    std::vector<std::string> items;  // one C literal per value
+    std::string c_type, description, decode, error_note;
+    double offset = 0, scale = 0;    // uint16
+};
+
+Storage make_storage(const TableData& table, HeaderValueType type, const std::string& id,
+                     const std::string& where) {
+    const std::size_t cells = table.value.size();
+    double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+    for (double v : table.value) {
         lo = std::min(lo, v);
         hi = std::max(hi, v);
     }
-    const std::size_t dims = table.axes.size();
-    const std::string D = id + "_DIMS";
-
-    // Storage and its decode.
-    std::vector<std::string> items(cells);
-    std::string storage, c_type, decode, error_note;
-    double offset = 0, scale = 0;
-    switch (options.type) {
+    Storage st;
+    st.items.resize(cells);
+    switch (type) {
         case HeaderValueType::Float:
             if (std::max(std::fabs(lo), std::fabs(hi)) > std::numeric_limits<float>::max())
                 throw InputError(where + "values reach " + dbl(std::max(std::fabs(lo), hi)) +
                                  ", beyond the float range; use the library");
             for (std::size_t i = 0; i < cells; ++i)
-                items[i] = c_float_literal(static_cast<float>(table.value[i]));
-            c_type = "float";
-            storage = "float (each node value rounded to nearest float)";
-            decode = "    return (double)" + id + "_values[i];\n";
-            error_note = "differs from the library's linear lookup by at most 2^-24 (6e-8)\n"
-                         "   times the largest |value| of the cell's corners (float rounding).";
+                st.items[i] = c_float_literal(static_cast<float>(table.value[i]));
+            st.c_type = "float";
+            st.description = "float (each node value rounded to nearest float)";
+            st.decode = "    return (double)" + id + "_values[i];\n";
+            st.error_note = "differs from the library's linear lookup by at most 2^-24 (6e-8)\n"
+                            "   times the largest |value| of the cell's corners (float rounding).";
             break;
         case HeaderValueType::Half:
             if (std::max(std::fabs(lo), std::fabs(hi)) > 65504.0)
@@ -185,11 +196,11 @@ void export_c_header(const TableData& table, const std::string& out_path,
             for (std::size_t i = 0; i < cells; ++i) {
                 char buf[12];
                 std::snprintf(buf, sizeof buf, "0x%04x", half_bits(table.value[i]));
-                items[i] = buf;
+                st.items[i] = buf;
             }
-            c_type = "uint16_t";
-            storage = "IEEE 754 binary16 bits (\"half\"), rounded to nearest, ties to even";
-            decode =
+            st.c_type = "uint16_t";
+            st.description = "IEEE 754 binary16 bits (\"half\"), rounded to nearest, ties to even";
+            st.decode =
                 "    /* binary16: sign, 5 exponent bits (bias 15), 10 mantissa bits. */\n"
                 "    const unsigned h = " + id + "_values[i];\n"
                 "    const int e = (int)((h >> 10) & 31u), m = (int)(h & 1023u);\n"
@@ -198,27 +209,60 @@ void export_c_header(const TableData& table, const std::string& out_path,
                 "    else if (e == 31) v = m ? NAN : HUGE_VAL;\n"
                 "    else v = ldexp((double)(m | 1024), e - 25);      /* (1 + m/1024) 2^(e-15) */\n"
                 "    return (h & 0x8000u) ? -v : v;\n";
-            error_note = "each node value has relative error <= 2^-11 (4.9e-4) for |v| >= 2^-14,\n"
-                         "   absolute error <= 2^-25 (3e-8) below; so the lookup differs from the\n"
-                         "   library's by at most 2^-11 max|corner| + 2^-25.";
+            st.error_note = "each node value has relative error <= 2^-11 (4.9e-4) for |v| >= 2^-14,\n"
+                            "   absolute error <= 2^-25 (3e-8) below; so the lookup differs from the\n"
+                            "   library's by at most 2^-11 max|corner| + 2^-25.";
             break;
         case HeaderValueType::Uint16:
-            offset = lo;
-            scale = hi > lo ? (hi - lo) / 65535.0 : 0.0;
+            st.offset = lo;
+            st.scale = hi > lo ? (hi - lo) / 65535.0 : 0.0;
             for (std::size_t i = 0; i < cells; ++i) {
-                const double q = scale > 0 ? std::nearbyint((table.value[i] - offset) / scale) : 0;
-                items[i] = std::to_string(static_cast<unsigned>(std::min(65535.0, std::max(0.0, q))));
+                const double q =
+                    st.scale > 0 ? std::nearbyint((table.value[i] - st.offset) / st.scale) : 0;
+                st.items[i] =
+                    std::to_string(static_cast<unsigned>(std::min(65535.0, std::max(0.0, q))));
             }
-            c_type = "uint16_t";
-            storage = "uint16 q with value = " + id + "_OFFSET + " + id + "_SCALE * q";
-            decode = "    return " + id + "_OFFSET + " + id + "_SCALE * (double)" + id +
-                     "_values[i];\n";
-            error_note = "each node value has absolute error <= " + id +
-                         "_SCALE / 2; so does the lookup\n"
-                         "   (its weights are convex).";
+            st.c_type = "uint16_t";
+            st.description = "uint16 q with value = " + id + "_OFFSET + " + id + "_SCALE * q";
+            st.decode = "    return " + id + "_OFFSET + " + id + "_SCALE * (double)" + id +
+                        "_values[i];\n";
+            st.error_note = "each node value has absolute error <= " + id +
+                            "_SCALE / 2; so does the lookup\n"
+                            "   (its weights are convex).";
             break;
     }
+    return st;
+}
 
+// What is known of the table's own error (the storage error comes on top):
+// the certificate's total error between nodes, and the stored stderr, which
+// is integration noise at the nodes only.
+std::string accuracy_note(const TableData& table, const HeaderExportOptions& options) {
+    double max_stderr = 0;
+    const bool has_stderr = table.stderr_.size() == table.value.size() && !table.stderr_.empty();
+    for (double e : table.stderr_) max_stderr = std::max(max_stderr, std::fabs(e));
+    std::string a = "   Accuracy: ";
+    if (options.certificate) {
+        const StoredCertificate& c = *options.certificate;
+        a += "certified max total error " + number_text(c.max_error, 3) + " (RMS " + number_text(c.rms_error, 3) +
+             ", " + (c.absolute ? std::string("absolute") : "relative to max(|value|, " + number_text(c.abs_floor, 3) + ")") +
+             ", " + c.interpolation + " interpolation" + (c.passed ? "" : "; it missed its target " + number_text(c.target, 3)) +
+             "):\n   the error between nodes, measured off-grid against the model" +
+             (c.interpolation == "linear" ? "." : "; this header interpolates linearly, so its\n   error between nodes differs.");
+    } else {
+        a += "no certificate stored: the error between nodes was not measured\n   (`brdftab certify FILE --table " +
+             comment_text(table.name) + " --accuracy E --store` measures it).";
+    }
+    if (has_stderr)
+        a += "\n   Stored stderr up to " + number_text(max_stderr, 3) +
+             " (not in this header): the integration noise at the nodes only.";
+    return a + "\n";
+}
+
+// The opening comment: provenance, the lookup function and the accuracy.
+std::string header_comment(const TableData& table, const HeaderExportOptions& options,
+                           const std::string& id, const Storage& st) {
+    const std::string D = id + "_DIMS";
     std::string h;
     h += "/* " + id + ".h — brdftab table '" + comment_text(table.name) + "' as a C99 header.\n";
     h += "   Generated by brdftab " BRDFTAB_VERSION;
@@ -235,57 +279,39 @@ void export_c_header(const TableData& table, const std::string& out_path,
          "     log, quadratic or explicit nodes), and the values are interpolated\n"
          "     multilinearly in t: brdftab's linear lookup with out-of-range clamping.\n"
          "     NaN in, NaN out.  No folding of periodic axes: pass phi_d in the axis range.\n"
-         "   Values: " + id + "_values, row-major, last axis fastest; storage: " + storage +
-         ";\n   " + error_note + "\n";
-    // What is known of the table's own error (the storage error above comes
-    // on top): the certificate's total error between nodes, and the stored
-    // stderr, which is integration noise at the nodes only.
-    {
-        double max_stderr = 0;
-        const bool has_stderr = table.stderr_.size() == table.value.size() && !table.stderr_.empty();
-        for (double e : table.stderr_) max_stderr = std::max(max_stderr, std::fabs(e));
-        std::string a = "   Accuracy: ";
-        if (options.certificate) {
-            const StoredCertificate& c = *options.certificate;
-            a += "certified max total error " + number_text(c.max_error, 3) + " (RMS " + number_text(c.rms_error, 3) +
-                 ", " + (c.absolute ? std::string("absolute") : "relative to max(|value|, " + number_text(c.abs_floor, 3) + ")") +
-                 ", " + c.interpolation + " interpolation" + (c.passed ? "" : "; it missed its target " + number_text(c.target, 3)) +
-                 "):\n   the error between nodes, measured off-grid against the model" +
-                 (c.interpolation == "linear" ? "." : "; this header interpolates linearly, so its\n   error between nodes differs.");
-        } else {
-            a += "no certificate stored: the error between nodes was not measured\n   (`brdftab certify FILE --table " +
-                 comment_text(table.name) + " --accuracy E --store` measures it).";
-        }
-        if (has_stderr)
-            a += "\n   Stored stderr up to " + number_text(max_stderr, 3) +
-                 " (not in this header): the integration noise at the nodes only.";
-        h += a + "\n";
-    }
+         "     Thread-safe (reads constants only); no allocation.\n"
+         "   Values: " + id + "_values, row-major, last axis fastest; storage: " + st.description +
+         ";\n   " + st.error_note + "\n";
+    h += accuracy_note(table, options);
     h += "   Needs only <math.h> (link with -lm), <stddef.h> and <stdint.h>. */\n";
-    h += "#ifndef " + guard + "\n#define " + guard + "\n\n";
-    h += "#include <math.h>\n#include <stddef.h>\n#include <stdint.h>\n\n";
-    h += "#define " + D + " " + std::to_string(dims) + "\n";
-    h += "#define " + id + "_CELLS " + std::to_string(cells) + "u\n";
-    const char* spacing_names[] = {"LINEAR", "COS", "LOG", "QUADRATIC", "EXPLICIT"};
-    for (int k = 0; k < 5; ++k)
-        h += "#define " + id + "_SPACING_" + spacing_names[k] + " " + std::to_string(k) + "\n";
-    // Only in headers that use it, so other headers stay as they were.
-    if (has_pivot) h += "#define " + id + "_SPACING_LOG_COMPLEMENT 5\n";
-    if (options.type == HeaderValueType::Uint16) {
-        h += "#define " + id + "_OFFSET " + dbl(offset) + "\n";
-        h += "#define " + id + "_SCALE " + dbl(scale) + "\n";
-    }
-    h += "\n";
+    return h;
+}
 
-    std::vector<std::string> names, units, counts, spacings, mins, maxs, strides, node_ptrs;
-    std::size_t stride = 1;
+// Writes `static const decl = {items};`.
+void put_array(std::string& h, const std::string& decl, const std::vector<std::string>& v) {
+    h += "static const " + decl + " = {";
+    put_list(h, v);
+    h += "};\n";
+}
+
+// The axis arrays: names, units, counts, strides, spacings, ranges, the
+// inverse-warp constants, pivots, explicit node indices and node lists.
+std::string axis_arrays(const TableData& table, const std::string& id, bool has_pivot,
+                        bool has_explicit) {
+    const std::string D = id + "_DIMS";
+    const std::size_t dims = table.axes.size();
+    std::vector<std::string> names, units, counts, spacings, mins, maxs, strides, node_ptrs, c0s,
+        dcs, ratios, index_ptrs, index_bins, index_scales;
+    std::vector<lookup_detail::FastAxis> fast(dims);
     std::vector<std::size_t> stride_of(dims);
+    std::size_t stride = 1;
     for (std::size_t d = dims; d-- > 0;) {
         stride_of[d] = stride;
         stride *= table.axes[d].count;
     }
     for (std::size_t d = 0; d < dims; ++d) {
         const Axis& a = table.axes[d];
+        fast[d].build(a);
         names.push_back(c_string(a.name));
         units.push_back(c_string(a.unit));
         counts.push_back(std::to_string(a.count) + "u");
@@ -294,84 +320,109 @@ void export_c_header(const TableData& table, const std::string& out_path,
         maxs.push_back(dbl(a.max));
         strides.push_back(std::to_string(stride_of[d]) + "u");
         node_ptrs.push_back(id + "_nodes_" + std::to_string(d));
+        c0s.push_back(dbl(fast[d].c0));
+        dcs.push_back(dbl(fast[d].dc));
+        ratios.push_back(dbl(fast[d].log_ratio));
+        const bool ex = a.spacing == Spacing::Explicit;
+        const auto& ix = fast[d].explicit_nodes;
+        index_ptrs.push_back(ex ? id + "_index_" + std::to_string(d) : "NULL");
+        index_bins.push_back(std::to_string(ex ? ix.start.size() : 0) + "u");
+        index_scales.push_back(dbl(ex ? ix.inv_width : 0.0));
     }
-    auto array = [&](const std::string& decl, const std::vector<std::string>& v) {
-        h += "static const " + decl + " = {";
-        put_list(h, v);
-        h += "};\n";
-    };
-    array("char* const " + id + "_axis_name[" + D + "]", names);
-    array("char* const " + id + "_axis_unit[" + D + "]", units);
-    array("size_t " + id + "_count[" + D + "]", counts);
-    array("size_t " + id + "_stride[" + D + "]", strides);
-    array("int " + id + "_spacing[" + D + "]", spacings);
-    array("double " + id + "_min[" + D + "]", mins);
-    array("double " + id + "_max[" + D + "]", maxs);
+    std::string h;
+    put_array(h, "char* const " + id + "_axis_name[" + D + "]", names);
+    put_array(h, "char* const " + id + "_axis_unit[" + D + "]", units);
+    put_array(h, "size_t " + id + "_count[" + D + "]", counts);
+    put_array(h, "size_t " + id + "_stride[" + D + "]", strides);
+    put_array(h, "int " + id + "_spacing[" + D + "]", spacings);
+    put_array(h, "double " + id + "_min[" + D + "]", mins);
+    put_array(h, "double " + id + "_max[" + D + "]", maxs);
+    h += "/* inverse-warp constants, computed once at export: cos spacing c0 = cos(min),\n"
+         "   dc = cos(max) - cos(min) (degrees); log_ratio = log(max/min) (log spacing),\n"
+         "   log((P - max)/(P - min)) (log-complement); 0 where unused */\n";
+    put_array(h, "double " + id + "_c0[" + D + "]", c0s);
+    put_array(h, "double " + id + "_dc[" + D + "]", dcs);
+    put_array(h, "double " + id + "_log_ratio[" + D + "]", ratios);
     if (has_pivot) {
         std::vector<std::string> pivots;
         for (const Axis& a : table.axes)
             pivots.push_back(dbl(a.spacing == Spacing::LogComplement ? a.pivot : 0.0));
         h += "/* log-complement spacing: the pivot P of each axis (0 for other spacings) */\n";
-        array("double " + id + "_pivot[" + D + "]", pivots);
+        put_array(h, "double " + id + "_pivot[" + D + "]", pivots);
     }
     for (std::size_t d = 0; d < dims; ++d) {
         std::vector<std::string> nodes;
         for (double v : table.axes[d].values) nodes.push_back(dbl(v));
         h += "/* nodes of axis " + std::to_string(d) + " (" + comment_text(table.axes[d].name) +
              ") */\n";
-        array("double " + node_ptrs[d] + "[" + std::to_string(nodes.size()) + "]", nodes);
+        put_array(h, "double " + node_ptrs[d] + "[" + std::to_string(nodes.size()) + "]", nodes);
+        if (table.axes[d].spacing != Spacing::Explicit) continue;
+        std::vector<std::string> starts;
+        for (auto v : fast[d].explicit_nodes.start) starts.push_back(std::to_string(v) + "u");
+        h += "/* axis " + std::to_string(d) + ", explicit nodes: per bin b the cell that holds\n"
+             "   nodes[0] + b / index_scale (a uniform index: no search per lookup) */\n";
+        put_array(h, "uint32_t " + index_ptrs[d] + "[" + std::to_string(starts.size()) + "]",
+                  starts);
     }
-    array("double* const " + id + "_nodes[" + D + "]", node_ptrs);
-    h += "\n";
-    array(c_type + " " + id + "_values[" + id + "_CELLS]", items);
-    h += "\n";
+    put_array(h, "double* const " + id + "_nodes[" + D + "]", node_ptrs);
+    if (has_explicit) {
+        put_array(h, "uint32_t* const " + id + "_index[" + D + "]", index_ptrs);
+        put_array(h, "size_t " + id + "_index_bins[" + D + "]", index_bins);
+        put_array(h, "double " + id + "_index_scale[" + D + "]", index_scales);
+    }
+    return h;
+}
 
-    // Functions: `static inline`, so that several headers (different ids) and
-    // several translation units can include them, and unused ones draw no
-    // warning.
+// The lookup functions: value decode, inverse warp, eval.  `static inline`,
+// so that several headers (different ids) and several translation units can
+// include them, and unused ones draw no warning.
+std::string lookup_functions(const std::string& id, const Storage& st, bool has_pivot,
+                             bool has_explicit) {
+    const std::string D = id + "_DIMS";
+    std::string h;
     h += "/* Node value i (flat row-major index) as a double. */\n";
-    h += "static inline double " + id + "_value(size_t i) {\n" + decode + "}\n\n";
+    h += "static inline double " + id + "_value(size_t i) {\n" + st.decode + "}\n\n";
     h += "/* Normalised coordinate t of x on axis k (node j at t = j / (count - 1));\n"
          "   the end nodes map to exactly 0 and 1. */\n";
+    const std::string explicit_case =
+        has_explicit ? "    if (" + id + "_spacing[k] == " + id + "_SPACING_EXPLICIT) {\n"
+                       "        /* piecewise linear between the nodes: the cell from the uniform\n"
+                       "           index, corrected to the last node <= x (first cell below) */\n"
+                       "        const double* v = " + id + "_nodes[k];\n"
+                       "        const size_t n = " + id + "_count[k], bins = " + id + "_index_bins[k];\n"
+                       "        const double f = (x - v[0]) * " + id + "_index_scale[k];\n"
+                       "        size_t j = f > 0 ? " + id + "_index[k][f < (double)bins ? (size_t)f : bins - 1] : 0;\n"
+                       "        while (j + 2 < n && !(x < v[j + 1])) ++j;\n"
+                       "        while (j > 0 && x < v[j]) --j;\n"
+                       "        return ((double)j + (x - v[j]) / (v[j + 1] - v[j])) / (double)(n - 1);\n"
+                       "    }\n"
+                     : std::string();
     const std::string log_complement_case =
         has_pivot ? "    case " + id + "_SPACING_LOG_COMPLEMENT: {\n"
                     "        /* distance to the pivot is geometric in t */\n"
                     "        const double P = " + id + "_pivot[k];\n"
                     "        const double r = (P - x) / (P - lo);\n"
                     "        if (!(r > 0)) return P > hi ? HUGE_VAL : -HUGE_VAL;\n"
-                    "        return log(r) / log((P - hi) / (P - lo));\n"
+                    "        return log(r) / " + id + "_log_ratio[k];\n"
                     "    }\n"
                   : std::string();
     h += "static inline double " + id + "_unwarp(int k, double x) {\n"
          "    const double lo = " + id + "_min[k], hi = " + id + "_max[k];\n"
          "    const double rad = 3.14159265358979323846 / 180.0; /* cos spacing: degrees */\n"
-         "    if (" + id + "_spacing[k] != " + id + "_SPACING_EXPLICIT) {\n"
-         "        if (x == lo) return 0.0;\n"
-         "        if (x == hi) return 1.0;\n"
-         "    }\n"
+         + explicit_case +
+         "    if (x == lo) return 0.0;\n"
+         "    if (x == hi) return 1.0;\n"
          "    switch (" + id + "_spacing[k]) {\n"
-         "    case " + id + "_SPACING_COS: {\n"
-         "        const double c0 = cos(lo * rad), c1 = cos(hi * rad);\n"
-         "        return (cos(x * rad) - c0) / (c1 - c0);\n"
-         "    }\n"
+         "    case " + id + "_SPACING_COS:\n"
+         "        return (cos(x * rad) - " + id + "_c0[k]) / " + id + "_dc[k];\n"
          "    case " + id + "_SPACING_LOG:\n"
          "        if (x <= 0) return -HUGE_VAL;\n"
-         "        return log(x / lo) / log(hi / lo);\n"
+         "        return log(x / lo) / " + id + "_log_ratio[k];\n"
          "    case " + id + "_SPACING_QUADRATIC: {\n"
          "        const double r = (x - lo) / (hi - lo);\n"
          "        return r >= 0 ? sqrt(r) : -sqrt(-r);\n"
          "    }\n"
          + log_complement_case +
-         "    case " + id + "_SPACING_EXPLICIT: {\n"
-         "        /* piecewise linear between the nodes: first node > x, one back */\n"
-         "        const double* v = " + id + "_nodes[k];\n"
-         "        const size_t n = " + id + "_count[k];\n"
-         "        size_t j = 0;\n"
-         "        while (j < n && !(x < v[j])) ++j;\n"
-         "        j = j == 0 ? 0 : j - 1;\n"
-         "        if (j > n - 2) j = n - 2;\n"
-         "        return ((double)j + (x - v[j]) / (v[j + 1] - v[j])) / (double)(n - 1);\n"
-         "    }\n"
          "    default:\n"
          "        return (x - lo) / (hi - lo);\n"
          "    }\n"
@@ -408,9 +459,44 @@ void export_c_header(const TableData& table, const std::string& out_path,
          "        s[k] = u - (double)c;\n"
          "        if (s[k] < 0) s[k] = 0;\n"
          "        if (s[k] > 1) s[k] = 1;\n"
-         "    }\n"
-         "    return " + id + "_contract_(cell, s, 0, 0);\n"
+         "    }\n";
+    h += "    return " + id + "_contract_(cell, s, 0, 0);\n"
          "}\n\n";
+    return h;
+}
+
+}  // namespace
+
+void export_c_header(const TableData& table, const std::string& out_path,
+                     const HeaderExportOptions& options) {
+    const std::string where = "C header export of table '" + table.name + "': ";
+    const bool has_pivot = check_exportable(table, where);
+    bool has_explicit = false;
+    for (const Axis& a : table.axes) has_explicit = has_explicit || a.spacing == Spacing::Explicit;
+    const std::size_t cells = table.value.size(), dims = table.axes.size();
+    const std::string id = header_identifier(table, options);
+    std::string guard = "BRDFTAB_" + id + "_H";
+    for (char& c : guard) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+    const Storage st = make_storage(table, options.type, id, where);
+    const std::string D = id + "_DIMS";
+
+    std::string h = header_comment(table, options, id, st);
+    h += "#ifndef " + guard + "\n#define " + guard + "\n\n";
+    h += "#include <math.h>\n#include <stddef.h>\n#include <stdint.h>\n\n";
+    h += "#define " + D + " " + std::to_string(dims) + "\n";
+    h += "#define " + id + "_CELLS " + std::to_string(cells) + "u\n";
+    const char* spacing_names[] = {"LINEAR", "COS", "LOG", "QUADRATIC", "EXPLICIT"};
+    for (int k = 0; k < 5; ++k)
+        h += "#define " + id + "_SPACING_" + spacing_names[k] + " " + std::to_string(k) + "\n";
+    // Only in headers that use it, so other headers stay as they were.
+    if (has_pivot) h += "#define " + id + "_SPACING_LOG_COMPLEMENT 5\n";
+    if (options.type == HeaderValueType::Uint16) {
+        h += "#define " + id + "_OFFSET " + dbl(st.offset) + "\n";
+        h += "#define " + id + "_SCALE " + dbl(st.scale) + "\n";
+    }
+    h += "\n" + axis_arrays(table, id, has_pivot, has_explicit) + "\n";
+    put_array(h, st.c_type + " " + id + "_values[" + id + "_CELLS]", st.items);
+    h += "\n" + lookup_functions(id, st, has_pivot, has_explicit);
     h += "#endif /* " + guard + " */\n";
     write_text_atomically(out_path, h);
 }

@@ -13,23 +13,6 @@ namespace brdftab {
 
 namespace lookup_internal {
 
-namespace {
-
-double wrap_pi(double d) {  // into (-pi, pi]
-    d = std::fmod(d, 2 * kPi);
-    if (d > kPi) d -= 2 * kPi;
-    if (d <= -kPi) d += 2 * kPi;
-    return d;
-}
-
-Vec3 normalised(const Vec3& v) {
-    const double l = std::sqrt(v.x * v.x + v.y * v.y + v.z * v.z);
-    if (!(l > 0)) throw InputError("direction vector has zero or NaN length");
-    return {v.x / l, v.y / l, v.z / l};
-}
-
-}  // namespace
-
 double fold_periodic(const Axis& a, double x) {
     if (a.name != "phi_d" || !(x < a.min || x > a.max) || !std::isfinite(x)) return x;
     double half_turn;
@@ -53,30 +36,21 @@ double fold_periodic(const Axis& a, double x) {
     return a.min + v;
 }
 
+void throw_zero_direction() { throw InputError("direction vector has zero or NaN length"); }
+
 // Shared by LookupTable::eval_dirs and BoundTable: angular coordinates of
 // (wi, wo) in axis units.  phi is reduced to the phi axis' span (fold or wrap).
 void direction_coords(const LookupTable::AngleLayout& L, const Axis* phi_axis,
-                      const Vec3& wi_in, const Vec3& wo_in, double& xi, double& xo,
+                      const Vec3& wi, const Vec3& wo, double& xi, double& xo,
                       double& xphi, double& phi_i) {
-    const Vec3 wi = normalised(wi_in), wo = normalised(wo_in);
-    const double mi = std::min(1.0, std::max(-1.0, wi.z));
-    const double mo = std::min(1.0, std::max(-1.0, wo.z));
+    const double mi = unit_z(wi), mo = unit_z(wo);
     xi = L.mu_i ? mi : std::acos(mi) / L.scale_i;
     xo = L.mu_o ? mo : std::acos(mo) / L.scale_o;
     // atan2(0, 0) = 0: a direction on the pole gets azimuth 0, both here and
     // in the sampler, so pdf() and sample() agree there too.
     phi_i = std::atan2(wi.y, wi.x);
-    const double d = wrap_pi(std::atan2(wo.y, wo.x) - phi_i);
-    xphi = 0;
-    if (!phi_axis) return;
-    if (L.fold_phi) {
-        xphi = std::fabs(d) / L.scale_phi;  // isotropy: f(phi_d) = f(-phi_d)
-    } else {
-        const double period = 2 * kPi / L.scale_phi;
-        double v = std::fmod(d / L.scale_phi - phi_axis->min, period);
-        if (v < 0) v += period;
-        xphi = phi_axis->min + v;
-    }
+    xphi = phi_axis ? phi_coordinate(L, phi_axis->min, phi_difference(wi.x, wi.y, wo.x, wo.y))
+                    : 0.0;
 }
 
 }  // namespace lookup_internal
@@ -117,17 +91,40 @@ std::vector<double> LookupTable::param_coords(const std::map<std::string, double
     return v;
 }
 
-double LookupTable::eval_dirs(const Vec3& wi, const Vec3& wo,
-                              const std::map<std::string, double>& params,
-                              Interpolation interp, OutOfRange mode) const {
-    std::vector<double> v = param_coords(params, nullptr);
+// The coordinates of a direction-level lookup: the parameter coordinates
+// (param_coords()) with the angles of (wi, wo) in their slots.
+void LookupTable::dirs_point(const double* pc, const Vec3& wi, const Vec3& wo,
+                             double* coords) const {
+    const std::size_t width = axes().size() + (terms_.empty() ? 0 : 1);
+    std::copy(pc, pc + width, coords);
     double xi, xo, xphi, phi_i;
     const Axis* phi_axis = layout_.axis_phi >= 0 ? &axes()[layout_.axis_phi] : nullptr;
     direction_coords(layout_, phi_axis, wi, wo, xi, xo, xphi, phi_i);
-    v[layout_.axis_i] = xi;
-    v[layout_.axis_o] = xo;
-    if (phi_axis) v[layout_.axis_phi] = xphi;
-    return eval(v, interp, mode);
+    coords[layout_.axis_i] = xi;
+    coords[layout_.axis_o] = xo;
+    if (phi_axis) coords[layout_.axis_phi] = xphi;
+}
+
+double LookupTable::eval_dirs(const Vec3& wi, const Vec3& wo,
+                              const std::map<std::string, double>& params,
+                              Interpolation interp, OutOfRange mode) const {
+    const std::vector<double> pc = param_coords(params, nullptr);
+    std::vector<double> v(pc.size());
+    dirs_point(pc.data(), wi, wo, v.data());
+    return eval_point(v.data(), interp, mode);
+}
+
+void LookupTable::eval_dirs_many(const double* wi, const double* wo, std::size_t count,
+                                 double* out, const std::map<std::string, double>& params,
+                                 Interpolation interp, OutOfRange mode) const {
+    const std::vector<double> pc = param_coords(params, nullptr);
+    std::vector<double> v(pc.size());
+    for (std::size_t k = 0; k < count; ++k) {
+        const double* a = wi + 3 * k;
+        const double* b = wo + 3 * k;
+        dirs_point(pc.data(), {a[0], a[1], a[2]}, {b[0], b[1], b[2]}, v.data());
+        out[k] = eval_point(v.data(), interp, mode);
+    }
 }
 
 BoundTable LookupTable::bind(const std::map<std::string, double>& params,
@@ -183,8 +180,14 @@ BoundTable LookupTable::bind(const std::map<std::string, double>& params,
                 if (b.has_phi_) ws[layout_.axis_phi].single(f);
                 for (std::size_t k = 0; k < pieces_.size(); ++k)
                     pv[k] = contract(ws.data(), strides_.data(), dims, pieces_[k].value.data());
-                b.values_[(i * no + o) * np + f] = combine(pv, p);
+                b.values_[(i * no + o) * np + f] = combine(pv.data(), p);
             }
+    for (int d = 0; d < 3; ++d) b.fast_[d].build(b.axes_[d]);
+    b.stride_i_ = no * np;
+    b.stride_o_ = np;
+    b.kernel_ = interp == Interpolation::Cubic ? BoundTable::Kernel::GridCubic
+                : all_finite(b.values_)            ? BoundTable::Kernel::GridLinear
+                                                   : BoundTable::Kernel::GridLinearNonFinite;
     b.build_sampling();
     return b;
 }
@@ -193,18 +196,60 @@ BoundTable LookupTable::bind(const std::map<std::string, double>& params,
 // BoundTable
 
 double BoundTable::eval_angles(double xi, double xo, double xphi) const {
+    const double x[3] = {resolve_fast(fast_[0], axes_[0], xi, mode_, name_),
+                         resolve_fast(fast_[1], axes_[1], xo, mode_, name_),
+                         resolve_fast(fast_[2], axes_[2], xphi, mode_, name_)};
+    const std::size_t strides[3] = {stride_i_, stride_o_, 1};
+    switch (kernel_) {
+        case Kernel::GridLinear:
+        case Kernel::GridLinearNonFinite: {
+            double s[3];
+            std::size_t offset = 0;
+#pragma GCC unroll 3
+            for (int d = 0; d < 3; ++d)
+                offset += linear_cell(fast_[d], unwarp_fast(fast_[d], axes_[d], x[d]), s[d]) *
+                          strides[d];
+            const double* v = values_.data() + offset;
+            return kernel_ == Kernel::GridLinear ? multilinear<3, false>(v, strides, s)
+                                                 : multilinear<3, true>(v, strides, s);
+        }
+        case Kernel::GridCubic:
+            break;
+    }
     AxisWeights ws[3];
-    const double x[3] = {xi, xo, xphi};
     for (int d = 0; d < 3; ++d)
-        axis_weights(axes_[d], resolve(axes_[d], x[d], mode_, name_), interp_, ws[d]);
-    const std::size_t strides[3] = {axes_[1].count * axes_[2].count, axes_[2].count, 1};
+        axis_weights_n(fast_[d].count, fast_[d].mirror, unwarp_fast(fast_[d], axes_[d], x[d]),
+                       interp_, ws[d]);
     return contract(ws, strides, 3, values_.data());
 }
 
+BoundTable::Incident BoundTable::incident(const Vec3& wi) const {
+    Incident in;
+    const double mi = unit_z(wi);
+    in.x = wi.x;
+    in.y = wi.y;
+    in.xi = layout_.mu_i ? mi : std::acos(mi) / layout_.scale_i;
+    return in;
+}
+
+double BoundTable::eval_from(const Incident& in, double mo, double d) const {
+    const double xo = layout_.mu_o ? mo : std::acos(mo) / layout_.scale_o;
+    return eval_angles(in.xi, xo, phi_coordinate(layout_, axes_[2].min, d));
+}
+
 double BoundTable::eval(const Vec3& wi, const Vec3& wo) const {
-    double xi, xo, xphi, phi_i;
-    direction_coords(layout_, &axes_[2], wi, wo, xi, xo, xphi, phi_i);
-    return eval_angles(xi, xo, xphi);
+    const Incident in = incident(wi);
+    const double mo = unit_z(wo);
+    return eval_from(in, mo, phi_difference(in.x, in.y, wo.x, wo.y));
+}
+
+void BoundTable::eval_many(const double* wi, const double* wo, std::size_t count,
+                           double* out) const {
+    for (std::size_t k = 0; k < count; ++k) {
+        const double* a = wi + 3 * k;
+        const double* b = wo + 3 * k;
+        out[k] = eval({a[0], a[1], a[2]}, {b[0], b[1], b[2]});
+    }
 }
 
 }  // namespace brdftab

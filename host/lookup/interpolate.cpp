@@ -54,7 +54,11 @@ void axis_weights(const Axis& a, double x, Interpolation interp, AxisWeights& ou
 }
 
 void axis_weights_t(const Axis& a, double t, Interpolation interp, AxisWeights& out) {
-    const std::size_t n = a.count;
+    axis_weights_n(a.count, is_mirror_phi(a), t, interp, out);
+}
+
+void axis_weights_n(std::size_t n, bool mirror, double t, Interpolation interp,
+                    AxisWeights& out) {
     out.n = 0;
     double u = t * double(n - 1);
     if (!(u >= 0)) u = 0;  // also catches NaN from a degenerate warp
@@ -72,7 +76,6 @@ void axis_weights_t(const Axis& a, double t, Interpolation interp, AxisWeights& 
     const double w0 = 0.5 * (3 * s3 - 5 * s2 + 2);
     const double w1 = 0.5 * (-3 * s3 + 4 * s2 + s);
     const double w2 = 0.5 * (s3 - s2);
-    const bool mirror = is_mirror_phi(a);
     out.add(k, w0);
     out.add(k + 1, w1);
     // Ghost below node 0.
@@ -123,24 +126,24 @@ using namespace lookup_internal;
 namespace {
 
 // The per-axis weights of a lookup at `coords` (the table axes first; a
-// recombination parameter after them is not read here), shared by eval()
-// and stencil_cells() so both see the same cells.
-void point_weights(const std::vector<Axis>& ax, const std::vector<int>& dependency,
-                   const std::vector<double>& coords, Interpolation interp, OutOfRange mode,
-                   const std::string& table, std::vector<AxisWeights>& ws) {
+// recombination parameter after them is not read here), shared by the
+// general path of eval() and by stencil_cells() so both see the same cells.
+// ws: one entry per axis.
+void point_weights(const std::vector<Axis>& ax, const FastAxis* fast,
+                   const std::vector<int>& dependency, const double* coords,
+                   Interpolation interp, OutOfRange mode, const std::string& table,
+                   AxisWeights* ws, double* x) {
     const std::size_t dims = ax.size();
-    ws.assign(dims, AxisWeights{});
-    std::vector<double> x(dims);
-    for (std::size_t d = 0; d < dims; ++d) x[d] = resolve(ax[d], coords[d], mode, table);
+    for (std::size_t d = 0; d < dims; ++d)
+        x[d] = resolve_fast(fast[d], ax[d], coords[d], mode, table);
     for (std::size_t d = 0; d < dims; ++d) {
         // An axis whose nodes depend on another (critical: mu_i on eta) is
         // unwarped at this point's value of that axis: the table is a tensor
         // product in (t, eta), not in (mu_i, eta).
-        if (dependency[d] >= 0)
-            axis_weights_t(ax[d], ax[d].unwarp_at(x[d], x[std::size_t(dependency[d])]), interp,
-                           ws[d]);
-        else
-            axis_weights(ax[d], x[d], interp, ws[d]);
+        const double t = dependency[d] >= 0
+                             ? ax[d].unwarp_at(x[d], x[std::size_t(dependency[d])])
+                             : unwarp_fast(fast[d], ax[d], x[d]);
+        axis_weights_n(fast[d].count, fast[d].mirror, t, interp, ws[d]);
     }
 }
 
@@ -166,29 +169,111 @@ void LookupTable::stencil_cells(const std::vector<double>& coords, Interpolation
         throw InputError("table '" + table().name + "': stencil_cells needs " +
                          std::to_string(ax.size()) + " coordinates, got " +
                          std::to_string(coords.size()));
-    std::vector<AxisWeights> ws;
-    point_weights(ax, dependency_, coords, interp, mode, table().name, ws);
+    std::vector<AxisWeights> ws(ax.size());
+    std::vector<double> x(ax.size());
+    point_weights(ax, fast_.data(), dependency_, coords.data(), interp, mode, table().name,
+                  ws.data(), x.data());
     stencil_indices(ws.data(), strides_.data(), ax.size(), cells);
 }
 
 double LookupTable::eval(const std::vector<double>& coords, Interpolation interp,
                          OutOfRange mode) const {
-    const auto& ax = axes();
-    const std::size_t dims = ax.size();
-    const std::size_t want = dims + (terms_.empty() ? 0 : 1);
+    const std::size_t want = axes().size() + (terms_.empty() ? 0 : 1);
     if (coords.size() != want)
         throw InputError("table '" + table().name + "': eval needs " + std::to_string(want) +
                          " coordinates, got " + std::to_string(coords.size()));
-    std::vector<AxisWeights> ws;
-    point_weights(ax, dependency_, coords, interp, mode, table().name, ws);
+    return eval_point(coords.data(), interp, mode);
+}
+
+double LookupTable::eval(const double* coords, Interpolation interp, OutOfRange mode) const {
+    return eval_point(coords, interp, mode);
+}
+
+// The value at checked coordinates.  Nothing is allocated for up to
+// kMaxUnrolledDims axes and 8 pieces.  Linear lookups on independent axes
+// take the unrolled kernel, the rest the general weights and contract(): the
+// same arithmetic either way.
+template <int D, bool Skip>
+double LookupTable::linear_kernel(const LookupTable& lt, const double* coords, OutOfRange mode) {
+    const FastAxis* fast = lt.fast_.data();
+    const Axis* ax = lt.pieces_.front().axes.data();
+    const std::size_t* strides = lt.strides_.data();
+    double s[D];
+    std::size_t offset = 0;
+#pragma GCC unroll 8
+    for (int d = 0; d < D; ++d) {
+        const double x = resolve_fast(fast[d], ax[d], coords[d], mode, lt.pieces_.front().name);
+        offset += linear_cell(fast[d], unwarp_fast(fast[d], ax[d], x), s[d]) * strides[d];
+    }
+    if (lt.terms_.empty()) return multilinear<D, Skip>(lt.pieces_.front().value.data() + offset, strides, s);
+    double p = coords[D];
+    lt.resolve_param(p, mode);
+    const std::size_t np = lt.pieces_.size();
+    double pv_buf[8];
+    std::vector<double> pv_heap;
+    double* pv = np <= 8 ? pv_buf : (pv_heap.resize(np), pv_heap.data());
+    for (std::size_t k = 0; k < np; ++k)
+        pv[k] = multilinear<D, Skip>(lt.pieces_[k].value.data() + offset, strides, s);
+    return lt.combine(pv, p);
+}
+
+// Linear lookups of tables with at most kMaxUnrolledDims axes, none
+// depending on another, go to a kernel unrolled for their axis count (the
+// unskipped form when every value of every piece is finite).
+void LookupTable::choose_linear_kernel() {
+    linear_ = nullptr;
+    const std::size_t dims = axes().size();
+    if (dims > kMaxUnrolledDims || has_dependent_) return;
+    bool finite = true;
+    for (const auto& p : pieces_) finite = finite && all_finite(p.value);
+    using Fn = double (*)(const LookupTable&, const double*, OutOfRange);
+    static const Fn skip[] = {&linear_kernel<1, true>, &linear_kernel<2, true>,
+                              &linear_kernel<3, true>, &linear_kernel<4, true>,
+                              &linear_kernel<5, true>, &linear_kernel<6, true>,
+                              &linear_kernel<7, true>, &linear_kernel<8, true>};
+    static const Fn plain[] = {&linear_kernel<1, false>, &linear_kernel<2, false>,
+                               &linear_kernel<3, false>, &linear_kernel<4, false>,
+                               &linear_kernel<5, false>, &linear_kernel<6, false>,
+                               &linear_kernel<7, false>, &linear_kernel<8, false>};
+    linear_ = finite ? plain[dims - 1] : skip[dims - 1];
+}
+
+double LookupTable::eval_point(const double* coords, Interpolation interp,
+                               OutOfRange mode) const {
+    if (interp == Interpolation::Linear && linear_) return linear_(*this, coords, mode);
+    return eval_general(coords, interp, mode);
+}
+
+// Cubic lookups, axes that depend on another, more than kMaxUnrolledDims
+// axes: the per-axis weights and contract().
+double LookupTable::eval_general(const double* coords, Interpolation interp,
+                                 OutOfRange mode) const {
+    const auto& ax = axes();
+    const std::size_t dims = ax.size();
+    const std::size_t np = pieces_.size();
+    double pv_buf[8];
+    std::vector<double> pv_heap;
+    double* pv = np <= 8 ? pv_buf : (pv_heap.resize(np), pv_heap.data());
     double p = 0;
+    AxisWeights ws_buf[kMaxUnrolledDims];
+    double x_buf[kMaxUnrolledDims];
+    std::vector<AxisWeights> ws_heap;
+    std::vector<double> x_heap;
+    AxisWeights* ws = ws_buf;
+    double* x = x_buf;
+    if (dims > kMaxUnrolledDims) {
+        ws_heap.resize(dims);
+        x_heap.resize(dims);
+        ws = ws_heap.data();
+        x = x_heap.data();
+    }
+    point_weights(ax, fast_.data(), dependency_, coords, interp, mode, table().name, ws, x);
     if (!terms_.empty()) {
         p = coords[dims];
         resolve_param(p, mode);
     }
-    std::vector<double> pv(pieces_.size());
-    for (std::size_t k = 0; k < pieces_.size(); ++k)
-        pv[k] = contract(ws.data(), strides_.data(), dims, pieces_[k].value.data());
+    for (std::size_t k = 0; k < np; ++k)
+        pv[k] = contract(ws, strides_.data(), dims, pieces_[k].value.data());
     return combine(pv, p);
 }
 
@@ -219,14 +304,99 @@ std::vector<double> LookupTable::ordered_coordinates(
     return out;
 }
 
+namespace {
+
+// Batch linear lookups of a single table (no recombination) on D independent
+// axes, in blocks: first every point of the block is located (range checks,
+// inverse warps, cells) and the cache lines of its corners are prefetched,
+// then the corners are contracted.  The loads of one point then overlap the
+// work on the others, which pays on tables larger than the caches.  The
+// same functions as the scalar kernel: the same bits.
+struct ManyLinear {
+    const FastAxis* fast;
+    const Axis* axes;
+    const std::size_t* strides;
+    const double* values;
+    const std::string* table;
+};
+
+template <int D, bool Skip>
+void linear_many(const ManyLinear& m, const double* coords, std::size_t count, double* out,
+                 OutOfRange mode) {
+    constexpr std::size_t kBlock = 8;
+    std::size_t offset[kBlock];
+    double s[kBlock][D];
+    for (std::size_t b = 0; b < count; b += kBlock) {
+        const std::size_t n = std::min(kBlock, count - b);
+        std::size_t located = 0;
+        try {
+            for (; located < n; ++located) {
+                const double* c = coords + (b + located) * D;
+                std::size_t off = 0;
+#pragma GCC unroll 8
+                for (int d = 0; d < D; ++d) {
+                    const double x = resolve_fast(m.fast[d], m.axes[d], c[d], mode, *m.table);
+                    off += linear_cell(m.fast[d], unwarp_fast(m.fast[d], m.axes[d], x),
+                                       s[located][d]) *
+                           m.strides[d];
+                }
+                offset[located] = off;
+                // Corners differ on the last axis by one element: one line
+                // (or two) per combination of the other axes.
+                for (std::size_t corner = 0; corner < (std::size_t(1) << (D - 1)); ++corner) {
+                    std::size_t o = off;
+                    for (int d = 0; d + 1 < D; ++d)
+                        if ((corner >> d) & 1) o += m.strides[d];
+                    __builtin_prefetch(m.values + o);
+                    __builtin_prefetch(m.values + o + m.strides[D - 1]);
+                }
+            }
+        } catch (...) {
+            // The points before the bad one are written, as the scalar loop does.
+            for (std::size_t i = 0; i < located; ++i)
+                out[b + i] = multilinear<D, Skip>(m.values + offset[i], m.strides, s[i]);
+            throw;
+        }
+        for (std::size_t i = 0; i < n; ++i)
+            out[b + i] = multilinear<D, Skip>(m.values + offset[i], m.strides, s[i]);
+    }
+}
+
+template <bool Skip>
+bool linear_many_dims(std::size_t dims, const ManyLinear& m, const double* coords,
+                      std::size_t count, double* out, OutOfRange mode) {
+    switch (dims) {
+        case 1: linear_many<1, Skip>(m, coords, count, out, mode); return true;
+        case 2: linear_many<2, Skip>(m, coords, count, out, mode); return true;
+        case 3: linear_many<3, Skip>(m, coords, count, out, mode); return true;
+        case 4: linear_many<4, Skip>(m, coords, count, out, mode); return true;
+        case 5: linear_many<5, Skip>(m, coords, count, out, mode); return true;
+        case 6: linear_many<6, Skip>(m, coords, count, out, mode); return true;
+        default: return false;
+    }
+}
+
+}  // namespace
+
 void LookupTable::eval_many(const double* coords, std::size_t count, double* out,
                             Interpolation interp, OutOfRange mode) const {
-    const std::size_t width = axes().size() + (terms_.empty() ? 0 : 1);
-    std::vector<double> row(width);
-    for (std::size_t k = 0; k < count; ++k) {
-        row.assign(coords + k * width, coords + (k + 1) * width);
-        out[k] = eval(row, interp, mode);
+    const std::size_t dims = axes().size();
+    const std::size_t width = dims + (terms_.empty() ? 0 : 1);
+    if (interp == Interpolation::Linear && linear_ && terms_.empty()) {
+        const ManyLinear m{fast_.data(), axes().data(), strides_.data(),
+                           pieces_.front().value.data(), &table().name};
+        // The choice of choose_linear_kernel(): the unskipped kernel when finite.
+        using Fn = double (*)(const LookupTable&, const double*, OutOfRange);
+        static const Fn plain[] = {&linear_kernel<1, false>, &linear_kernel<2, false>,
+                                   &linear_kernel<3, false>, &linear_kernel<4, false>,
+                                   &linear_kernel<5, false>, &linear_kernel<6, false>,
+                                   &linear_kernel<7, false>, &linear_kernel<8, false>};
+        const bool skip = linear_ != plain[dims - 1];
+        if (skip ? linear_many_dims<true>(dims, m, coords, count, out, mode)
+                 : linear_many_dims<false>(dims, m, coords, count, out, mode))
+            return;
     }
+    for (std::size_t k = 0; k < count; ++k) out[k] = eval_point(coords + k * width, interp, mode);
 }
 
 double LookupTable::eval(const std::map<std::string, double>& coords, Interpolation interp,

@@ -157,6 +157,12 @@ void LookupTable::init() {
                              "' depends on '" + head.axes[d].depends_on +
                              "', which is not an axis of the table");
     }
+    fast_.resize(dims);
+    has_dependent_ = false;
+    for (std::size_t d = 0; d < dims; ++d) {
+        fast_[d].build(head.axes[d]);
+        has_dependent_ = has_dependent_ || head.axes[d].dependent();
+    }
     strides_.assign(dims, 1);
     for (std::size_t d = dims - 1; d-- > 0;) strides_[d] = strides_[d + 1] * head.axes[d + 1].count;
 
@@ -239,6 +245,7 @@ void LookupTable::init() {
             }
         }
     }
+    choose_linear_kernel();
 }
 
 TableData without_recombination(const TableData& table) {

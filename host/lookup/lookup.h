@@ -10,6 +10,7 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 #include <initializer_list>
 #include <map>
 #include <memory>
@@ -52,6 +53,54 @@ struct SampleResult {
 };
 
 class BoundTable;
+
+namespace lookup_detail {
+
+// Which cell of a sorted node list holds x, in O(1): the result of
+// std::upper_bound(nodes, x) - 1 clamped to [0, n - 2], found from a uniform
+// table of starting cells over [nodes[0], nodes[n-1]] and a short scan that
+// corrects it (so the answer is the binary search's, bit for bit).
+struct NodeIndex {
+    std::vector<double> nodes;          // strictly increasing
+    std::vector<std::uint32_t> start;   // per bin: the cell of the bin's lower edge
+    double lo = 0, inv_width = 0;       // bin b covers lo + [b, b + 1) / inv_width
+    void build(std::vector<double> v);
+    std::size_t cell(double x) const {
+        const std::size_t n = nodes.size();
+        const double f = (x - lo) * inv_width;
+        const std::size_t bins = start.size();
+        std::size_t k = f > 0 ? (f < double(bins) ? start[std::size_t(f)] : start[bins - 1]) : 0;
+        while (k + 2 < n && !(x < nodes[k + 1])) ++k;
+        while (k > 0 && x < nodes[k]) --k;
+        return k;
+    }
+};
+
+// An axis prepared for lookups: its range policy and its inverse warp
+// x -> t with every per-call constant computed once (cos(min), log(max/min),
+// the explicit node index, ...).  unwarp() returns Axis::unwarp(x) bit for
+// bit; the lookup library builds one per axis when a table is loaded or
+// bound (host/lookup/fast_axis.cpp).
+struct FastAxis {
+    enum class Warp : std::uint8_t { Linear, Cos, Log, Quadratic, Explicit, LogComplement, General };
+    enum class Periodic : std::uint8_t { None, Fold, Wrap };
+    Warp warp = Warp::Linear;
+    Periodic periodic = Periodic::None;  // phi_d in deg/rad: how values outside are reduced
+    bool mirror = false;                 // Catmull-Rom ghosts mirrored (phi_d over [0, 180])
+    bool dependent = false;              // nodes depend on another axis (unwarp_at)
+    std::size_t count = 0;
+    double last = 0;                     // count - 1
+    double min = 0, max = 0, tol = 0;    // tol: 1e-9 of the span (Reject)
+    double span = 0;                     // max - min
+    double c0 = 0, dc = 0;               // cos: cos(min), cos(max) - cos(min)
+    double log_ratio = 0;                // log: log(max/min); log-complement: log((P-max)/(P-min))
+    double pivot = 0;                    // log-complement
+    double half_turn = 0, turn = 0;      // periodic: 180 or pi, and twice that
+    NodeIndex explicit_nodes;            // explicit
+    void build(const Axis& a);
+};
+
+}  // namespace lookup_detail
 
 class LookupTable {
 public:
@@ -107,12 +156,17 @@ public:
     std::vector<double> ordered_coordinates(const std::map<std::string, double>& values,
                                             const std::string& where) const;
 
-    // Vectorised eval: `count` points, row-major, each row the coordinates
-    // of coordinate_names() in that order; one value per point into `out`.
-    // The same checks and messages as eval(); the first bad point throws.
+    // Batch eval: `count` points, row-major, each row the coordinates of
+    // coordinate_names() in that order; one value per point into `out`,
+    // each bit-identical to eval() of that row.  The same checks and
+    // messages as eval(); the first bad point throws (points before it are
+    // written).  Allocates nothing for tables of up to 8 axes.
     void eval_many(const double* coords, std::size_t count, double* out,
                    Interpolation interp = Interpolation::Linear,
                    OutOfRange mode = OutOfRange::Clamp) const;
+    // The same for a raw array of exactly coordinate_names().size() values.
+    double eval(const double* coords, Interpolation interp = Interpolation::Linear,
+                OutOfRange mode = OutOfRange::Clamp) const;
 
     // The cells eval(coords, interp, mode) reads with a non-zero weight, as
     // flat row-major indices into the stored value array, appended to
@@ -138,6 +192,14 @@ public:
                      const std::map<std::string, double>& params = {},
                      Interpolation interp = Interpolation::Linear,
                      OutOfRange mode = OutOfRange::Clamp) const;
+
+    // Batch eval_dirs: wi and wo hold `count` directions as rows of 3
+    // doubles (x, y, z); one value per pair into `out`, each bit-identical
+    // to eval_dirs() of that pair.  `params` is checked once per call.
+    void eval_dirs_many(const double* wi, const double* wo, std::size_t count, double* out,
+                        const std::map<std::string, double>& params = {},
+                        Interpolation interp = Interpolation::Linear,
+                        OutOfRange mode = OutOfRange::Clamp) const;
 
     // Fix every non-angle coordinate: returns a table over (wi, wo) only,
     // holding the importance-sampling distributions.  Cost: one pass over the
@@ -172,13 +234,26 @@ private:
     LookupTable() = default;
     void init();
     void init_recombination();
-    double combine(const std::vector<double>& piece_values, double p) const;
+    double combine(const double* piece_values, double p) const;
+    // eval() of checked coordinates (coords: the table axes, then p).
+    double eval_point(const double* coords, Interpolation interp, OutOfRange mode) const;
+    double eval_general(const double* coords, Interpolation interp, OutOfRange mode) const;
+    // The linear lookup of a table of D independent axes, unrolled; chosen
+    // once per table by choose_linear_kernel() (interpolate.cpp).
+    template <int D, bool Skip>
+    static double linear_kernel(const LookupTable& lt, const double* coords, OutOfRange mode);
+    void choose_linear_kernel();
+    double (*linear_)(const LookupTable&, const double*, OutOfRange) = nullptr;
+    void dirs_point(const double* param_coords, const Vec3& wi, const Vec3& wo,
+                    double* coords) const;
     void resolve_param(double& p, OutOfRange mode) const;
     std::vector<double> param_coords(const std::map<std::string, double>& params,
                                      double* p_out) const;
 
     std::vector<TableData> pieces_;  // pieces_[0] is the head table
     std::vector<std::size_t> strides_;
+    std::vector<lookup_detail::FastAxis> fast_;  // one per axis (init)
+    bool has_dependent_ = false;                  // some axis depends on another
     // Per axis: the index of the axis its nodes depend on (critical), or -1.
     std::vector<int> dependency_;
     // Recombination (empty terms_: value = pieces_[0]).
@@ -208,6 +283,17 @@ class BoundTable {
 public:
     double eval(const Vec3& wi, const Vec3& wo) const;
 
+    // Batch forms: `count` directions as rows of 3 doubles (x, y, z) in wi
+    // and wo (u: rows of 2 numbers u1, u2); results into the output arrays,
+    // each element bit-identical to the scalar call on that row.  They
+    // allocate nothing and, like every const member, may run concurrently
+    // from several threads.  sample_many writes wo as rows of 3; any of
+    // pdf, value and weight may be null.
+    void eval_many(const double* wi, const double* wo, std::size_t count, double* out) const;
+    void pdf_many(const double* wi, const double* wo, std::size_t count, double* out) const;
+    void sample_many(const double* wi, const double* u, std::size_t count, double* wo,
+                     double* pdf, double* value = nullptr, double* weight = nullptr) const;
+
     // Importance sampling of wo given wi (u1, u2 uniform in [0, 1)).  For each
     // theta_i node a piecewise-constant density over the theta_o x phi_d
     // cells proportional to the cell integral of f |cos theta_o|; between
@@ -225,32 +311,51 @@ private:
     friend class LookupTable;
     BoundTable() = default;
 
-    struct NodeDist {
-        std::vector<double> cell_prob;  // (no-1)*(np-1) cell probabilities, row = theta_o cell
-        std::vector<double> cdf_o;      // marginal CDF over theta_o cells, size no
-        std::vector<double> cdf_phi;    // per theta_o cell conditional CDF, (no-1)*np
+    // What a lookup of wi needs, computed once per wi (sample(), the batch
+    // calls).
+    struct Incident {
+        double x = 0, y = 0;   // wi's tangent components (unnormalised)
+        double xi = 0;         // theta_i (or mu_i) in axis units
+        std::size_t j0 = 0;    // sampling: theta_i node and the weight of node j0 + 1
+        double w1 = 0;
     };
 
+    // How the bound values are stored and interpolated, chosen once by
+    // bind(); eval_angles() dispatches on it.  A second representation of
+    // the angular table gets its own enumerator here.
+    enum class Kernel : std::uint8_t { GridLinear, GridLinearNonFinite, GridCubic };
+
     double eval_angles(double x_i, double x_o, double phi) const;
-    void angles(const Vec3& wi, const Vec3& wo, double& x_i, double& x_o,
-                double& phi, double& phi_i) const;
+    Incident incident(const Vec3& wi) const;          // without the node mixture
+    Incident incident_sampled(const Vec3& wi) const;  // with it (sampling only)
+    // At an outgoing direction given by mo = cos(theta_o) and d = phi_o - phi_i.
+    double eval_from(const Incident& in, double mo, double d) const;
+    double pdf_from(const Incident& in, double mo, double d) const;
+    SampleResult sample_from(const Incident& in, double u1, double u2) const;
     void build_sampling();
     void node_mixture(double x_i, std::size_t& j0, double& w1) const;
-    double node_pdf(std::size_t j, double mu_o, double phi) const;
 
     std::string name_;         // table name, for messages
     std::vector<Axis> axes_;   // [theta_i|mu_i, theta_o|mu_o, phi_d (synthetic if absent)]
     bool has_phi_ = false;
     std::vector<double> values_;  // ni * no * np (np = 1 without phi axis)
+    lookup_detail::FastAxis fast_[3];
+    std::size_t stride_i_ = 0, stride_o_ = 0;  // no * np, np
+    Kernel kernel_ = Kernel::GridLinear;
     LookupTable::AngleLayout layout_;
     Interpolation interp_ = Interpolation::Linear;
     OutOfRange mode_ = OutOfRange::Clamp;
-    // Sampling.
+    // Sampling, one block per theta_i node j, cells row-major (theta_o cell,
+    // phi_d cell): cell probabilities, their densities (probability / solid
+    // angle, 1/sr), the marginal CDF over theta_o cells (no entries per node)
+    // and the conditional CDFs over phi_d cells (np entries per theta_o cell).
     std::string sampling_error_;
     std::vector<double> mu_nodes_o_;  // cos(theta_o) at theta_o nodes
     std::vector<double> phi_nodes_;   // phi_d nodes in radians (fold domain)
+    lookup_detail::NodeIndex mu_index_;   // ascending: mu_nodes_o_, negated on a theta axis
+    lookup_detail::NodeIndex phi_index_;  // phi_nodes_
     double phi_mult_ = 2;             // 2 when phi_d is folded (mirror), else 1
-    std::vector<NodeDist> dists_;     // one per theta_i node
+    std::vector<double> cell_prob_, cell_density_, cdf_o_, cdf_phi_;
 };
 
 }  // namespace brdftab

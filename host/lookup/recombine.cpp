@@ -106,7 +106,7 @@ void LookupTable::resolve_param(double& p, OutOfRange mode) const {
     }
 }
 
-double LookupTable::combine(const std::vector<double>& pv, double p) const {
+double LookupTable::combine(const double* pv, double p) const {
     if (terms_.empty()) return pv[0];
     double sum = 0;
     for (const auto& t : terms_) sum += polynomial_at(t.coeffs, p) * pv[t.piece];

@@ -49,11 +49,15 @@ void BoundTable::build_sampling() {
 
     const double g = 0.5 / std::sqrt(3.0);  // 2-point Gauss abscissae at mid +- g * width
     const std::size_t co = no - 1, cp = np - 1;
-    dists_.resize(ni);
+    cell_prob_.assign(ni * co * cp, 0.0);
+    cell_density_.assign(ni * co * cp, 0.0);
+    cdf_o_.assign(ni * no, 0.0);
+    cdf_phi_.assign(ni * co * np, 0.0);
     for (std::size_t j = 0; j < ni; ++j) {
         const double xi = axes_[0].values[j];
-        NodeDist& nd = dists_[j];
-        nd.cell_prob.assign(co * cp, 0.0);
+        double* cell_prob = cell_prob_.data() + j * co * cp;
+        double* cdf_o = cdf_o_.data() + j * no;
+        double* cdf_phi = cdf_phi_.data() + j * co * np;
         double total = 0;
         for (std::size_t k = 0; k < co; ++k) {
             const double ma = std::min(mu_nodes_o_[k], mu_nodes_o_[k + 1]);
@@ -95,7 +99,7 @@ void BoundTable::build_sampling() {
                                               values_[(j * no + k + dk) * np + l + dl]);
                     w = 1e-3 * corner * mean_abs_mu * (mb - ma) * (pb - pa);
                 }
-                nd.cell_prob[k * cp + l] = w;
+                cell_prob[k * cp + l] = w;
                 total += w;
             }
         }
@@ -107,27 +111,40 @@ void BoundTable::build_sampling() {
                 for (std::size_t l = 0; l < cp; ++l) {
                     const double w = std::fabs(mu_nodes_o_[k + 1] - mu_nodes_o_[k]) *
                                      (phi_nodes_[l + 1] - phi_nodes_[l]);
-                    nd.cell_prob[k * cp + l] = w;
+                    cell_prob[k * cp + l] = w;
                     total += w;
                 }
         }
-        for (auto& w : nd.cell_prob) w /= total;
-        nd.cdf_o.assign(no, 0.0);
-        nd.cdf_phi.assign(co * np, 0.0);
+        for (std::size_t c = 0; c < co * cp; ++c) cell_prob[c] /= total;
         for (std::size_t k = 0; k < co; ++k) {
             double row = 0;
             for (std::size_t l = 0; l < cp; ++l) {
-                row += nd.cell_prob[k * cp + l];
-                nd.cdf_phi[k * np + l + 1] = row;
+                row += cell_prob[k * cp + l];
+                cdf_phi[k * np + l + 1] = row;
             }
             for (std::size_t l = 1; l <= cp; ++l)
-                nd.cdf_phi[k * np + l] = row > 0 ? nd.cdf_phi[k * np + l] / row : double(l) / cp;
-            nd.cdf_phi[k * np + cp] = 1.0;
-            nd.cdf_o[k + 1] = nd.cdf_o[k] + row;
+                cdf_phi[k * np + l] = row > 0 ? cdf_phi[k * np + l] / row : double(l) / cp;
+            cdf_phi[k * np + cp] = 1.0;
+            cdf_o[k + 1] = cdf_o[k] + row;
         }
-        for (std::size_t k = 1; k < no; ++k) nd.cdf_o[k] /= nd.cdf_o[co];
-        nd.cdf_o[co] = 1.0;
+        for (std::size_t k = 1; k < no; ++k) cdf_o[k] /= cdf_o[co];
+        cdf_o[co] = 1.0;
+        // Densities w.r.t. solid angle: the cell probability over its area
+        // (phi_mult_: a folded cell stands for both signs of phi_d).
+        for (std::size_t k = 0; k < co; ++k)
+            for (std::size_t l = 0; l < cp; ++l) {
+                const double area = phi_mult_ * std::fabs(mu_nodes_o_[k + 1] - mu_nodes_o_[k]) *
+                                    (phi_nodes_[l + 1] - phi_nodes_[l]);
+                cell_density_[(j * co + k) * cp + l] = cell_prob[k * cp + l] / area;
+            }
     }
+    // Cell lookups for pdf(): ascending node lists (mu negated on a theta
+    // axis, where it decreases along the axis).
+    std::vector<double> mu_sorted(mu_nodes_o_);
+    if (!layout_.mu_o)
+        for (double& m : mu_sorted) m = -m;
+    mu_index_.build(std::move(mu_sorted));
+    phi_index_.build(phi_nodes_);
 }
 
 namespace {
@@ -146,75 +163,69 @@ std::size_t pick(const double* cdf, std::size_t cells, double& u) {
 }  // namespace
 
 void BoundTable::node_mixture(double xi, std::size_t& j0, double& w1) const {
-    const Axis& a = axes_[0];
-    xi = resolve(a, xi, mode_, name_);
-    AxisWeights w;
-    axis_weights(a, xi, Interpolation::Linear, w);
-    j0 = w.idx[0];
-    w1 = w.n > 1 ? w.w[1] : 0.0;
+    xi = resolve_fast(fast_[0], axes_[0], xi, mode_, name_);
+    double s;
+    j0 = linear_cell(fast_[0], unwarp_fast(fast_[0], axes_[0], xi), s);
+    w1 = s;
 }
 
-double BoundTable::node_pdf(std::size_t j, double mu, double phi) const {
+BoundTable::Incident BoundTable::incident_sampled(const Vec3& wi) const {
+    Incident in = incident(wi);
+    node_mixture(in.xi, in.j0, in.w1);
+    return in;
+}
+
+// The mixture of the two theta_i nodes' piecewise-constant densities at wo.
+double BoundTable::pdf_from(const Incident& in, double mu, double d) const {
+    const double phi = phi_coordinate(layout_, axes_[2].min, d) * layout_.scale_phi;
+    // theta_o cell: mu outside the nodes' range has density 0.
     const std::size_t no = mu_nodes_o_.size(), np = phi_nodes_.size();
-    const NodeDist& nd = dists_[j];
-    // theta_o cell: nodes are ordered by axis value; mu decreases along a theta axis.
-    const bool desc = !layout_.mu_o;
-    const double lo = desc ? mu_nodes_o_[no - 1] : mu_nodes_o_[0];
-    const double hi = desc ? mu_nodes_o_[0] : mu_nodes_o_[no - 1];
+    const double lo = std::min(mu_nodes_o_[0], mu_nodes_o_[no - 1]);
+    const double hi = std::max(mu_nodes_o_[0], mu_nodes_o_[no - 1]);
     if (mu < lo || mu > hi) return 0;
-    std::size_t k;
-    if (desc)
-        k = std::size_t(std::upper_bound(mu_nodes_o_.begin(), mu_nodes_o_.end(), mu,
-                                         [](double a, double b) { return a > b; }) -
-                        mu_nodes_o_.begin());
-    else
-        k = std::size_t(std::upper_bound(mu_nodes_o_.begin(), mu_nodes_o_.end(), mu) -
-                        mu_nodes_o_.begin());
-    k = std::min(std::max<std::size_t>(k, 1), no - 1) - 1;
-    std::size_t l = std::size_t(std::upper_bound(phi_nodes_.begin(), phi_nodes_.end(), phi) -
-                                phi_nodes_.begin());
-    l = std::min(std::max<std::size_t>(l, 1), np - 1) - 1;
-    const double area = phi_mult_ * std::fabs(mu_nodes_o_[k + 1] - mu_nodes_o_[k]) *
-                        (phi_nodes_[l + 1] - phi_nodes_[l]);
-    return nd.cell_prob[k * (np - 1) + l] / area;
+    const std::size_t k = mu_index_.cell(layout_.mu_o ? mu : -mu);
+    const std::size_t l = phi_index_.cell(phi);
+    const std::size_t cells = (no - 1) * (np - 1), c = k * (np - 1) + l;
+    const double w1 = in.w1;
+    double p = 0;
+    if (w1 < 1) p += (1 - w1) * cell_density_[in.j0 * cells + c];
+    if (w1 > 0) p += w1 * cell_density_[(in.j0 + 1) * cells + c];
+    return p;
 }
 
 double BoundTable::pdf(const Vec3& wi, const Vec3& wo) const {
     if (!can_sample()) throw Error(sampling_error_);
-    double xi, xo, xphi, phi_i;
-    direction_coords(layout_, &axes_[2], wi, wo, xi, xo, xphi, phi_i);
-    const double mu = layout_.mu_o ? xo : std::cos(xo * layout_.scale_o);
-    const double phi = xphi * layout_.scale_phi;
-    std::size_t j0;
-    double w1;
-    node_mixture(xi, j0, w1);
-    double p = 0;
-    if (w1 < 1) p += (1 - w1) * node_pdf(j0, mu, phi);
-    if (w1 > 0) p += w1 * node_pdf(j0 + 1, mu, phi);
-    return p;
+    const double mo = unit_z(wo);
+    const Incident in = incident_sampled(wi);
+    return pdf_from(in, mo, phi_difference(in.x, in.y, wo.x, wo.y));
 }
 
-SampleResult BoundTable::sample(const Vec3& wi, double u1, double u2) const {
+void BoundTable::pdf_many(const double* wi, const double* wo, std::size_t count,
+                          double* out) const {
     if (!can_sample()) throw Error(sampling_error_);
-    double xi, xo, xphi, phi_i;
-    direction_coords(layout_, &axes_[2], wi, Vec3{0, 0, 1}, xi, xo, xphi, phi_i);
-    std::size_t j0;
-    double w1;
-    node_mixture(xi, j0, w1);
+    for (std::size_t k = 0; k < count; ++k) {
+        const double* a = wi + 3 * k;
+        const double* b = wo + 3 * k;
+        out[k] = pdf({a[0], a[1], a[2]}, {b[0], b[1], b[2]});
+    }
+}
+
+SampleResult BoundTable::sample_from(const Incident& in, double u1, double u2) const {
     // Choose the theta_i node with probability equal to its interpolation
     // weight, re-using u1.
-    std::size_t j = j0;
+    const double w1 = in.w1;
+    std::size_t j = in.j0;
     u1 = std::min(std::max(u1, 0.0), 1.0);
     if (w1 > 0 && u1 < w1) {
-        j = j0 + 1;
+        j = in.j0 + 1;
         u1 = u1 / w1;
     } else if (w1 < 1) {
         u1 = (u1 - w1) / (1 - w1);
     }
-    const NodeDist& nd = dists_[j];
-    const std::size_t co = mu_nodes_o_.size() - 1, cp = phi_nodes_.size() - 1;
-    const std::size_t k = pick(nd.cdf_o.data(), co, u1);
-    const std::size_t l = pick(nd.cdf_phi.data() + k * (cp + 1), cp, u2);
+    const std::size_t no = mu_nodes_o_.size(), np = phi_nodes_.size();
+    const std::size_t co = no - 1, cp = np - 1;
+    const std::size_t k = pick(cdf_o_.data() + j * no, co, u1);
+    const std::size_t l = pick(cdf_phi_.data() + (j * co + k) * np, cp, u2);
     double sign = 1;
     if (phi_mult_ == 2) {  // mirror: phi_d and -phi_d equally likely
         if (u2 < 0.5) {
@@ -227,14 +238,45 @@ SampleResult BoundTable::sample(const Vec3& wi, double u1, double u2) const {
     // Uniform in (cos theta, phi) inside the cell: constant density in solid angle.
     const double mu = mu_nodes_o_[k] + u1 * (mu_nodes_o_[k + 1] - mu_nodes_o_[k]);
     const double pd = phi_nodes_[l] + u2 * (phi_nodes_[l + 1] - phi_nodes_[l]);
-    const double phi_o = phi_i + sign * pd;
     const double st = std::sqrt(std::max(0.0, 1 - mu * mu));
-    SampleResult r;
-    r.wo = {st * std::cos(phi_o), st * std::sin(phi_o), mu};
-    r.pdf = pdf(wi, r.wo);
-    r.value = eval(wi, r.wo);
-    r.weight = r.pdf > 0 ? r.value * std::fabs(mu) / r.pdf : 0.0;
-    return r;
+    // phi_o = phi_i + sign * pd, by rotating wi's azimuth direction (1, 0 on
+    // the pole) by sign * pd.
+    double ci = 1, si = 0;
+    const double r = std::sqrt(in.x * in.x + in.y * in.y);
+    if (r > 0) {
+        ci = in.x / r;
+        si = in.y / r;
+    }
+    const double cp_ = std::cos(pd), sp = sign * std::sin(pd);
+    SampleResult res;
+    res.wo = {st * (ci * cp_ - si * sp), st * (si * cp_ + ci * sp), mu};
+    // pdf() and eval() at wo, sharing its cosine and azimuth difference.
+    const double mo = unit_z(res.wo), d = phi_difference(in.x, in.y, res.wo.x, res.wo.y);
+    res.pdf = pdf_from(in, mo, d);
+    res.value = eval_from(in, mo, d);
+    res.weight = res.pdf > 0 ? res.value * std::fabs(mu) / res.pdf : 0.0;
+    return res;
+}
+
+SampleResult BoundTable::sample(const Vec3& wi, double u1, double u2) const {
+    if (!can_sample()) throw Error(sampling_error_);
+    return sample_from(incident_sampled(wi), u1, u2);
+}
+
+void BoundTable::sample_many(const double* wi, const double* u, std::size_t count, double* wo,
+                             double* pdf, double* value, double* weight) const {
+    if (!can_sample()) throw Error(sampling_error_);
+    for (std::size_t k = 0; k < count; ++k) {
+        const double* a = wi + 3 * k;
+        const SampleResult r = sample_from(incident_sampled({a[0], a[1], a[2]}), u[2 * k],
+                                           u[2 * k + 1]);
+        wo[3 * k] = r.wo.x;
+        wo[3 * k + 1] = r.wo.y;
+        wo[3 * k + 2] = r.wo.z;
+        if (pdf) pdf[k] = r.pdf;
+        if (value) value[k] = r.value;
+        if (weight) weight[k] = r.weight;
+    }
 }
 
 }  // namespace brdftab
