@@ -1,7 +1,7 @@
 // bench_estimator_loop — does PoCL vectorise the estimator's sample loop?
 //
-// Builds the real entry point (BT_DEFINE_ESTIMATE_KERNEL of
-// kernels/common/estimator.h, with the real samplers) around a synthetic,
+// Builds the real entry point (kernels/common/estimate.cl, with the real
+// samplers) around a synthetic,
 // trigonometry-free sample function (two uniforms, a GGX-like density:
 // additions, multiplications, divisions, one sqrt) and times it in several
 // variants: specialised or generic, the barrier in the sample loop on or off,
@@ -37,7 +37,7 @@ BT_INLINE REAL synthetic_sample(const REAL* p, const int* o, int quantity, const
     if (quantity == 1) w += R(0.5);
     return w;
 }
-BT_DEFINE_ESTIMATE_KERNEL(bt_estimate, synthetic_sample)
+#define bt_hook_sample synthetic_sample
 )CLC";
 
 double cpu_seconds() {
@@ -99,6 +99,7 @@ int main() {
             source += "#undef BT_INLINE\n#define BT_INLINE static inline __attribute__((always_inline))\n";
         source += load_kernel_source("common/estimator.h");
         source += kSynthetic;
+        source += load_kernel_source("common/estimate.cl");
         const unsigned method = v.name.rfind("mc", 0) == 0 ? 0u : 1u;
         cl::Program program = rt.build_program(
             source, "-cl-std=CL1.2 -D BT_HAS_FP64=1" + v.options);

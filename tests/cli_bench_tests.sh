@@ -37,6 +37,26 @@ for c in r["cases"]:
         assert c[b]["backend"], b
     assert c["unit"] == ("cells/s" if c["method"] == "quadrature" else "evals/s")
     assert abs(c["device_over_host"] - c["device"]["rate"] / c["host"]["rate"]) < 1e-9 * c["device_over_host"]
+# Instruction sets: the host CPU's against /proc/cpuinfo's flags; efficiency
+# is device / serial host over cores x double lanes.
+isa = r["machine"]["instruction_sets"]
+for key in ("host_cpu", "host_build", "device", "device_target", "device_compute_units",
+            "device_double_lanes", "device_preferred_double_lanes", "ideal_lanes"):
+    assert key in isa, key
+if os.path.exists("/proc/cpuinfo"):
+    flags = set()
+    for line in open("/proc/cpuinfo"):
+        if line.startswith("flags"):
+            flags = set(line.split(":", 1)[1].split())
+            break
+    if flags:
+        want_isa = ("AVX-512" if "avx512f" in flags else "AVX2" if "avx2" in flags
+                    else "AVX" if "avx" in flags else "SSE2")
+        assert isa["host_cpu"] == want_isa, (isa["host_cpu"], want_isa)
+assert isa["ideal_lanes"] == isa["device_compute_units"] * isa["device_double_lanes"]
+assert isa["device_double_lanes"] in (1, 2, 4, 8, 16), isa
+for c in r["cases"]:
+    assert abs(c["efficiency"] - c["device_over_host"] / isa["ideal_lanes"]) <= 1e-9 * c["efficiency"]
 bsdf = [c for c in r["cases"] if c["quantity"] == "bsdf"][0]
 assert bsdf["device_gflops_estimate"] > 0 and bsdf["flops_per_evaluation_estimate"] > 0
 for key in ("device_over_host_min", "device_over_host_median", "device_over_threads_min",

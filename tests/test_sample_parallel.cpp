@@ -1,5 +1,5 @@
 // Sample-parallel launches (kernels/common/estimator.h,
-// BT_DEFINE_SAMPLE_PARALLEL_KERNELS; host/engine/engine.cpp): a batch's
+// kernels/common/sample_parallel.cl; host/engine/engine.cpp): a batch's
 // samples as work items of one kernel, merged by a second, must give the very
 // bits of the usual kernel, whose work item loops over the samples itself.
 // The oracle is that usual kernel (an independent code path: one loop,
@@ -194,14 +194,14 @@ TEST_CASE("fixed-step searches: without the redo kernel, unfinished samples show
     fs::remove_all(dir);
     fs::copy(fs::path(BT_SOURCE_DIR) / "kernels", dir, fs::copy_options::recursive);
     {
-        const fs::path estimator = dir / "common" / "estimator.h";
-        std::ifstream in(estimator);
+        const fs::path kernels = dir / "common" / "sample_parallel.cl";
+        std::ifstream in(kernels);
         std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-        const std::string guard = "BT_SAMPLE_LOAD_((redo) && scratch[gid] == scratch[gid])";
+        const std::string guard = "if (scratch[gid] == scratch[gid]) return;";
         const auto at = text.find(guard);
         REQUIRE(at != std::string::npos);
-        text.replace(at, guard.size(), "BT_SAMPLE_LOAD_(redo)");
-        std::ofstream(estimator) << text;
+        text.replace(at, guard.size(), "return;");
+        std::ofstream(kernels) << text;
     }
     auto device = make_backend("", Precision::Double, dir.string());
     const ModelInfo& m = find_model("interfaced-lambertian");

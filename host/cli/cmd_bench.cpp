@@ -1,6 +1,7 @@
 // bench: throughput of the OpenCL device, the serial host path and the
 // threaded host path on every model's main quantities (host/engine/bench.h),
-// the device's peak double FMA rate, issue #12's targets; optionally the time
+// the device's peak double FMA rate, the instruction sets and each case's
+// efficiency against the ideal, issue #12's targets; optionally the time
 // to generate each preset.
 #include <unistd.h>
 
@@ -48,7 +49,8 @@ nlohmann::json report_json(const BenchReport& r, const BenchSettings& s) {
                             {"host_threads", timing_json(c.host_threads)},
                             {"device_over_host", c.device_over_host},
                             {"device_over_threads", c.device_over_threads},
-                            {"threads_over_host", c.threads_over_host}};
+                            {"threads_over_host", c.threads_over_host},
+                            {"efficiency", c.efficiency}};
         if (c.spec.flops_estimate > 0) {
             j["flops_per_evaluation_estimate"] = c.spec.flops_estimate;
             j["device_gflops_estimate"] = c.device_gflops;
@@ -71,7 +73,16 @@ nlohmann::json report_json(const BenchReport& r, const BenchSettings& s) {
     nlohmann::json machine = {{"device", r.device_name},
                               {"precision", r.precision},
                               {"host_threads", r.host_threads},
-                              {"peak_fma_gflops", r.peak.gflops}};
+                              {"peak_fma_gflops", r.peak.gflops},
+                              {"instruction_sets",
+                               {{"host_cpu", r.isa.host_cpu},
+                                {"host_build", r.isa.host_build},
+                                {"device", r.isa.device},
+                                {"device_target", r.isa.device_target},
+                                {"device_compute_units", r.isa.device_compute_units},
+                                {"device_double_lanes", r.isa.device_double_lanes},
+                                {"device_preferred_double_lanes", r.isa.device_preferred_double_lanes},
+                                {"ideal_lanes", r.isa.ideal_lanes()}}}};
     // 1-minute load averages around the cases (absent where unknown).
     if (r.load_average_start >= 0) machine["load_average_start"] = r.load_average_start;
     if (r.load_average_end >= 0) machine["load_average_end"] = r.load_average_end;
@@ -92,6 +103,15 @@ std::string ratio_text(double x) {
 void print_report(const BenchReport& r) {
     std::printf("device: %s (%s); host: serial C++ (double); host-threads: %u threads\n",
                 r.device_name.c_str(), r.precision.c_str(), r.host_threads);
+    const InstructionSets& isa = r.isa;
+    std::printf("instruction sets: host CPU %s, host code built for %s; device %s", isa.host_cpu.c_str(),
+                isa.host_build.c_str(), isa.device.c_str());
+    if (!isa.device_target.empty()) std::printf(" (PoCL target %s)", isa.device_target.c_str());
+    if (isa.ideal_lanes())
+        std::printf(", %u compute units x %u double lanes (preferred %u) = ideal %ux the serial host",
+                    isa.device_compute_units, isa.device_double_lanes, isa.device_preferred_double_lanes,
+                    isa.ideal_lanes());
+    std::printf("\n");
     if (r.peak.gflops > 0)
         std::printf("peak double FMA rate of the device (double8 FMA chains): %.1f GFLOP/s\n",
                     r.peak.gflops);
@@ -99,17 +119,23 @@ void print_report(const BenchReport& r) {
         std::printf("load average (1 min): %.2f at the start, %.2f at the end (%u logical CPUs; a "
                     "higher load slows the wall-time figures)\n",
                     r.load_average_start, r.load_average_end, r.host_threads);
-    std::printf("\n%-22s %-9s %-11s %8s %9s %10s %10s %10s %9s %9s %9s\n", "model", "quantity",
+    std::printf("\n%-22s %-9s %-11s %8s %9s %10s %10s %10s %9s %9s %9s %7s\n", "model", "quantity",
                 "method", "unit", "cells", "device", "host", "threads", "dev/host",
-                "dev/thr", "thr/host");
-    for (const BenchCaseResult& c : r.cases)
-        std::printf("%-22s %-9s %-11s %8s %9zu %10s %10s %10s %9s %9s %9s\n",
+                "dev/thr", "thr/host", "ideal");
+    for (const BenchCaseResult& c : r.cases) {
+        char eff[16] = "-";
+        if (isa.ideal_lanes()) std::snprintf(eff, sizeof eff, "%.1f%%", 100 * c.efficiency);
+        std::printf("%-22s %-9s %-11s %8s %9zu %10s %10s %10s %9s %9s %9s %7s\n",
                     c.spec.model.c_str(), c.spec.quantity.c_str(), c.method.c_str(),
                     c.unit.c_str(), c.cells, format_count(c.device.rate).c_str(),
                     format_count(c.host.rate).c_str(), format_count(c.host_threads.rate).c_str(),
                     ratio_text(c.device_over_host).c_str(),
                     ratio_text(c.device_over_threads).c_str(),
-                    ratio_text(c.threads_over_host).c_str());
+                    ratio_text(c.threads_over_host).c_str(), eff);
+    }
+    if (isa.ideal_lanes())
+        std::printf("(ideal: device / serial host as a fraction of %u = compute units x double lanes)\n",
+                    isa.ideal_lanes());
     std::printf("\nper CPU-second of the process (all its threads; robust on a busy machine):\n");
     std::printf("%-22s %-9s %10s %10s %10s %9s %9s\n", "model", "quantity", "device", "host",
                 "threads", "dev/host", "dev/thr");
@@ -228,6 +254,8 @@ void register_bench(CLI::App& app) {
             if (!st.json) std::cerr << "bench: " << c.model << " " << c.quantity << "\n";
         });
         report.peak = peak;
+        report.isa = describe_instruction_sets(st.compute.device, opencl);
+        set_efficiencies(report);
         if (st.json)
             std::cout << report_json(report, s).dump(2) << "\n";
         else

@@ -189,7 +189,29 @@ void print_verification(const PlanVerification& v, const std::vector<TablePilot>
     }
 }
 
-void run_plan(const PlanArgs& pa) {
+// The state one `plan` run builds up step by step (run_plan).
+struct PlanState {
+    PlanTarget target;
+    const char* measure = "relative";
+    std::vector<std::size_t> indices;            // the planned tables
+    std::vector<RecombinedGroup> groups;
+    std::unique_ptr<Backend> backend;
+    double last_shown = 0;                       // progress lines: the last one's time
+    std::vector<TablePilot> pilots;
+    std::vector<Candidate> all, front;
+    std::optional<std::size_t> choice;           // in front
+    std::optional<Candidate> written;            // --as-written
+    std::string written_why;
+    std::optional<Candidate> placed;             // --place-nodes
+    std::vector<PlacedAxis> placements;
+    std::optional<PlanVerification> verification;
+    std::vector<std::string> verify_notes;
+    int verify_corrections = 0;
+    std::string text;                            // the spec written by -o
+};
+
+// The target and the options' consistency (bad input: exit code 2).
+PlanTarget plan_target(const PlanArgs& pa) {
     PlanTarget target;
     target.absolute = pa.absolute;
     target.accuracy = pa.accuracy;
@@ -209,7 +231,11 @@ void run_plan(const PlanArgs& pa) {
                          "or --as-written");
     if (!(pa.verify_limit > 0 && pa.verify_limit <= 1))
         throw InputError("--verify-limit must be a fraction in (0, 1], got " + number_text(pa.verify_limit, 6));
-    const Spec spec = parse_spec_file(pa.spec);
+    return target;
+}
+
+// The tables to plan (--table), checked against the spec.
+std::vector<std::size_t> planned_tables(const PlanArgs& pa, const Spec& spec) {
     if (!spec.errors.empty() || !spec.inverted.empty())
         throw InputError(pa.spec + ": plan does not handle [[errors]] or [[inverted]] "
                          "tables yet (their tables must share nodes); plan a copy of the spec without them");
@@ -224,60 +250,36 @@ void run_plan(const PlanArgs& pa) {
     if (!pa.table.empty() && !pa.output.empty() && spec.tables.size() > 1)
         throw InputError("-o with --table: the written spec would keep the other tables unplanned; "
                          "plan the whole spec, or a copy with that table only");
+    return indices;
+}
 
-    const std::vector<RecombinedGroup> groups = recombined_groups(spec, indices);  // checked before the pilots
-    const auto init_start = std::chrono::steady_clock::now();
-    auto backend = pa.compute.make_backend();
-    PilotOptions po;
-    po.abs_floor = pa.abs_floor;
-    // What a generate process pays before its first table (device set-up),
-    // and its kernel start-up from PoCL's disk cache (host/plan/plan.h).
-    po.process_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - init_start).count();
-    po.fresh_backend = [&pa] { return pa.compute.make_backend(); };
-    // Progress only for stages that last: a line every 2 s after the first 2 s.
-    double last_shown = 0;
-    const PilotProgressFn progress = [&](const std::string& stage, const Progress& p) {
-        if (pa.quiet || p.elapsed_seconds < 2 || p.elapsed_seconds - last_shown < 2) return;
-        last_shown = p.elapsed_seconds;
-        std::cerr << "plan: " << stage << ": " << static_cast<int>(100 * p.fraction) << "% "
-                  << format_seconds(p.elapsed_seconds) << "\n";
-    };
-    std::vector<TablePilot> pilots;
-    for (std::size_t i : indices) {
-        last_shown = 0;
-        pilots.push_back(run_pilot(spec, i, *backend, po, progress));
+// Places the chosen plan's nodes (--place-nodes).
+void place(const PlanArgs& pa, PlanState& st) {
+    st.placed.reset();
+    st.placements.clear();
+    if (st.choice && pa.place_nodes) {
+        st.placed = st.front[*st.choice];
+        st.placements = place_plan_nodes(st.pilots, *st.placed, st.target);
     }
-    // [[recombined]] terms share one node layout (docs/planning.md, "Recombined tables").
-    std::vector<Candidate> all = make_recombined_candidates(pilots, target, groups);
-    std::vector<Candidate> front = pareto_front(all);
-    std::optional<std::size_t> choice = choose_plan(front, target);
-    const char* measure = target.absolute ? "absolute" : "relative";
-    std::optional<Candidate> written;
-    std::string written_why;
-    if (pa.as_written) written = predict_as_written(spec, pilots, target, groups, written_why);
+}
 
-    // --place-nodes: explicit nodes equidistributing the pilot's error.
-    std::optional<Candidate> placed;
-    std::vector<PlacedAxis> placements;
-    auto place = [&] {
-        placed.reset();
-        placements.clear();
-        if (choice && pa.place_nodes) {
-            placed = front[*choice];
-            placements = place_plan_nodes(pilots, *placed, target);
-        }
-    };
-    place();
-
+void verify_plans(const PlanArgs& pa, const Spec& spec, PlanState& st) {
+    PlanTarget& target = st.target;
+    std::vector<TablePilot>& pilots = st.pilots;
+    const std::vector<std::size_t>& indices = st.indices;
+    std::optional<PlanVerification>& verification = st.verification;
+    std::vector<std::string>& verify_notes = st.verify_notes;
+    int& verify_corrections = st.verify_corrections;
+    std::optional<std::size_t>& choice = st.choice;
+    double& last_shown = st.last_shown;
+    const std::optional<Candidate>& written = st.written;
+    const std::optional<Candidate>& placed = st.placed;
     // Verification (docs/planning.md "Verified plans"): the plan's tables
     // measured by sparse certificates, on the cells their probes touch,
     // computed as `generate` would.  With --accuracy a missed target corrects
     // the fitted model (correct_error_model, as generate --accuracy refines)
     // and the plan is chosen again, at most kVerifyRounds times.
     constexpr int kVerifyRounds = 2;
-    std::optional<PlanVerification> verification;
-    std::vector<std::string> verify_notes;
-    int verify_corrections = 0;
     const ProgressFn verify_progress = [&](const Progress& p) {
         if (pa.quiet || p.elapsed_seconds < 2 || p.elapsed_seconds - last_shown < 2) return;
         last_shown = p.elapsed_seconds;
@@ -289,12 +291,12 @@ void run_plan(const PlanArgs& pa) {
         SparseCertifyOptions so;
         so.max_touched_fraction = pa.verify_limit;
         so.cheap_table_seconds = 5.0;  // docs/planning.md "Verified plans"
-        return verify_plan(planned, indices, c, pilots, *backend, pa.compute.apply(planned.integration), target,
+        return verify_plan(planned, indices, c, pilots, *st.backend, pa.compute.apply(planned.integration), target,
                            pa.abs_floor, so, verify_progress);
     };
     if (!pa.no_verify && pa.as_written && written) verification = verify(*written, spec);
     while (!pa.no_verify && choice) {
-        const Candidate& c = placed ? *placed : front[*choice];
+        const Candidate& c = placed ? *placed : st.front[*choice];
         const Spec planned = parse_spec_string(planned_spec_text(spec, indices, c, {}), pa.spec);
         verification = verify(c, planned);
         if (!target.accuracy || verification->verified == 0 || verification->error_max <= *target.accuracy) break;
@@ -307,10 +309,10 @@ void run_plan(const PlanArgs& pa) {
         for (const SparseCertificate& t : verification->tables) certs.push_back(t.verified ? &t.certificate : nullptr);
         correct_error_model(pilots, target, c, certs, [&](const std::string& m) { verify_notes.push_back(m); });
         ++verify_corrections;
-        all = make_recombined_candidates(pilots, target, groups);
-        front = pareto_front(all);
-        choice = choose_plan(front, target);
-        place();
+        st.all = make_recombined_candidates(pilots, target, st.groups);
+        st.front = pareto_front(st.all);
+        choice = choose_plan(st.front, target);
+        place(pa, st);
         if (!choice) {
             verification.reset();
             verify_notes.push_back("with the fitted model corrected by the verification no candidate is predicted to reach "
@@ -322,202 +324,277 @@ void run_plan(const PlanArgs& pa) {
         verify_notes.push_back("the plan was chosen again after " + std::to_string(verify_corrections) +
                                " correction(s) of the fitted model; its verification reaches --accuracy " +
                                sci(*target.accuracy));
+}
+
+// The planned spec that -o writes (empty without a choice or -o).
+std::string planned_output_text(const PlanArgs& pa, const Spec& spec, const PlanState& st) {
     std::string text;
-    if (choice && !pa.output.empty()) {
-        const Candidate& c = placed ? *placed : front[*choice];
+    const Candidate* chosen = st.choice ? (st.placed ? &*st.placed : &st.front[*st.choice]) : nullptr;
+    if (chosen && !pa.output.empty()) {
+        const Candidate& c = *chosen;
         std::vector<std::string> header = {
             "Planned by `brdftab plan` from " + pa.spec + " for " +
-                (target.accuracy ? "max total " + std::string(measure) + " error <= " + sci(*target.accuracy)
-                                 : "a time budget of " + sci(*target.budget) + " s") +
-                " (" + pa.interpolation + " interpolation, device " + backend->device_name() + ").",
+                (st.target.accuracy ? "max total " + std::string(st.measure) + " error <= " + sci(*st.target.accuracy)
+                                    : "a time budget of " + sci(*st.target.budget) + " s") +
+                " (" + pa.interpolation + " interpolation, device " + st.backend->device_name() + ").",
             "Predicted: max total error " + sci(c.error_max) + ", RMS " + sci(c.error_rms) + " (" +
-                measure + "), engine time " + sci(c.seconds) + " s.  docs/planning.md"};
-        if (verification)
-            header.push_back("Verified: max total error " + sci(verification->error_max) + ", RMS " +
-                             sci(verification->error_rms) + " (sparse certificate of " +
-                             std::to_string(verification->verified) + " table(s)).");
-        text = planned_spec_text(spec, indices, c, header);
+                st.measure + "), engine time " + sci(c.seconds) + " s.  docs/planning.md"};
+        if (st.verification)
+            header.push_back("Verified: max total error " + sci(st.verification->error_max) + ", RMS " +
+                             sci(st.verification->error_rms) + " (sparse certificate of " +
+                             std::to_string(st.verification->verified) + " table(s)).");
+        text = planned_spec_text(spec, st.indices, c, header);
         parse_spec_string(text, pa.output);  // the written spec must parse (throws: nothing written)
     }
+    return text;
+}
 
-    if (pa.json) {
-        nlohmann::json j;
-        j["spec"] = pa.spec;
-        j["device"] = backend->device_name();
-        j["measure"] = measure;
-        j["interpolation"] = pa.interpolation;
-        if (target.accuracy) j["accuracy"] = *target.accuracy;
-        if (target.budget) j["budget"] = *target.budget;
-        j["pilots"] = nlohmann::json::array();
-        for (const TablePilot& p : pilots) j["pilots"].push_back(pilot_json(p));
-        j["plans"] = nlohmann::json::array();
-        for (const Candidate& c : front) j["plans"].push_back(candidate_json(c, pilots));
-        if (choice) {
-            j["choice"] = candidate_json(front[*choice], pilots);
-            j["choice"]["index"] = *choice;
-            j["predicted_error"] = front[*choice].error_max;
-            j["fitted_error"] = front[*choice].error_max;
-            j["predicted_seconds"] = front[*choice].seconds;
-            if (verification && !pa.as_written) {
-                j["choice"]["verification"] = verification_json(*verification);
-                apply_verification(j["choice"], *verification);
+void print_plan_json(const PlanArgs& pa, const PlanState& st) {
+    const PlanTarget& target = st.target;
+    const char* measure = st.measure;
+    const std::vector<TablePilot>& pilots = st.pilots;
+    const std::vector<Candidate>& front = st.front;
+    const std::optional<std::size_t>& choice = st.choice;
+    const std::optional<Candidate>& written = st.written;
+    const std::optional<PlanVerification>& verification = st.verification;
+    nlohmann::json j;
+    j["spec"] = pa.spec;
+    j["device"] = st.backend->device_name();
+    j["measure"] = measure;
+    j["interpolation"] = pa.interpolation;
+    if (target.accuracy) j["accuracy"] = *target.accuracy;
+    if (target.budget) j["budget"] = *target.budget;
+    j["pilots"] = nlohmann::json::array();
+    for (const TablePilot& p : pilots) j["pilots"].push_back(pilot_json(p));
+    j["plans"] = nlohmann::json::array();
+    for (const Candidate& c : front) j["plans"].push_back(candidate_json(c, pilots));
+    if (choice) {
+        j["choice"] = candidate_json(front[*choice], pilots);
+        j["choice"]["index"] = *choice;
+        j["predicted_error"] = front[*choice].error_max;
+        j["fitted_error"] = front[*choice].error_max;
+        j["predicted_seconds"] = front[*choice].seconds;
+        if (verification && !pa.as_written) {
+            j["choice"]["verification"] = verification_json(*verification);
+            apply_verification(j["choice"], *verification);
+            j["predicted_error"] = verification->error_max;
+        }
+        if (pa.place_nodes) {
+            j["placed_nodes"] = nlohmann::json::array();
+            for (const PlacedAxis& r : st.placements)
+                j["placed_nodes"].push_back({{"table", r.table}, {"axis", r.axis}, {"count", r.count},
+                                             {"predicted_max", r.predicted_max},
+                                             {"uniform_max", r.uniform_max},
+                                             {"spacing_max", r.spacing_max},
+                                             {"used", r.predicted_max < r.spacing_max}});
+        }
+    } else {
+        j["choice"] = nullptr;
+    }
+    if (pa.as_written) {
+        j["as_written"] = written ? candidate_json(*written, pilots) : nlohmann::json(st.written_why);
+        if (written) {
+            j["predicted_error"] = written->error_max;
+            j["fitted_error"] = written->error_max;
+            j["predicted_seconds"] = written->seconds;
+            if (verification) {
+                j["as_written"]["verification"] = verification_json(*verification);
+                apply_verification(j["as_written"], *verification);
                 j["predicted_error"] = verification->error_max;
             }
-            if (pa.place_nodes) {
-                j["placed_nodes"] = nlohmann::json::array();
-                for (const PlacedAxis& r : placements)
-                    j["placed_nodes"].push_back({{"table", r.table}, {"axis", r.axis}, {"count", r.count},
-                                                 {"predicted_max", r.predicted_max},
-                                                 {"uniform_max", r.uniform_max},
-                                                 {"spacing_max", r.spacing_max},
-                                                 {"used", r.predicted_max < r.spacing_max}});
-            }
-        } else {
-            j["choice"] = nullptr;
         }
-        if (pa.as_written) {
-            j["as_written"] = written ? candidate_json(*written, pilots) : nlohmann::json(written_why);
-            if (written) {
-                j["predicted_error"] = written->error_max;
-                j["fitted_error"] = written->error_max;
-                j["predicted_seconds"] = written->seconds;
-                if (verification) {
-                    j["as_written"]["verification"] = verification_json(*verification);
-                    apply_verification(j["as_written"], *verification);
-                    j["predicted_error"] = verification->error_max;
-                }
-            }
-        }
-        j["verified"] = verification.has_value() && verification->verified > 0;
-        j["verification_seconds"] = verification ? verification->seconds : 0.0;
-        j["verification_corrections"] = verify_corrections;
-        j["verification_notes"] = verify_notes;
-        std::cout << j.dump(2) << "\n";
-    } else {
-        std::cout << "plan " << pa.spec << " on " << backend->device_name() << ": " << measure
-                  << " errors, " << pa.interpolation << " interpolation\n";
-        for (const TablePilot& p : pilots) {
-            std::cout << "pilot '" << p.table << "' (" << p.quantity << "): " << p.pilot_evaluations
-                      << " direct evaluations, " << format_seconds(p.pilot_seconds) << "; max |value| "
-                      << sci(p.max_value) << ", relative floor " << sci(p.rel_floor) << "\n";
-            const std::vector<AxisFit>& fits =
-                target.interpolation == Interpolation::Linear ? p.linear : p.cubic;
-            for (const AxisFit& f : fits) {
-                std::cout << "  axis " << std::left << std::setw(8) << f.axis << std::right;
-                if (!f.planned) std::cout << " explicit nodes (kept)";
-                std::cout << " counts";
-                for (const LevelErrors& l : f.levels) std::cout << " " << l.count;
-                std::cout << ": max " << measure << " error";
-                for (const LevelErrors& l : f.levels)
-                    std::cout << " " << sci(target.absolute ? l.max_abs : l.max_rel);
-                std::cout << "  -> " << fit_text(target.absolute ? f.max_abs : f.max_rel);
-                // An explicit axis whose measurement is mostly the pilot's
-                // noise is predicted without it (plan.cpp, axis_error).
-                const LevelErrors& finest = f.levels.back();
-                if (!f.planned && !p.variance_unseen && noise_dominated(finest))
-                    std::cout << " (below 3x the pilot's noise " << sci(finest.noise) << "; without it "
-                              << sci(target.absolute ? finest.denoised_max_abs : finest.denoised_max_rel) << ")";
-                std::cout << "\n";
-            }
-            for (const IntegrationFit& f : p.integration) {
-                if (f.method == Method::ClosedForm) {
-                    std::cout << "  closed form: " << sci(f.seconds_per_cell) << " s per cell, "
-                              << sci(p.overhead_seconds) << " s per run\n";
-                } else if (f.method == Method::Quadrature) {
-                    std::cout << (f.reference_nodes > 0
-                                      ? "  quadrature: rule error (against " + number_text(f.reference_nodes) +
-                                            " nodes) max "
-                                      : std::string("  quadrature: two-rule difference max "))
-                              << sci(target.absolute ? f.max_abs.front() : f.max_rel.front()) << ", "
-                              << sci(f.seconds_per_cell) << " s per cell\n";
-                } else {
-                    const PowerFit& q = target.absolute ? f.fit_max_abs : f.fit_max_rel;
-                    std::cout << "  " << to_string(f.method) << ": max stderr";
-                    for (std::size_t k = 0; k < f.samples.size(); ++k)
-                        std::cout << " " << sci(target.absolute ? f.max_abs[k] : f.max_rel[k]) << "@"
-                                  << f.samples[k];
-                    std::cout << "  -> q=" << (q.valid ? number_text(-q.p, 3) : "?") << ", "
-                              << sci(f.seconds_per_sample) << " s per sample\n";
-                }
-            }
-            if (p.variance_unseen)
-                std::cout << "  warning: at some pilot budget every cell's samples were all equal (stderr 0) "
-                             "although the values are not all 0: rare events, too few for the standard "
-                             "errors to measure the noise; the integration term may be far too small "
-                             "(docs/planning.md)\n";
-        }
-        // A small table: about 12 rows spread over the front, the first and
-        // last, and the choice with its neighbours (--json lists every plan).
-        const std::size_t step = (front.size() + 11) / 12;
-        auto shown = [&](std::size_t i) {
-            if (i == 0 || i + 1 == front.size() || i % std::max<std::size_t>(step, 1) == 0) return true;
-            return choice && i + 1 >= *choice && i <= *choice + 1;
-        };
-        std::cout << "Pareto plans (" << front.size() << " of " << all.size() << " candidates"
-                  << (step > 1 ? "; a selection, --json lists all" : "") << "):\n";
-        std::cout << "   #  nodes                 method        type     err max   err rms   seconds\n";
-        bool gap = false;
-        for (std::size_t i = 0; i < front.size(); ++i) {
-            if (!shown(i)) {
-                if (!gap) std::cout << "   ...\n";
-                gap = true;
-                continue;
-            }
-            gap = false;
-            const Candidate& c = front[i];
-            std::cout << (choice && *choice == i ? " * " : "   ") << std::left << std::setw(3) << i
-                      << std::setw(22) << counts_text(c, pilots) << " " << std::setw(13)
-                      << method_text(c) << " " << std::setw(8) << stored_type_name(c.stored_type)
-                      << std::right << " " << sci(c.error_max) << "  " << sci(c.error_rms) << "  "
-                      << sci(c.seconds) << "\n";
-        }
-        if (choice) {
-            const Candidate& c = front[*choice];
-            std::cout << "choice #" << *choice << ": nodes " << counts_text(c, pilots) << ", "
-                      << method_text(c) << ", " << stored_type_name(c.stored_type)
-                      << "; predicted max total error " << sci(c.error_max) << " (RMS "
-                      << sci(c.error_rms) << "), predicted time " << sci(c.seconds) << " s\n";
-        }
-        if (pa.as_written && written) {
-            const Candidate& c = *written;
-            std::cout << "as written: nodes " << counts_text(c, pilots) << ", " << method_text(c) << ", "
-                      << stored_type_name(c.stored_type) << "; predicted max total error " << sci(c.error_max)
-                      << " (RMS " << sci(c.error_rms) << "), predicted time " << sci(c.seconds) << " s\n";
-        } else if (pa.as_written) {
-            std::cout << "as written: no prediction (" << written_why << ")\n";
-        }
-        for (const std::string& n : verify_notes) std::cout << "verification: " << n << "\n";
-        if (verification) {
-            print_verification(*verification, pilots, pa.as_written ? "as written" : "choice");
-            if (verification->verified > 0)
-                std::cout << "verified " << (pa.as_written ? "as written" : "choice") << ": max total error "
-                          << sci(verification->error_max) << " (RMS " << sci(verification->error_rms)
-                          << "), fitted prediction " << sci(verification->fitted_max) << "\n";
-        } else if (pa.no_verify && (choice || written)) {
-            std::cout << "not verified (--no-verify): the fitted prediction stands\n";
-        }
-        double pilot_seconds = 0;
-        for (const TablePilot& p : pilots) pilot_seconds += p.pilot_seconds;
-        std::cout << "plan time: pilots " << format_seconds(pilot_seconds) << ", verification "
-                  << format_seconds(verification ? verification->seconds : 0.0)
-                  << " (not part of the predicted generate time)\n";
-        for (const PlacedAxis& r : placements)
-            std::cout << "placed nodes '" << r.table << "' axis " << r.axis << ": " << r.count
-                      << " explicit nodes, predicted max interpolation error " << sci(r.predicted_max)
-                      << " (uniform in x: " << sci(r.uniform_max) << ", the axis' spacing: "
-                      << sci(r.spacing_max) << ")"
-                      << (r.predicted_max < r.spacing_max ? "" : "; not better, spacing kept") << "\n";
     }
-    if ((target.accuracy || target.budget) && !choice)
-        throw Error(target.accuracy
+    j["verified"] = verification.has_value() && verification->verified > 0;
+    j["verification_seconds"] = verification ? verification->seconds : 0.0;
+    j["verification_corrections"] = st.verify_corrections;
+    j["verification_notes"] = st.verify_notes;
+    std::cout << j.dump(2) << "\n";
+}
+
+// The pilots' measurements and fits, as text.
+void print_pilots_text(const std::vector<TablePilot>& pilots, const PlanTarget& target, const char* measure) {
+    for (const TablePilot& p : pilots) {
+        std::cout << "pilot '" << p.table << "' (" << p.quantity << "): " << p.pilot_evaluations
+                  << " direct evaluations, " << format_seconds(p.pilot_seconds) << "; max |value| "
+                  << sci(p.max_value) << ", relative floor " << sci(p.rel_floor) << "\n";
+        const std::vector<AxisFit>& fits =
+            target.interpolation == Interpolation::Linear ? p.linear : p.cubic;
+        for (const AxisFit& f : fits) {
+            std::cout << "  axis " << std::left << std::setw(8) << f.axis << std::right;
+            if (!f.planned) std::cout << " explicit nodes (kept)";
+            std::cout << " counts";
+            for (const LevelErrors& l : f.levels) std::cout << " " << l.count;
+            std::cout << ": max " << measure << " error";
+            for (const LevelErrors& l : f.levels)
+                std::cout << " " << sci(target.absolute ? l.max_abs : l.max_rel);
+            std::cout << "  -> " << fit_text(target.absolute ? f.max_abs : f.max_rel);
+            // An explicit axis whose measurement is mostly the pilot's
+            // noise is predicted without it (plan.cpp, axis_error).
+            const LevelErrors& finest = f.levels.back();
+            if (!f.planned && !p.variance_unseen && noise_dominated(finest))
+                std::cout << " (below 3x the pilot's noise " << sci(finest.noise) << "; without it "
+                          << sci(target.absolute ? finest.denoised_max_abs : finest.denoised_max_rel) << ")";
+            std::cout << "\n";
+        }
+        for (const IntegrationFit& f : p.integration) {
+            if (f.method == Method::ClosedForm) {
+                std::cout << "  closed form: " << sci(f.seconds_per_cell) << " s per cell, "
+                          << sci(p.overhead_seconds) << " s per run\n";
+            } else if (f.method == Method::Quadrature) {
+                std::cout << (f.reference_nodes > 0
+                                  ? "  quadrature: rule error (against " + number_text(f.reference_nodes) +
+                                        " nodes) max "
+                                  : std::string("  quadrature: two-rule difference max "))
+                          << sci(target.absolute ? f.max_abs.front() : f.max_rel.front()) << ", "
+                          << sci(f.seconds_per_cell) << " s per cell\n";
+            } else {
+                const PowerFit& q = target.absolute ? f.fit_max_abs : f.fit_max_rel;
+                std::cout << "  " << to_string(f.method) << ": max stderr";
+                for (std::size_t k = 0; k < f.samples.size(); ++k)
+                    std::cout << " " << sci(target.absolute ? f.max_abs[k] : f.max_rel[k]) << "@"
+                              << f.samples[k];
+                std::cout << "  -> q=" << (q.valid ? number_text(-q.p, 3) : "?") << ", "
+                          << sci(f.seconds_per_sample) << " s per sample\n";
+            }
+        }
+        if (p.variance_unseen)
+            std::cout << "  warning: at some pilot budget every cell's samples were all equal (stderr 0) "
+                         "although the values are not all 0: rare events, too few for the standard "
+                         "errors to measure the noise; the integration term may be far too small "
+                         "(docs/planning.md)\n";
+    }
+}
+
+void print_pareto_text(const PlanState& st) {
+    const std::vector<TablePilot>& pilots = st.pilots;
+    const std::vector<Candidate>& front = st.front;
+    const std::optional<std::size_t>& choice = st.choice;
+    // A small table: about 12 rows spread over the front, the first and
+    // last, and the choice with its neighbours (--json lists every plan).
+    const std::size_t step = (front.size() + 11) / 12;
+    auto shown = [&](std::size_t i) {
+        if (i == 0 || i + 1 == front.size() || i % std::max<std::size_t>(step, 1) == 0) return true;
+        return choice && i + 1 >= *choice && i <= *choice + 1;
+    };
+    std::cout << "Pareto plans (" << front.size() << " of " << st.all.size() << " candidates"
+              << (step > 1 ? "; a selection, --json lists all" : "") << "):\n";
+    std::cout << "   #  nodes                 method        type     err max   err rms   seconds\n";
+    bool gap = false;
+    for (std::size_t i = 0; i < front.size(); ++i) {
+        if (!shown(i)) {
+            if (!gap) std::cout << "   ...\n";
+            gap = true;
+            continue;
+        }
+        gap = false;
+        const Candidate& c = front[i];
+        std::cout << (choice && *choice == i ? " * " : "   ") << std::left << std::setw(3) << i
+                  << std::setw(22) << counts_text(c, pilots) << " " << std::setw(13)
+                  << method_text(c) << " " << std::setw(8) << stored_type_name(c.stored_type)
+                  << std::right << " " << sci(c.error_max) << "  " << sci(c.error_rms) << "  "
+                  << sci(c.seconds) << "\n";
+    }
+}
+
+void print_plan_text(const PlanArgs& pa, const PlanState& st) {
+    const PlanTarget& target = st.target;
+    const char* measure = st.measure;
+    const std::vector<TablePilot>& pilots = st.pilots;
+    const std::vector<Candidate>& front = st.front;
+    const std::optional<std::size_t>& choice = st.choice;
+    const std::optional<Candidate>& written = st.written;
+    const std::optional<PlanVerification>& verification = st.verification;
+    std::cout << "plan " << pa.spec << " on " << st.backend->device_name() << ": " << measure
+              << " errors, " << pa.interpolation << " interpolation\n";
+    print_pilots_text(pilots, target, measure);
+    print_pareto_text(st);
+    if (choice) {
+        const Candidate& c = front[*choice];
+        std::cout << "choice #" << *choice << ": nodes " << counts_text(c, pilots) << ", "
+                  << method_text(c) << ", " << stored_type_name(c.stored_type)
+                  << "; predicted max total error " << sci(c.error_max) << " (RMS "
+                  << sci(c.error_rms) << "), predicted time " << sci(c.seconds) << " s\n";
+    }
+    if (pa.as_written && written) {
+        const Candidate& c = *written;
+        std::cout << "as written: nodes " << counts_text(c, pilots) << ", " << method_text(c) << ", "
+                  << stored_type_name(c.stored_type) << "; predicted max total error " << sci(c.error_max)
+                  << " (RMS " << sci(c.error_rms) << "), predicted time " << sci(c.seconds) << " s\n";
+    } else if (pa.as_written) {
+        std::cout << "as written: no prediction (" << st.written_why << ")\n";
+    }
+    for (const std::string& n : st.verify_notes) std::cout << "verification: " << n << "\n";
+    if (verification) {
+        print_verification(*verification, pilots, pa.as_written ? "as written" : "choice");
+        if (verification->verified > 0)
+            std::cout << "verified " << (pa.as_written ? "as written" : "choice") << ": max total error "
+                      << sci(verification->error_max) << " (RMS " << sci(verification->error_rms)
+                      << "), fitted prediction " << sci(verification->fitted_max) << "\n";
+    } else if (pa.no_verify && (choice || written)) {
+        std::cout << "not verified (--no-verify): the fitted prediction stands\n";
+    }
+    double pilot_seconds = 0;
+    for (const TablePilot& p : pilots) pilot_seconds += p.pilot_seconds;
+    std::cout << "plan time: pilots " << format_seconds(pilot_seconds) << ", verification "
+              << format_seconds(verification ? verification->seconds : 0.0)
+              << " (not part of the predicted generate time)\n";
+    for (const PlacedAxis& r : st.placements)
+        std::cout << "placed nodes '" << r.table << "' axis " << r.axis << ": " << r.count
+                  << " explicit nodes, predicted max interpolation error " << sci(r.predicted_max)
+                  << " (uniform in x: " << sci(r.uniform_max) << ", the axis' spacing: "
+                  << sci(r.spacing_max) << ")"
+                  << (r.predicted_max < r.spacing_max ? "" : "; not better, spacing kept") << "\n";
+}
+
+void run_plan(const PlanArgs& pa) {
+    PlanState st;
+    st.target = plan_target(pa);
+    const Spec spec = parse_spec_file(pa.spec);
+    st.indices = planned_tables(pa, spec);
+    st.groups = recombined_groups(spec, st.indices);  // checked before the pilots
+    const auto init_start = std::chrono::steady_clock::now();
+    st.backend = pa.compute.make_backend();
+    PilotOptions po;
+    po.abs_floor = pa.abs_floor;
+    // What a generate process pays before its first table (device set-up),
+    // and its kernel start-up from PoCL's disk cache (host/plan/plan.h).
+    po.process_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - init_start).count();
+    po.fresh_backend = [&pa] { return pa.compute.make_backend(); };
+    // Progress only for stages that last: a line every 2 s after the first 2 s.
+    const PilotProgressFn progress = [&](const std::string& stage, const Progress& p) {
+        if (pa.quiet || p.elapsed_seconds < 2 || p.elapsed_seconds - st.last_shown < 2) return;
+        st.last_shown = p.elapsed_seconds;
+        std::cerr << "plan: " << stage << ": " << static_cast<int>(100 * p.fraction) << "% "
+                  << format_seconds(p.elapsed_seconds) << "\n";
+    };
+    for (std::size_t i : st.indices) {
+        st.last_shown = 0;
+        st.pilots.push_back(run_pilot(spec, i, *st.backend, po, progress));
+    }
+    // [[recombined]] terms share one node layout (docs/planning.md, "Recombined tables").
+    st.all = make_recombined_candidates(st.pilots, st.target, st.groups);
+    st.front = pareto_front(st.all);
+    st.choice = choose_plan(st.front, st.target);
+    st.measure = st.target.absolute ? "absolute" : "relative";
+    if (pa.as_written) st.written = predict_as_written(spec, st.pilots, st.target, st.groups, st.written_why);
+    // --place-nodes: explicit nodes equidistributing the pilot's error.
+    place(pa, st);
+    verify_plans(pa, spec, st);
+    st.text = planned_output_text(pa, spec, st);
+    if (pa.json)
+        print_plan_json(pa, st);
+    else
+        print_plan_text(pa, st);
+    if ((st.target.accuracy || st.target.budget) && !st.choice)
+        throw Error(st.target.accuracy
                         ? "no candidate plan is predicted to reach a max total error of " +
-                              sci(*target.accuracy) + " (smallest predicted: see the table)"
-                        : "no candidate plan is predicted to finish within " + sci(*target.budget) + " s");
-    if (!text.empty()) {
+                              sci(*st.target.accuracy) + " (smallest predicted: see the table)"
+                        : "no candidate plan is predicted to finish within " + sci(*st.target.budget) + " s");
+    if (!st.text.empty()) {
         AtomicOutput out(pa.output);
         {
             std::ofstream f(out.path());
-            f << text;
+            f << st.text;
             if (!f) throw Error("cannot write " + pa.output);
         }
         out.commit();

@@ -260,6 +260,122 @@ BenchReport run_bench(Backend& device, const BenchSettings& in, const BenchStart
     return report;
 }
 
+std::string host_cpu_instruction_set() {
+#if defined(__GNUC__) && (defined(__x86_64__) || defined(__i386__))
+    __builtin_cpu_init();
+    if (__builtin_cpu_supports("avx512f")) return "AVX-512";
+    if (__builtin_cpu_supports("avx2")) return "AVX2";
+    if (__builtin_cpu_supports("avx")) return "AVX";
+    if (__builtin_cpu_supports("sse2")) return "SSE2";
+#endif
+    return "unknown";
+}
+
+std::string host_build_instruction_set() {
+#if defined(__AVX512F__)
+    return "AVX-512";
+#elif defined(__AVX2__)
+    return "AVX2";
+#elif defined(__AVX__)
+    return "AVX";
+#elif defined(__SSE2__)
+    return "SSE2";
+#else
+    return "unknown";
+#endif
+}
+
+namespace {
+
+// The widest vector instruction set with `lanes` doubles per register.
+std::string lanes_instruction_set(unsigned lanes) {
+    if (lanes >= 8) return "AVX-512";
+    if (lanes == 4) return "AVX/AVX2";
+    if (lanes == 2) return "SSE2";
+    return lanes == 1 ? "scalar" : "unknown";
+}
+
+// Doubles per vector register of the code LLVM generates for an x86 CPU
+// name (POCL_LLVM_CPU_NAME, or PoCL's detection of the host): 8 where the
+// CPU has AVX-512, 4 for AVX/AVX2, 2 for SSE2; 0 for a name not known here.
+unsigned llvm_cpu_double_lanes(const std::string& cpu) {
+    static const char* const avx512[] = {"skylake-avx512", "cascadelake", "cooperlake", "cannonlake",
+                                         "icelake-client", "icelake-server", "tigerlake", "rocketlake",
+                                         "sapphirerapids", "emeraldrapids", "graniterapids", "znver4",
+                                         "znver5", "knl", "knm", "x86-64-v4"};
+    static const char* const avx[] = {"haswell", "broadwell", "skylake", "alderlake", "raptorlake",
+                                      "meteorlake", "arrowlake", "lunarlake", "gracemont", "sierraforest",
+                                      "grandridge", "znver1", "znver2", "znver3", "bdver1", "bdver2",
+                                      "bdver3", "bdver4", "btver2", "sandybridge", "ivybridge",
+                                      "corei7-avx", "core-avx-i", "core-avx2", "x86-64-v3"};
+    for (const char* n : avx512)
+        if (cpu == n) return 8;
+    for (const char* n : avx)
+        if (cpu == n) return 4;
+    static const char* const sse[] = {"x86-64", "x86-64-v2", "nehalem", "westmere", "silvermont",
+                                      "goldmont", "goldmont-plus", "tremont", "core2", "penryn", "btver1"};
+    for (const char* n : sse)
+        if (cpu == n) return 2;
+    return 0;
+}
+
+// AVX2 is told apart from AVX by name only where LLVM's CPU has it.
+std::string llvm_cpu_instruction_set(const std::string& cpu, unsigned lanes) {
+    if (lanes != 4) return lanes_instruction_set(lanes);
+    static const char* const avx_only[] = {"bdver1", "bdver2", "btver2", "sandybridge", "ivybridge",
+                                           "corei7-avx", "core-avx-i"};
+    for (const char* n : avx_only)
+        if (cpu == n) return "AVX";
+    return "AVX2";
+}
+
+}  // namespace
+
+InstructionSets describe_instruction_sets(const std::string& device_selector, bool opencl) {
+    InstructionSets isa;
+    isa.host_cpu = host_cpu_instruction_set();
+    isa.host_build = host_build_instruction_set();
+    if (!opencl) {
+        isa.device = isa.host_build;
+        return isa;
+    }
+    const DeviceInfo info = select_device(device_selector);
+    try {
+        isa.device_compute_units = info.compute_units;
+        isa.device_double_lanes = info.device.getInfo<CL_DEVICE_NATIVE_VECTOR_WIDTH_DOUBLE>();
+        isa.device_preferred_double_lanes = info.device.getInfo<CL_DEVICE_PREFERRED_VECTOR_WIDTH_DOUBLE>();
+    } catch (const cl::Error& e) {
+        throw OpenCLError(e.what(), e.err(), "while reading the device's vector widths");
+    }
+    // PoCL's CPU devices are named "<driver>-<LLVM CPU>-<CPU model>", e.g.
+    // "pthread-skylake-avx512-Intel(R) Xeon(R) ..." (POCL_LLVM_CPU_NAME sets it).
+    // The CPU model may hold '-' too ("64-Core"), but no LLVM CPU name holds a
+    // space: the target ends at the last '-' before the model's first space.
+    if (info.platform_name.find("Portable Computing Language") != std::string::npos) {
+        const std::size_t a = info.name.find('-');
+        const std::size_t space = info.name.find(' ');
+        const std::size_t b = a == std::string::npos ? a : info.name.rfind('-', space == std::string::npos ? space : space - 1);
+        if (a != std::string::npos && b != std::string::npos && b > a)
+            isa.device_target = info.name.substr(a + 1, b - a - 1);
+    }
+    // PoCL reports the vector widths of the CPU it runs on, also when
+    // POCL_LLVM_CPU_NAME makes it compile for a narrower one: where the
+    // target names a known CPU, its widths are the ones the kernels get.
+    if (const unsigned lanes = llvm_cpu_double_lanes(isa.device_target)) {
+        isa.device_double_lanes = lanes;
+        isa.device_preferred_double_lanes = std::min(isa.device_preferred_double_lanes, lanes);
+        isa.device = llvm_cpu_instruction_set(isa.device_target, lanes);
+    } else {
+        isa.device = lanes_instruction_set(isa.device_double_lanes);
+    }
+    return isa;
+}
+
+void set_efficiencies(BenchReport& report) {
+    const unsigned ideal = report.isa.ideal_lanes();
+    for (BenchCaseResult& c : report.cases) c.efficiency = ideal ? c.device_over_host / double(ideal) : 0.0;
+}
+
 double load_average_1min() {
     std::ifstream in("/proc/loadavg");
     double load = -1;

@@ -69,7 +69,38 @@ struct BenchCaseResult {
     BackendTiming device, host, host_threads;
     double device_over_host = 0, device_over_threads = 0, threads_over_host = 0;
     double device_gflops = 0;  // with flops_estimate; 0 when not counted
+    // device_over_host / (cores x double lanes): the fraction of the ideal
+    // speed-up reached (0 when the lanes are unknown).
+    double efficiency = 0;
 };
+
+// The instruction sets the figures were measured with.  The ideal speed-up
+// of the device over the serial host is cores x double SIMD lanes
+// (`ideal_lanes`): every core busy and every lane of its widest double
+// vectors used, against one core running scalar code.
+struct InstructionSets {
+    std::string host_cpu;    // the CPU's widest (cpuid): "AVX-512", "AVX2", "AVX", "SSE2"
+    std::string host_build;  // what the host code was compiled for (its -march): same names
+    std::string device;      // the OpenCL device's, from its lanes (below)
+    std::string device_target;  // PoCL: the LLVM CPU its kernels are compiled for ("" elsewhere)
+    unsigned device_compute_units = 0;
+    // Doubles per vector: the LLVM CPU PoCL compiles for where it is known,
+    // else CL_DEVICE_NATIVE_VECTOR_WIDTH_DOUBLE (and its PREFERRED width).
+    unsigned device_double_lanes = 0;
+    unsigned device_preferred_double_lanes = 0;
+    // cores x lanes: device_compute_units x device_double_lanes (0 = unknown).
+    unsigned ideal_lanes() const { return device_compute_units * device_double_lanes; }
+};
+
+// The host CPU's widest vector instruction set (cpuid) and the one the host
+// code was compiled for.
+std::string host_cpu_instruction_set();
+std::string host_build_instruction_set();
+
+// The instruction sets of the host and of an OpenCL device (the selector as
+// for measure_peak_fma).  A host backend ("host", "host-threads") reports the
+// host build's as its own.
+InstructionSets describe_instruction_sets(const std::string& device_selector, bool opencl);
 
 struct PeakFma {
     double gflops = 0;   // double FMA, 2 flops each
@@ -86,8 +117,12 @@ struct BenchReport {
     // quiet one's: reports should say the load.
     double load_average_start = -1, load_average_end = -1;
     PeakFma peak;
+    InstructionSets isa;
     std::vector<BenchCaseResult> cases;
 };
+
+// Sets each case's efficiency from report.isa (call after filling isa).
+void set_efficiencies(BenchReport& report);
 
 // Called before each case starts (for a progress line); may be empty.
 using BenchStartFn = std::function<void(const BenchCase&)>;

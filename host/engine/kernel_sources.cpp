@@ -206,16 +206,31 @@ bool add_embedded_kernel_sources(const std::map<std::string, std::string>& files
     return true;
 }
 
+namespace {
+
+// One hook binding of a template (kernels/common/*.cl): `#define hook value`.
+std::string bind(const std::string& hook, const std::string& value) {
+    return "#define " + hook + " " + value + "\n";
+}
+
+// The generated prelude's marker, so that compiler messages in the hook
+// bindings name them.
+std::string hooks_marker(const std::string& what, const std::string& kernel_header) {
+    return "#line 1 \"generated " + what + " hooks for " + kernel_header + "\"\n";
+}
+
+}  // namespace
+
 std::string estimate_kernel_source(const std::string& kernel_header,
                                    const std::string& sample_function,
                                    const std::string& kernel_dir) {
-    // The entry point is the same three lines for every model, so it is
-    // generated here rather than kept as one kernels/<model>.cl per model.
+    // The entry point is kernels/common/estimate.cl for every model; the
+    // prelude binds its hook to the model's sample function.
     std::string source = load_kernel_source("common/estimator.h", kernel_dir);
     source += load_kernel_source(kernel_header, kernel_dir);
-    source += "#line 1 \"generated entry point for " + kernel_header + "\"\n";
-    source += "BT_DEFINE_ESTIMATE_KERNEL(" + std::string(kEstimateKernelName) + ", " +
-              sample_function + ")\n";
+    source += hooks_marker("estimate", kernel_header);
+    source += bind("bt_hook_sample", sample_function);
+    source += load_kernel_source("common/estimate.cl", kernel_dir);
     return source;
 }
 
@@ -228,13 +243,15 @@ std::string sample_parallel_kernel_source(const std::string& kernel_header,
     std::string source = "#define BT_SAMPLE_PARALLEL_PROGRAM 1\n";
     source += load_kernel_source("common/estimator.h", kernel_dir);
     source += load_kernel_source(kernel_header, kernel_dir);
-    source += "#line 1 \"generated sample-parallel entry points for " + kernel_header + "\"\n";
-    source += "BT_DEFINE_SAMPLE_PARALLEL_KERNELS(" + std::string(kSampleKernelName) + ", " +
-              kReduceKernelName + ", " + kRedoKernelName + ", " + sample_function + ")\n";
-    if (stage_size > 0)
-        source += "BT_DEFINE_STAGED_SAMPLE_KERNELS(" + std::string(kStageKernelName) + ", " +
-                  kStageRedoKernelName + ", " + kStageRestKernelName + ", " +
-                  std::to_string(stage_size) + ", " + stage_function + ", " + rest_function + ")\n";
+    source += hooks_marker("sample-parallel", kernel_header);
+    source += bind("bt_hook_sample", sample_function);
+    if (stage_size > 0) {
+        source += bind("BT_HOOK_STAGE_SIZE", std::to_string(stage_size));
+        source += bind("bt_hook_stage", stage_function);
+        source += bind("bt_hook_rest", rest_function);
+    }
+    source += load_kernel_source("common/sample_parallel.cl", kernel_dir);
+    if (stage_size > 0) source += load_kernel_source("common/staged_samples.cl", kernel_dir);
     return source;
 }
 
@@ -243,13 +260,13 @@ namespace {
 // unless the build options decide (a call left in the node kernel or in the
 // walk's round keeps its work-item loop scalar: measured on hfunction's H and
 // lambert-sphere's walk, docs/benchmarks.md), the estimator, the model's
-// header and the entry-point macros (`macros_header`, relative to kernels/).
-std::string forced_inline_prologue(const std::string& kernel_header, const std::string& macros_header,
+// header and the launch's header (`launch_header`, relative to kernels/).
+std::string forced_inline_prologue(const std::string& kernel_header, const std::string& launch_header,
                                    const std::string& kernel_dir) {
     std::string source = "#if !defined(BT_FORCE_INLINE)\n#define BT_FORCE_INLINE 1\n#endif\n";
     source += load_kernel_source("common/estimator.h", kernel_dir);
     source += load_kernel_source(kernel_header, kernel_dir);
-    source += load_kernel_source(macros_header, kernel_dir);
+    source += load_kernel_source(launch_header, kernel_dir);
     return source;
 }
 }  // namespace
@@ -257,9 +274,13 @@ std::string forced_inline_prologue(const std::string& kernel_header, const std::
 std::string walk_parallel_kernel_source(const std::string& kernel_header, const WalkParallelNames& names,
                                         const std::string& kernel_dir) {
     std::string source = forced_inline_prologue(kernel_header, "common/walk_parallel.h", kernel_dir);
-    source += "#line 1 \"generated walk-parallel entry point for " + kernel_header + "\"\n";
-    source += "BT_DEFINE_WALK_PARALLEL_KERNEL(" + std::string(kWalkKernelName) + ", " + names.state + ", " +
-              names.setup + ", " + names.begin + ", " + names.step + ", " + names.value + ")\n";
+    source += hooks_marker("walk-parallel", kernel_header);
+    source += bind("bt_hook_walk_state", names.state);
+    source += bind("bt_hook_walk_setup", names.setup);
+    source += bind("bt_hook_walk_begin", names.begin);
+    source += bind("bt_hook_walk_step", names.step);
+    source += bind("bt_hook_walk_value", names.value);
+    source += load_kernel_source("common/walk_parallel.cl", kernel_dir);
     return source;
 }
 
@@ -273,15 +294,19 @@ std::string node_parallel_kernel_source(const std::string& kernel_header,
                                         const std::string& term_first,
                                         const std::string& term_second) {
     std::string source = forced_inline_prologue(kernel_header, "common/node_parallel.h", kernel_dir);
-    source += "#line 1 \"generated node-parallel entry points for " + kernel_header + "\"\n";
-    source += "BT_DEFINE_NODE_PARALLEL_KERNELS(" + std::string(kNodePrepareKernelName) + ", " +
-              kNodeKernelName + ", " + kNodeSumKernelName + ", " + state_size + ", " +
-              count_function + ", " + prepare_function + ", " + term_function + ", " +
-              finish_function + ")\n";
-    if (!term_first.empty() && !term_second.empty())
-        source += "BT_DEFINE_NODE_SPLIT_KERNELS(" + std::string(kNodeFirstKernelName) + ", " +
-                  kNodeSecondKernelName + ", " + state_size + ", " + term_first + ", " +
-                  term_second + ")\n";
+    const bool split = !term_first.empty() && !term_second.empty();
+    source += hooks_marker("node-parallel", kernel_header);
+    source += bind("BT_HOOK_STATE_SIZE", "(" + state_size + ")");
+    source += bind("bt_hook_count", count_function);
+    source += bind("bt_hook_prepare", prepare_function);
+    source += bind("bt_hook_term", term_function);
+    source += bind("bt_hook_finish", finish_function);
+    if (split) {
+        source += bind("bt_hook_term_first", term_first);
+        source += bind("bt_hook_term_second", term_second);
+    }
+    source += load_kernel_source("common/node_parallel.cl", kernel_dir);
+    if (split) source += load_kernel_source("common/node_split.cl", kernel_dir);
     return source;
 }
 
@@ -289,16 +314,25 @@ std::string nested_node_parallel_kernel_source(const std::string& kernel_header,
                                                const NestedNodeParallelNames& f,
                                                const std::string& kernel_dir) {
     std::string source = forced_inline_prologue(kernel_header, "common/node_parallel.h", kernel_dir);
-    source += "#line 1 \"generated nested node-parallel entry points for " + kernel_header + "\"\n";
-    const std::string table = f.table.empty() ? "bt_node_no_table" : f.table;
-    source += "BT_DEFINE_NESTED_NODE_PARALLEL_KERNELS(" + std::string(kNodeTableKernelName) +
-              ", " + kNodePrepareKernelName + ", " + kNodeGroupKernelName + ", " +
-              kNodeChunkKernelName + ", " + kNodeKernelName + ", " + kNodeReduceKernelName + ", " +
-              kNodeSumKernelName + ", " + f.table_entries + ", " + f.table_size + ", " +
-              f.item_state_size + ", " + f.group_state_size + ", " + f.terms + ", " + f.partials +
-              ", " + f.acc_size + ", " + table + ", " + f.count + ", " + f.prepare + ", " +
-              f.group_prepare + ", " + f.term + ", " + f.group_reduce + ", " + f.group_add + ", " +
-              f.finish + ", " + f.sample + ")\n";
+    source += hooks_marker("nested node-parallel", kernel_header);
+    source += bind("BT_HOOK_TABLE_ENTRIES", "(" + f.table_entries + ")");
+    source += bind("BT_HOOK_TABLE_SIZE", "(" + f.table_size + ")");
+    source += bind("BT_HOOK_ITEM_STATE_SIZE", "(" + f.item_state_size + ")");
+    source += bind("BT_HOOK_GROUP_STATE_SIZE", "(" + f.group_state_size + ")");
+    source += bind("BT_HOOK_TERMS", "(" + f.terms + ")");
+    source += bind("BT_HOOK_PARTIALS", "(" + f.partials + ")");
+    source += bind("BT_HOOK_ACC_SIZE", "(" + f.acc_size + ")");
+    source += bind("bt_hook_table", f.table.empty() ? "bt_node_no_table" : f.table);
+    source += bind("bt_hook_count", f.count);
+    source += bind("bt_hook_prepare", f.prepare);
+    source += bind("bt_hook_group_prepare", f.group_prepare);
+    source += bind("bt_hook_term_setup", f.term + "_setup");
+    source += bind("bt_hook_term", f.term);
+    source += bind("bt_hook_group_reduce", f.group_reduce);
+    source += bind("bt_hook_group_add", f.group_add);
+    source += bind("bt_hook_finish", f.finish);
+    source += bind("bt_hook_sample", f.sample);
+    source += load_kernel_source("common/nested_node_parallel.cl", kernel_dir);
     return source;
 }
 

@@ -20,7 +20,7 @@ constexpr const char* kEstimateKernelName = "bt_estimate";
 constexpr const char* kSampleKernelName = "bt_sample";
 constexpr const char* kReduceKernelName = "bt_reduce";
 constexpr const char* kRedoKernelName = "bt_sample_redo";
-// The staged entry points (BT_DEFINE_STAGED_SAMPLE_KERNELS), in the same
+// The staged entry points (kernels/common/staged_samples.cl), in the same
 // program when the quantity has staged samples.
 constexpr const char* kStageKernelName = "bt_stage";
 constexpr const char* kStageRedoKernelName = "bt_stage_redo";
@@ -35,7 +35,7 @@ constexpr const char* kNodeGroupKernelName = "bt_node_group";
 constexpr const char* kNodeChunkKernelName = "bt_node_chunk";
 constexpr const char* kNodeReduceKernelName = "bt_node_reduce";
 constexpr const char* kNodeTableKernelName = "bt_node_table";
-// The split-term node kernels (BT_DEFINE_NODE_SPLIT_KERNELS), in the flat
+// The split-term node kernels (kernels/common/node_split.cl), in the flat
 // program of a quantity whose terms are split.
 constexpr const char* kNodeFirstKernelName = "bt_node_first";
 constexpr const char* kNodeSecondKernelName = "bt_node_second";
@@ -46,18 +46,18 @@ std::vector<std::string> embedded_kernel_files();  // paths relative to kernels/
 std::string load_kernel_source(const std::string& relative_path,
                                const std::string& kernel_dir = "");
 // The complete program of a model: kernels/common/estimator.h, the model's
-// kernel header (relative to kernels/) and a generated entry point
-// BT_DEFINE_ESTIMATE_KERNEL(bt_estimate, sample_function).
+// kernel header (relative to kernels/), a generated prelude that binds the
+// entry point's hook (bt_hook_sample = sample_function) and the entry point
+// kernels/common/estimate.cl (bt_estimate).
 std::string estimate_kernel_source(const std::string& kernel_header,
                                    const std::string& sample_function,
                                    const std::string& kernel_dir = "");
 // The same program with the sample-parallel entry points instead
-// (BT_DEFINE_SAMPLE_PARALLEL_KERNELS(bt_sample, bt_reduce, bt_sample_redo,
-// sample_function)):
+// (kernels/common/sample_parallel.cl: bt_sample, bt_reduce, bt_sample_redo):
 // a separate program, so that the usual one keeps its source (and PoCL's
 // cache entries) and its build time.  With stage_size > 0 the program also
-// holds BT_DEFINE_STAGED_SAMPLE_KERNELS(bt_stage, bt_stage_redo,
-// bt_stage_rest, stage_size, stage_function, rest_function).
+// holds kernels/common/staged_samples.cl (bt_stage, bt_stage_redo,
+// bt_stage_rest; hooks bound to stage_size, stage_function, rest_function).
 std::string sample_parallel_kernel_source(const std::string& kernel_header,
                                           const std::string& sample_function,
                                           const std::string& kernel_dir = "",
@@ -65,12 +65,11 @@ std::string sample_parallel_kernel_source(const std::string& kernel_header,
                                           const std::string& stage_function = "",
                                           const std::string& rest_function = "");
 // The program of a quantity's node-parallel quadrature: the model's kernel
-// header and the entry points BT_DEFINE_NODE_PARALLEL_KERNELS(bt_node_prepare,
-// bt_node, bt_node_sum, state_size, count, prepare, term, finish) of
-// kernels/common/node_parallel.h around the model's node functions
-// (QuantityInfo::node_parallel); a separate program, like the one above.
-// With both term_first and term_second named, it also holds
-// BT_DEFINE_NODE_SPLIT_KERNELS(bt_node_first, bt_node_second, ...).
+// header and the entry points of kernels/common/node_parallel.cl
+// (bt_node_prepare, bt_node, bt_node_sum), their hooks bound to state_size
+// and the model's node functions (QuantityInfo::node_parallel); a separate
+// program, like the one above.  With both term_first and term_second named,
+// it also holds kernels/common/node_split.cl (bt_node_first, bt_node_second).
 std::string node_parallel_kernel_source(const std::string& kernel_header,
                                         const std::string& state_size,
                                         const std::string& count_function,
@@ -81,9 +80,9 @@ std::string node_parallel_kernel_source(const std::string& kernel_header,
                                         const std::string& term_first = "",
                                         const std::string& term_second = "");
 // The program of a quantity's nested node-parallel quadrature: the entry
-// points BT_DEFINE_NESTED_NODE_PARALLEL_KERNELS(bt_node_table, bt_node_prepare,
-// bt_node_group, bt_node_chunk, bt_node, bt_node_reduce, bt_node_sum, ...) of
-// kernels/common/node_parallel.h around the model's node functions
+// points of kernels/common/nested_node_parallel.cl (bt_node_table,
+// bt_node_prepare, bt_node_group, bt_node_chunk, bt_node, bt_node_reduce,
+// bt_node_sum), their hooks bound to the model's sizes and node functions
 // (QuantityInfo::node_parallel, nested()).  An empty `table` names
 // bt_node_no_table (node_parallel.h).
 struct NestedNodeParallelNames {
@@ -95,9 +94,9 @@ std::string nested_node_parallel_kernel_source(const std::string& kernel_header,
                                                const NestedNodeParallelNames& names,
                                                const std::string& kernel_dir = "");
 // The program of a random walk's walk-parallel launch: the model's kernel
-// header and the entry point BT_DEFINE_WALK_PARALLEL_KERNEL(bt_estimate_walk,
-// state, setup, begin, step, value) of kernels/common/walk_parallel.h around
-// the model's walk functions; a separate program, like the ones above.
+// header and the entry point bt_estimate_walk of kernels/common/walk_parallel.cl,
+// its hooks bound to the model's walk state and functions; a separate
+// program, like the ones above.
 struct WalkParallelNames {
     std::string state, setup, begin, step, value;
 };

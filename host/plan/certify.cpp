@@ -87,13 +87,89 @@ Certificate certify_table(const TableData& stored, Backend& backend, const Certi
 
 namespace {
 
-Certificate certify_impl(const TableData& stored, Backend& backend, const CertifyOptions& options,
-                         const ProgressFn& progress, LazyCells* lazy) {
-    const double start = wall_seconds();
-    check_certify_options(options);
-    // A recombined table (its values the recipe's sum at stored_at) is
-    // certified against the model quantity of its name at the stored
-    // parameter, as `validate` checks it (e.g. Oren-Nayar's brdf at rho).
+// The steps of one certificate (certify_impl): the table and its model
+// inputs, the first stage's probes, the lazily computed cells, the measure
+// and the reference, the probes' evaluation, the local search and the
+// quadrature's own rule error.  Members are the state the steps share.
+class CertifyRun {
+public:
+    CertifyRun(const TableData& stored, Backend& backend, const CertifyOptions& options,
+               const ProgressFn& progress, LazyCells* lazy)
+        : options_(options), backend_(backend), progress_(progress), lazy_(lazy),
+          model_(certified_model(stored)), q_(model_.quantity(stored.quantity)),
+          where_("table '" + stored.name + "' parameters"), table_(without_recombination(stored)),
+          t_(table_.table()), dims_(t_.axes.size()), rng_{options.seed * 0x9E3779B97F4A7C15ull + t_.seed + 0xCE27} {
+        read_model_inputs();
+    }
+
+    void place_first_stage_probes();
+    void plan_local_stage();
+    void collect_floor_cells();
+    bool refused_by_limit();
+    void set_measure();
+    void evaluate(std::size_t first);
+    void local_search();
+    Certificate finish();
+
+private:
+    static const ModelInfo& certified_model(const TableData& stored);
+    void read_model_inputs();
+    double axis_point(std::size_t a, std::size_t j, double s) const;
+    void add(std::vector<double> c, ProbeKind k, std::size_t axis);
+    void set_reference_noise();
+    void fill_lazy_cells(std::size_t first);
+    void fold(std::size_t k, double e);
+
+    const CertifyOptions& options_;
+    Backend& backend_;
+    const ProgressFn& progress_;
+    LazyCells* lazy_;
+    const ModelInfo& model_;
+    const QuantityInfo& q_;
+    const std::string where_;
+    const LookupTable table_;
+    const TableData& t_;
+    const std::size_t dims_;
+    SplitMix rng_;
+
+    // Model inputs.
+    std::map<std::string, double> fixed_;
+    std::vector<int> model_options_;
+    bool integral_ = false;
+    bool finer_rule_ = false;
+
+    // The probes.
+    std::vector<std::map<std::string, double>> named_;
+    std::vector<std::vector<double>> coords_;
+    std::vector<ProbeKind> kind_;
+    std::vector<std::size_t> line_axis_;     // the axis a line probe runs along
+    std::vector<std::vector<double>> unit_;  // probes as given to `add` (t on dependent axes)
+    std::vector<int> depends_on_;
+    std::vector<bool> whole_;
+
+    // The second stage's shape.
+    std::size_t worst_ = 0, cap_ = 0, per_cell_ = 1, neighbourhood_ = 1;
+    bool with_neighbours_ = false;
+
+    // Lazily computed values.
+    std::optional<LookupTable> filled_;
+    TableData work_;
+    std::vector<std::size_t> floor_cells_;
+
+    // The measure, the reference and the result.
+    double floor_ = 0;
+    bool floor_from_cells_ = false;
+    IntegrationSettings ref_;
+    Certificate c_;
+    double random_sum2_ = 0;
+    bool have_max_ = false;
+    std::vector<std::pair<double, std::size_t>> off_node_;  // (error, probe) of line and random probes
+};
+
+// A recombined table (its values the recipe's sum at stored_at) is
+// certified against the model quantity of its name at the stored
+// parameter, as `validate` checks it (e.g. Oren-Nayar's brdf at rho).
+const ModelInfo& CertifyRun::certified_model(const TableData& stored) {
     const bool recombined = stored.kind == TableKind::Recombined;
     if (stored.kind != TableKind::Computed && !recombined)
         throw InputError("table '" + stored.name + "' is " + method_attribute(stored) +
@@ -103,25 +179,22 @@ Certificate certify_impl(const TableData& stored, Backend& backend, const Certif
     if (recombined && !model.find_quantity(stored.quantity))
         throw InputError("recombined table '" + stored.name + "': model '" + model.name +
                          "' has no quantity of that name to certify it against");
-    const QuantityInfo& q = model.quantity(stored.quantity);
-    const std::string where = "table '" + stored.name + "' parameters";
-    const LookupTable table(without_recombination(stored));
-    const TableData& t = table.table();
-    const std::size_t dims = t.axes.size();
+    return model;
+}
 
+void CertifyRun::read_model_inputs() {
     // Fixed model inputs from the table's attributes (as validate reads them):
     // keys the model does not know describe the storage, not the model.
-    std::map<std::string, double> fixed;
     nlohmann::json option_values = nlohmann::json::object();
-    if (t.parameters.is_object())
-        for (auto it = t.parameters.begin(); it != t.parameters.end(); ++it) {
-            if (it.value().is_number() && (model.find_parameter(it.key()) || is_direction_coordinate(it.key())))
-                fixed[it.key()] = it.value().get<double>();
-            else if (it.value().is_string() && model.find_option(it.key()))
+    if (t_.parameters.is_object())
+        for (auto it = t_.parameters.begin(); it != t_.parameters.end(); ++it) {
+            if (it.value().is_number() && (model_.find_parameter(it.key()) || is_direction_coordinate(it.key())))
+                fixed_[it.key()] = it.value().get<double>();
+            else if (it.value().is_string() && model_.find_option(it.key()))
                 option_values[it.key()] = it.value();
         }
-    const std::vector<int> model_options = resolve_options(model, option_values, where);
-    const bool integral = q.kind != QuantityKind::ClosedForm;
+    model_options_ = resolve_options(model_, option_values, where_);
+    integral_ = q_.kind != QuantityKind::ClosedForm;
 
     // A quadrature's reference must not be the table's own rule: against the
     // same rule the node probes read zero and the certificate would never see
@@ -130,69 +203,68 @@ Certificate certify_impl(const TableData& stored, Backend& backend, const Certif
     // rule: twice the nodes, at least 24, within the parameter's range.
     // Otherwise the table's stored two-rule difference (its stderr) is added
     // to the measured error at the end.
-    const double finer = finer_rule_nodes(model, q, fixed);
-    const bool finer_rule = finer > 0;
-    if (finer_rule) fixed["nodes"] = finer;
+    const double finer = finer_rule_nodes(model_, q_, fixed_);
+    finer_rule_ = finer > 0;
+    if (finer_rule_) fixed_["nodes"] = finer;
 
-    // ---- the probes
-    SplitMix rng{options.seed * 0x9E3779B97F4A7C15ull + t.seed + 0xCE27};
-    std::vector<std::map<std::string, double>> named;
-    std::vector<std::vector<double>> coords;
-    std::vector<ProbeKind> kind;
-    std::vector<std::size_t> line_axis;  // the axis a line probe runs along
     // A dependent axis (critical spacing tied to an eta axis) has no node
     // positions of its own, only t_k: its probes are placed in t and mapped
     // to x at the probe's value of the axis it depends on (in `add`).
-    const Grid grid(t.axes);  // finds (and checks) each dependent axis' independent one
-    std::vector<int> depends_on(dims, -1);
-    for (std::size_t a = 0; a < dims; ++a) depends_on[a] = grid.dependency(a);
+    const Grid grid(t_.axes);  // finds (and checks) each dependent axis' independent one
+    depends_on_.assign(dims_, -1);
+    for (std::size_t a = 0; a < dims_; ++a) depends_on_[a] = grid.dependency(a);
     // An explicit axis of a whole-number parameter (an order, a mode: the
     // model refuses values between) is exact at its nodes and probed only
     // there: no lines along it, random and local probes on its nodes.
-    std::vector<bool> whole(dims, false);
-    for (std::size_t a = 0; a < dims; ++a)
-        if (t.axes[a].spacing == Spacing::Explicit)
-            if (const ParameterInfo* info = model.find_parameter(t.axes[a].name)) whole[a] = info->integer;
-    // x of interval j, fraction s, of axis a; t for a dependent axis.
-    auto axis_point = [&](std::size_t a, std::size_t j, double s) {
-        const Axis& ax = t.axes[a];
-        if (whole[a]) return ax.values[s > 0.5 ? j + 1 : j];
-        return ax.dependent() ? (double(j) + s) / double(ax.count - 1) : interval_point(ax, j, s);
-    };
-    std::vector<std::vector<double>> unit;  // probes as given to `add` (t on dependent axes)
-    auto add = [&](std::vector<double> c, ProbeKind k, std::size_t axis) {
-        unit.push_back(c);
-        for (std::size_t a = 0; a < dims; ++a)
-            if (depends_on[a] >= 0) {
-                const Axis& ax = t.axes[a];
-                c[a] = std::clamp(ax.warp_at(c[a], c[std::size_t(depends_on[a])]), ax.min, ax.max);
-            }
-        std::map<std::string, double> p = fixed;
-        for (std::size_t a = 0; a < dims; ++a) p[t.axes[a].name] = c[a];
-        named.push_back(std::move(p));
-        coords.push_back(std::move(c));
-        kind.push_back(k);
-        line_axis.push_back(axis);
-    };
-    const std::size_t nl = integral ? options.integral_lines : options.lines;
-    for (std::size_t a = 0; a < dims && nl > 0; ++a) {
-        if (whole[a]) continue;
+    whole_.assign(dims_, false);
+    for (std::size_t a = 0; a < dims_; ++a)
+        if (t_.axes[a].spacing == Spacing::Explicit)
+            if (const ParameterInfo* info = model_.find_parameter(t_.axes[a].name)) whole_[a] = info->integer;
+}
+
+// x of interval j, fraction s, of axis a; t for a dependent axis.
+double CertifyRun::axis_point(std::size_t a, std::size_t j, double s) const {
+    const Axis& ax = t_.axes[a];
+    if (whole_[a]) return ax.values[s > 0.5 ? j + 1 : j];
+    return ax.dependent() ? (double(j) + s) / double(ax.count - 1) : interval_point(ax, j, s);
+}
+
+void CertifyRun::add(std::vector<double> c, ProbeKind k, std::size_t axis) {
+    unit_.push_back(c);
+    for (std::size_t a = 0; a < dims_; ++a)
+        if (depends_on_[a] >= 0) {
+            const Axis& ax = t_.axes[a];
+            c[a] = std::clamp(ax.warp_at(c[a], c[std::size_t(depends_on_[a])]), ax.min, ax.max);
+        }
+    std::map<std::string, double> p = fixed_;
+    for (std::size_t a = 0; a < dims_; ++a) p[t_.axes[a].name] = c[a];
+    named_.push_back(std::move(p));
+    coords_.push_back(std::move(c));
+    kind_.push_back(k);
+    line_axis_.push_back(axis);
+}
+
+// Lines along every axis, random points and (integrals) random nodes.
+void CertifyRun::place_first_stage_probes() {
+    const std::size_t nl = integral_ ? options_.integral_lines : options_.lines;
+    for (std::size_t a = 0; a < dims_ && nl > 0; ++a) {
+        if (whole_[a]) continue;
         // Lines along a: along every other axis the nl lines take nodes spread
         // evenly from the first to the last (the edges always among them), in
         // a random order per axis (the planner's design, plan.cpp).
-        std::vector<std::vector<double>> lines(nl, std::vector<double>(dims, 0.0));
-        for (std::size_t b = 0; b < dims; ++b) {
+        std::vector<std::vector<double>> lines(nl, std::vector<double>(dims_, 0.0));
+        for (std::size_t b = 0; b < dims_; ++b) {
             if (b == a) continue;
-            const Axis& other = t.axes[b];
+            const Axis& other = t_.axes[b];
             std::vector<std::size_t> idx(nl);
             for (std::size_t l = 0; l < nl; ++l)
-                idx[l] = nl == 1 ? rng.below(other.count)
+                idx[l] = nl == 1 ? rng_.below(other.count)
                                  : static_cast<std::size_t>(
                                        std::lround(double(l) * double(other.count - 1) / double(nl - 1)));
-            for (std::size_t l = nl; l > 1; --l) std::swap(idx[l - 1], idx[rng.below(l)]);
+            for (std::size_t l = nl; l > 1; --l) std::swap(idx[l - 1], idx[rng_.below(l)]);
             for (std::size_t l = 0; l < nl; ++l) lines[l][b] = other.values[idx[l]];
         }
-        const Axis& axis = t.axes[a];
+        const Axis& axis = t_.axes[a];
         for (const auto& line : lines)
             for (std::size_t j = 0; j + 1 < axis.count; ++j)
                 for (double s : kProbeFractions) {
@@ -201,246 +273,257 @@ Certificate certify_impl(const TableData& stored, Backend& backend, const Certif
                     add(std::move(c), ProbeKind::Line, a);
                 }
     }
-    const std::size_t nr = integral ? options.integral_random_points : options.random_points;
+    const std::size_t nr = integral_ ? options_.integral_random_points : options_.random_points;
     for (std::size_t k = 0; k < nr; ++k) {
-        std::vector<double> c(dims);
-        for (std::size_t a = 0; a < dims; ++a)
-            c[a] = t.axes[a].dependent() ? rng.uniform()
-                   : whole[a] ? t.axes[a].values[static_cast<std::size_t>(
-                                    std::lround(rng.uniform() * double(t.axes[a].count - 1)))]
-                              : std::clamp(t.axes[a].warp(rng.uniform()), t.axes[a].min, t.axes[a].max);
-        add(std::move(c), ProbeKind::Random, dims);
+        std::vector<double> c(dims_);
+        for (std::size_t a = 0; a < dims_; ++a)
+            c[a] = t_.axes[a].dependent() ? rng_.uniform()
+                   : whole_[a] ? t_.axes[a].values[static_cast<std::size_t>(
+                                     std::lround(rng_.uniform() * double(t_.axes[a].count - 1)))]
+                               : std::clamp(t_.axes[a].warp(rng_.uniform()), t_.axes[a].min, t_.axes[a].max);
+        add(std::move(c), ProbeKind::Random, dims_);
     }
-    if (integral)
-        for (std::size_t k = 0; k < options.node_points; ++k) {
-            std::vector<double> c(dims);
-            for (std::size_t a = 0; a < dims; ++a) c[a] = t.axes[a].values[rng.below(t.axes[a].count)];
-            add(std::move(c), ProbeKind::Node, dims);
+    if (integral_)
+        for (std::size_t k = 0; k < options_.node_points; ++k) {
+            std::vector<double> c(dims_);
+            for (std::size_t a = 0; a < dims_; ++a) c[a] = t_.axes[a].values[rng_.below(t_.axes[a].count)];
+            add(std::move(c), ProbeKind::Node, dims_);
         }
-    if (named.empty()) throw InputError("certificate: no probes (lines and random points are 0)");
+    if (named_.empty()) throw InputError("certificate: no probes (lines and random points are 0)");
+}
 
-    // The second stage's shape (below), fixed by the options and the axes.
-    const std::size_t worst = integral ? options.integral_local_worst : options.local_worst;
-    const std::size_t cap = integral ? options.integral_local_probe_cap : options.local_probe_cap;
-    std::size_t per_cell = 1;
-    for (std::size_t a = 0; a < dims; ++a) per_cell *= 3;
-    std::size_t neighbourhood = per_cell;  // 3^D cells around a probe
-    const bool with_neighbours = worst * neighbourhood * per_cell <= cap;
-    if (!with_neighbours) neighbourhood = 1;
+// The second stage's shape (local_search), fixed by the options and the axes.
+void CertifyRun::plan_local_stage() {
+    worst_ = integral_ ? options_.integral_local_worst : options_.local_worst;
+    cap_ = integral_ ? options_.integral_local_probe_cap : options_.local_probe_cap;
+    per_cell_ = 1;
+    for (std::size_t a = 0; a < dims_; ++a) per_cell_ *= 3;
+    neighbourhood_ = per_cell_;  // 3^D cells around a probe
+    with_neighbours_ = worst_ * neighbourhood_ * per_cell_ <= cap_;
+    if (!with_neighbours_) neighbourhood_ = 1;
+}
 
-    // Lazily computed values: the stored cells that stage 1 reads, plus a
-    // bound of stage 2's (up to `worst` blocks of 3^D cells, or single cells,
-    // each reading its nodes and the stencil's neighbours; at most cap /
-    // 3^D cells).  Refused above the caller's limit before anything is
-    // computed.
-    std::optional<LookupTable> filled;
-    TableData work;
-    // Lazily computed with the automatic relative floor: the cells that set
-    // the floor besides those the first stage reads.  A table's largest value
-    // often lies at a corner or along an edge (grazing angles, the specular
-    // direction at grazing, the ends of parameter ranges), which the probe
-    // lines rarely pass through in the right combination: every node of the
-    // table's edges (the lines along one axis with every other axis at one
-    // of its ends; the corners are among them), and the nodes within
-    // kHintReach of the nearest node to each of the caller's floor hints on
-    // every axis (the planner's: where its pilot saw its largest value; a
-    // peak's largest node need not be the nearest one: the off-specular
-    // shift of a glossy lobe, the pilot's own spacing).  Hints on tables with
-    // dependent axes are not used (their nodes move with the other axes).
-    std::vector<std::size_t> floor_cells;
-    if (lazy && !options.absolute && !(options.abs_floor > 0)) {
-        auto add_block = [&](const std::vector<std::size_t>& lo, const std::vector<std::size_t>& hi) {
-            std::vector<std::size_t> at = lo;  // odometer over the block
-            for (bool more = true; more;) {
-                floor_cells.push_back(t.flat_index(at));
-                more = false;
-                for (std::size_t a = dims; a-- > 0;) {
-                    if (at[a] < hi[a]) {
-                        ++at[a];
-                        more = true;
-                        break;
-                    }
-                    at[a] = lo[a];
+// Lazily computed with the automatic relative floor: the cells that set
+// the floor besides those the first stage reads.  A table's largest value
+// often lies at a corner or along an edge (grazing angles, the specular
+// direction at grazing, the ends of parameter ranges), which the probe
+// lines rarely pass through in the right combination: every node of the
+// table's edges (the lines along one axis with every other axis at one
+// of its ends; the corners are among them), and the nodes within
+// kHintReach of the nearest node to each of the caller's floor hints on
+// every axis (the planner's: where its pilot saw its largest value; a
+// peak's largest node need not be the nearest one: the off-specular
+// shift of a glossy lobe, the pilot's own spacing).  Hints on tables with
+// dependent axes are not used (their nodes move with the other axes).
+void CertifyRun::collect_floor_cells() {
+    if (!lazy_ || options_.absolute || options_.abs_floor > 0) return;
+    auto add_block = [&](const std::vector<std::size_t>& lo, const std::vector<std::size_t>& hi) {
+        std::vector<std::size_t> at = lo;  // odometer over the block
+        for (bool more = true; more;) {
+            floor_cells_.push_back(t_.flat_index(at));
+            more = false;
+            for (std::size_t a = dims_; a-- > 0;) {
+                if (at[a] < hi[a]) {
+                    ++at[a];
+                    more = true;
+                    break;
                 }
+                at[a] = lo[a];
             }
-        };
-        for (std::size_t a = 0; a < dims; ++a)
-            for (std::size_t ends = 0; ends < (std::size_t(1) << dims); ++ends) {
-                if ((ends >> a) & 1) continue;  // axis a's bit unused: each edge once
-                std::vector<std::size_t> lo(dims), hi(dims);
-                for (std::size_t b = 0; b < dims; ++b) {
-                    const std::size_t end = ((ends >> b) & 1) ? t.axes[b].count - 1 : 0;
-                    lo[b] = b == a ? 0 : end;
-                    hi[b] = b == a ? t.axes[b].count - 1 : end;
-                }
-                add_block(lo, hi);
-            }
-        constexpr std::size_t kHintReach = 2;
-        bool independent = true;
-        for (const Axis& ax : t.axes) independent = independent && !ax.dependent();
-        for (const auto& hint : lazy->floor_hints) {
-            if (!independent) break;
-            std::vector<std::size_t> lo(dims), hi(dims);
-            bool complete = true;
-            for (std::size_t a = 0; a < dims && complete; ++a) {
-                const auto it = hint.find(t.axes[a].name);
-                complete = it != hint.end() && std::isfinite(it->second);
-                if (!complete) break;
-                const std::vector<double>& v = t.axes[a].values;
-                std::size_t near = 0;
-                for (std::size_t j = 1; j < v.size(); ++j)
-                    if (std::fabs(v[j] - it->second) < std::fabs(v[near] - it->second)) near = j;
-                lo[a] = near >= kHintReach ? near - kHintReach : 0;
-                hi[a] = std::min(v.size() - 1, near + kHintReach);
-            }
-            if (complete) add_block(lo, hi);
         }
-        std::sort(floor_cells.begin(), floor_cells.end());
-        floor_cells.erase(std::unique(floor_cells.begin(), floor_cells.end()), floor_cells.end());
+    };
+    for (std::size_t a = 0; a < dims_; ++a)
+        for (std::size_t ends = 0; ends < (std::size_t(1) << dims_); ++ends) {
+            if ((ends >> a) & 1) continue;  // axis a's bit unused: each edge once
+            std::vector<std::size_t> lo(dims_), hi(dims_);
+            for (std::size_t b = 0; b < dims_; ++b) {
+                const std::size_t end = ((ends >> b) & 1) ? t_.axes[b].count - 1 : 0;
+                lo[b] = b == a ? 0 : end;
+                hi[b] = b == a ? t_.axes[b].count - 1 : end;
+            }
+            add_block(lo, hi);
+        }
+    constexpr std::size_t kHintReach = 2;
+    bool independent = true;
+    for (const Axis& ax : t_.axes) independent = independent && !ax.dependent();
+    for (const auto& hint : lazy_->floor_hints) {
+        if (!independent) break;
+        std::vector<std::size_t> lo(dims_), hi(dims_);
+        bool complete = true;
+        for (std::size_t a = 0; a < dims_ && complete; ++a) {
+            const auto it = hint.find(t_.axes[a].name);
+            complete = it != hint.end() && std::isfinite(it->second);
+            if (!complete) break;
+            const std::vector<double>& v = t_.axes[a].values;
+            std::size_t near = 0;
+            for (std::size_t j = 1; j < v.size(); ++j)
+                if (std::fabs(v[j] - it->second) < std::fabs(v[near] - it->second)) near = j;
+            lo[a] = near >= kHintReach ? near - kHintReach : 0;
+            hi[a] = std::min(v.size() - 1, near + kHintReach);
+        }
+        if (complete) add_block(lo, hi);
     }
-    if (lazy) {
-        std::vector<std::size_t> touched = floor_cells;
-        for (const auto& x : coords) table.stencil_cells(x, options.interpolation, OutOfRange::Clamp, touched);
-        std::sort(touched.begin(), touched.end());
-        touched.erase(std::unique(touched.begin(), touched.end()), touched.end());
-        const std::size_t reach = options.interpolation == Interpolation::Cubic ? 4 : 2;
-        double block = 1, single = 1;
-        for (const Axis& ax : t.axes) {
-            block *= double(std::min(ax.count, reach + (with_neighbours ? 2 : 0)));
-            single *= double(std::min(ax.count, reach));
-        }
-        const double stage2 = std::min(double(std::min(worst, named.size())) * block,
-                                       double(cap / per_cell) * single);
-        lazy->planned = std::min(t.value.size(), touched.size() + std::size_t(stage2));
-        if (double(lazy->planned) > double(lazy->limit)) {
-            lazy->skipped = true;
-            return Certificate{};
-        }
-        work = t;
-    }
+    std::sort(floor_cells_.begin(), floor_cells_.end());
+    floor_cells_.erase(std::unique(floor_cells_.begin(), floor_cells_.end()), floor_cells_.end());
+}
 
+// Lazily computed values: the stored cells that stage 1 reads, plus a
+// bound of stage 2's (up to `worst` blocks of 3^D cells, or single cells,
+// each reading its nodes and the stencil's neighbours; at most cap /
+// 3^D cells).  Refused above the caller's limit before anything is
+// computed.
+bool CertifyRun::refused_by_limit() {
+    if (!lazy_) return false;
+    std::vector<std::size_t> touched = floor_cells_;
+    for (const auto& x : coords_) table_.stencil_cells(x, options_.interpolation, OutOfRange::Clamp, touched);
+    std::sort(touched.begin(), touched.end());
+    touched.erase(std::unique(touched.begin(), touched.end()), touched.end());
+    const std::size_t reach = options_.interpolation == Interpolation::Cubic ? 4 : 2;
+    double block = 1, single = 1;
+    for (const Axis& ax : t_.axes) {
+        block *= double(std::min(ax.count, reach + (with_neighbours_ ? 2 : 0)));
+        single *= double(std::min(ax.count, reach));
+    }
+    const double stage2 = std::min(double(std::min(worst_, named_.size())) * block,
+                                   double(cap_ / per_cell_) * single);
+    lazy_->planned = std::min(t_.value.size(), touched.size() + std::size_t(stage2));
+    if (double(lazy_->planned) > double(lazy_->limit)) {
+        lazy_->skipped = true;
+        return true;
+    }
+    work_ = t_;
+    return false;
+}
+
+// The reference's noise: a fraction of the target in the measure.
+void CertifyRun::set_reference_noise() {
+    if (!integral_) return;
+    const double noise = options_.reference_noise_fraction * options_.target;
+    if (options_.absolute) {
+        ref_.tolerance = 1e-12;  // never the binding one: abs_floor is
+        ref_.abs_floor = noise;
+    } else {
+        ref_.tolerance = std::min(noise, 0.5);
+        ref_.abs_floor = noise * floor_;
+    }
+    ref_.max_samples = options_.reference_max_samples;
+}
+
+void CertifyRun::set_measure() {
     // ---- the measure: |table - reference| / max(|reference|, F), or absolute.
     double max_table = 0;
-    if (!lazy)
-        for (double v : t.value)
+    if (!lazy_)
+        for (double v : t_.value)
             if (std::isfinite(v)) max_table = std::max(max_table, std::fabs(v));
-    double floor = options.absolute ? 0.0
-                   : options.abs_floor > 0 ? options.abs_floor
-                                           : std::max(options.rel_floor_factor * max_table, 1e-300);
+    floor_ = options_.absolute ? 0.0
+             : options_.abs_floor > 0 ? options_.abs_floor
+                                      : std::max(options_.rel_floor_factor * max_table, 1e-300);
     // Computed lazily, the automatic floor is taken over the cells the first
     // stage reads and floor_cells (set in `evaluate`, before any error is
     // measured): the table's largest value whenever its cell is among them,
     // otherwise below it (the certificate errs towards larger relative
     // errors).
-    const bool floor_from_cells = lazy && !options.absolute && !(options.abs_floor > 0);
+    floor_from_cells_ = lazy_ && !options_.absolute && !(options_.abs_floor > 0);
 
     // ---- the reference: closed form, or the quantity's default method under
     // a tolerance that keeps its noise at a fraction of the target.
-    IntegrationSettings ref;
-    ref.method = resolve_method(q, Method::Auto);
-    ref.seed = t.seed * 0x9E3779B97F4A7C15ull + options.seed + 0xCE27;
-    auto set_reference_noise = [&] {
-        if (!integral) return;
-        const double noise = options.reference_noise_fraction * options.target;
-        if (options.absolute) {
-            ref.tolerance = 1e-12;  // never the binding one: abs_floor is
-            ref.abs_floor = noise;
-        } else {
-            ref.tolerance = std::min(noise, 0.5);
-            ref.abs_floor = noise * floor;
-        }
-        ref.max_samples = options.reference_max_samples;
-    };
+    ref_.method = resolve_method(q_, Method::Auto);
+    ref_.seed = t_.seed * 0x9E3779B97F4A7C15ull + options_.seed + 0xCE27;
     set_reference_noise();
-    Certificate c;
-    c.table = t.name;
-    c.target = options.target;
-    c.absolute = options.absolute;
-    c.abs_floor = floor;
-    c.interpolation = options.interpolation;
-    for (const Axis& ax : t.axes) c.axis_names.push_back(ax.name);
-    c.axis_max.assign(dims, 0.0);
-    c.max_at.assign(dims, 0.0);
-    double random_sum2 = 0;
-    bool have_max = false;
-    std::vector<std::pair<double, std::size_t>> off_node;  // (error, probe) of line and random probes
+    c_.table = t_.name;
+    c_.target = options_.target;
+    c_.absolute = options_.absolute;
+    c_.abs_floor = floor_;
+    c_.interpolation = options_.interpolation;
+    for (const Axis& ax : t_.axes) c_.axis_names.push_back(ax.name);
+    c_.axis_max.assign(dims_, 0.0);
+    c_.max_at.assign(dims_, 0.0);
+}
 
-    // Evaluates probes [first, named.size()) and folds them into c.
-    auto evaluate = [&](std::size_t first) {
-        if (lazy) {
-            std::vector<std::size_t> cells;
-            for (std::size_t k = first; k < coords.size(); ++k)
-                table.stencil_cells(coords[k], options.interpolation, OutOfRange::Clamp, cells);
-            if (floor_from_cells && first == 0) cells.insert(cells.end(), floor_cells.begin(), floor_cells.end());
-            std::sort(cells.begin(), cells.end());
-            cells.erase(std::unique(cells.begin(), cells.end()), cells.end());
-            lazy->fill(cells, work);
-            filled.emplace(work);
-            if (floor_from_cells && first == 0) {
-                double m = 0;  // cells not computed hold 0
-                for (double v : work.value)
-                    if (std::isfinite(v)) m = std::max(m, std::fabs(v));
-                floor = std::max(options.rel_floor_factor * m, 1e-300);
-                c.abs_floor = floor;
-                set_reference_noise();
-            }
-        }
-        const LookupTable& values = filled ? *filled : table;
-        const std::vector<std::map<std::string, double>> batch(named.begin() + first, named.end());
-        const std::vector<double> points =
-            build_kernel_points(model, q, batch, [&](std::size_t) { return where; });
-        const EstimateResult r = estimate_at(backend, model, q, model_options, points, ref, progress);
-        c.reference_method = to_string(r.method);
-        for (std::size_t i = 0; i < batch.size(); ++i) {
-            const std::size_t k = first + i;
-            const double v = values.eval(coords[k], options.interpolation, OutOfRange::Clamp);
-            const double den = options.absolute ? 1.0 : std::max(std::fabs(r.value[i]), floor);
-            double e = std::fabs(v - r.value[i]) / den;
-            if (!std::isfinite(e)) e = std::numeric_limits<double>::infinity();  // NaN fails the certificate
-            if (integral && i < r.stderr_.size()) c.reference_noise = std::max(c.reference_noise, r.stderr_[i] / den);
-            if (!have_max || e > c.max_error) {
-                c.max_error = e;
-                c.max_at = coords[k];
-                have_max = true;
-            }
-            ++c.probes;
-            switch (kind[k]) {
-                case ProbeKind::Line:
-                    ++c.line_probes;
-                    c.axis_max[line_axis[k]] = std::max(c.axis_max[line_axis[k]], e);
-                    off_node.emplace_back(e, k);
-                    break;
-                case ProbeKind::Random:
-                    ++c.random_probes;
-                    random_sum2 += e * e;
-                    off_node.emplace_back(e, k);
-                    break;
-                case ProbeKind::Node:
-                    ++c.node_probes;
-                    c.node_max = std::max(c.node_max, e);
-                    break;
-                case ProbeKind::Local:
-                    ++c.local_probes;
-                    break;
-            }
-        }
-    };
-    evaluate(0);
+// Computes the cells that probes [first, end) read and that are still
+// missing (and, first, the floor's cells and the automatic floor itself).
+void CertifyRun::fill_lazy_cells(std::size_t first) {
+    std::vector<std::size_t> cells;
+    for (std::size_t k = first; k < coords_.size(); ++k)
+        table_.stencil_cells(coords_[k], options_.interpolation, OutOfRange::Clamp, cells);
+    if (floor_from_cells_ && first == 0) cells.insert(cells.end(), floor_cells_.begin(), floor_cells_.end());
+    std::sort(cells.begin(), cells.end());
+    cells.erase(std::unique(cells.begin(), cells.end()), cells.end());
+    lazy_->fill(cells, work_);
+    filled_.emplace(work_);
+    if (floor_from_cells_ && first == 0) {
+        double m = 0;  // cells not computed hold 0
+        for (double v : work_.value)
+            if (std::isfinite(v)) m = std::max(m, std::fabs(v));
+        floor_ = std::max(options_.rel_floor_factor * m, 1e-300);
+        c_.abs_floor = floor_;
+        set_reference_noise();
+    }
+}
 
-    // Second stage, a local search: the cells around the worst probes,
-    // probed inside at every combination of the fractions 1/4, 1/2, 3/4.
-    // Lines hold all but one coordinate at nodes, and random points are
-    // sparse (~1 per cell or fewer), so a narrow feature whose error peaks
-    // inside a cell (a cross term, e.g. at the centre of the first cell of a
-    // peak at a corner) is found here, next to where the first stage saw
-    // the largest errors.
-    std::sort(off_node.begin(), off_node.end(), std::greater<>());
+// Folds probe k's error e into the certificate.
+void CertifyRun::fold(std::size_t k, double e) {
+    if (!have_max_ || e > c_.max_error) {
+        c_.max_error = e;
+        c_.max_at = coords_[k];
+        have_max_ = true;
+    }
+    ++c_.probes;
+    switch (kind_[k]) {
+        case ProbeKind::Line:
+            ++c_.line_probes;
+            c_.axis_max[line_axis_[k]] = std::max(c_.axis_max[line_axis_[k]], e);
+            off_node_.emplace_back(e, k);
+            break;
+        case ProbeKind::Random:
+            ++c_.random_probes;
+            random_sum2_ += e * e;
+            off_node_.emplace_back(e, k);
+            break;
+        case ProbeKind::Node:
+            ++c_.node_probes;
+            c_.node_max = std::max(c_.node_max, e);
+            break;
+        case ProbeKind::Local:
+            ++c_.local_probes;
+            break;
+    }
+}
+
+// Evaluates probes [first, named.size()) and folds them into the certificate.
+void CertifyRun::evaluate(std::size_t first) {
+    if (lazy_) fill_lazy_cells(first);
+    const LookupTable& values = filled_ ? *filled_ : table_;
+    const std::vector<std::map<std::string, double>> batch(named_.begin() + first, named_.end());
+    const std::vector<double> points = build_kernel_points(model_, q_, batch, [&](std::size_t) { return where_; });
+    const EstimateResult r = estimate_at(backend_, model_, q_, model_options_, points, ref_, progress_);
+    c_.reference_method = to_string(r.method);
+    for (std::size_t i = 0; i < batch.size(); ++i) {
+        const std::size_t k = first + i;
+        const double v = values.eval(coords_[k], options_.interpolation, OutOfRange::Clamp);
+        const double den = options_.absolute ? 1.0 : std::max(std::fabs(r.value[i]), floor_);
+        double e = std::fabs(v - r.value[i]) / den;
+        if (!std::isfinite(e)) e = std::numeric_limits<double>::infinity();  // NaN fails the certificate
+        if (integral_ && i < r.stderr_.size()) c_.reference_noise = std::max(c_.reference_noise, r.stderr_[i] / den);
+        fold(k, e);
+    }
+}
+
+// Second stage, a local search: the cells around the worst probes,
+// probed inside at every combination of the fractions 1/4, 1/2, 3/4.
+// Lines hold all but one coordinate at nodes, and random points are
+// sparse (~1 per cell or fewer), so a narrow feature whose error peaks
+// inside a cell (a cross term, e.g. at the centre of the first cell of a
+// peak at a corner) is found here, next to where the first stage saw
+// the largest errors.
+void CertifyRun::local_search() {
+    std::sort(off_node_.begin(), off_node_.end(), std::greater<>());
     std::vector<std::vector<std::size_t>> cells;
-    for (std::size_t w = 0; w < std::min(worst, off_node.size()); ++w) {
-        const std::vector<double>& x = unit[off_node[w].second];
-        std::vector<std::size_t> home(dims);
-        for (std::size_t a = 0; a < dims; ++a) {
-            const Axis& ax = t.axes[a];
+    for (std::size_t w = 0; w < std::min(worst_, off_node_.size()); ++w) {
+        const std::vector<double>& x = unit_[off_node_[w].second];
+        std::vector<std::size_t> home(dims_);
+        for (std::size_t a = 0; a < dims_; ++a) {
+            const Axis& ax = t_.axes[a];
             if (ax.dependent()) {
                 home[a] = std::min(std::size_t(std::max(0.0, x[a]) * double(ax.count - 1)), ax.count - 2);
                 continue;
@@ -449,44 +532,64 @@ Certificate certify_impl(const TableData& stored, Backend& backend, const Certif
             const std::size_t j = it == ax.values.begin() ? 0 : std::size_t(it - ax.values.begin()) - 1;
             home[a] = std::min(j, ax.count - 2);
         }
-        for (std::size_t n = 0; n < neighbourhood; ++n) {
+        for (std::size_t n = 0; n < neighbourhood_; ++n) {
             std::vector<std::size_t> cell = home;
             bool inside = true;
-            for (std::size_t a = 0, m = n; a < dims && with_neighbours; ++a, m /= 3) {
+            for (std::size_t a = 0, m = n; a < dims_ && with_neighbours_; ++a, m /= 3) {
                 const long j = long(home[a]) + long(m % 3) - 1;
-                inside = inside && j >= 0 && j <= long(t.axes[a].count) - 2;
+                inside = inside && j >= 0 && j <= long(t_.axes[a].count) - 2;
                 cell[a] = std::size_t(std::max(j, 0L));
             }
             if (inside && std::find(cells.begin(), cells.end(), cell) == cells.end()) cells.push_back(cell);
         }
     }
-    const std::size_t first_local = named.size();
+    const std::size_t first_local = named_.size();
     for (const auto& cell : cells) {
-        if ((named.size() - first_local) + per_cell > cap) break;
-        for (std::size_t n = 0; n < per_cell; ++n) {
-            std::vector<double> x(dims);
-            for (std::size_t a = 0, m = n; a < dims; ++a, m /= 3)
+        if ((named_.size() - first_local) + per_cell_ > cap_) break;
+        for (std::size_t n = 0; n < per_cell_; ++n) {
+            std::vector<double> x(dims_);
+            for (std::size_t a = 0, m = n; a < dims_; ++a, m /= 3)
                 x[a] = axis_point(a, cell[a], kProbeFractions[m % 3]);
-            add(std::move(x), ProbeKind::Local, dims);
+            add(std::move(x), ProbeKind::Local, dims_);
         }
     }
-    if (named.size() > first_local) evaluate(first_local);
-    c.rms_error = c.random_probes ? std::sqrt(random_sum2 / double(c.random_probes)) : 0.0;
-    if (q.kind == QuantityKind::Quadrature && !finer_rule) {
-        // The reference is the table's own rule (see above): add the rule's
-        // own error estimate, the largest stored two-rule difference, in the
-        // measure (a bound-like term: it is an estimate, not a measurement).
-        // (Computed lazily: over the cells computed, NaN elsewhere.)
-        const TableData& held = lazy ? work : t;
+    if (named_.size() > first_local) evaluate(first_local);
+}
+
+Certificate CertifyRun::finish() {
+    c_.rms_error = c_.random_probes ? std::sqrt(random_sum2_ / double(c_.random_probes)) : 0.0;
+    if (q_.kind == QuantityKind::Quadrature && !finer_rule_) {
+        // The reference is the table's own rule (read_model_inputs): add the
+        // rule's own error estimate, the largest stored two-rule difference,
+        // in the measure (a bound-like term: it is an estimate, not a
+        // measurement).  (Computed lazily: over the cells computed, NaN
+        // elsewhere.)
+        const TableData& held = lazy_ ? work_ : t_;
         double rule_error = 0;
         for (std::size_t i = 0; i < held.stderr_.size() && i < held.value.size(); ++i) {
-            const double den = options.absolute ? 1.0 : std::max(std::fabs(held.value[i]), floor);
+            const double den = options_.absolute ? 1.0 : std::max(std::fabs(held.value[i]), floor_);
             if (std::isfinite(held.stderr_[i])) rule_error = std::max(rule_error, held.stderr_[i] / den);
         }
-        c.reference_noise = std::max(c.reference_noise, rule_error);
-        c.max_error += rule_error;
+        c_.reference_noise = std::max(c_.reference_noise, rule_error);
+        c_.max_error += rule_error;
     }
-    c.passed = c.max_error <= c.target;
+    c_.passed = c_.max_error <= c_.target;
+    return c_;
+}
+
+Certificate certify_impl(const TableData& stored, Backend& backend, const CertifyOptions& options,
+                         const ProgressFn& progress, LazyCells* lazy) {
+    const double start = wall_seconds();
+    check_certify_options(options);
+    CertifyRun run(stored, backend, options, progress, lazy);
+    run.place_first_stage_probes();
+    run.plan_local_stage();
+    run.collect_floor_cells();
+    if (run.refused_by_limit()) return Certificate{};
+    run.set_measure();
+    run.evaluate(0);
+    run.local_search();
+    Certificate c = run.finish();
     c.seconds = wall_seconds() - start;
     return c;
 }

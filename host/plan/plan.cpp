@@ -151,7 +151,10 @@ void fit_axis(AxisFit& fit, double max_exponent) {
     fit.max_rel = fit_power_law(h, max_rel);
     fit.rms_rel = fit_power_law(h, rms_rel);
     if (max_exponent > 0 && !h.empty()) {
-        // Levels are coarsest first: the last usable ones are the finest.
+        // Levels are coarsest first: the last usable ones are the finest.  The
+        // slope of the two finest is the closest to the asymptotic regime: a
+        // least-squares slope over all levels is biased low by the coarsest
+        // (albedo_r's alpha axis: p = 1.22 against 1.37, a 6-fold over-prediction).
         const double lo = -std::numeric_limits<double>::infinity();
         auto finest = [&](const PowerFit& all, const std::vector<double>& y) {
             const std::size_t n = h.size();
@@ -431,35 +434,30 @@ void large_grid_pilot(const PilotContext& ctx, const Spec& spec, IntegrationFit&
 
 }  // namespace
 
-TablePilot run_pilot(const Spec& spec, std::size_t table_index, Backend& backend,
-                     const PilotOptions& options, const PilotProgressFn& progress) {
-    const double start = now_seconds();
-    if (table_index >= spec.tables.size()) throw InputError("plan: no table " + std::to_string(table_index));
-    const TableSpec& ts = spec.tables[table_index];
-    PilotContext ctx;
-    ctx.model = &find_model(spec.model);
-    ctx.quantity = &ctx.model->quantity(ts.quantity);
-    ctx.where = spec.file + ": table '" + ts.name + "'";
-    ctx.options = resolve_options(*ctx.model, ts.options, ctx.where);
-    ctx.fixed = ts.fixed;
-    if (options.lines < 1 || options.cells < 1) throw InputError("plan: the pilot needs lines and cells >= 1");
+namespace {
 
-    TablePilot pilot;
-    pilot.table = ts.name;
-    pilot.quantity = ts.quantity;
-    pilot.kind = ctx.quantity->kind;
-    pilot.axes = ts.axes;
-    const std::size_t dims = ts.axes.size();
-    (void)Grid(ts.axes);  // InputError unless every dependent axis follows an independent one
-    pilot.placement_lines.resize(dims);
-    SplitMix rng{options.seed * 0x9E3779B97F4A7C15ull + table_index + 1};
+// A stage's progress callback, by the stage's name.
+using StageProgress = std::function<ProgressFn(const std::string&)>;
 
-    // ---- interpolation: every axis, level and line in one batch of points.
-    std::vector<std::map<std::string, double>> named;
-    std::vector<LineBlock> blocks;
-    std::vector<std::vector<std::size_t>> level_counts(dims);
+// The interpolation pilot's points: every axis, level and line in one batch.
+struct InterpolationDesign {
+    std::vector<std::map<std::string, double>> named;   // the points, model inputs
+    std::vector<LineBlock> blocks;                       // where each line's nodes and probes lie
+    std::vector<std::vector<std::size_t>> level_counts;  // per axis (empty: a whole-number axis)
     // Each axis' lines (their fixed coordinates), for the line axes of the fits.
-    std::vector<std::vector<std::map<std::string, double>>> axis_lines(dims);
+    std::vector<std::vector<std::map<std::string, double>>> axis_lines;
+};
+
+InterpolationDesign design_interpolation_pilot(const PilotContext& ctx, const TableSpec& ts,
+                                               const PilotOptions& options, SplitMix& rng) {
+    const std::size_t dims = ts.axes.size();
+    InterpolationDesign d;
+    std::vector<std::map<std::string, double>>& named = d.named;
+    std::vector<LineBlock>& blocks = d.blocks;
+    std::vector<std::vector<std::size_t>>& level_counts = d.level_counts;
+    std::vector<std::vector<std::map<std::string, double>>>& axis_lines = d.axis_lines;
+    level_counts.resize(dims);
+    axis_lines.resize(dims);
     const bool integral = ctx.quantity->kind == QuantityKind::Integral;
     for (std::size_t a = 0; a < dims; ++a) {
         const Axis& axis = ts.axes[a];
@@ -526,48 +524,12 @@ TablePilot run_pilot(const Spec& spec, std::size_t table_index, Backend& backend
         }
         axis_lines[a] = std::move(lines);
     }
-    const std::vector<double> points = kernel_points(ctx, named);
+    return d;
+}
 
-    IntegrationSettings ref;
-    ref.method = resolve_method(*ctx.quantity, Method::Auto);
-    if (ctx.quantity->kind == QuantityKind::Integral) ref.samples = options.reference_samples;
-    ref.seed = options.seed + 0x5EED;
-    auto stage = [&](const std::string& name) -> ProgressFn {
-        if (!progress) return nullptr;
-        return [&progress, name](const Progress& p) { progress(name, p); };
-    };
-
-    // Launch overhead: the fastest of three one-point runs, after a first one
-    // that builds (or loads) the kernel.  Minima, because the machine may be
-    // shared: the fastest run is the one least disturbed.
-    const std::size_t stride = ctx.model->point_stride();
-    const std::vector<double> one(points.begin(), points.begin() + stride);
-    pilot.startup_seconds = estimate_at(backend, *ctx.model, *ctx.quantity, ctx.options, one, ref).elapsed_seconds;
-    // Kept for the large-grid pilot below (its variant's load, as a fresh
-    // process pays it).
-    const std::unique_ptr<Backend> fresh = options.fresh_backend ? options.fresh_backend() : nullptr;
-    if (fresh)
-        pilot.startup_seconds = estimate_at(*fresh, *ctx.model, *ctx.quantity, ctx.options, one, ref).elapsed_seconds;
-    pilot.kernel = spec.model + "\n" + ts.quantity;
-    for (int o : ctx.options) pilot.kernel += " " + std::to_string(o);
-    pilot.compression = spec.output.compression;
-    pilot.keep_stderr = spec.output.keep_stderr;
-    pilot.preferred_slab = backend.preferred_slab();
-    pilot.process_seconds = options.process_seconds;
-    pilot.overhead_seconds = std::numeric_limits<double>::infinity();
-    for (int k = 0; k < 3; ++k)
-        pilot.overhead_seconds = std::min(
-            pilot.overhead_seconds,
-            estimate_at(backend, *ctx.model, *ctx.quantity, ctx.options, one, ref).elapsed_seconds);
-
-    const EstimateResult r = estimate_at(backend, *ctx.model, *ctx.quantity, ctx.options, points, ref,
-                                         stage(ts.name + ": interpolation pilot"));
-    pilot.pilot_evaluations = named.size();
-    const bool noisy = r.method != Method::ClosedForm;
-    // Only a sampled reference's stderr is its noise; a quadrature's is the
-    // difference of two rules (an overestimate of its error, which must not
-    // be subtracted from the line errors: LevelErrors::denoised_*).
-    const bool sampled = r.method == Method::MonteCarlo || r.method == Method::Rqmc;
+// The range of the interpolation pilot's values and the relative floor.
+void record_value_range(TablePilot& pilot, const EstimateResult& r,
+                        const std::vector<std::map<std::string, double>>& named, const PilotOptions& options) {
     pilot.min_value = std::numeric_limits<double>::infinity();
     pilot.signed_min = r.value.empty() ? 0.0 : r.value.front();
     pilot.signed_max = pilot.signed_min;
@@ -580,7 +542,21 @@ TablePilot run_pilot(const Spec& spec, std::size_t table_index, Backend& backend
     }
     pilot.rel_floor = options.abs_floor > 0 ? options.abs_floor : options.rel_floor_factor * pilot.max_value;
     if (!(pilot.rel_floor > 0)) pilot.rel_floor = 1e-300;
+}
 
+// The interpolation errors of every axis and level, measured on the pilot's
+// lines, and their fitted laws (linear and cubic).
+void fit_interpolation(TablePilot& pilot, const TableSpec& ts, const InterpolationDesign& d,
+                       const EstimateResult& r) {
+    const std::size_t dims = ts.axes.size();
+    const std::vector<LineBlock>& blocks = d.blocks;
+    const std::vector<std::vector<std::size_t>>& level_counts = d.level_counts;
+    const std::vector<std::vector<std::map<std::string, double>>>& axis_lines = d.axis_lines;
+    const bool noisy = r.method != Method::ClosedForm;
+    // Only a sampled reference's stderr is its noise; a quadrature's is the
+    // difference of two rules (an overestimate of its error, which must not
+    // be subtracted from the line errors: LevelErrors::denoised_*).
+    const bool sampled = r.method == Method::MonteCarlo || r.method == Method::Rqmc;
     for (int m = 0; m < 2; ++m) {
         const Interpolation interp = m == 0 ? Interpolation::Linear : Interpolation::Cubic;
         std::vector<AxisFit>& fits = m == 0 ? pilot.linear : pilot.cubic;
@@ -648,205 +624,307 @@ TablePilot run_pilot(const Spec& spec, std::size_t table_index, Backend& backend
             fit_axis(fits[a], m == 0 ? 2.0 : 3.0);
         }
     }
+}
+
+// The cost per cell of a closed form.
+void closed_form_cost(const PilotContext& ctx, Backend& backend, const std::vector<double>& points,
+                      const EstimateResult& r, const IntegrationSettings& ref, TablePilot& pilot,
+                      const ProgressFn& progress) {
+    // Cost per cell: one full launch of the backend's preferred size, as
+    // `generate` runs them (the pilot's points repeated; 16384 <= cells
+    // <= 131072), fastest of two.  A smaller batch measured 4x too little
+    // per cell on PoCL: the cost per cell grows with the launch size.
+    //
+    // Expensive closed forms (e.g. the Lambert-sphere constants, a solve
+    // per point): when the interpolation pilot's own launch says that
+    // full launch would take more than kCostPilotSeconds, its per-point
+    // cost is used instead: launch-size effects are a per-launch
+    // overhead, negligible against such a per-cell cost, and the full
+    // launch would cost more than the table (201 cells) it plans.
+    constexpr double kCostPilotSeconds = 2.0;
+    const std::size_t want = std::clamp<std::size_t>(backend.preferred_slab(), 16384, 131072);
+    const std::size_t stride = ctx.model->point_stride();
+    const std::size_t n_points = points.size() / stride;
+    const double per_point = std::max(r.elapsed_seconds - pilot.overhead_seconds, 0.5 * r.elapsed_seconds) /
+                             double(std::max<std::size_t>(n_points, 1));
+    IntegrationFit f;
+    f.method = Method::ClosedForm;
+    if (per_point * double(want) > kCostPilotSeconds) {
+        f.seconds_per_cell = per_point;
+    } else {
+        std::vector<double> batch;
+        while (batch.size() / stride < want) batch.insert(batch.end(), points.begin(), points.end());
+        const std::size_t m = batch.size() / stride;
+        double t = std::numeric_limits<double>::infinity();
+        for (int k = 0; k < 2; ++k)
+            t = std::min(t, estimate_at(backend, *ctx.model, *ctx.quantity, ctx.options, batch, ref,
+                                        progress).elapsed_seconds);
+        pilot.pilot_evaluations += 2 * m;
+        f.seconds_per_cell = std::max(t - pilot.overhead_seconds, 0.5 * t) / double(m);
+    }
+    pilot.integration.push_back(f);
+}
+
+// A quadrature whose model exposes its rule size: the rule's own error,
+// measured against the finer rule (f's latest entries replaced).
+void measure_rule_against_finer(const PilotContext& ctx, const TableSpec& ts, Backend& backend,
+                                const std::vector<std::map<std::string, double>>& cells, const EstimateResult& e,
+                                const IntegrationSettings& s, double finer, SplitMix& rng, IntegrationFit& f,
+                                TablePilot& pilot, const StageProgress& stage) {
+    // The stored difference |Q_n - Q_(n/2)| is the coarse
+    // rule's error, ~1e3 x the n-node rule's own in the median
+    // (docs/models/rough-dielectric.md, "Quadrature"): measure
+    // the rule's own error against the finer rule instead, on
+    // the pilot cells (max and RMS) and on as many cells of a
+    // 16x larger random screen where the difference is largest
+    // (max only): it is largest where the rule struggles
+    // (grazing light), which 32 random cells rarely hit.
+    std::vector<std::map<std::string, double>> screen(16 * cells.size());
+    for (auto& c : screen) c = random_cell(ctx.fixed, ts.axes, rng);
+    const EstimateResult sc =
+        estimate_at(backend, *ctx.model, *ctx.quantity, ctx.options, kernel_points(ctx, screen), s,
+                    stage(ts.name + ": quadrature screen"));
+    // Half of them by the absolute difference, half by the
+    // relative one (the target's measure is not known here).
+    std::vector<std::size_t> chosen;
+    for (int measure = 0; measure < 2; ++measure) {
+        auto key = [&](std::size_t k) {
+            return measure == 0 ? sc.stderr_[k]
+                                : sc.stderr_[k] / std::max(std::fabs(sc.value[k]), pilot.rel_floor);
+        };
+        std::vector<std::size_t> order;
+        for (std::size_t k = 0; k < screen.size(); ++k)
+            if (std::find(chosen.begin(), chosen.end(), k) == chosen.end()) order.push_back(k);
+        const std::size_t top = std::min((cells.size() + 1) / 2, order.size());
+        std::partial_sort(order.begin(), order.begin() + top, order.end(),
+                          [&](std::size_t a, std::size_t b) { return key(a) > key(b); });
+        chosen.insert(chosen.end(), order.begin(), order.begin() + top);
+    }
+    std::vector<std::map<std::string, double>> probe = cells;
+    std::vector<double> rule_value = e.value;
+    for (std::size_t k : chosen) {
+        probe.push_back(screen[k]);
+        rule_value.push_back(sc.value[k]);
+    }
+    for (auto& c : probe) c["nodes"] = finer;
+    const EstimateResult fine =
+        estimate_at(backend, *ctx.model, *ctx.quantity, ctx.options, kernel_points(ctx, probe), s,
+                    stage(ts.name + ": quadrature reference, " + number_text(finer) + " nodes"));
+    std::vector<double> abs_err(probe.size()), rel_err(probe.size());
+    for (std::size_t k = 0; k < probe.size(); ++k) {
+        abs_err[k] = std::fabs(rule_value[k] - fine.value[k]);
+        rel_err[k] = abs_err[k] / std::max(std::fabs(fine.value[k]), pilot.rel_floor);
+    }
+    // RMS over the random cells only (the screened ones are the worst).
+    const std::vector<double> random_abs(abs_err.begin(), abs_err.begin() + cells.size()),
+        random_rel(rel_err.begin(), rel_err.begin() + cells.size());
+    const ErrorStats ma = error_stats(abs_err), mr = error_stats(rel_err);
+    f.max_abs.back() = ma.max, f.rms_abs.back() = error_stats(random_abs).rms;
+    f.max_rel.back() = mr.max, f.rms_rel.back() = error_stats(random_rel).rms;
+    f.cell_abs = random_abs;
+    f.cell_rel = random_rel;
+    f.reference_nodes = finer;
+    pilot.pilot_evaluations += screen.size() + probe.size();
+}
+
+// A quadrature's cost per cell, from a launch of a few hundred cells or more.
+void quadrature_cost_pilot(const PilotContext& ctx, const TableSpec& ts, const PilotOptions& options,
+                           Backend& backend, const std::vector<double>& cell_points, std::size_t n_cells,
+                           IntegrationFit& f, TablePilot& pilot, const StageProgress& stage) {
+    // Cost per cell from a launch of a few hundred cells or more:
+    // the 32 pilot cells are too few work items to keep every core
+    // of a CPU device busy, and measured 3x the cost per cell that
+    // `generate` then paid (docs/planning.md, "How good are the
+    // predictions").  The pilot cells repeated, for about 1 s.
+    const double run = f.seconds_per_cell * double(n_cells);
+    const std::size_t reps = static_cast<std::size_t>(
+        std::clamp(std::floor(1.0 / std::max(run, 1e-9)), 1.0, 64.0));
+    if (reps >= 4) {
+        std::vector<double> batch;
+        for (std::size_t k = 0; k < reps; ++k)
+            batch.insert(batch.end(), cell_points.begin(), cell_points.end());
+        IntegrationSettings s;
+        s.method = Method::Quadrature;
+        s.seed = options.seed + 17;
+        const double t = estimate_at(backend, *ctx.model, *ctx.quantity, ctx.options, batch, s,
+                                     stage(ts.name + ": quadrature cost pilot")).elapsed_seconds;
+        f.seconds_per_cell = std::max(t - pilot.overhead_seconds, 0.5 * t) /
+                             double(reps * n_cells);
+        pilot.pilot_evaluations += reps * n_cells;
+    }
+}
+
+void mark_unseen_variance(TablePilot& pilot) {
+    // Rare events: a budget at which no pilot cell saw two different
+    // sample values (stderr exactly 0 everywhere, while the values are
+    // not all 0) means the stderrs measure too few events to be trusted
+    // as the noise (lambert-sphere-brdf `brdf_mc_remainder`, the tail of
+    // the walks beyond order 1000).  The line errors are then used as
+    // measured, noise included (LevelErrors::denoised_* = the raw ones).
+    for (const IntegrationFit& f : pilot.integration)
+        for (double m : f.max_abs)
+            if (f.method != Method::Quadrature && m == 0 && pilot.max_value > 0) pilot.variance_unseen = true;
+    if (pilot.variance_unseen)
+        for (int m = 0; m < 2; ++m)
+            for (AxisFit& fit : m == 0 ? pilot.linear : pilot.cubic)
+                for (LevelErrors& l : fit.levels) {
+                    l.denoised_max_abs = l.max_abs, l.denoised_rms_abs = l.rms_abs;
+                    l.denoised_max_rel = l.max_rel, l.denoised_rms_rel = l.rms_rel;
+                }
+}
+
+// The integration pilot of an integral (quadrature, or MC and RQMC): its
+// errors and costs per budget on random cells of the grid.  Returns the
+// cells' kernel points (for the large-grid pilot).
+std::vector<double> integration_pilot(const PilotContext& ctx, const TableSpec& ts, const PilotOptions& options,
+                                      Backend& backend, SplitMix& rng, TablePilot& pilot,
+                                      const StageProgress& stage) {
+    // Random cells of the spec's grid.
+    std::vector<std::map<std::string, double>> cells(options.cells);
+    for (auto& c : cells) c = random_cell(ctx.fixed, ts.axes, rng);
+    const std::vector<double> cell_points = kernel_points(ctx, cells);
+    const std::vector<Method> methods =
+        ctx.quantity->kind == QuantityKind::Quadrature ? std::vector<Method>{Method::Quadrature}
+                                                       : std::vector<Method>{Method::MonteCarlo, Method::Rqmc};
+    for (Method method : methods) {
+        IntegrationFit f;
+        f.method = method;
+        const std::vector<std::uint64_t> budgets =
+            method == Method::Quadrature ? std::vector<std::uint64_t>{0} : options.integration_samples;
+        for (std::uint64_t n : budgets) {
+            IntegrationSettings s;
+            s.method = method;
+            s.samples = n;
+            s.seed = options.seed + 17;
+            const EstimateResult e = estimate_at(
+                backend, *ctx.model, *ctx.quantity, ctx.options, cell_points, s,
+                stage(ts.name + ": " + to_string(method) + " pilot, " + std::to_string(n) + " samples"));
+            std::vector<double> rel(e.stderr_.size());
+            for (std::size_t k = 0; k < rel.size(); ++k)
+                rel[k] = e.stderr_[k] / std::max(std::fabs(e.value[k]), pilot.rel_floor);
+            const ErrorStats sa = error_stats(e.stderr_), sr = error_stats(rel);
+            f.samples.push_back(n);
+            f.max_abs.push_back(sa.max), f.rms_abs.push_back(sa.rms);
+            f.max_rel.push_back(sr.max), f.rms_rel.push_back(sr.rms);
+            f.seconds.push_back(e.elapsed_seconds);
+            f.cell_abs = e.stderr_;
+            f.cell_rel = rel;
+            f.cell_value.resize(e.value.size());
+            for (std::size_t k = 0; k < e.value.size(); ++k) f.cell_value[k] = std::fabs(e.value[k]);
+            const double work = std::max(0.0, e.elapsed_seconds - pilot.overhead_seconds);
+            if (method == Method::Quadrature)
+                f.seconds_per_cell = work / cells.size();
+            else
+                f.seconds_per_sample = work / (double(cells.size()) * double(n));
+            // (A `nodes` left out of the spec is in ctx.fixed at its default.)
+            const double finer = finer_rule_nodes(*ctx.model, *ctx.quantity, ctx.fixed);
+            if (finer > 0) measure_rule_against_finer(ctx, ts, backend, cells, e, s, finer, rng, f, pilot, stage);
+        }
+        if (method == Method::Quadrature && !cells.empty())
+            quadrature_cost_pilot(ctx, ts, options, backend, cell_points, cells.size(), f, pilot, stage);
+        if (method != Method::Quadrature) {
+            std::vector<double> x(f.samples.begin(), f.samples.end());
+            // RQMC: q within [0.5, 1] (no worse than MC, no better than
+            // the rate of smooth integrands in low dimension), through
+            // the largest budget's measurement.
+            auto fit = [&](const std::vector<double>& y) {
+                return method == Method::MonteCarlo
+                           ? fit_power_law_fixed(x, y, -0.5)
+                           : anchored_fit(fit_power_law(x, y), x.back(), y.back(), -1.0, -0.5);
+            };
+            f.fit_max_abs = fit(f.max_abs), f.fit_rms_abs = fit(f.rms_abs);
+            f.fit_max_rel = fit(f.max_rel), f.fit_rms_rel = fit(f.rms_rel);
+        }
+        if (f.reference_nodes > 0) {
+            // The interpolation levels took the stored difference as
+            // their reference's noise (up to ~1e3 x the rule's error),
+            // which hid every level below 3x it from the fits: the
+            // rule's measured error is that noise.
+            for (int m = 0; m < 2; ++m)
+                for (AxisFit& fit : m == 0 ? pilot.linear : pilot.cubic) {
+                    for (LevelErrors& l : fit.levels) l.noise = f.max_abs.back();
+                    fit_axis(fit, m == 0 ? 2.0 : 3.0);
+                }
+        }
+        pilot.integration.push_back(f);
+    }
+    mark_unseen_variance(pilot);
+    return cell_points;
+}
+
+}  // namespace
+
+TablePilot run_pilot(const Spec& spec, std::size_t table_index, Backend& backend,
+                     const PilotOptions& options, const PilotProgressFn& progress) {
+    const double start = now_seconds();
+    if (table_index >= spec.tables.size()) throw InputError("plan: no table " + std::to_string(table_index));
+    const TableSpec& ts = spec.tables[table_index];
+    PilotContext ctx;
+    ctx.model = &find_model(spec.model);
+    ctx.quantity = &ctx.model->quantity(ts.quantity);
+    ctx.where = spec.file + ": table '" + ts.name + "'";
+    ctx.options = resolve_options(*ctx.model, ts.options, ctx.where);
+    ctx.fixed = ts.fixed;
+    if (options.lines < 1 || options.cells < 1) throw InputError("plan: the pilot needs lines and cells >= 1");
+
+    TablePilot pilot;
+    pilot.table = ts.name;
+    pilot.quantity = ts.quantity;
+    pilot.kind = ctx.quantity->kind;
+    pilot.axes = ts.axes;
+    const std::size_t dims = ts.axes.size();
+    (void)Grid(ts.axes);  // InputError unless every dependent axis follows an independent one
+    pilot.placement_lines.resize(dims);
+    SplitMix rng{options.seed * 0x9E3779B97F4A7C15ull + table_index + 1};
+
+    const InterpolationDesign design = design_interpolation_pilot(ctx, ts, options, rng);
+    const std::vector<std::map<std::string, double>>& named = design.named;
+    const std::vector<double> points = kernel_points(ctx, named);
+
+    IntegrationSettings ref;
+    ref.method = resolve_method(*ctx.quantity, Method::Auto);
+    if (ctx.quantity->kind == QuantityKind::Integral) ref.samples = options.reference_samples;
+    ref.seed = options.seed + 0x5EED;
+    const StageProgress stage = [&](const std::string& name) -> ProgressFn {
+        if (!progress) return nullptr;
+        return [&progress, name](const Progress& p) { progress(name, p); };
+    };
+
+    // Launch overhead: the fastest of three one-point runs, after a first one
+    // that builds (or loads) the kernel.  Minima, because the machine may be
+    // shared: the fastest run is the one least disturbed.
+    const std::size_t stride = ctx.model->point_stride();
+    const std::vector<double> one(points.begin(), points.begin() + stride);
+    pilot.startup_seconds = estimate_at(backend, *ctx.model, *ctx.quantity, ctx.options, one, ref).elapsed_seconds;
+    // Kept for the large-grid pilot below (its variant's load, as a fresh
+    // process pays it).
+    const std::unique_ptr<Backend> fresh = options.fresh_backend ? options.fresh_backend() : nullptr;
+    if (fresh)
+        pilot.startup_seconds = estimate_at(*fresh, *ctx.model, *ctx.quantity, ctx.options, one, ref).elapsed_seconds;
+    pilot.kernel = spec.model + "\n" + ts.quantity;
+    for (int o : ctx.options) pilot.kernel += " " + std::to_string(o);
+    pilot.compression = spec.output.compression;
+    pilot.keep_stderr = spec.output.keep_stderr;
+    pilot.preferred_slab = backend.preferred_slab();
+    pilot.process_seconds = options.process_seconds;
+    pilot.overhead_seconds = std::numeric_limits<double>::infinity();
+    for (int k = 0; k < 3; ++k)
+        pilot.overhead_seconds = std::min(
+            pilot.overhead_seconds,
+            estimate_at(backend, *ctx.model, *ctx.quantity, ctx.options, one, ref).elapsed_seconds);
+
+    const EstimateResult r = estimate_at(backend, *ctx.model, *ctx.quantity, ctx.options, points, ref,
+                                         stage(ts.name + ": interpolation pilot"));
+    pilot.pilot_evaluations = named.size();
+    record_value_range(pilot, r, named, options);
+    fit_interpolation(pilot, ts, design, r);
 
     // ---- cost per cell (closed form, quadrature) and integration error.
     std::vector<double> integral_cells;  // the integration pilot's cell points (large-grid pilot)
     if (ctx.quantity->kind == QuantityKind::ClosedForm) {
-        // Cost per cell: one full launch of the backend's preferred size, as
-        // `generate` runs them (the pilot's points repeated; 16384 <= cells
-        // <= 131072), fastest of two.  A smaller batch measured 4x too little
-        // per cell on PoCL: the cost per cell grows with the launch size.
-        //
-        // Expensive closed forms (e.g. the Lambert-sphere constants, a solve
-        // per point): when the interpolation pilot's own launch says that
-        // full launch would take more than kCostPilotSeconds, its per-point
-        // cost is used instead: launch-size effects are a per-launch
-        // overhead, negligible against such a per-cell cost, and the full
-        // launch would cost more than the table (201 cells) it plans.
-        constexpr double kCostPilotSeconds = 2.0;
-        const std::size_t want = std::clamp<std::size_t>(backend.preferred_slab(), 16384, 131072);
-        const std::size_t n_points = points.size() / stride;
-        const double per_point = std::max(r.elapsed_seconds - pilot.overhead_seconds, 0.5 * r.elapsed_seconds) /
-                                 double(std::max<std::size_t>(n_points, 1));
-        IntegrationFit f;
-        f.method = Method::ClosedForm;
-        if (per_point * double(want) > kCostPilotSeconds) {
-            f.seconds_per_cell = per_point;
-        } else {
-            std::vector<double> batch;
-            while (batch.size() / stride < want) batch.insert(batch.end(), points.begin(), points.end());
-            const std::size_t m = batch.size() / stride;
-            double t = std::numeric_limits<double>::infinity();
-            for (int k = 0; k < 2; ++k)
-                t = std::min(t, estimate_at(backend, *ctx.model, *ctx.quantity, ctx.options, batch, ref,
-                                            stage(ts.name + ": cost pilot")).elapsed_seconds);
-            pilot.pilot_evaluations += 2 * m;
-            f.seconds_per_cell = std::max(t - pilot.overhead_seconds, 0.5 * t) / double(m);
-        }
-        pilot.integration.push_back(f);
+        closed_form_cost(ctx, backend, points, r, ref, pilot, stage(ts.name + ": cost pilot"));
     } else {
-        // Random cells of the spec's grid.
-        std::vector<std::map<std::string, double>> cells(options.cells);
-        for (auto& c : cells) c = random_cell(ctx.fixed, ts.axes, rng);
-        const std::vector<double> cell_points = kernel_points(ctx, cells);
-        integral_cells = cell_points;
-        const std::vector<Method> methods =
-            ctx.quantity->kind == QuantityKind::Quadrature ? std::vector<Method>{Method::Quadrature}
-                                                           : std::vector<Method>{Method::MonteCarlo, Method::Rqmc};
-        for (Method method : methods) {
-            IntegrationFit f;
-            f.method = method;
-            const std::vector<std::uint64_t> budgets =
-                method == Method::Quadrature ? std::vector<std::uint64_t>{0} : options.integration_samples;
-            for (std::uint64_t n : budgets) {
-                IntegrationSettings s;
-                s.method = method;
-                s.samples = n;
-                s.seed = options.seed + 17;
-                const EstimateResult e = estimate_at(
-                    backend, *ctx.model, *ctx.quantity, ctx.options, cell_points, s,
-                    stage(ts.name + ": " + to_string(method) + " pilot, " + std::to_string(n) + " samples"));
-                std::vector<double> rel(e.stderr_.size());
-                for (std::size_t k = 0; k < rel.size(); ++k)
-                    rel[k] = e.stderr_[k] / std::max(std::fabs(e.value[k]), pilot.rel_floor);
-                const ErrorStats sa = error_stats(e.stderr_), sr = error_stats(rel);
-                f.samples.push_back(n);
-                f.max_abs.push_back(sa.max), f.rms_abs.push_back(sa.rms);
-                f.max_rel.push_back(sr.max), f.rms_rel.push_back(sr.rms);
-                f.seconds.push_back(e.elapsed_seconds);
-                f.cell_abs = e.stderr_;
-                f.cell_rel = rel;
-                f.cell_value.resize(e.value.size());
-                for (std::size_t k = 0; k < e.value.size(); ++k) f.cell_value[k] = std::fabs(e.value[k]);
-                const double work = std::max(0.0, e.elapsed_seconds - pilot.overhead_seconds);
-                if (method == Method::Quadrature)
-                    f.seconds_per_cell = work / cells.size();
-                else
-                    f.seconds_per_sample = work / (double(cells.size()) * double(n));
-                // (A `nodes` left out of the spec is in ctx.fixed at its default.)
-                const double finer = finer_rule_nodes(*ctx.model, *ctx.quantity, ctx.fixed);
-                if (finer > 0) {
-                    // The stored difference |Q_n - Q_(n/2)| is the coarse
-                    // rule's error, ~1e3 x the n-node rule's own in the median
-                    // (docs/models/rough-dielectric.md, "Quadrature"): measure
-                    // the rule's own error against the finer rule instead, on
-                    // the pilot cells (max and RMS) and on as many cells of a
-                    // 16x larger random screen where the difference is largest
-                    // (max only): it is largest where the rule struggles
-                    // (grazing light), which 32 random cells rarely hit.
-                    std::vector<std::map<std::string, double>> screen(16 * cells.size());
-                    for (auto& c : screen) c = random_cell(ctx.fixed, ts.axes, rng);
-                    const EstimateResult sc =
-                        estimate_at(backend, *ctx.model, *ctx.quantity, ctx.options, kernel_points(ctx, screen), s,
-                                    stage(ts.name + ": quadrature screen"));
-                    // Half of them by the absolute difference, half by the
-                    // relative one (the target's measure is not known here).
-                    std::vector<std::size_t> chosen;
-                    for (int measure = 0; measure < 2; ++measure) {
-                        auto key = [&](std::size_t k) {
-                            return measure == 0 ? sc.stderr_[k]
-                                                : sc.stderr_[k] / std::max(std::fabs(sc.value[k]), pilot.rel_floor);
-                        };
-                        std::vector<std::size_t> order;
-                        for (std::size_t k = 0; k < screen.size(); ++k)
-                            if (std::find(chosen.begin(), chosen.end(), k) == chosen.end()) order.push_back(k);
-                        const std::size_t top = std::min((cells.size() + 1) / 2, order.size());
-                        std::partial_sort(order.begin(), order.begin() + top, order.end(),
-                                          [&](std::size_t a, std::size_t b) { return key(a) > key(b); });
-                        chosen.insert(chosen.end(), order.begin(), order.begin() + top);
-                    }
-                    std::vector<std::map<std::string, double>> probe = cells;
-                    std::vector<double> rule_value = e.value;
-                    for (std::size_t k : chosen) {
-                        probe.push_back(screen[k]);
-                        rule_value.push_back(sc.value[k]);
-                    }
-                    for (auto& c : probe) c["nodes"] = finer;
-                    const EstimateResult fine =
-                        estimate_at(backend, *ctx.model, *ctx.quantity, ctx.options, kernel_points(ctx, probe), s,
-                                    stage(ts.name + ": quadrature reference, " + number_text(finer) + " nodes"));
-                    std::vector<double> abs_err(probe.size()), rel_err(probe.size());
-                    for (std::size_t k = 0; k < probe.size(); ++k) {
-                        abs_err[k] = std::fabs(rule_value[k] - fine.value[k]);
-                        rel_err[k] = abs_err[k] / std::max(std::fabs(fine.value[k]), pilot.rel_floor);
-                    }
-                    // RMS over the random cells only (the screened ones are the worst).
-                    const std::vector<double> random_abs(abs_err.begin(), abs_err.begin() + cells.size()),
-                        random_rel(rel_err.begin(), rel_err.begin() + cells.size());
-                    const ErrorStats ma = error_stats(abs_err), mr = error_stats(rel_err);
-                    f.max_abs.back() = ma.max, f.rms_abs.back() = error_stats(random_abs).rms;
-                    f.max_rel.back() = mr.max, f.rms_rel.back() = error_stats(random_rel).rms;
-                    f.cell_abs = random_abs;
-                    f.cell_rel = random_rel;
-                    f.reference_nodes = finer;
-                    pilot.pilot_evaluations += screen.size() + probe.size();
-                }
-            }
-            if (method == Method::Quadrature && !cells.empty()) {
-                // Cost per cell from a launch of a few hundred cells or more:
-                // the 32 pilot cells are too few work items to keep every core
-                // of a CPU device busy, and measured 3x the cost per cell that
-                // `generate` then paid (docs/planning.md, "How good are the
-                // predictions").  The pilot cells repeated, for about 1 s.
-                const double run = f.seconds_per_cell * double(cells.size());
-                const std::size_t reps = static_cast<std::size_t>(
-                    std::clamp(std::floor(1.0 / std::max(run, 1e-9)), 1.0, 64.0));
-                if (reps >= 4) {
-                    std::vector<double> batch;
-                    for (std::size_t k = 0; k < reps; ++k)
-                        batch.insert(batch.end(), cell_points.begin(), cell_points.end());
-                    IntegrationSettings s;
-                    s.method = method;
-                    s.seed = options.seed + 17;
-                    const double t = estimate_at(backend, *ctx.model, *ctx.quantity, ctx.options, batch, s,
-                                                 stage(ts.name + ": quadrature cost pilot")).elapsed_seconds;
-                    f.seconds_per_cell = std::max(t - pilot.overhead_seconds, 0.5 * t) /
-                                         double(reps * cells.size());
-                    pilot.pilot_evaluations += reps * cells.size();
-                }
-            }
-            if (method != Method::Quadrature) {
-                std::vector<double> x(f.samples.begin(), f.samples.end());
-                // RQMC: q within [0.5, 1] (no worse than MC, no better than
-                // the rate of smooth integrands in low dimension), through
-                // the largest budget's measurement.
-                auto fit = [&](const std::vector<double>& y) {
-                    return method == Method::MonteCarlo
-                               ? fit_power_law_fixed(x, y, -0.5)
-                               : anchored_fit(fit_power_law(x, y), x.back(), y.back(), -1.0, -0.5);
-                };
-                f.fit_max_abs = fit(f.max_abs), f.fit_rms_abs = fit(f.rms_abs);
-                f.fit_max_rel = fit(f.max_rel), f.fit_rms_rel = fit(f.rms_rel);
-            }
-            if (f.reference_nodes > 0) {
-                // The interpolation levels took the stored difference as
-                // their reference's noise (up to ~1e3 x the rule's error),
-                // which hid every level below 3x it from the fits: the
-                // rule's measured error is that noise.
-                for (int m = 0; m < 2; ++m)
-                    for (AxisFit& fit : m == 0 ? pilot.linear : pilot.cubic) {
-                        for (LevelErrors& l : fit.levels) l.noise = f.max_abs.back();
-                        fit_axis(fit, m == 0 ? 2.0 : 3.0);
-                    }
-            }
-            pilot.integration.push_back(f);
-        }
-        // Rare events: a budget at which no pilot cell saw two different
-        // sample values (stderr exactly 0 everywhere, while the values are
-        // not all 0) means the stderrs measure too few events to be trusted
-        // as the noise (lambert-sphere-brdf `brdf_mc_remainder`, the tail of
-        // the walks beyond order 1000).  The line errors are then used as
-        // measured, noise included (LevelErrors::denoised_* = the raw ones).
-        for (const IntegrationFit& f : pilot.integration)
-            for (double m : f.max_abs)
-                if (f.method != Method::Quadrature && m == 0 && pilot.max_value > 0) pilot.variance_unseen = true;
-        if (pilot.variance_unseen)
-            for (int m = 0; m < 2; ++m)
-                for (AxisFit& fit : m == 0 ? pilot.linear : pilot.cubic)
-                    for (LevelErrors& l : fit.levels) {
-                        l.denoised_max_abs = l.max_abs, l.denoised_rms_abs = l.rms_abs;
-                        l.denoised_max_rel = l.max_rel, l.denoised_rms_rel = l.rms_rel;
-                    }
+        integral_cells = integration_pilot(ctx, ts, options, backend, rng, pilot, stage);
     }
     // ---- PoCL's large-grid kernel variant (kLargeGridWorkItems).
     // generate's launches grow towards 0.5 s each, up to 131072 work items;

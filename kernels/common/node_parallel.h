@@ -2,7 +2,7 @@
  * node_parallel.h — node-parallel launch of a quadrature sum (the engine's
  * "node-parallel" path, host/engine/engine.cpp; BRDFTAB_NODE_PARALLEL).
  *
- * The usual kernel (BT_DEFINE_ESTIMATE_KERNEL in estimator.h) runs a
+ * The usual kernel (estimate.cl) runs a
  * quadrature rule as a loop inside one work item.  When that loop's trip
  * count depends on the point (hfunction's H: ~60-200 trapezoid nodes), PoCL's
  * loop over the work items of a group wraps it, is not innermost, and stays
@@ -23,7 +23,8 @@
  * kernels/models/hfunction.h).  The state holds what every term of a work
  * item shares (hfunction: Psi's coefficients and moments, the grid), so
  * that the per-node kernel neither recomputes it nor holds the loops and
- * divisions that compute it.  The work is three kernels, no barrier:
+ * divisions that compute it.  The work is three kernels, no barrier (plain
+ * OpenCL C in node_parallel.cl; the names below are its hooks' roles):
  *
  *   prepare_kernel  one work item per work item w of a sub-launch: its state,
  *                   stored in state[(w - first_work) * state_size + ...].
@@ -55,95 +56,8 @@
 
 #include "estimator.h"
 
-#if BT_DEVICE
-/* The start of both prepare kernels: work item w = first_work + gid of the
- * sub-launch, its point and sampler (sample 0), and st[state_size] for the
- * state prepare_fn writes. */
-#define BT_NODE_PREPARE_BEGIN_(state_size)                                     \
-        const uint gid = (uint)get_global_id(0);                               \
-        if (gid >= n_work) return;                                             \
-        const uint w = first_work + gid;                                       \
-        BT_KERNEL_LOAD_WORK_(w)                                                \
-        s.sample = 0u;                                                         \
-        REAL st[state_size];
-/* The node kernels' body once the global node number is known: its work
- * item's state (copied whole, unrolled) and term_fn's value at scratch[slot]
- * (the node's number within its work item is node - node_offset[w]). */
-#define BT_NODE_TERM_(state_size, term_fn, node, slot)                         \
-        const uint w = node_item[node];                                        \
-        BT_KERNEL_LOAD_OPTIONS_(o, options, n_options)                         \
-        __global const REAL* my_state =                                        \
-            state + (size_t)(w - first_work) * (state_size);                   \
-        REAL st[state_size];                                                   \
-        _Pragma("unroll")                                                      \
-        for (uint i = 0; i < (uint)(state_size); ++i) st[i] = my_state[i];     \
-        scratch[slot] = term_fn(st, o, BT_KERNEL_QUANTITY_(quantity),          \
-                                (int)(node - node_offset[w]));
 
-#define BT_DEFINE_NODE_PARALLEL_KERNELS(prepare_kernel, node_kernel,           \
-                                        sum_kernel, state_size, count_fn,      \
-                                        prepare_fn, term_fn, finish_fn)        \
-    /* prepare: one work item per work item w of a sub-launch, its state at \
-     * state[(w - first_work) * state_size + ...] (the copy unrolled, as   \
-     * measured) */                                                        \
-    __kernel void prepare_kernel(                                              \
-        BT_WORK_KERNEL_PARAMS, uint first_work, uint n_work,                   \
-        __global REAL* state)                                                  \
-    {                                                                          \
-        BT_NODE_PREPARE_BEGIN_(state_size)                                     \
-        prepare_fn(p, o, BT_KERNEL_QUANTITY_(quantity), &s, st);               \
-        _Pragma("unroll")                                                      \
-        for (uint i = 0; i < (uint)(state_size); ++i)                          \
-            state[(size_t)gid * (state_size) + i] = st[i];                     \
-    }                                                                          \
-    __kernel void node_kernel(                                                 \
-        __global const int* options, uint n_options, int quantity,             \
-        __global const uint* node_item, __global const uint* node_offset,      \
-        uint first_work, uint first_node, uint n_nodes,                        \
-        __global const REAL* state, __global REAL* scratch)                    \
-    {                                                                          \
-        const uint gid = (uint)get_global_id(0);                               \
-        if (gid >= n_nodes) return;                                            \
-        const uint node = first_node + gid;                                    \
-        BT_NODE_TERM_(state_size, term_fn, node, gid)                          \
-    }                                                                          \
-    __kernel void sum_kernel(                                                  \
-        BT_WORK_KERNEL_PARAMS,                                                 \
-        __global const uint* node_offset, uint first_node, uint first_work,    \
-        uint n_work, __global const REAL* scratch, __global ACCUM* out_mean,   \
-        __global ACCUM* out_m2)                                                \
-    {                                                                          \
-        const uint gid = (uint)get_global_id(0);                               \
-        if (gid >= n_work) return;                                             \
-        const uint w = first_work + gid;                                       \
-        BT_KERNEL_LOAD_WORK_(w)                                                \
-        s.sample = 0u;                                                         \
-        const int q_ = BT_KERNEL_QUANTITY_(quantity);                          \
-        const int n = count_fn(p, o, q_, &s);                                  \
-        const uint stored = node_offset[w + 1u] - node_offset[w];              \
-        __global const REAL* x = scratch + (node_offset[w] - first_node);      \
-        REAL sum = R(0.0);                                                     \
-        for (int k = 0; k < n; ++k) {                                          \
-            const int have = (uint)k < stored;                                 \
-            REAL v = have ? x[k] : R(0.0);                                     \
-            /* not laid out by the host, or NaN (a split kernel's node of   \
-             * the other form, or a NaN term): computed here */             \
-            if (!have || !(v == v)) {                                          \
-                REAL st[state_size];                                           \
-                prepare_fn(p, o, q_, &s, st);                                  \
-                v = term_fn(st, o, q_, k);                                     \
-            }                                                                  \
-            sum += v;                                                          \
-        }                                                                      \
-        ACCUM value = (ACCUM)finish_fn(p, o, q_, &s, sum);                     \
-        ACCUM mean = 0, m2 = 0;                                                \
-        BT_WELFORD_ADD(mean, m2, value, 1u);                                   \
-        out_mean[w] = mean;                                                    \
-        out_m2[w] = m2;                                                        \
-    }
-#endif
-
-/* Split terms (BT_DEFINE_NODE_SPLIT_KERNELS, with the flat launch above).
+/* Split terms (node_split.cl, with the flat launch above).
  * A term with two forms on either side of a branch (hfunction: the series
  * of K below t = 1/2, K itself above) costs both forms in a vectorised node
  * kernel, which runs both sides of a branch for every lane.  A model may
@@ -158,28 +72,9 @@
  * at the node's own scratch slot.  A node the host put on the wrong side
  * comes back NaN, and the sum kernel computes it with term_fn: the host's
  * split is a guess that changes no value. */
-#if BT_DEVICE
-#define BT_NODE_LIST_KERNEL_(kernel, state_size, term_fn)                      \
-    __kernel void kernel(                                                      \
-        __global const int* options, uint n_options, int quantity,             \
-        __global const uint* node_item, __global const uint* node_offset,      \
-        uint first_work, uint first_node, uint n_nodes,                        \
-        __global const REAL* state, __global REAL* scratch,                    \
-        __global const uint* node_list, uint list_first)                       \
-    {                                                                          \
-        const uint gid = (uint)get_global_id(0);                               \
-        if (gid >= n_nodes) return;                                            \
-        const uint node = node_list[list_first + gid];                         \
-        BT_NODE_TERM_(state_size, term_fn, node, node - first_node)            \
-    }
-#define BT_DEFINE_NODE_SPLIT_KERNELS(first_kernel, second_kernel, state_size,  \
-                                     term_first_fn, term_second_fn)            \
-    BT_NODE_LIST_KERNEL_(first_kernel, state_size, term_first_fn)             \
-    BT_NODE_LIST_KERNEL_(second_kernel, state_size, term_second_fn)
-#endif
 
 /*
- * Nested sums (BT_DEFINE_NESTED_NODE_PARALLEL_KERNELS).  A tensor rule with
+ * Nested sums (nested_node_parallel.cl).  A tensor rule with
  * data-dependent breakpoints on both levels (oren-nayar's theta_a nodes, each
  * with its own phi_a sub-intervals) is a sum of *groups* (outer nodes) of
  * nodes: value = finish(acc), where acc (acc_size values, from 0) takes
@@ -198,7 +93,7 @@
  *     int  group_prepare_fn(BT_GLOBAL const REAL* item_state, o, quantity, g,
  *                           BT_GLOBAL REAL* group_state)   returns the group's
  *                           nodes; writes what its nodes read (in place)
- *     void term_fn##_setup (BT_GLOBAL const REAL* item_state,
+ *     void term_fn_setup   (BT_GLOBAL const REAL* item_state,
  *                           BT_GLOBAL const REAL* group_state,
  *                           BT_GLOBAL REAL* node_x)   each of the group's
  *                           nodes' own value x (oren-nayar: its phi_a), in
@@ -240,7 +135,7 @@
  *                   first_group), after the host has laid out the nodes
  *                   (group_node: the exclusive prefix sum of the block's
  *                   device counts): node_group[k] = G for its nodes k,
- *                   and node_x[k] (term_fn##_setup), k counted from the
+ *                   and node_x[k] (term_fn_setup), k counted from the
  *                   sub-launch's first node group_node[first_group].
  *   node_kernel     one work item per node of a sub-launch: group
  *                   G = node_group[gid] and x = node_x[gid] (plain loads,
@@ -268,138 +163,5 @@ BT_INLINE void bt_node_no_table(int entry, REAL* values)
     values[0] = R(0.0);
 }
 
-#if BT_DEVICE
-#define BT_DEFINE_NESTED_NODE_PARALLEL_KERNELS(                                \
-    table_kernel, prepare_kernel, group_kernel, chunk_kernel, node_kernel,     \
-    reduce_kernel, sum_kernel, table_entries, table_size, item_state_size,     \
-    group_state_size, n_terms, n_partial, acc_size, table_fn, count_fn,        \
-    prepare_fn, group_prepare_fn, term_fn, group_reduce_fn, group_add_fn,      \
-    finish_fn, sample_fn)                                                      \
-    __kernel void table_kernel(__global REAL* table)                           \
-    {                                                                          \
-        const uint gid = (uint)get_global_id(0);                               \
-        if (gid >= (uint)(table_entries)) return;                              \
-        REAL t[table_size];                                                    \
-        table_fn((int)gid, t);                                                 \
-        for (uint i = 0; i < (uint)(table_size); ++i)                          \
-            table[(size_t)gid * (table_size) + i] = t[i];                      \
-    }                                                                          \
-    __kernel void prepare_kernel(                                              \
-        BT_WORK_KERNEL_PARAMS, uint first_work, uint n_work,                   \
-        __global const REAL* table, __global REAL* state)                      \
-    {                                                                          \
-        BT_NODE_PREPARE_BEGIN_(item_state_size)                                \
-        prepare_fn(p, o, BT_KERNEL_QUANTITY_(quantity), &s, table, st);        \
-        for (uint i = 0; i < (uint)(item_state_size); ++i)                     \
-            state[(size_t)gid * (item_state_size) + i] = st[i];                \
-    }                                                                          \
-    __kernel void chunk_kernel(__global const uint* group_node,                \
-                               uint first_group, uint n_groups,                \
-                               __global uint* node_group,                      \
-                               __global const uint* group_item,                \
-                               __global const REAL* item_state,                \
-                               __global const REAL* group_state,               \
-                               __global REAL* node_x)                          \
-    {                                                                          \
-        const uint gid = (uint)get_global_id(0);                               \
-        if (gid >= n_groups) return;                                           \
-        const uint g = first_group + gid;                                      \
-        const uint base = group_node[first_group];                             \
-        for (uint k = group_node[g]; k < group_node[g + 1u]; ++k)              \
-            node_group[k - base] = g;                                          \
-        term_fn##_setup(item_state + (size_t)group_item[g] * (item_state_size), \
-                        group_state + (size_t)g * (group_state_size),          \
-                        node_x + (group_node[g] - base));                      \
-    }                                                                          \
-    __kernel void group_kernel(                                                \
-        __global const int* options, uint n_options, int quantity,             \
-        __global const uint* group_item, __global const uint* item_group,      \
-        uint n_groups, __global const REAL* item_state,                        \
-        __global REAL* group_state, __global int* group_nodes)                 \
-    {                                                                          \
-        const uint gid = (uint)get_global_id(0);                               \
-        if (gid >= n_groups) return;                                           \
-        const uint item = group_item[gid];                                     \
-        BT_KERNEL_LOAD_OPTIONS_(o, options, n_options)                         \
-        group_nodes[gid] = group_prepare_fn(                                   \
-            item_state + (size_t)item * (item_state_size), o,                  \
-            BT_KERNEL_QUANTITY_(quantity), (int)(gid - item_group[item]),      \
-            group_state + (size_t)gid * (group_state_size));                   \
-    }                                                                          \
-    __kernel void node_kernel(                                                 \
-        __global const int* options, uint n_options, int quantity,             \
-        __global const uint* node_group, __global const uint* group_item,      \
-        uint n_nodes, __global const REAL* item_state,                         \
-        __global const REAL* group_state, __global REAL* scratch,              \
-        __global const REAL* node_x)                                           \
-    {                                                                          \
-        const uint gid = (uint)get_global_id(0);                               \
-        if (gid >= n_nodes) return;                                            \
-        const uint g = node_group[gid];                                        \
-        BT_KERNEL_LOAD_OPTIONS_(o, options, n_options)                         \
-        REAL t[n_terms];                                                       \
-        term_fn(item_state + (size_t)group_item[g] * (item_state_size),        \
-                group_state + (size_t)g * (group_state_size), o,               \
-                BT_KERNEL_QUANTITY_(quantity), node_x[gid], t);                \
-        _Pragma("unroll")                                                      \
-        for (uint i = 0; i < (uint)(n_terms); ++i)                             \
-            scratch[(size_t)gid * (n_terms) + i] = t[i];                       \
-    }                                                                          \
-    __kernel void reduce_kernel(                                               \
-        __global const int* options, uint n_options, int quantity,             \
-        __global const uint* group_node, uint first_group, uint n_groups,      \
-        __global const uint* group_item, __global const REAL* item_state,      \
-        __global const REAL* group_state, __global const REAL* scratch,        \
-        __global REAL* group_partial)                                          \
-    {                                                                          \
-        const uint gid = (uint)get_global_id(0);                               \
-        if (gid >= n_groups) return;                                           \
-        const uint g = first_group + gid;                                      \
-        BT_KERNEL_LOAD_OPTIONS_(o, options, n_options)                         \
-        REAL partial[n_partial];                                               \
-        group_reduce_fn(item_state + (size_t)group_item[g] * (item_state_size), \
-                        group_state + (size_t)g * (group_state_size), o,       \
-                        BT_KERNEL_QUANTITY_(quantity),                         \
-                        scratch + (size_t)(group_node[g] - group_node[first_group]) * \
-                                      (n_terms),                               \
-                        partial);                                              \
-        _Pragma("unroll")                                                      \
-        for (uint i = 0; i < (uint)(n_partial); ++i)                           \
-            group_partial[(size_t)g * (n_partial) + i] = partial[i];           \
-    }                                                                          \
-    __kernel void sum_kernel(                                                  \
-        BT_WORK_KERNEL_PARAMS,                                                 \
-        uint first_work, uint n_work, __global const uint* item_group,         \
-        __global const REAL* item_state, __global const REAL* group_state,     \
-        __global const REAL* group_partial, __global ACCUM* out_mean,          \
-        __global ACCUM* out_m2)                                                \
-    {                                                                          \
-        const uint gid = (uint)get_global_id(0);                               \
-        if (gid >= n_work) return;                                             \
-        const uint w = first_work + gid;                                       \
-        BT_KERNEL_LOAD_WORK_(w)                                                \
-        s.sample = 0u;                                                         \
-        const int q_ = BT_KERNEL_QUANTITY_(quantity);                          \
-        const int n = count_fn(p, o, q_, &s);                                  \
-        const uint first = item_group[gid];                                    \
-        REAL value;                                                            \
-        if (n == 0 || (uint)n != item_group[gid + 1u] - first) {               \
-            value = sample_fn(p, o, q_, &s);                                   \
-        } else {                                                               \
-            REAL acc[acc_size];                                                \
-            for (uint i = 0; i < (uint)(acc_size); ++i) acc[i] = R(0.0);       \
-            for (uint g = first; g < first + (uint)n; ++g)                     \
-                group_add_fn(item_state + (size_t)gid * (item_state_size),     \
-                             group_state + (size_t)g * (group_state_size), o,  \
-                             q_, group_partial + (size_t)g * (n_partial), acc); \
-            value = finish_fn(p, o, q_, &s, acc);                              \
-        }                                                                      \
-        ACCUM x = (ACCUM)value;                                                \
-        ACCUM mean = 0, m2 = 0;                                                \
-        BT_WELFORD_ADD(mean, m2, x, 1u);                                       \
-        out_mean[w] = mean;                                                    \
-        out_m2[w] = m2;                                                        \
-    }
-#endif
 
 #endif /* BRDFTAB_NODE_PARALLEL_H */

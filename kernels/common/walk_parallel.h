@@ -28,7 +28,8 @@
  * a loop — and the Welford updates run in sample order on the same values
  * (tests/test_walk_parallel.cpp).
  *
- * A model provides, for a quantity (names passed to the macro):
+ * A model provides, for a quantity (names given by its registration; the
+ * entry point is walk_parallel.cl, the prelude binds its hooks to them):
  *     typedef struct {...} walk_state;
  *     void walk_setup(const REAL* p, const int* o, int quantity,
  *                     walk_state* st);        once per work item (the point)
@@ -45,55 +46,5 @@
 
 #include "estimator.h"
 
-#if BT_DEVICE
-#define BT_DEFINE_WALK_PARALLEL_KERNEL(kernel_name, walk_state, walk_setup,    \
-                                       walk_begin, walk_step, walk_value)      \
-    __kernel void kernel_name(BT_ESTIMATE_KERNEL_PARAMS)                       \
-    {                                                                          \
-        __local int busy_[3];                                                  \
-        const uint gid = (uint)get_global_id(0);                               \
-        const uint w = gid < n_work ? gid : 0u;                                \
-        BT_KERNEL_LOAD_WORK_(w)                                                \
-        const int quantity_ = BT_KERNEL_QUANTITY_(quantity);                   \
-        const uint batch_size_ = BT_KERNEL_BATCH_SIZE_(batch_size);            \
-        if (get_local_id(0) == 0) {                                            \
-            busy_[0] = 0;                                                      \
-            busy_[1] = 0;                                                      \
-            busy_[2] = 0;                                                      \
-        }                                                                      \
-        /* k: samples done; padding items have none to do */                   \
-        uint k = gid < n_work ? 0u : batch_size_;                              \
-        ACCUM mean = 0, m2 = 0;                                                \
-        walk_state st;                                                         \
-        walk_setup(p, o, quantity_, &st);                                      \
-        s.sample = 0u;                                                         \
-        int ended = k < batch_size_ ? walk_begin(p, o, quantity_, &s, &st) : 1; \
-        barrier(CLK_LOCAL_MEM_FENCE);                                          \
-        for (uint slot = 0;; slot = slot == 2u ? 0u : slot + 1u) {             \
-            if (k < batch_size_) {                                             \
-                if (ended) {                                                   \
-                    ACCUM x = (ACCUM)walk_value(&st);                          \
-                    BT_WELFORD_ADD(mean, m2, x, k + 1);                        \
-                    ++k;                                                       \
-                    if (k < batch_size_) {                                     \
-                        s.sample = k;                                          \
-                        ended = walk_begin(p, o, quantity_, &s, &st);          \
-                    }                                                          \
-                } else {                                                       \
-                    ended = walk_step(p, o, quantity_, &s, &st);               \
-                }                                                              \
-            }                                                                  \
-            barrier(CLK_LOCAL_MEM_FENCE);                                      \
-            if (get_local_id(0) == 0) busy_[slot == 2u ? 0u : slot + 1u] = 0;  \
-            if (k < batch_size_) busy_[slot] = 1;                              \
-            barrier(CLK_LOCAL_MEM_FENCE);                                      \
-            if (!busy_[slot]) break;                                           \
-        }                                                                      \
-        if (gid < n_work) {                                                    \
-            out_mean[gid] = mean;                                              \
-            out_m2[gid] = m2;                                                  \
-        }                                                                      \
-    }
-#endif
 
 #endif /* BRDFTAB_WALK_PARALLEL_H */

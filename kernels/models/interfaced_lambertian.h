@@ -211,7 +211,7 @@ BT_INLINE REAL interfaced_lambertian_sample(const REAL* p, const int* o, int qua
 }
 
 /* The staged sample-parallel launch of vcavity (estimator.h,
- * BT_DEFINE_STAGED_SAMPLE_KERNELS; registered in
+ * staged_samples.cl; registered in
  * host/models/interfaced_lambertian.cpp): the first stage is the facet
  * (IL_VCAVITY_STAGE values), the rest the walk, with the checks of
  * interfaced_lambertian_sample in its order, so that rest(stage) is its

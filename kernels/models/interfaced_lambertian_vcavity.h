@@ -95,7 +95,7 @@ BT_INLINE REAL il_vcavity_hit(REAL pos, REAL c, REAL sn, bt_vec3 d)
  * dimensions 0-1; no loop but the Beckmann visible-normal search) and the
  * walk in its groove (il_vcavity_walk, dimensions 2 and up; a bounce loop
  * of data-dependent length).  The staged sample-parallel launch
- * (estimator.h, BT_DEFINE_STAGED_SAMPLE_KERNELS) runs them as two kernels so
+ * (kernels/common/staged_samples.cl) runs them as two kernels so
  * that the first vectorises across samples; il_vcavity_sample runs them in
  * a row.  The stage: st[0..2] = m, st[3] = its weight wm (file comment). */
 #define IL_VCAVITY_STAGE 4

@@ -820,7 +820,7 @@ BT_INLINE REAL oren_nayar_sample(const REAL* p, const int* o, int quantity, cons
 /* The node functions of the Gaussian-surface quadrature (quantities brdf,
  * brdf_direct, brdf_interreflection, approx_error under
  * BT_METHOD_QUADRATURE) for the engine's nested node-parallel path
- * (kernels/common/node_parallel.h, BT_DEFINE_NESTED_NODE_PARALLEL_KERNELS;
+ * (kernels/common/node_parallel.h, nested_node_parallel.cl;
  * registered in host/models/oren_nayar.cpp).  A work item's groups are the
  * theta_a nodes of on_gauss_quadrature (in its order), a group's nodes the
  * phi_a nodes of its on_phi_integral (n per part of a sub-interval, in

@@ -1,0 +1,59 @@
+/*
+ * node_split.cl — split terms, in the flat node-parallel program
+ * (node_parallel.cl; node_parallel.h, "Split terms").
+ *
+ * The engine runs, instead of bt_node, bt_node_first over the list of
+ * first-form nodes and bt_node_second over the others (node_list[list_first +
+ * gid]: global node numbers; bt_node's other arguments), each storing at the
+ * node's own scratch slot.  A template: the prelude binds bt_hook_term_first
+ * and bt_hook_term_second (term(k) where node k is of that form, else NaN).
+ */
+BT_INLINE REAL bt_node_term_first(uint node, const int* o, int quantity, __global const uint* node_item,
+                                  __global const uint* node_offset, uint first_work,
+                                  __global const REAL* state)
+{
+    const uint w = node_item[node];
+    __global const REAL* my_state = state + (size_t)(w - first_work) * (BT_HOOK_STATE_SIZE);
+    REAL st[BT_HOOK_STATE_SIZE];
+#pragma unroll
+    for (uint i = 0; i < (uint)(BT_HOOK_STATE_SIZE); ++i) st[i] = my_state[i];
+    return bt_hook_term_first(st, o, quantity, (int)(node - node_offset[w]));
+}
+
+BT_INLINE REAL bt_node_term_second(uint node, const int* o, int quantity, __global const uint* node_item,
+                                   __global const uint* node_offset, uint first_work,
+                                   __global const REAL* state)
+{
+    const uint w = node_item[node];
+    __global const REAL* my_state = state + (size_t)(w - first_work) * (BT_HOOK_STATE_SIZE);
+    REAL st[BT_HOOK_STATE_SIZE];
+#pragma unroll
+    for (uint i = 0; i < (uint)(BT_HOOK_STATE_SIZE); ++i) st[i] = my_state[i];
+    return bt_hook_term_second(st, o, quantity, (int)(node - node_offset[w]));
+}
+
+__kernel void bt_node_first(__global const int* options, uint n_options, int quantity,
+                            __global const uint* node_item, __global const uint* node_offset,
+                            uint first_work, uint first_node, uint n_nodes, __global const REAL* state,
+                            __global REAL* scratch, __global const uint* node_list, uint list_first)
+{
+    const uint gid = (uint)get_global_id(0);
+    if (gid >= n_nodes) return;
+    const uint node = node_list[list_first + gid];
+    BT_KERNEL_LOAD_OPTIONS_(o, options, n_options)
+    scratch[node - first_node] = bt_node_term_first(node, o, BT_KERNEL_QUANTITY_(quantity), node_item,
+                                                    node_offset, first_work, state);
+}
+
+__kernel void bt_node_second(__global const int* options, uint n_options, int quantity,
+                             __global const uint* node_item, __global const uint* node_offset,
+                             uint first_work, uint first_node, uint n_nodes, __global const REAL* state,
+                             __global REAL* scratch, __global const uint* node_list, uint list_first)
+{
+    const uint gid = (uint)get_global_id(0);
+    if (gid >= n_nodes) return;
+    const uint node = node_list[list_first + gid];
+    BT_KERNEL_LOAD_OPTIONS_(o, options, n_options)
+    scratch[node - first_node] = bt_node_term_second(node, o, BT_KERNEL_QUANTITY_(quantity), node_item,
+                                                     node_offset, first_work, state);
+}
