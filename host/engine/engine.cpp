@@ -133,68 +133,43 @@ private:
 
 }  // namespace
 
-// The cases whose batches run sample-parallel on OpenCL devices by default
-// (engine.h).  Filled from measurements only (docs/benchmarks.md,
-// "Sample-parallel launches"): a case is listed where PoCL vectorises the
-// sample kernel across work items and it runs faster per CPU-second than
-// the usual kernel (bench/bench_sample_parallel), bit-identical to it
-// (tests/test_sample_parallel.cpp): the rough-dielectric GGX albedos by
-// Monte Carlo (2.1-2.4x) and RQMC; interfaced-lambertian's body with
-// Beckmann-Smith visible normals (a fixed-step search, uses_fixed_step_solver;
-// 2.2x less CPU time) and with GGX-Smith (1.2-1.4x).  Not listed, because
-// measured slower: Beckmann and Phong albedos, lambert-sphere brdf_mc,
-// micrograin brdf (0.6-1.0x: calls, loops of data-dependent length or inner
-// sums in the sample function), the body with Beckmann-TS, Gaussian-TS or
-// Beckmann normals sampled from the distribution (1.4-1.9x slower).
+// The sample-parallel defaults every model declares (QuantityInfo::
+// sample_parallel, in its registration file), as one list.
 const std::vector<SampleParallelCase>& sample_parallel_default_cases() {
-    static const std::vector<SampleParallelCase> cases = {
-        {"rough-dielectric", "albedo_r", Method::MonteCarlo, {{"distribution", "ggx"}}},
-        {"rough-dielectric", "albedo_t", Method::MonteCarlo, {{"distribution", "ggx"}}},
-        {"rough-dielectric", "albedo_avg", Method::MonteCarlo, {{"distribution", "ggx"}}},
-        // RQMC too: the sampler vectorises across work items (kernels/common/sobol.h).
-        {"rough-dielectric", "albedo_r", Method::Rqmc, {{"distribution", "ggx"}}},
-        {"rough-dielectric", "albedo_t", Method::Rqmc, {{"distribution", "ggx"}}},
-        {"rough-dielectric", "albedo_avg", Method::Rqmc, {{"distribution", "ggx"}}},
-        {"interfaced-lambertian", "body", Method::MonteCarlo,
-         {{"distribution", "beckmann-smith"}, {"sampling", "visible"}}},
-        {"interfaced-lambertian", "body", Method::Rqmc,
-         {{"distribution", "beckmann-smith"}, {"sampling", "visible"}}},
-        {"interfaced-lambertian", "body", Method::MonteCarlo, {{"distribution", "ggx-smith"}}},
-        {"interfaced-lambertian", "body", Method::Rqmc, {{"distribution", "ggx-smith"}}},
-        // vcavity in two stages (QuantityInfo::staged), where its facet search
-        // takes fixed steps (the engine checks: double precision only):
-        // Beckmann-Smith 4.3x the serial host against 3.5x, the Beckmann-TS
-        // preset 5.6-5.8 s against 7.4-7.5 s; not GGX-Smith (4.6-4.8 s against
-        // 3.4 s) (docs/benchmarks.md, "Sample-parallel launches").
-        {"interfaced-lambertian", "vcavity", Method::MonteCarlo,
-         {{"distribution", "beckmann-smith"}, {"sampling", "visible"}}},
-        {"interfaced-lambertian", "vcavity", Method::Rqmc,
-         {{"distribution", "beckmann-smith"}, {"sampling", "visible"}}},
-        {"interfaced-lambertian", "vcavity", Method::MonteCarlo,
-         {{"distribution", "beckmann-ts"}, {"sampling", "visible"}}},
-        {"interfaced-lambertian", "vcavity", Method::Rqmc,
-         {{"distribution", "beckmann-ts"}, {"sampling", "visible"}}},
-    };
+    static const std::vector<SampleParallelCase> cases = [] {
+        std::vector<SampleParallelCase> out;
+        for (const ModelInfo& m : all_models())
+            for (const QuantityInfo& q : m.quantities)
+                for (const SampleParallelRule& r : q.sample_parallel) {
+                    SampleParallelCase c{m.name, q.name, r.method, {}};
+                    for (const OptionChoice& o : r.options) c.options.emplace_back(o.option, o.choice);
+                    out.push_back(std::move(c));
+                }
+        return out;
+    }();
     return cases;
 }
 
-// The random-walk quantities with a walk-parallel kernel (engine.h,
-// kernels/common/walk_parallel.h), run that way for every Monte Carlo launch
-// unless EngineTuning::walk_parallel is false: measured faster per CPU-second than
-// the usual kernel (docs/benchmarks.md, "Walk-parallel launch"),
-// bit-identical to it (tests/test_walk_parallel.cpp).
+// The walk-parallel quantities every model declares (QuantityInfo::
+// walk_parallel), as one list.
 const std::vector<WalkParallelCase>& walk_parallel_cases() {
-    static const std::vector<WalkParallelCase> cases = {
-        {"lambert-sphere", "brdf_mc", "ls_brdf_mc_state", "ls_brdf_mc_setup", "ls_brdf_mc_begin",
-         "ls_brdf_mc_step", "ls_brdf_mc_value"},
-    };
+    static const std::vector<WalkParallelCase> cases = [] {
+        std::vector<WalkParallelCase> out;
+        for (const ModelInfo& m : all_models())
+            for (const QuantityInfo& q : m.quantities)
+                if (q.walk_parallel.enabled()) {
+                    const WalkParallelFunctions& w = q.walk_parallel;
+                    out.push_back({m.name, q.name, w.state, w.setup, w.begin, w.step, w.value});
+                }
+        return out;
+    }();
     return cases;
 }
 
 // Node-parallel quadrature by default (engine.h): measured faster per
-// CPU-second than the usual kernel on hfunction H (1.8x; docs/benchmarks.md
-// "Node-parallel quadrature") and, as nested sums, on oren-nayar's brdf
-// (1.8x), bit-identical to the usual kernel (tests/test_node_parallel.cpp).  A
+// CPU-second than the usual kernel on both bench cases that have node
+// functions, a flat and a nested sum (1.8x each; docs/benchmarks.md
+// "Node-parallel quadrature"), bit-identical to the usual kernel (tests/test_node_parallel.cpp).  A
 // quantity can stay off by default (NodeParallelFunctions::by_default).
 bool node_parallel_by_default() { return true; }
 
@@ -214,14 +189,14 @@ bool option_is(const ModelInfo& model, const std::vector<int>& options, const st
 
 bool sample_parallel_by_default(const ModelInfo& model, const QuantityInfo& quantity,
                                 Method method, const std::vector<int>& options) {
-    for (const SampleParallelCase& c : sample_parallel_default_cases()) {
-        if (c.model != model.name || c.quantity != quantity.name || c.method != method) continue;
-        if (std::all_of(c.options.begin(), c.options.end(), [&](const auto& o) {
-                return option_is(model, options, o.first, o.second);
-            }))
-            return true;
-    }
-    return false;
+    return std::any_of(quantity.sample_parallel.begin(), quantity.sample_parallel.end(),
+                       [&](const SampleParallelRule& r) {
+                           return r.method == method &&
+                                  std::all_of(r.options.begin(), r.options.end(),
+                                              [&](const OptionChoice& o) {
+                                                  return option_is(model, options, o.option, o.choice);
+                                              });
+                       });
 }
 
 namespace {
@@ -564,21 +539,20 @@ private:
     };
 
     // Launches whose sample-parallel kernels use microfacet.h's fixed-step
-    // search (BT_MF_SOLVE_STEPS: interfaced-lambertian's body with Beckmann
-    // normals, double precision): the search's loop is what kept the work-item
-    // loop scalar; with a fixed number of steps it vectorises, and the rare
+    // search (BT_MF_SOLVE_STEPS; QuantityInfo::fixed_step_solver, double
+    // precision only): the search's loop is what kept the work-item loop
+    // scalar; with a fixed number of steps it vectorises, and the rare
     // sample whose search has not ended is redone with the loop, so the
     // values are the usual kernel's (docs/benchmarks.md, "Sample-parallel
-    // launches").  vcavity's facet (its first stage, QuantityInfo::staged) is
-    // the same search.
+    // launches").
     bool uses_fixed_step_solver(const BatchLaunch& l) const {
         if (precision_ != Precision::Double || !runtime_.device_info().has_fp64) return false;
-        const ModelInfo& m = *l.model;
-        if (m.name != "interfaced-lambertian") return false;
         const QuantityInfo* q = launch_quantity(l);
-        if (!q || (q->name != "body" && q->name != "vcavity")) return false;
-        return option_is(m, l.options, "distribution", "beckmann-smith") ||
-               option_is(m, l.options, "distribution", "beckmann-ts");
+        if (!q) return false;
+        return std::any_of(q->fixed_step_solver.begin(), q->fixed_step_solver.end(),
+                           [&](const OptionChoice& o) {
+                               return option_is(*l.model, l.options, o.option, o.choice);
+                           });
     }
 
     // Whether this launch runs sample-parallel: only Monte Carlo / RQMC
@@ -771,12 +745,9 @@ private:
 
     // ------------------------------------------------ walk-parallel launch
     // (kernels/common/walk_parallel.h; the cases: walk_parallel_cases()).
-    static const WalkParallelCase* walk_parallel_case(const BatchLaunch& l) {
+    static const WalkParallelFunctions* walk_parallel_case(const BatchLaunch& l) {
         const QuantityInfo* q = launch_quantity(l);
-        if (!q) return nullptr;
-        for (const WalkParallelCase& c : walk_parallel_cases())
-            if (l.model->name == c.model && q->name == c.quantity) return &c;
-        return nullptr;
+        return q && q->walk_parallel.enabled() ? &q->walk_parallel : nullptr;
     }
     // Monte Carlo only: with RQMC the round runs the first collision's
     // Sobol' draws (if-converted) for every lane in every round, and the
@@ -799,7 +770,7 @@ private:
     cl::Kernel& walk_parallel_kernel_for(const BatchLaunch& l) {
         return cached_kernel(walk_parallel_kernels_, l, kWalkKernelName,
                              "walk-parallel entry point", [&] {
-                                 const WalkParallelCase& c = *walk_parallel_case(l);
+                                 const WalkParallelFunctions& c = *walk_parallel_case(l);
                                  return walk_parallel_kernel_source(
                                      l.model->kernel_header,
                                      {c.state, c.setup, c.begin, c.step, c.value}, kernel_dir_);
@@ -1062,7 +1033,8 @@ private:
         s.sample = 0;
         // A work item's groups, counted on the host as its block is formed:
         // while the previous block's kernels run (about 4 % of a launch's
-        // time on oren-nayar when counted up front with the device idle).
+        // time on the nested-sum bench case when counted up front with the
+        // device idle).
         auto groups_of = [&](std::size_t w) {
             std::copy_n(&l.points[w * l.stride], l.stride, point);
             s.cell = l.cells[w];
@@ -1073,11 +1045,12 @@ private:
         std::vector<std::uint32_t>& groups = node_offset_host_;  // groups of the block's work items
         // Nodes per sub-launch: node_parallel_scratch_nodes() / 16 (2^18 by
         // default; the scratch holds `terms` values per node).  Measured on
-        // oren-nayar's brdf at 12 nodes: the same speed within the noise with
-        // a target of 1/4 and of all of node_parallel_scratch_nodes(), 1/16
-        // marginally ahead.  Groups per block: / 64 (2^16 by default, about
-        // 30 MB of oren-nayar's group state); work items per block: / 256
-        // (2^14, about 21 MB of its item state).
+        // the nested-sum bench case at 12 nodes: the same speed within the
+        // noise with a target of 1/4 and of all of
+        // node_parallel_scratch_nodes(), 1/16 marginally ahead.  Groups per
+        // block: / 64 (2^16 by default, about 30 MB of that case's group
+        // state); work items per block: / 256 (2^14, about 21 MB of its item
+        // state).
         const std::size_t node_cap = node_parallel_scratch_nodes();
         const std::size_t node_target = std::max<std::size_t>(node_cap / 16, 1);
         const std::size_t block_groups = std::max<std::size_t>(node_cap / 64, 1);
@@ -1345,19 +1318,10 @@ private:
         const std::string extra =
             tuning_.extra_kernel_options.empty() ? std::string() : " " + tuning_.extra_kernel_options;
         options += specialisation_options(l.quantity, l.options, l.method, l.stride);
-        // Forced inlining (kernels/common/estimator.h) where it was measured
-        // to help and to leave every preset table bit-identical
-        // (docs/benchmarks.md, "What vectorises, and why"): it lets PoCL run
-        // the work items of a group as SIMD lanes.  Not for every model:
-        // with it, lambert-sphere tables came out wrong and PoCL crashed
-        // (SIGSEGV) in the in-kernel Horak-Chandrasekhar solve of
-        // lambert-sphere-constants (docs/contributing.md).  Extra kernel
-        // options naming BT_FORCE_INLINE decide instead.  interfaced-lambertian: body
-        // and vcavity 1.6x and 1.2x per CPU-second with it, presets
-        // bit-identical, even where its sample loops stay scalar.
-        if (extra.find("BT_FORCE_INLINE") == std::string::npos &&
-            (model.name == "rough-dielectric" || model.name == "micrograin" ||
-             model.name == "interfaced-lambertian"))
+        // Forced inlining (kernels/common/estimator.h) where the model asks
+        // for it (ModelInfo::force_inline, measured there); extra kernel
+        // options naming BT_FORCE_INLINE decide instead.
+        if (extra.find("BT_FORCE_INLINE") == std::string::npos && model.force_inline)
             options += " -D BT_FORCE_INLINE=1";
         options += extra;
         return options;
@@ -1452,7 +1416,8 @@ private:
                 nested_group_state_bytes_ = 0, nested_chunk_group_bytes_ = 0;
     cl::Buffer nested_group_partial_;
     std::size_t nested_group_partial_bytes_ = 0;
-    // Every node's own value (oren-nayar: its phi_a), written by the chunk kernel.
+    // Every node's own value (e.g. an inner integration variable), written by
+    // the chunk kernel.
     cl::Buffer nested_node_x_;
     std::size_t nested_node_x_bytes_ = 0;
     cl::Buffer points_, options_, cells_, batches_, out_mean_, out_m2_;
@@ -1618,8 +1583,8 @@ EstimateResult estimate(Backend& backend, const ModelInfo& model, const Quantity
     if (settings.cell_base > 0xFFFFFFFFull - cell_count)
         throw InputError("cells " + std::to_string(settings.cell_base) + " + " +
                          std::to_string(cell_count) + " reach past cell 2^32 - 1");
-    // The model's cross-checks of parameters and options (e.g. Phong needs
-    // alpha < 1) on every cell before anything runs: one point per cell, far
+    // The model's cross-checks of parameters and options (ModelInfo::
+    // check_cell) on every cell before anything runs: one point per cell, far
     // cheaper than the kernel, and no launch computes a cell that is invalid.
     // Closed forms without a checkpoint (the direct path below) check each
     // cell's point as it is built for its launch instead: there the separate
