@@ -50,7 +50,7 @@ typedef double (*HostSampleFn)(const double* point, const int* options, int quan
 constexpr int kDirectionSlots = 4;
 
 // Node-parallel quadrature (OpenCL backend only; kernels/common/node_parallel.h,
-// host/engine/engine.cpp): a quantity whose value is an in-order sum of
+// host/engine/launch/node_parallel*.cpp): a quantity whose value is an in-order sum of
 // data-dependent length, value = finish(term(0) + term(1) + ... +
 // term(count - 1)), names the four functions of its kernel header that
 // compute it and the size of the state its terms share (signatures in
