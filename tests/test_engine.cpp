@@ -3,8 +3,12 @@
 // reported standard errors.
 #include <doctest/doctest.h>
 
+#include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
+#include <fstream>
 #include <functional>
 #include <limits>
 #include <map>
@@ -394,7 +398,7 @@ TEST_CASE("Phong needs alpha < 1: every cell checked before any launch (issue #1
 
 TEST_CASE("closed forms: a bad cell past the first launches stops the run, launches in flight") {
     // Closed forms without a checkpoint check each cell as its launch is built
-    // (engine.cpp, the direct path), while the device computes the launch
+    // (estimate.cpp, the direct pipeline), while the device computes the launch
     // before it (Backend::start/finish).  A bad cell far into the table must
     // still end the run with the model's message, wait for the launches in
     // flight, and leave the backend usable: the next run gives the bits of
@@ -493,7 +497,7 @@ TEST_CASE("progress is reported from within a round, launch by launch") {
 
 TEST_CASE("closed forms and quadratures: the direct path equals the general one") {
     // Without a checkpoint, closed forms and quadratures skip the per-cell
-    // estimator state (engine.cpp, "direct"); with a checkpoint they run the
+    // estimator state (estimate.cpp, run_direct); with a checkpoint they run the
     // general rounds.  Both must give the same bits, the same sample counts
     // and the same error figures, on the device and on the host, whether a
     // quadrature cell's two batches share a launch or not (slab 7 splits
@@ -885,4 +889,40 @@ TEST_CASE("engine tuning: the backend keeps the tuning it was given, the host ba
     host->set_tuning(t);
     CHECK(host->tuning().walk_parallel);
     CHECK(host->tuning().local_size == kLocalSize);
+}
+
+TEST_CASE("the engine names no model: launch preferences live in the model files") {
+    // The model contract (host/models/registry.h): a model is its kernel
+    // header and its registration file, and the engine reads what it needs
+    // from ModelInfo / QuantityInfo.  Every registered model's name (and its
+    // spelling as an identifier) must be absent from host/engine/, except
+    // kernel_sources.*, whose comments cite measured cases.
+    namespace fs = std::filesystem;
+    std::vector<std::string> names;
+    for (const ModelInfo& m : all_models()) {
+        names.push_back(m.name);
+        std::string id = m.name;
+        std::replace(id.begin(), id.end(), '-', '_');
+        names.push_back(id);
+    }
+    REQUIRE(names.size() >= 12);
+    auto lower = [](std::string t) {
+        for (char& c : t) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+        return t;
+    };
+    std::size_t files = 0;
+    for (const auto& entry : fs::recursive_directory_iterator(fs::path(BT_SOURCE_DIR) / "host/engine")) {
+        const fs::path& path = entry.path();
+        if (!entry.is_regular_file() || path.stem() == "kernel_sources") continue;
+        if (path.extension() != ".cpp" && path.extension() != ".h") continue;
+        std::ifstream in(path);
+        const std::string text = lower(std::string(std::istreambuf_iterator<char>(in), {}));
+        ++files;
+        for (const std::string& name : names) {
+            CAPTURE(path.string());
+            CAPTURE(name);
+            CHECK(text.find(name) == std::string::npos);
+        }
+    }
+    CHECK(files >= 10);  // the engine, the backend and the launch strategies
 }

@@ -239,6 +239,76 @@ TEST_CASE("ModelBuilder refuses descriptions that break the contract") {
                                 Method::Rqmc, 0});
         refuses(b, "default method that does not suit the kind");
     }
+    // Launch preferences and bench cases name what the model has.
+    {
+        ModelBuilder b = valid_builder();
+        b.quantity_by_id(0).sample_parallel.push_back({Method::Rqmc, {{"colour", "x"}}});
+        refuses(b, "sample-parallel rule naming an unknown option");
+    }
+    {
+        ModelBuilder b = valid_builder();
+        b.quantity_by_id(0).sample_parallel.push_back({Method::MonteCarlo, {{"mode", "z"}}});
+        refuses(b, "sample-parallel rule naming an unknown choice");
+    }
+    {
+        ModelBuilder b = valid_builder();
+        b.quantity_by_id(0).sample_parallel.push_back({Method::Quadrature, {}});
+        refuses(b, "sample-parallel rule for a method without samples");
+    }
+    {
+        ModelBuilder b = valid_builder();
+        b.quantity_by_id(1).fixed_step_solver = {{"mode", "w"}};
+        refuses(b, "fixed-step solver under an unknown choice");
+    }
+    {
+        ModelBuilder b = valid_builder();
+        b.bench({"q9"});
+        refuses(b, "bench case of an unknown quantity");
+    }
+    {
+        ModelBuilder b = valid_builder();
+        b.bench({"q0", false, 0, 89, Method::Auto, true});
+        b.bench({"q1", false, 0, 89, Method::Auto, true});
+        refuses(b, "two headline bench cases");
+    }
+    {
+        ModelBuilder b = valid_builder();
+        CHECK_THROWS_AS(b.float_vs_double(7, 1e-6), std::logic_error);  // no quantity 7
+    }
+    {
+        // The same preferences with existing names are accepted and kept.
+        ModelBuilder b = valid_builder();
+        b.quantity_by_id(0).sample_parallel.push_back({Method::Rqmc, {{"mode", "y"}}});
+        b.quantity_by_id(0).fixed_step_solver = {{"mode", "x"}};
+        b.force_inline().float_vs_double(1, 2.5e-7, "note").bench({"q1", true});
+        const ModelInfo m = b.build();
+        CHECK(m.force_inline);
+        REQUIRE(m.quantities[0].sample_parallel.size() == 1);
+        CHECK(m.quantities[0].sample_parallel[0].options[0].choice == "y");
+        CHECK(m.quantities[1].float_max_rel_diff == 2.5e-7);
+        CHECK(m.quantities[1].float_note == "note");
+        REQUIRE(m.bench.size() == 1);
+        CHECK(m.bench[0].per_cell);
+    }
+}
+
+TEST_CASE("the bench cases come from the models, with one headline") {
+    // default_bench_cases() (host/engine/bench.h) reads ModelInfo::bench;
+    // the headline is the device rate the bench's targets judge.
+    int headlines = 0;
+    std::size_t cases = 0;
+    for (const auto& m : all_models())
+        for (const auto& c : m.bench) {
+            CAPTURE(m.name);
+            CAPTURE(c.quantity);
+            const QuantityInfo& q = m.quantity(c.quantity);  // throws on an unknown one
+            // Quadratures report cells per second.
+            if (c.per_cell) CHECK(q.default_method == Method::Quadrature);
+            headlines += c.headline ? 1 : 0;
+            ++cases;
+        }
+    CHECK(headlines == 1);
+    CHECK(cases >= all_models().size());  // every model has a case
 }
 
 TEST_CASE("integer parameters refuse fractions (the kernels would round them)") {

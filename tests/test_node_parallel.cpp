@@ -1,4 +1,4 @@
-// Node-parallel quadrature (kernels/common/node_parallel.h; host/engine/engine.cpp,
+// Node-parallel quadrature (kernels/common/node_parallel.h; host/engine/launch/node_parallel*.cpp,
 // EngineTuning::node_parallel): a quadrature batch's nodes as work items of one
 // kernel, summed in node order by another, must give the very bits of the
 // usual kernel, whose work item loops over the nodes itself.

@@ -1,5 +1,5 @@
 // Sample-parallel launches (kernels/common/estimator.h,
-// kernels/common/sample_parallel.cl; host/engine/engine.cpp): a batch's
+// kernels/common/sample_parallel.cl; host/engine/launch/sample_parallel.cpp): a batch's
 // samples as work items of one kernel, merged by a second, must give the very
 // bits of the usual kernel, whose work item loops over the samples itself.
 // The oracle is that usual kernel (an independent code path: one loop,

@@ -1,4 +1,4 @@
-// Walk-parallel launches (kernels/common/walk_parallel.h, host/engine/engine.cpp):
+// Walk-parallel launches (kernels/common/walk_parallel.h, host/engine/launch/walk_parallel.cpp):
 // a random walk advanced one collision per round of a work group, with a
 // batch's next sample started as soon as a walk ends, must give the very bits
 // of the usual kernel, whose work item runs each walk to its end in a loop.
@@ -6,7 +6,7 @@
 // no barrier, no regeneration), over lambert-sphere brdf_mc's orders,
 // truncation remainder, Fourier modes, phase functions, albedos (Russian
 // roulette below c^k = 0.05).  Monte Carlo only: RQMC launches run the usual
-// kernel (host/engine/engine.cpp).
+// kernel (host/engine/launch/usual.cpp).
 #include <doctest/doctest.h>
 
 #include <cmath>

@@ -15,25 +15,12 @@
 namespace brdftab {
 
 std::vector<BenchCase> default_bench_cases() {
-    // flops_estimate of rough-dielectric bsdf: counted by hand in
-    // kernels/models/rough_dielectric.h for a reflection pair (two
-    // directions from angles, half vector, GGX D, two Smith G1, dielectric
-    // Fresnel, the eq. 20 quotient): about 110 additions/multiplications
-    // plus 4 sin/cos, 3 sqrt and 6 divisions, each of those counted as 10.
-    // An estimate, only to put the achieved rate next to the peak.
+    // Every model's declared cases (ModelInfo::bench), in listing order.
     std::vector<BenchCase> cases;
-    cases.push_back({"rough-dielectric", "bsdf", false, 240, 179});
-    // The albedos' default is quadrature; the bench keeps timing their
-    // sampled (RQMC) kernel, the sample-parallel launch's main case.
-    cases.push_back({"rough-dielectric", "albedo_r", false, 0, 89, Method::Rqmc});
-    cases.push_back({"rough-dielectric", "albedo_t", false, 0, 89, Method::Rqmc});
-    cases.push_back({"oren-nayar", "brdf", true, 0, 89});
-    cases.push_back({"interfaced-lambertian", "body", false, 0, 89});
-    cases.push_back({"interfaced-lambertian", "vcavity", false, 0, 89});
-    cases.push_back({"hfunction", "H", true, 0, 89});
-    cases.push_back({"lambert-sphere", "brdf_mc", false, 0, 89});
-    cases.push_back({"micrograin", "g_dist", false, 0, 89});
-    cases.push_back({"micrograin", "brdf", false, 0, 89});
+    for (const ModelInfo& m : all_models())
+        for (const BenchDeclaration& d : m.bench)
+            cases.push_back({m.name, d.quantity, d.per_cell, d.flops_estimate, d.theta_o_max,
+                             d.method, d.headline});
     return cases;
 }
 
@@ -42,7 +29,7 @@ namespace {
 // The k-th of `count` points: the quantity's directions spread by an
 // additive recurrence (fractional parts of k * irrational), everything else
 // at its default.  Quantities without directions spread their first
-// parameter over its range (hfunction's mu over [0, 1]).
+// parameter over its range.
 std::vector<double> bench_points(const ModelInfo& model, const QuantityInfo& q,
                                  const BenchCase& c, std::size_t count) {
     PointBuilder builder(model, q);
@@ -452,8 +439,7 @@ BenchTargets evaluate_targets(const BenchReport& report) {
     for (const BenchCaseResult& r : report.cases) {
         dh.push_back(r.device_over_host);
         dt.push_back(r.device_over_threads);
-        if (r.spec.model == "rough-dielectric" && r.spec.quantity == "bsdf")
-            t.bsdf_rate = r.device.rate;
+        if (r.spec.headline) t.bsdf_rate = r.device.rate;
     }
     if (dh.empty()) return t;
     t.min_device_over_host = *std::min_element(dh.begin(), dh.end());

@@ -32,13 +32,16 @@ struct BenchCase {
     // kernel source (an estimate; 0 = not counted).  Gives the achieved
     // GFLOP-equivalent next to the measured peak.
     double flops_estimate = 0;
-    // theta_o range in degrees: 90 (upper hemisphere) or 180 (both sides).
+    // theta_o range in degrees: 89 (upper hemisphere) or 179 (both sides).
     double theta_o_max = 89;
     // The method measured (Auto: the quantity's default).
     Method method = Method::Auto;
+    // The case whose device rate BenchTargets::bsdf_rate reports.
+    bool headline = false;
 };
 
-// The cases `brdftab bench` runs, in order: every model's main quantities.
+// The cases `brdftab bench` runs, in order: every model's main quantities,
+// as the models declare them (ModelInfo::bench).
 std::vector<BenchCase> default_bench_cases();
 
 struct BenchSettings {
@@ -141,7 +144,7 @@ PeakFma measure_peak_fma(const std::string& device_selector, double target_secon
 struct BenchTargets {
     double min_device_over_host = 0, median_device_over_host = 0;
     double min_device_over_threads = 0;
-    double bsdf_rate = 0;  // rough-dielectric bsdf on the device, evals/s
+    double bsdf_rate = 0;  // the headline case (BenchCase::headline) on the device, evals/s
     bool device_over_host_each = false;   // >= 3.5x for every case
     bool device_over_host_median = false; // median >= 4x
     bool device_over_threads_each = false;  // >= 1.7x for every case

@@ -158,24 +158,25 @@ std::unique_ptr<Backend> make_backend(const std::string& device_selector,
 // sample each, and one work item of a reduce kernel that merges them in
 // sample order (kernels/common/estimator.h, BT_DEFINE_SAMPLE_PARALLEL_KERNELS),
 // instead of one work item looping over the samples; results are bit-identical
-// either way.  By default only for the cases sample_parallel_default_cases()
-// lists (measured faster, docs/benchmarks.md); EngineTuning::sample_parallel
-// On forces it for every Monte Carlo / RQMC launch of more than one sample
-// per batch, Off turns it off.
-// interfaced-lambertian's body with Beckmann normals runs a build whose
-// visible-normal searches take a fixed number of steps, and a redo kernel
-// for the samples whose search had not ended (EngineTuning::
-// fixed_solver_steps_x/y set other step counts; engine.cpp,
-// uses_fixed_step_solver).  EngineTuning::sample_parallel_scratch_samples
-// caps a sub-launch (default 2^22 samples; a batch larger than the cap runs
-// the usual kernel).  Quadratures have their own switch,
-// EngineTuning::node_parallel (node-parallel launches, below).
+// either way.  By default only where the quantity declares it
+// (QuantityInfo::sample_parallel, measured faster: docs/benchmarks.md);
+// EngineTuning::sample_parallel On forces it for every Monte Carlo / RQMC
+// launch of more than one sample per batch, Off turns it off.  Where the
+// quantity declares a fixed-step solver (QuantityInfo::fixed_step_solver)
+// the sample kernels come from a build whose visible-normal searches take a
+// fixed number of steps, with a redo kernel for the samples whose search had
+// not ended (EngineTuning::fixed_solver_steps_x/y set other step counts).
+// EngineTuning::sample_parallel_scratch_samples caps a sub-launch (default
+// 2^22 samples; a batch larger than the cap runs the usual kernel).
+// Quadratures have their own switch, EngineTuning::node_parallel
+// (node-parallel launches, below).
 struct SampleParallelCase {
     std::string model, quantity;
     Method method;       // MonteCarlo or Rqmc
     // Only with every listed option set to its choice (none: any options).
     std::vector<std::pair<std::string, std::string>> options;
 };
+// Every model's declared sample-parallel defaults, as one list.
 const std::vector<SampleParallelCase>& sample_parallel_default_cases();
 // Whether a launch of `quantity` of `model` by `method` with these option
 // indices (resolve_options) runs sample-parallel by default.
@@ -183,33 +184,33 @@ bool sample_parallel_by_default(const ModelInfo& model, const QuantityInfo& quan
                                 Method method, const std::vector<int>& options);
 
 // Walk-parallel launches (OpenCL backend only, kernels/common/walk_parallel.h):
-// a random-walk quantity listed here runs its Monte Carlo batches on a
-// kernel that advances every work item's walk one collision per round and
-// starts a batch's next sample as soon as a walk ends, bit-identical to the
-// usual kernel.  EngineTuning::walk_parallel false runs the usual kernel
-// instead.
+// a random-walk quantity that names its walk functions
+// (QuantityInfo::walk_parallel) runs its Monte Carlo batches on a kernel
+// that advances every work item's walk one collision per round and starts a
+// batch's next sample as soon as a walk ends, bit-identical to the usual
+// kernel.  EngineTuning::walk_parallel false runs the usual kernel instead.
 // state, setup, begin, step, value: the model's names (kernel header) for the walk.
 struct WalkParallelCase {
     std::string model, quantity;
     std::string state, setup, begin, step, value;
 };
+// Every model's declared walk-parallel quantities, as one list.
 const std::vector<WalkParallelCase>& walk_parallel_cases();
 
 // Node-parallel quadrature (OpenCL backend only): a quantity that names node
-// functions (QuantityInfo::node_parallel, host/models/registry.h: hfunction's
-// H; oren-nayar's Gaussian-surface quadratures, as nested sums over theta_a
-// nodes of their phi_a nodes) runs its quadrature batches as one work item per
-// node of a node kernel and one work item per batch of a sum kernel that adds
-// the terms in node order (kernels/common/node_parallel.h), instead of one
-// work item looping over the nodes; results are bit-identical either way.  On by
-// default where node_parallel_by_default() says so (measured,
-// docs/benchmarks.md "Node-parallel quadrature"); EngineTuning::node_parallel
-// Off turns it off, On forces it on.  EngineTuning::
-// node_parallel_scratch_nodes = N caps a sub-launch at N nodes (default 2^22;
-// nested sums: N/16 nodes per sub-launch, blocks of at most N/64 groups and
-// N/256 work items, each with a reduce kernel per group);
-// EngineTuning::node_layout_cap = N (tests) lays out at most N nodes per
-// batch, the sum kernel computing the rest.
+// functions (QuantityInfo::node_parallel, host/models/registry.h; flat sums,
+// optionally with split terms, or nested sums over groups of nodes) runs its
+// quadrature batches as one work item per node of a node kernel and one
+// work item per batch of a sum kernel that adds the terms in node order
+// (kernels/common/node_parallel.h), instead of one work item looping over
+// the nodes; results are bit-identical either way.  On by default where
+// node_parallel_by_default() says so (measured, docs/benchmarks.md
+// "Node-parallel quadrature"); EngineTuning::node_parallel Off turns it off,
+// On forces it on.  EngineTuning::node_parallel_scratch_nodes = N caps a
+// sub-launch at N nodes (default 2^22; nested sums: N/16 nodes per
+// sub-launch, blocks of at most N/64 groups and N/256 work items, each with
+// a reduce kernel per group); EngineTuning::node_layout_cap = N (tests) lays
+// out at most N nodes per batch, the sum kernel computing the rest.
 bool node_parallel_by_default();
 
 struct Progress {

@@ -27,7 +27,7 @@ enum class LaunchChoice { Default, Off, On };
 // optimum.
 inline constexpr std::size_t kSampleParallelScratchSamples = std::size_t{1} << 22;
 // Nodes per sub-launch of the node-parallel path (2^22 terms of scratch); the
-// nested sums take fractions of it (engine.cpp, enqueue_nested_node_parallel).
+// nested sums take fractions of it (host/engine/launch/node_parallel_nested.cpp).
 inline constexpr std::size_t kNodeParallelScratchNodes = std::size_t{1} << 22;
 // Work-group size of the usual and the sample- and node-parallel launches: a
 // multiple of every SIMD width that lets PoCL vectorise the work-item loop;

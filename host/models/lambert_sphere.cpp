@@ -180,6 +180,13 @@ ModelInfo hfunction_model() {
                             QuantityKind::ClosedForm, none, psi, "eqs. 17-20 (d'Eon)",
                             Method::ClosedForm, 0});
     b.check_cell(&check_hfunction_poly);
+
+    // Float against double (registry.h, docs/precision.md).
+    b.float_vs_double(HF_Q_H, 1.5e-07);
+    b.float_vs_double(HF_Q_HINF, 4.9e-07);
+    b.float_vs_double(HF_Q_MOMENT, 2.5e-07);
+
+    b.bench({"H", true});
     return b.build();
 }
 
@@ -440,6 +447,31 @@ ModelInfo lambert_sphere_model() {
                             0});
     b.check_point(&check_lambert_sphere_point);
     b.derive(&derive_lambert_sphere);
+
+    // brdf_mc's walks run walk-parallel on OpenCL devices (Monte Carlo;
+    // kernels/common/walk_parallel.h): measured faster per CPU-second than
+    // the usual kernel (docs/benchmarks.md, "Walk-parallel launch").  No
+    // forced inlining for this model: with it, preset tables came out wrong
+    // and PoCL crashed in the in-kernel Horak-Chandrasekhar solve
+    // (docs/contributing.md); the walk-parallel build forces it itself.
+    b.quantity_by_id(LS_Q_BRDF_MC).walk_parallel = {"ls_brdf_mc_state", "ls_brdf_mc_setup",
+                                                    "ls_brdf_mc_begin", "ls_brdf_mc_step",
+                                                    "ls_brdf_mc_value"};
+
+    // Float against double (registry.h, docs/precision.md).
+    b.float_vs_double(LS_Q_ALBEDO_MC, 4.2e-05);
+    b.float_vs_double(LS_Q_BRDF_ANALYTIC, 6.4e-06);
+    b.float_vs_double(LS_Q_BRDF_FAST, 1.3e-06);
+    b.float_vs_double(LS_Q_BRDF_FIT, 1.6e-06);
+    b.float_vs_double(LS_Q_BRDF_MC, 0.0015, "Fourier modes near zero, formed by cancellation");
+    b.float_vs_double(LS_Q_BRDF_SINGLE, 6.4e-06);
+    b.float_vs_double(LS_Q_BRDF_THREE_TERM, 6.2e-06);
+    b.float_vs_double(LS_Q_CONSTANT, 0.00012,
+                      "the paper's fits in float; the exact constants are solved in double");
+    b.float_vs_double(LS_Q_KD_FIT, 1.7e-05);
+    b.float_vs_double(LS_Q_KD_MC, 1.6e-07);
+
+    b.bench({"brdf_mc"});
     return b.build();
 }
 

@@ -191,6 +191,18 @@ ModelInfo oren_nayar_model() {
         f.table_entries = ON_NODE_TABLE_ENTRIES;
         f.table_size = ON_NODE_TABLE_SIZE;
     }
+
+    // Float against double (registry.h, docs/precision.md).
+    const char* kCancellation = "small values formed by cancellation";
+    b.float_vs_double(ON_Q_ALBEDO_AVG_DIRECT, 1.9e-07);
+    b.float_vs_double(ON_Q_ALBEDO_AVG_INTER, 2.4e-05);
+    b.float_vs_double(ON_Q_ALBEDO_DIRECT, 3.8e-07);
+    b.float_vs_double(ON_Q_ALBEDO_INTER, 0.0011, kCancellation);
+    b.float_vs_double(ON_Q_APPROX_ERROR, 0.00063, kCancellation);
+    b.float_vs_double(ON_Q_BRDF_DIRECT, 3.6e-07);
+    b.float_vs_double(ON_Q_BRDF_INTER, 6.8e-05);
+
+    b.bench({"brdf", true});
     return b.build();
 }
 

@@ -111,76 +111,10 @@ const QuantityInfo& ModelInfo::quantity(const std::string& n) const {
                      "'; allowed: " + join(names));
 }
 
-namespace {
-
-// docs/precision.md, "Float against double" (shrunk presets, seed 7, PoCL
-// CPU device): per model and quantity, the largest relative
-// |float - double| over every preset table, and where float fails.  Only
-// measured quantities are listed; the others stay "not measured".
-struct FloatMeasurement {
-    const char* model;
-    const char* quantity;
-    double max_rel_diff;
-    const char* note;
-};
-const FloatMeasurement kFloatMeasurements[] = {
-    {"hfunction", "H", 1.5e-07, ""},
-    {"hfunction", "H_inf", 4.9e-07, ""},
-    {"hfunction", "moment", 2.5e-07, ""},
-    {"interfaced-lambertian", "body", 4.4e-05, ""},
-    {"interfaced-lambertian", "brdf", 0.97,
-     "the specular peak with alpha = 0.1 (double 796, float 20)"},
-    {"interfaced-lambertian", "ri", 0, ""},
-    {"interfaced-lambertian", "vcavity", 2.3e-05, ""},
-    {"lambert-sphere", "albedo_mc", 4.2e-05, ""},
-    {"lambert-sphere", "brdf_analytic", 6.4e-06, ""},
-    {"lambert-sphere", "brdf_fast", 1.3e-06, ""},
-    {"lambert-sphere", "brdf_fit", 1.6e-06, ""},
-    {"lambert-sphere", "brdf_mc", 0.0015, "Fourier modes near zero, formed by cancellation"},
-    {"lambert-sphere", "brdf_single", 6.4e-06, ""},
-    {"lambert-sphere", "brdf_three_term", 6.2e-06, ""},
-    {"lambert-sphere", "constant", 0.00012,
-     "the paper's fits in float; the exact constants are solved in double"},
-    {"lambert-sphere", "kd_fit", 1.7e-05, ""},
-    {"lambert-sphere", "kd_mc", 1.6e-07, ""},
-    {"micrograin", "albedo", 2.6e-06, ""},
-    {"micrograin", "brdf", 1e-05, ""},
-    {"micrograin", "explicit_brdf", 0.71, "the ray and grain geometry needs double"},
-    {"micrograin", "g1_dist", 1.1e-07, ""},
-    {"micrograin", "g_dist", 5.2e-07, ""},
-    {"micrograin", "pore_visibility", 6.9e-07, ""},
-    {"oren-nayar", "albedo_avg_direct", 1.9e-07, ""},
-    {"oren-nayar", "albedo_avg_interreflection", 2.4e-05, ""},
-    {"oren-nayar", "albedo_direct", 3.8e-07, ""},
-    {"oren-nayar", "albedo_interreflection", 0.0011, "small values formed by cancellation"},
-    {"oren-nayar", "approx_error", 0.00063, "small values formed by cancellation"},
-    {"oren-nayar", "brdf_direct", 3.6e-07, ""},
-    {"oren-nayar", "brdf_interreflection", 6.8e-05, ""},
-    {"rough-dielectric", "albedo_avg", 2.4e-07, ""},
-    {"rough-dielectric", "albedo_r", 4.9e-07, ""},
-    {"rough-dielectric", "albedo_t", 1.6e-06, ""},
-    {"rough-dielectric", "bsdf", 1.0,
-     "grazing mirror directions of sharp lobes (theta_i = theta_o = 90 deg, smallest "
-     "alpha: in float cos 90 deg is -4.4e-8)"},
-};
-
-void apply_float_measurements(std::vector<ModelInfo>& models) {
-    for (ModelInfo& m : models)
-        for (QuantityInfo& q : m.quantities)
-            for (const FloatMeasurement& f : kFloatMeasurements)
-                if (m.name == f.model && q.name == f.quantity) {
-                    q.float_max_rel_diff = f.max_rel_diff;
-                    q.float_note = f.note;
-                }
-}
-
-}  // namespace
-
 const std::vector<ModelInfo>& all_models() {
     static const std::vector<ModelInfo> models = [] {
         std::vector<ModelInfo> m;
         for (detail::ModelFactory factory : detail::factories()) m.push_back(factory());
-        apply_float_measurements(m);
         // Registration order depends on link order; the listing must not.
         std::sort(m.begin(), m.end(), [](const ModelInfo& a, const ModelInfo& b) {
             return a.listing_order != b.listing_order ? a.listing_order < b.listing_order
@@ -255,6 +189,21 @@ ModelBuilder& ModelBuilder::cells_pass(bool (*fn)(const QuantityInfo&, const dou
 ModelBuilder& ModelBuilder::derive(
     CellDerivation (*fn)(const QuantityInfo&, const std::vector<int>&)) {
     model_.derive = fn;
+    return *this;
+}
+
+ModelBuilder& ModelBuilder::force_inline() {
+    model_.force_inline = true;
+    return *this;
+}
+ModelBuilder& ModelBuilder::float_vs_double(int id, double max_rel_diff, std::string note) {
+    QuantityInfo& q = quantity_by_id(id);
+    q.float_max_rel_diff = max_rel_diff;
+    q.float_note = std::move(note);
+    return *this;
+}
+ModelBuilder& ModelBuilder::bench(BenchDeclaration info) {
+    model_.bench.push_back(std::move(info));
     return *this;
 }
 
@@ -357,9 +306,28 @@ ModelInfo ModelBuilder::build() const {
         if (q.default_method == Method::Auto || !method_suits(q.kind, q.default_method))
             fail("quantity '" + q.name + "' has default method '" + to_string(q.default_method) +
                  "', which does not suit its kind");
+        // The launch preferences name existing options and choices.
+        auto check_choice = [&](const OptionChoice& c) {
+            const OptionInfo* o = m.find_option(c.option);
+            if (!o || o->index_of(c.choice) < 0)
+                fail("quantity '" + q.name + "': a launch preference names option '" + c.option +
+                     "' = '" + c.choice + "', which the model does not have");
+        };
+        for (const SampleParallelRule& r : q.sample_parallel) {
+            if (r.method != Method::MonteCarlo && r.method != Method::Rqmc)
+                fail("quantity '" + q.name + "': sample-parallel rules are for mc and rqmc only");
+            for (const OptionChoice& c : r.options) check_choice(c);
+        }
+        for (const OptionChoice& c : q.fixed_step_solver) check_choice(c);
         names.push_back(q.name);
     }
     require_unique(name, "quantity", names);
+    int headlines = 0;
+    for (const BenchDeclaration& c : m.bench) {
+        if (!m.find_quantity(c.quantity)) fail("bench case of unknown quantity '" + c.quantity + "'");
+        headlines += c.headline ? 1 : 0;
+    }
+    if (headlines > 1) fail("more than one headline bench case");
     return m;
 }
 

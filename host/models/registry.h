@@ -50,7 +50,7 @@ typedef double (*HostSampleFn)(const double* point, const int* options, int quan
 constexpr int kDirectionSlots = 4;
 
 // Node-parallel quadrature (OpenCL backend only; kernels/common/node_parallel.h,
-// host/engine/engine.cpp): a quantity whose value is an in-order sum of
+// host/engine/launch/node_parallel*.cpp): a quantity whose value is an in-order sum of
 // data-dependent length, value = finish(term(0) + term(1) + ... +
 // term(count - 1)), names the four functions of its kernel header that
 // compute it and the size of the state its terms share (signatures in
@@ -91,6 +91,28 @@ struct NodeParallelFunctions {
     bool by_default = true;
     bool nested() const { return !group_prepare.empty(); }
     bool enabled() const { return host_count != nullptr; }
+};
+
+// One option set to one of its choices, by name (the launch preferences below).
+struct OptionChoice {
+    std::string option, choice;
+};
+
+// A sample-parallel default (QuantityInfo::sample_parallel): Monte Carlo or
+// RQMC batches of the quantity by `method` run sample-parallel on OpenCL
+// devices when every listed option has its listed choice (none: any options).
+struct SampleParallelRule {
+    Method method = Method::MonteCarlo;
+    std::vector<OptionChoice> options = {};
+};
+
+// Walk-parallel launches (OpenCL backend only; kernels/common/walk_parallel.h,
+// host/engine/launch/): a random-walk quantity names its walk's state type
+// and the functions of its kernel header that set it up, begin a sample,
+// advance it one collision and read its value.  Empty: the usual kernel only.
+struct WalkParallelFunctions {
+    std::string state, setup, begin, step, value;
+    bool enabled() const { return !state.empty(); }
 };
 
 // A quantity's per-cell invariants (ModelInfo::derive): `slots` values that
@@ -154,10 +176,11 @@ struct QuantityInfo {
     Method default_method = Method::ClosedForm;  // never Method::Auto
     unsigned dimensions = 0;  // random dimensions per sample (integrals)
     // Float against double (`--precision float`), as measured on the shrunk
-    // presets in docs/precision.md ("Float against double"): the largest
-    // relative |float - double| over every preset table of this quantity;
-    // negative where it was not measured.  Filled by all_models() from that
-    // table, never estimated.  float_note: where float fails, when it does.
+    // presets in docs/precision.md ("Float against double"; seed 7, PoCL CPU
+    // device): the largest relative |float - double| over every preset table
+    // of this quantity; negative where it was not measured.  Set by the model
+    // file (ModelBuilder::float_vs_double) from that measurement, never
+    // estimated.  float_note: where float fails, when it does.
     double float_max_rel_diff = -1;
     std::string float_note = {};  // = {}: aggregates that stop before it stay warning-free
     // Node-parallel quadrature functions (see NodeParallelFunctions); set by
@@ -173,6 +196,17 @@ struct QuantityInfo {
         bool enabled() const { return size > 0; }
     };
     StagedSample staged = {};
+    // Launch preferences on OpenCL devices (host/engine/launch/), each a
+    // measured choice that changes no result (docs/benchmarks.md): where its
+    // Monte Carlo / RQMC batches run sample-parallel by default; the option
+    // choices (any one suffices) under which its sample-parallel kernels use
+    // kernels/common/microfacet.h's fixed-step visible-normal search, with a
+    // redo kernel for the samples whose search had not ended (double
+    // precision only; a staged quantity runs sample-parallel only then); and
+    // its walk-parallel functions.
+    std::vector<SampleParallelRule> sample_parallel = {};
+    std::vector<OptionChoice> fixed_step_solver = {};
+    WalkParallelFunctions walk_parallel = {};
     bool float_measured() const { return float_max_rel_diff >= 0; }
     // Whether float reaches the precision of a stored float32 (2^-24 relative)
     // or float16 (2^-11) table over the measured domains.
@@ -182,6 +216,23 @@ struct QuantityInfo {
     bool float_enough_for_float16() const {
         return float_measured() && float_max_rel_diff <= 4.8828125e-04;
     }
+};
+
+// One case of `brdftab bench` (host/engine/bench.h, BenchCase): a quantity
+// whose speed the bench measures.  per_cell: quadratures report cells per
+// second (one cell = the accurate and the coarse rule), others evaluations
+// per second.  flops_estimate: arithmetic operations of one evaluation,
+// counted by hand from the kernel source (0: not counted).  theta_o_max: the
+// range of theta_o in degrees (89: upper hemisphere, 179: both sides).
+// method: the one measured (Auto: the quantity's default).  headline: the
+// case whose device rate the bench's targets judge (at most one).
+struct BenchDeclaration {
+    std::string quantity;
+    bool per_cell = false;
+    double flops_estimate = 0;
+    double theta_o_max = 89;
+    Method method = Method::Auto;
+    bool headline = false;
 };
 
 struct ModelInfo {
@@ -199,6 +250,16 @@ struct ModelInfo {
     std::vector<OptionInfo> options;
     std::vector<QuantityInfo> quantities;
     HostSampleFn host_fn = nullptr;
+    // Whether its OpenCL programs are built with forced inlining
+    // (BT_FORCE_INLINE, kernels/common/estimator.h), which lets PoCL run the
+    // work items of a group as SIMD lanes where calls kept them scalar.  Set
+    // only where measured faster with every preset bit-identical
+    // (docs/contributing.md, PoCL findings); extra kernel options naming
+    // BT_FORCE_INLINE (EngineTuning) decide instead.
+    bool force_inline = false;
+    // The cases of `brdftab bench` (host/engine/bench.h) for this model's
+    // quantities, in the order the bench runs them.
+    std::vector<BenchDeclaration> bench = {};
     // Optional check across parameters that a per-parameter range cannot
     // express (e.g. lambert-sphere's tail_order > max_order).  `params` holds
     // every parameter's value (given or default, user units); returns an error
@@ -285,6 +346,12 @@ public:
     ModelBuilder& cells_pass(bool (*fn)(const QuantityInfo&, const double*, std::size_t,
                                         std::size_t, const std::vector<int>&));
     ModelBuilder& derive(CellDerivation (*fn)(const QuantityInfo&, const std::vector<int>&));
+    // ModelInfo::force_inline (set it only with the measurement that chose it).
+    ModelBuilder& force_inline();
+    // QuantityInfo::float_max_rel_diff and float_note of quantity `id`.
+    ModelBuilder& float_vs_double(int id, double max_rel_diff, std::string note = "");
+    // A `brdftab bench` case (ModelInfo::bench).
+    ModelBuilder& bench(BenchDeclaration info);
     // The quantity registered under `id` (to adjust it after a shared factory).
     QuantityInfo& quantity_by_id(int id);
     ModelInfo build() const;

@@ -218,6 +218,37 @@ ModelInfo rough_dielectric_model() {
                         kAlbedoEqs, {"theta_i"}, albedo_opts, 2));
     b.check_cell(&check_phong_alpha);
     b.cells_pass(&phong_alpha_cells_pass);
+
+    // Launch preferences (registry.h; docs/benchmarks.md, "Sample-parallel
+    // launches").  The GGX albedos' sample kernels vectorise across work
+    // items and run 2.1-2.4x faster per CPU-second sample-parallel, by Monte
+    // Carlo and RQMC (the sampler vectorises too, kernels/common/sobol.h);
+    // Beckmann and Phong measured slower, so they keep the usual kernel.
+    for (int id : {RD_Q_ALBEDO_R, RD_Q_ALBEDO_T, RD_Q_ALBEDO_AVG})
+        for (Method method : {Method::MonteCarlo, Method::Rqmc})
+            b.quantity_by_id(id).sample_parallel.push_back({method, {{"distribution", "ggx"}}});
+    // Forced inlining: measured faster, every preset bit-identical.
+    b.force_inline();
+
+    // Float against double (registry.h, docs/precision.md).
+    b.float_vs_double(RD_Q_ALBEDO_AVG, 2.4e-07);
+    b.float_vs_double(RD_Q_ALBEDO_R, 4.9e-07);
+    b.float_vs_double(RD_Q_ALBEDO_T, 1.6e-06);
+    b.float_vs_double(RD_Q_BSDF, 1.0,
+                      "grazing mirror directions of sharp lobes (theta_i = theta_o = 90 deg, "
+                      "smallest alpha: in float cos 90 deg is -4.4e-8)");
+
+    // `brdftab bench` cases.  flops_estimate of bsdf: counted by hand in
+    // kernels/models/rough_dielectric.h for a reflection pair (two
+    // directions from angles, half vector, GGX D, two Smith G1, dielectric
+    // Fresnel, the eq. 20 quotient): about 110 additions/multiplications
+    // plus 4 sin/cos, 3 sqrt and 6 divisions, each of those counted as 10.
+    // An estimate, only to put the achieved rate next to the peak.
+    b.bench({"bsdf", false, 240, 179, Method::Auto, true});
+    // The albedos' default is quadrature; the bench keeps timing their
+    // sampled (RQMC) kernel, the sample-parallel launch's main case.
+    b.bench({"albedo_r", false, 0, 89, Method::Rqmc});
+    b.bench({"albedo_t", false, 0, 89, Method::Rqmc});
     return b.build();
 }
 
