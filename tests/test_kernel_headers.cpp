@@ -60,8 +60,8 @@ DeviceInfo cpu_device() {
     return {};
 }
 
-// The options the engine builds a model's kernel with (engine.cpp,
-// kernel_for), in double and in float precision.
+// The options the engine builds a model's kernel with (host/engine/launch/resources.cpp,
+// LaunchResources::build_options), in double and in float precision.
 std::vector<std::string> engine_build_options(const DeviceInfo& device) {
     const std::string base =
         std::string("-cl-std=CL1.2") + (device.has_fp64 ? " -D BT_HAS_FP64=1" : " -D BT_HAS_FP64=0");

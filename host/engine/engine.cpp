@@ -1,6 +1,6 @@
 // engine.cpp — the host backends (serial reference and threaded), backend
-// selection, and the per-cell estimation pipelines with fixed or adaptive
-// budgets.  The OpenCL backend: opencl_backend.cpp and host/engine/launch/.
+// selection.  The estimation pipelines: estimate.cpp; the OpenCL backend:
+// opencl_backend.cpp and host/engine/launch/.
 #include "host/engine/engine.h"
 
 #include <algorithm>

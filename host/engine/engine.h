@@ -156,7 +156,7 @@ std::unique_ptr<Backend> make_backend(const std::string& device_selector,
 // Sample-parallel launches (OpenCL backend only): a Monte Carlo / RQMC batch
 // of batch_size samples runs as batch_size work items of a sample kernel, one
 // sample each, and one work item of a reduce kernel that merges them in
-// sample order (kernels/common/estimator.h, BT_DEFINE_SAMPLE_PARALLEL_KERNELS),
+// sample order (kernels/common/estimator.h, sample_parallel.cl),
 // instead of one work item looping over the samples; results are bit-identical
 // either way.  By default only where the quantity declares it
 // (QuantityInfo::sample_parallel, measured faster: docs/benchmarks.md);

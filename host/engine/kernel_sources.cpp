@@ -258,8 +258,8 @@ std::string sample_parallel_kernel_source(const std::string& kernel_header,
 namespace {
 // The start of the node-parallel and walk-parallel programs: forced inlining
 // unless the build options decide (a call left in the node kernel or in the
-// walk's round keeps its work-item loop scalar: measured on hfunction's H and
-// lambert-sphere's walk, docs/benchmarks.md), the estimator, the model's
+// walk's round keeps its work-item loop scalar, as measured on the walk-parallel
+// quantities, docs/benchmarks.md), the estimator, the model's
 // header and the launch's header (`launch_header`, relative to kernels/).
 std::string forced_inline_prologue(const std::string& kernel_header, const std::string& launch_header,
                                    const std::string& kernel_dir) {

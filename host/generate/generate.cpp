@@ -166,7 +166,7 @@ constexpr double kDerivedBytesPerCell = 2 * (8 + 8);
 // HDF5's chunk cache: up to 1 MiB for each of the (at most 3) datasets of
 // every computed table, all open while the tables are computed.
 constexpr double kCacheBytesPerTable = 3.0 * 1024 * 1024;
-// One device launch (host/engine/engine.cpp): per work item its point
+// One device launch (host/engine/launch/): per work item its point
 // (point_stride doubles), cell and batch numbers and two results, held three
 // times: the launch, its copy with the chunk's cell numbers (chunked.cpp) and
 // the device's buffers (host memory on a CPU device).  The OpenCL backend's

@@ -186,7 +186,7 @@ struct QuantityInfo {
     // Node-parallel quadrature functions (see NodeParallelFunctions); set by
     // the model file after registering the quantity.
     NodeParallelFunctions node_parallel = {};
-    // Staged samples (kernels/common/estimator.h, BT_DEFINE_STAGED_SAMPLE_KERNELS):
+    // Staged samples (kernels/common/staged_samples.cl):
     // the kernel header's stage and rest functions, whose composition is the
     // sample function's value, and the stage's size; the engine runs them in
     // sample-parallel launches whose search takes fixed steps.  size 0: none.
@@ -243,7 +243,7 @@ struct ModelInfo {
     int listing_order = 0;
     // The kernel header, relative to kernels/ (e.g. "models/micrograin.h"), and
     // the name of its sample function; the engine generates the OpenCL entry
-    // point around them (BT_DEFINE_ESTIMATE_KERNEL in kernels/common/estimator.h).
+    // point around them (kernels/common/estimate.cl).
     std::string kernel_header;
     std::string sample_function;
     std::vector<ParameterInfo> parameters;

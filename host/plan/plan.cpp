@@ -1358,7 +1358,7 @@ double finer_rule_nodes(const ModelInfo& model, const QuantityInfo& quantity,
 
 namespace {
 
-// Adaptive sampling (engine.cpp): a cell stops once its stderr <= max(tol
+// Adaptive sampling (host/engine/estimate.cpp): a cell stops once its stderr <= max(tol
 // |value|, abs_floor); otherwise it asks for N (stderr / target)^2 x 1.1
 // samples, at least 2N and at most 16N, capped at max_samples.  Simulated per
 // pilot cell with the fitted stderr(N) = sigma_pilot (N / N_pilot)^q.

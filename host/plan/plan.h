@@ -245,7 +245,7 @@ TablePilot run_pilot(const Spec& spec, std::size_t table_index, Backend& backend
 
 // --------------------------------------------------------------- cost model terms
 
-// How `estimate` (host/engine/engine.cpp) lays out a run of `samples` per cell
+// How `estimate` (host/engine/estimate.cpp) lays out a run of `samples` per cell
 // (non-adaptive, or the first round of an adaptive one): work items per cell
 // and samples per work item.  Closed form: 1 x 1; quadrature: 2 x 1 (the
 // accurate and the coarse rule); MC: batches of min(N, 4096); RQMC: batches
@@ -260,7 +260,7 @@ WorkShape work_shape(Method method, std::uint64_t samples);
 // `seconds_per_item` each plus `seconds_per_launch`, with automatic slabs:
 // the first 256, then each full launch resized towards 0.5 s (at most 4x up
 // or down, whole multiples of 256, within [256, max_slab]).  Mirrors
-// engine.cpp's resize_slab; the sizes sum to work_items.  Once a full launch
+// estimate.cpp's resize_slab; the sizes sum to work_items.  Once a full launch
 // leaves the slab unchanged every later one does too: the count is then
 // worked out, not simulated, so tables of 2^32 cells cost nothing to predict.
 struct EngineLaunches {
@@ -277,7 +277,7 @@ EngineLaunches engine_launch_sizes(double work_items, double seconds_per_item, d
 // 2-8 s of compiling on the 2-core machine when its cache lacks it.
 constexpr std::size_t kLargeGridWorkItems = 65536;
 // Whether the largest launch's global size (rounded up to groups of 64, as
-// engine.cpp does) reaches kLargeGridWorkItems.
+// estimate.cpp does) reaches kLargeGridWorkItems.
 bool reaches_large_grid(const EngineLaunches& launches);
 
 // Predicted seconds of one table's engine run (a non-adaptive `estimate`):

@@ -44,11 +44,10 @@
 #if !defined(BT_FORCE_INLINE)
 #define BT_FORCE_INLINE BT_SAMPLE_BARRIER
 #endif
-/* The engine passes -D BT_FORCE_INLINE=1 for rough-dielectric, micrograin and
- * interfaced-lambertian (host/engine/engine.cpp): measured faster there, and their preset tables
- * bit-identical.  Not for lambert-sphere: PoCL crashes (SIGSEGV) with it in
- * the in-kernel Horak-Chandrasekhar solve of lambert-sphere-constants
- * (docs/contributing.md). */
+/* The engine passes -D BT_FORCE_INLINE=1 for the models whose registration
+ * asks for it (ModelBuilder::force_inline, host/models/registry.h): each such
+ * model states the measurement there.  A model may not ask where PoCL fails
+ * to compile the inlined program (docs/contributing.md). */
 #if BT_DEVICE && BT_FORCE_INLINE && !defined(BT_NO_FORCE_INLINE)
 /* With the sample-loop barrier (below), or with -D BT_FORCE_INLINE=1, force
  * inlining of every shared function into the kernel.  PoCL's inliner otherwise keeps larger helpers
@@ -105,7 +104,7 @@
 #endif
 #if defined(BT_SPEC_METHOD)
 #define BT_KERNEL_METHOD_(runtime) (BT_SPEC_METHOD)
-/* Closed forms and quadrature always run one-sample batches (engine.cpp):
+/* Closed forms and quadrature always run one-sample batches (host/engine/estimate.cpp):
  * a constant trip count removes the loop. */
 #if BT_SPEC_METHOD == BT_METHOD_CLOSED || BT_SPEC_METHOD == BT_METHOD_QUADRATURE
 #define BT_KERNEL_BATCH_SIZE_(runtime) (1u)

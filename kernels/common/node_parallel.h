@@ -1,6 +1,6 @@
 /*
  * node_parallel.h — node-parallel launch of a quadrature sum (the engine's
- * "node-parallel" path, host/engine/engine.cpp; BRDFTAB_NODE_PARALLEL).
+ * "node-parallel" path, host/engine/launch/node_parallel_*.cpp).
  *
  * The usual kernel (estimate.cl) runs a
  * quadrature rule as a loop inside one work item.  When that loop's trip

@@ -2,7 +2,7 @@
 // RQMC batch of batch_size samples runs as batch_size work items of a sample
 // kernel, one sample each, and one work item of a reduce kernel that merges
 // them in sample order (kernels/common/estimator.h,
-// BT_DEFINE_SAMPLE_PARALLEL_KERNELS), bit-identical to the usual kernel.
+// kernels/common/sample_parallel.cl), bit-identical to the usual kernel.
 // Also the parts the staged launch (staged.cpp) shares.
 #include "host/engine/launch/sample_parallel.h"
 

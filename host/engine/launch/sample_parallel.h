@@ -17,7 +17,7 @@ public:
     explicit SampleParallelCommon(LaunchResources& r) : r_(r) {}
 
     // The sample-parallel kernels of one (model, quantity, options, method)
-    // (kernels/common/estimator.h, BT_DEFINE_SAMPLE_PARALLEL_KERNELS).  With
+    // (kernels/common/sample_parallel.cl).  With
     // a redo: the sample and reduce kernels come from a fixed-step build
     // (uses_fixed_step_solver), and redo, from the usual build, computes
     // again every sample that build left as NaN.  Staged

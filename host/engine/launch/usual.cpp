@@ -1,6 +1,6 @@
 // usual.cpp — the usual launch: one work item per (cell, batch), each looping
 // over its batch's samples (kernels/common/estimator.h,
-// BT_DEFINE_ESTIMATE_KERNEL).  It runs every launch no other strategy takes.
+// kernels/common/estimate.cl).  It runs every launch no other strategy takes.
 #include "host/engine/kernel_sources.h"
 #include "host/engine/launch/resources.h"
 
