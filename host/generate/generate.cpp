@@ -307,7 +307,7 @@ TableData describe_table(const Spec& spec, const Backend& backend,
     d.samples_requested = closed_form || method == Method::Quadrature
                               ? 1
                               : (settings.tolerance > 0 ? settings.max_samples
-                                                        : (settings.samples ? settings.samples : 4096));
+                                                        : (settings.samples ? settings.samples : kDefaultSamplesPerCell));
     d.tolerance_requested = closed_form ? 0 : settings.tolerance;
     d.abs_floor = settings.abs_floor;
     d.seed = settings.seed;

@@ -21,6 +21,9 @@
 namespace brdftab {
 
 namespace {
+// The pilots' integration runs draw from a stream offset from the user's
+// seed, so that a pilot never replays the samples of the table it plans.
+constexpr std::uint64_t kPilotSeedOffset = 17;
 
 
 constexpr std::size_t kMinCount = 4, kMaxCount = 65536;
@@ -745,7 +748,7 @@ void quadrature_cost_pilot(const PilotContext& ctx, const TableSpec& ts, const P
             batch.insert(batch.end(), cell_points.begin(), cell_points.end());
         IntegrationSettings s;
         s.method = Method::Quadrature;
-        s.seed = options.seed + 17;
+        s.seed = options.seed + kPilotSeedOffset;
         const double t = estimate_at(backend, *ctx.model, *ctx.quantity, ctx.options, batch, s,
                                      stage(ts.name + ": quadrature cost pilot")).elapsed_seconds;
         f.seconds_per_cell = std::max(t - pilot.overhead_seconds, 0.5 * t) /
@@ -795,7 +798,7 @@ std::vector<double> integration_pilot(const PilotContext& ctx, const TableSpec& 
             IntegrationSettings s;
             s.method = method;
             s.samples = n;
-            s.seed = options.seed + 17;
+            s.seed = options.seed + kPilotSeedOffset;
             const EstimateResult e = estimate_at(
                 backend, *ctx.model, *ctx.quantity, ctx.options, cell_points, s,
                 stage(ts.name + ": " + to_string(method) + " pilot, " + std::to_string(n) + " samples"));
