@@ -4,7 +4,7 @@
 # engine, `query` against an independent Python reader written from
 # docs/format.md (tests/python/read_adaptive.py, numpy + h5py) to 1e-12, an
 # under-resolved table failing its certificate (in the file and under
-# `certify`), and tensor-only consumers refusing adaptive tables by name.
+# `certify`), `validate` against the engine, and linear interpolation only.
 # About a minute of CPU.  Usage: adaptive_cli_tests.sh BRDFTAB SOURCE_DIR
 source "$(dirname "$0")/cli_lib.sh"
 cli_setup "$1" "$2"
@@ -96,10 +96,24 @@ fi
 expect_exit 1 "certify of the under-resolved table" -- "$BT" certify u.h5 --table albedo_t_inside --accuracy 1e-4 --abs -q
 expect_exit 0 "certify of the resolved table" -- "$BT" certify a.h5 --table albedo_t_inside --accuracy 3e-2 --abs -q
 
-# Consumers of tensor tables refuse adaptive ones, naming them; linear only.
-expect_exit 2 "validate refuses" -- "$BT" validate a.h5 --table albedo_t_inside --points 10
-"$BT" validate a.h5 --table albedo_t_inside --points 10 > v.out 2>&1
-expect_grep "adaptive table" v.out "validate's message"
+# validate: the table against fresh engine evaluations at random points
+# (linear only): its error stays within the refinement's target, and the
+# table values it reports are what `query` gives at those points.
+expect_exit 0 "validate of an adaptive table" -- "$BT" validate a.h5 --table albedo_t_inside --points 300 --worst 20 --json -q
+"$BT" validate a.h5 --table albedo_t_inside --points 300 --worst 20 --json -q > v.json 2> /dev/null
+if "$PY" - "$BT" <<'PY'
+import json, subprocess, sys
+v = json.load(open("v.json"))
+assert v["representation"] == "adaptive" and "cubic" not in v, sorted(v)
+assert v["linear"]["abs"]["max"] <= 3e-2, v["linear"]["abs"]
+for w in v["linear"]["worst"]:
+    args = [f"{k}={x!r}" for k, x in w["coordinates"].items()]
+    q = json.loads(subprocess.run([sys.argv[1], "query", "a.h5", "--table", "albedo_t_inside", "--json", *args],
+                                  capture_output=True, text=True, check=True).stdout)
+    assert abs(q["value"] - w["table"]) <= 1e-12, (w, q["value"])
+print("validate: max abs", v["linear"]["abs"]["max"])
+PY
+then ok; else bad "validate of the adaptive table"; fi
 expect_exit 2 "query --cubic refused" -- "$BT" query a.h5 --table albedo_t_inside --cubic mu_i=-0.5 alpha=0.1 eta=1.5
 expect_exit 2 "adaptive needs --accuracy" -- "$BT" generate inside.toml --representation adaptive -q -o x.h5
 cli_summary

@@ -235,9 +235,13 @@ void run_validate(const ValidateArgs& va) {
             s += (a ? " " : "") + rep.axes[a].name + "=" + format_short(rep.coord(k, a));
         return s;
     };
+    // An adaptive table interpolates linearly only: no cubic rows.
+    const std::vector<const InterpolationErrors*> results =
+        rep.adaptive ? std::vector<const InterpolationErrors*>{&rep.results[0]}
+                     : std::vector<const InterpolationErrors*>{&rep.results[0], &rep.results[1]};
     std::cout << "validate " << va.file << ", table '" << rep.table << "': " << rep.model << " / "
-              << rep.quantity << " [" << rep.units << "], axes";
-    for (const auto& a : rep.axes) std::cout << " " << a.name << "(" << a.count << ")";
+              << rep.quantity << " [" << rep.units << "], " << (rep.adaptive ? "adaptive, " : "") << "axes";
+    for (const auto& a : rep.axes) std::cout << " " << a.name << (rep.adaptive ? "" : "(" + std::to_string(a.count) + ")");
     std::cout << "\n  " << n << " random off-grid points (seed " << options.seed
               << ", uniform in each axis' warped coordinate)\n"
               << "  reference: " << to_string(ref.method) << " on " << rep.device << " ("
@@ -258,7 +262,8 @@ void run_validate(const ValidateArgs& va) {
     std::snprintf(buf, sizeof buf, "  %-16s %11s %11s %11s %11s %11s\n", "", "max", "rms", "p50",
                   "p95", "p99");
     std::cout << buf;
-    for (const InterpolationErrors& r : rep.results) {
+    for (const InterpolationErrors* rp : results) {
+        const InterpolationErrors& r = *rp;
         for (int kind = 0; kind < 2; ++kind) {
             const ErrorStats& e = kind == 0 ? r.rel_stats : r.abs_stats;
             std::snprintf(buf, sizeof buf, "  %-7s %-8s %11.4g %11.4g %11.4g %11.4g %11.4g\n",
@@ -269,16 +274,17 @@ void run_validate(const ValidateArgs& va) {
     if (noisy) {
         std::cout << "\n  reference stderr per point: median " << format_short(noise.p50) << ", max "
                   << format_short(noise.max) << " (" << rep.quantity_units << ")\n";
-        for (const InterpolationErrors& r : rep.results)
-            std::cout << "  " << r.name << ": rms with the reference noise removed: abs "
-                      << format_short(r.rms_abs_corrected) << ", rel " << format_short(r.rms_rel_corrected)
-                      << "; |diff| > 3 reference stderr at " << r.significant << "/" << n
+        for (const InterpolationErrors* rp : results)
+            std::cout << "  " << rp->name << ": rms with the reference noise removed: abs "
+                      << format_short(rp->rms_abs_corrected) << ", rel " << format_short(rp->rms_rel_corrected)
+                      << "; |diff| > 3 reference stderr at " << rp->significant << "/" << n
                       << " points\n";
     }
     if (rep.has_table_stderr)
         std::cout << "  table stderr (interpolated) at the points: median " << format_short(tnoise.p50)
                   << ", max " << format_short(tnoise.max) << "\n";
-    for (const InterpolationErrors& r : rep.results) {
+    for (const InterpolationErrors* rp : results) {
+        const InterpolationErrors& r = *rp;
         std::cout << "\n  worst " << r.worst.size() << " (" << r.name << ", by relative error):\n";
         for (std::size_t k : r.worst) {
             std::cout << "    " << coords_text(k) << ": table " << format_short(r.value[k])
