@@ -4,8 +4,8 @@
 # engine, `query` against an independent Python reader written from
 # docs/format.md (tests/python/read_adaptive.py, numpy + h5py) to 1e-12, an
 # under-resolved table failing its certificate (in the file and under
-# `certify`), `validate` against the engine, the exports' resampling error,
-# and linear interpolation only.
+# `certify`), `validate` against the engine, the exports' (and plot's)
+# resampling error, and linear interpolation only.
 # About a minute of CPU.  Usage: adaptive_cli_tests.sh BRDFTAB SOURCE_DIR
 source "$(dirname "$0")/cli_lib.sh"
 cli_setup "$1" "$2"
@@ -189,6 +189,11 @@ SPEC
 "$BT" export on.h5 --table brdf_direct --merl on.binary --resample 33 > merl.out 2>&1
 if [ "$(stat -c %s on.binary 2>/dev/null)" = "$((12 + 3 * 8 * 90 * 90 * 180))" ] && grep -q "^resampling error: max abs" merl.out; then ok
 else bad "export --merl of an adaptive table: $(cat merl.out)"; fi
+# plot draws an adaptive table through the resampled grid and says so.
+"$BT" plot a.h5 --table albedo_t_inside --slice eta=1.5 --curves alpha -o plot.png > plot.out 2>&1
+if [ -s plot.png ] && grep -q "drawn through a tensor grid .* resampling error max abs" plot.out; then ok
+else bad "plot of an adaptive table: $(cat plot.out)"; fi
+expect_exit 2 "plot --cubic refused" -- "$BT" plot a.h5 --table albedo_t_inside --slice eta=1.5 --cubic -o plot2.png
 expect_exit 2 "query --cubic refused" -- "$BT" query a.h5 --table albedo_t_inside --cubic mu_i=-0.5 alpha=0.1 eta=1.5
 expect_exit 2 "adaptive needs --accuracy" -- "$BT" generate inside.toml --representation adaptive -q -o x.h5
 cli_summary

@@ -16,6 +16,7 @@
 #include "host/cli/commands.h"
 #include "host/core/error.h"
 #include "host/generate/validate.h"
+#include "host/io/adaptive_resample.h"
 #include "host/io/point_file.h"
 #include "host/io/table_io.h"
 #include "host/lookup/lookup.h"
@@ -307,11 +308,30 @@ std::string axis_label(const Axis& a) {
     return a.unit.empty() || a.unit == "1" ? a.name : a.name + " [" + a.unit + "]";
 }
 
+// The table `plot` draws: a tensor table as stored, or an adaptive one
+// (docs/adaptive.md) resampled onto the default tensor grid of `export`
+// (adaptive_resample.h), with a note stating the resampling error.
+LookupTable plot_table(const PlotArgs& pa) {
+    if (!is_adaptive_table(pa.file, pa.table)) return LookupTable::open(pa.file, pa.table);
+    if (pa.cubic)
+        throw InputError("table '" + pa.table + "' of '" + pa.file +
+                         "' is adaptive: its patches interpolate linearly only (no --cubic)");
+    ResampleReport rep;
+    TableData t = resample_adaptive(read_adaptive_table(pa.file, pa.table), ResampleOptions{}, rep);
+    std::string grid;
+    for (std::size_t k = 0; k < t.axes.size(); ++k)
+        grid += (k ? " x " : "") + t.axes[k].name + "(" + std::to_string(rep.counts[k]) + ")";
+    std::cerr << "brdftab: note: adaptive table '" << pa.table << "' drawn through a tensor grid " << grid
+              << " resampled from it: resampling error max abs " << format_short(rep.max_abs) << " [" << t.units
+              << "] over " << rep.probes << (rep.probes_at_centres ? " cell centres" : " random points") << "\n";
+    return LookupTable(std::move(t));
+}
+
 void run_plot(const PlotArgs& pa) {
     if (pa.output.empty()) throw InputError("plot needs -o OUT.png");
     check_output_writable(pa.output);
     guard_table_file(pa.file);
-    const LookupTable lt = LookupTable::open(pa.file, pa.table);
+    const LookupTable lt = plot_table(pa);
     const auto& axes = lt.axes();
     const auto names = lt.coordinate_names();
     const std::map<std::string, double> slice = parse_assignments(pa.slices, "--slice");
