@@ -4,7 +4,8 @@
 # engine, `query` against an independent Python reader written from
 # docs/format.md (tests/python/read_adaptive.py, numpy + h5py) to 1e-12, an
 # under-resolved table failing its certificate (in the file and under
-# `certify`), and tensor-only consumers refusing adaptive tables by name.
+# `certify`), `validate` against the engine, the exports' (and plot's)
+# resampling error, and linear interpolation only.
 # About a minute of CPU.  Usage: adaptive_cli_tests.sh BRDFTAB SOURCE_DIR
 source "$(dirname "$0")/cli_lib.sh"
 cli_setup "$1" "$2"
@@ -96,10 +97,108 @@ fi
 expect_exit 1 "certify of the under-resolved table" -- "$BT" certify u.h5 --table albedo_t_inside --accuracy 1e-4 --abs -q
 expect_exit 0 "certify of the resolved table" -- "$BT" certify a.h5 --table albedo_t_inside --accuracy 3e-2 --abs -q
 
-# Consumers of tensor tables refuse adaptive ones, naming them; linear only.
-expect_exit 2 "validate refuses" -- "$BT" validate a.h5 --table albedo_t_inside --points 10
-"$BT" validate a.h5 --table albedo_t_inside --points 10 > v.out 2>&1
-expect_grep "adaptive table" v.out "validate's message"
+# validate: the table against fresh engine evaluations at random points
+# (linear only): its error stays within the refinement's target, and the
+# table values it reports are what `query` gives at those points.
+expect_exit 0 "validate of an adaptive table" -- "$BT" validate a.h5 --table albedo_t_inside --points 300 --worst 20 --json -q
+"$BT" validate a.h5 --table albedo_t_inside --points 300 --worst 20 --json -q > v.json 2> /dev/null
+if "$PY" - "$BT" <<'PY'
+import json, subprocess, sys
+v = json.load(open("v.json"))
+assert v["representation"] == "adaptive" and "cubic" not in v, sorted(v)
+assert v["linear"]["abs"]["max"] <= 3e-2, v["linear"]["abs"]
+for w in v["linear"]["worst"]:
+    args = [f"{k}={x!r}" for k, x in w["coordinates"].items()]
+    q = json.loads(subprocess.run([sys.argv[1], "query", "a.h5", "--table", "albedo_t_inside", "--json", *args],
+                                  capture_output=True, text=True, check=True).stdout)
+    assert abs(q["value"] - w["table"]) <= 1e-12, (w, q["value"])
+print("validate: max abs", v["linear"]["abs"]["max"])
+PY
+then ok; else bad "validate of the adaptive table"; fi
+# export --exr / --png / --merl resample onto a tensor grid and state the
+# resampling error.  Oracle: a 2-D table (continuous up to the rounding of
+# its stored values, docs/adaptive.md) is piecewise bilinear on its leaves'
+# dyadic sub-cells, so a tensor grid that refines every sub-cell in the same
+# warped coordinate reproduces it up to the cracks that rounding leaves at
+# hanging nodes (<= 2 x rounding_bound); a coarse grid misses it visibly.
+cat > two.toml <<'SPEC'
+model = "rough-dielectric"
+[parameters]
+distribution = "ggx"
+nodes = 8
+eta = 1.5
+[[axes]]
+name = "mu_i"
+range = [-1.0, -0.02]
+count = 33
+spacing = "critical"
+[[axes]]
+name = "alpha"
+range = [0.05, 1.0]
+count = 2
+spacing = "log"
+[[tables]]
+name = "albedo_t_inside"
+quantity = "albedo_t"
+[integration]
+method = "quadrature"
+SPEC
+"$BT" generate two.toml --representation adaptive --accuracy 1e-2 --abs --max-values 4000 -q -o two.h5 > /dev/null 2> two.err
+if [ -f two.h5 ]; then ok; else bad "2-D adaptive generate failed: $(cat two.err)"; fi
+read -r fine_mu fine_alpha bound < <("$PY" - <<'PY'
+import h5py, numpy as np
+g = h5py.File("two.h5")["albedo_t_inside"]
+n = int(g.attrs["patch_nodes"])
+b = g["leaf_box"][...].reshape(-1, 2, 2)
+w = (b[:, :, 1] - b[:, :, 0]).min(axis=0)
+# Patches of a higher order than multilinear (an attribute naming their
+# order or interpolation) are not reproduced exactly: no bound then.
+higher = any(("order" in k or "interpolation" in k) and not k.startswith("certificate")
+             and str(g.attrs[k]).strip("b'") not in ("1", "linear") for k in g.attrs)
+bound = float("inf") if higher else float(g.attrs.get("rounding_bound", 0.0))
+print(*[int(round(1 / x)) * (n - 1) + 1 for x in w], bound)
+PY
+)
+resample_error() { sed -n 's/^resampling error: max abs \([^ ]*\) .*/\1/p' "$1"; }
+expect_exit 0 "export --exr, fine grid" -- "$BT" export two.h5 --table albedo_t_inside --exr fine.exr \
+  --resample mu_i="$fine_mu" --resample alpha="$fine_alpha"
+"$BT" export two.h5 --table albedo_t_inside --exr fine.exr --resample mu_i="$fine_mu" --resample alpha="$fine_alpha" > fine.out 2>&1
+"$BT" export two.h5 --table albedo_t_inside --exr coarse.exr --resample 5 > coarse.out 2>&1
+if "$PY" -c "import sys; f, c, b = map(float, sys.argv[1:]); print('resampling error: fine', f, 'coarse', c, 'bound', 2 * b); sys.exit(0 if f <= 2 * b + 1e-12 and c > 5 * f else 1)" \
+    "$(resample_error fine.out)" "$(resample_error coarse.out)" "$bound"; then ok
+else bad "resampling error: fine $(resample_error fine.out), coarse $(resample_error coarse.out), rounding bound $bound"; fi
+expect_exit 0 "export --png of an adaptive table" -- "$BT" export a.h5 --table albedo_t_inside --png a.png --slice eta=1.5
+"$BT" generate two.toml -q -o tensor.h5 > /dev/null 2>&1
+expect_exit 2 "--resample of a tensor table refused" -- "$BT" export tensor.h5 --table albedo_t_inside --exr t.exr --resample 9
+cat > on.toml <<'SPEC'
+model = "oren-nayar"
+[parameters]
+nodes = 6
+sigma = 20.0
+[[axes]]
+name = "theta_i"
+range = [0.0, 80.0]
+count = 7
+[[axes]]
+name = "theta_o"
+range = [0.0, 80.0]
+count = 7
+[[axes]]
+name = "phi_d"
+range = [0.0, 180.0]
+count = 7
+[[tables]]
+quantity = "brdf_direct"
+SPEC
+"$BT" generate on.toml --representation adaptive --accuracy 1e-2 --abs --max-values 4000 -q -o on.h5 > /dev/null 2>&1
+"$BT" export on.h5 --table brdf_direct --merl on.binary --resample 33 > merl.out 2>&1
+if [ "$(stat -c %s on.binary 2>/dev/null)" = "$((12 + 3 * 8 * 90 * 90 * 180))" ] && grep -q "^resampling error: max abs" merl.out; then ok
+else bad "export --merl of an adaptive table: $(cat merl.out)"; fi
+# plot draws an adaptive table through the resampled grid and says so.
+"$BT" plot a.h5 --table albedo_t_inside --slice eta=1.5 --curves alpha -o plot.png > plot.out 2>&1
+if [ -s plot.png ] && grep -q "drawn through a tensor grid .* resampling error max abs" plot.out; then ok
+else bad "plot of an adaptive table: $(cat plot.out)"; fi
+expect_exit 2 "plot --cubic refused" -- "$BT" plot a.h5 --table albedo_t_inside --slice eta=1.5 --cubic -o plot2.png
 expect_exit 2 "query --cubic refused" -- "$BT" query a.h5 --table albedo_t_inside --cubic mu_i=-0.5 alpha=0.1 eta=1.5
 expect_exit 2 "adaptive needs --accuracy" -- "$BT" generate inside.toml --representation adaptive -q -o x.h5
 cli_summary

@@ -14,6 +14,8 @@
 #include "host/core/atomic_file.h"
 #include "host/core/error.h"
 #include "host/core/text.h"
+#include "host/adaptive/adaptive_io.h"
+#include "host/io/adaptive_resample.h"
 #include "host/io/exr_export.h"
 #include "host/io/header_export.h"
 #include "host/io/merl_export.h"
@@ -41,6 +43,8 @@ struct ExportArgs {
     std::string name, type, layout;
     // MERL and RGL
     std::string rgb;
+    // EXR, PNG, MERL of an adaptive table: the tensor grid (N or NAME=N)
+    std::vector<std::string> resample;
     // RGL
     std::string rgl;
     int rgl_res = 0, rgl_theta_i = 0, rgl_phi_i = 0, rgl_ndf_res = 64;
@@ -114,6 +118,47 @@ std::array<double, 3> parse_rgb(const std::string& text) {
     return v;
 }
 
+// The table to export as a tensor table: read as it is, or an adaptive table
+// (docs/adaptive.md) resampled onto a tensor grid (--resample; the grid and
+// the measured resampling error are printed).
+TableData tensor_table(const ExportArgs& a, const std::string& name) {
+    if (!is_adaptive_table(a.file, name)) {
+        if (!a.resample.empty())
+            throw InputError("--resample applies to adaptive tables only; table '" + name + "' of '" + a.file +
+                             "' is a tensor table");
+        return read_table(a.file, name);
+    }
+    ResampleOptions o;
+    for (const std::string& r : a.resample) {
+        const bool named = r.find('=') != std::string::npos;
+        const auto [axis, text] = named ? split_assignment(r) : std::pair<std::string, std::string>{"", r};
+        const double n = parse_number(text, "--resample " + r);
+        if (!(n >= 2 && n <= 1e6 && n == std::floor(n)))
+            throw InputError("--resample " + r + ": nodes per axis must be a whole number in [2, 1000000]");
+        if (named) {
+            if (!o.axis_nodes.emplace(axis, std::size_t(n)).second)
+                throw InputError("--resample " + axis + " is given twice");
+        } else {
+            if (o.nodes) throw InputError("--resample N is given twice");
+            o.nodes = std::size_t(n);
+        }
+    }
+    const AdaptiveTable t = read_adaptive_table(a.file, name);
+    ResampleReport rep;
+    TableData out = resample_adaptive(t, o, rep);
+    std::string grid, worst;
+    for (std::size_t k = 0; k < out.axes.size(); ++k) {
+        grid += (k ? " x " : "") + out.axes[k].name + "(" + std::to_string(rep.counts[k]) + ")";
+        worst += (k ? " " : "") + out.axes[k].name + "=" + number_text(rep.worst[k], 6);
+    }
+    std::cout << "adaptive table '" << name << "' resampled onto a tensor grid " << grid << " ("
+              << out.value.size() << " values, each axis' own spacing; --resample sets it)\n"
+              << "resampling error: max abs " << number_text(rep.max_abs, 3) << " [" << out.units << "] at "
+              << worst << " (max |value| " << number_text(rep.max_abs_value, 3) << "), over " << rep.probes
+              << (rep.probes_at_centres ? " cell centres" : " random points") << " between the resampled nodes\n";
+    return out;
+}
+
 // `export --rgl`: the RGL tensor file (host/io/rgl_export.h); prints the
 // grid, the distribution used and the measured resampling error.
 void export_rgl_file(const ExportArgs& a, const std::map<std::string, double>& slice) {
@@ -162,6 +207,7 @@ void run_export(const ExportArgs& a) {
     refuse_unless(header, !a.type.empty(), "--type", "--header");
     refuse_unless(header, !a.layout.empty(), "--layout", "--header");
     refuse_unless(merl || rgl, !a.rgb.empty(), "--rgb", "--merl and --rgl");
+    refuse_unless(exr || png || merl, !a.resample.empty(), "--resample", "--exr, --png and --merl");
     refuse_unless(!header, !a.slice.empty(), "--slice", "--exr, --png, --merl and --rgl");
     std::map<std::string, double> slice;
     for (const auto& s : a.slice) {
@@ -190,16 +236,16 @@ void run_export(const ExportArgs& a) {
             o.y_axis = xy[1];
         }
         if (png) {
-            export_png(read_table(a.file, a.table), a.png, o);
+            export_png(tensor_table(a, a.table), a.png, o);
         } else {
             // --table R,G: a two-channel texture (G = the second table's values).
             const auto names = split_commas(a.table);
             if (names.size() > 2)
                 throw InputError("--table '" + a.table + "': --exr takes one table, or two (R,G)");
-            const TableData red = read_table(a.file, names[0]);
+            const TableData red = tensor_table(a, names[0]);
             TableData green;
             if (names.size() == 2) {
-                green = read_table(a.file, names[1]);
+                green = tensor_table(a, names[1]);
                 o.green = &green;
             }
             for (const std::string& note : export_exr_slice(red, a.exr, o))
@@ -234,7 +280,8 @@ void run_export(const ExportArgs& a) {
             o.rgb = true;
             o.rgb_values = parse_rgb(a.rgb);
         }
-        const LookupTable lt = LookupTable::open(a.file, a.table);
+        const LookupTable lt = is_adaptive_table(a.file, a.table) ? LookupTable(tensor_table(a, a.table))
+                                                                    : LookupTable::open(a.file, a.table);
         // The same slice rule as --exr and plot: say which values are
         // interpolated between nodes.
         for (const Axis& ax : lt.axes()) {
@@ -320,6 +367,11 @@ void register_export(CLI::App& app) {
     cmd->add_option("--rgb", a->rgb,
                     "MERL, RGL: R,G,B values of a factored table's parameter (e.g. rho) for the red, "
                     "green and blue channels (default: the same value in all three)");
+    cmd->add_option("--resample", a->resample,
+                    "EXR, PNG, MERL of an adaptive table: N (nodes per axis) or NAME=N (one axis; "
+                    "repeatable) of the tensor grid it is resampled onto (default 65 per axis, fewer "
+                    "above 3 axes so that the grid holds at most 2^22 values); the resampling error "
+                    "is measured and printed");
     cmd->callback([a] { run_export(*a); });
 }
 

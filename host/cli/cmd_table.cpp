@@ -16,6 +16,7 @@
 #include "host/cli/commands.h"
 #include "host/core/error.h"
 #include "host/generate/validate.h"
+#include "host/io/adaptive_resample.h"
 #include "host/io/point_file.h"
 #include "host/io/table_io.h"
 #include "host/lookup/lookup.h"
@@ -235,9 +236,13 @@ void run_validate(const ValidateArgs& va) {
             s += (a ? " " : "") + rep.axes[a].name + "=" + format_short(rep.coord(k, a));
         return s;
     };
+    // An adaptive table interpolates linearly only: no cubic rows.
+    const std::vector<const InterpolationErrors*> results =
+        rep.adaptive ? std::vector<const InterpolationErrors*>{&rep.results[0]}
+                     : std::vector<const InterpolationErrors*>{&rep.results[0], &rep.results[1]};
     std::cout << "validate " << va.file << ", table '" << rep.table << "': " << rep.model << " / "
-              << rep.quantity << " [" << rep.units << "], axes";
-    for (const auto& a : rep.axes) std::cout << " " << a.name << "(" << a.count << ")";
+              << rep.quantity << " [" << rep.units << "], " << (rep.adaptive ? "adaptive, " : "") << "axes";
+    for (const auto& a : rep.axes) std::cout << " " << a.name << (rep.adaptive ? "" : "(" + std::to_string(a.count) + ")");
     std::cout << "\n  " << n << " random off-grid points (seed " << options.seed
               << ", uniform in each axis' warped coordinate)\n"
               << "  reference: " << to_string(ref.method) << " on " << rep.device << " ("
@@ -258,7 +263,8 @@ void run_validate(const ValidateArgs& va) {
     std::snprintf(buf, sizeof buf, "  %-16s %11s %11s %11s %11s %11s\n", "", "max", "rms", "p50",
                   "p95", "p99");
     std::cout << buf;
-    for (const InterpolationErrors& r : rep.results) {
+    for (const InterpolationErrors* rp : results) {
+        const InterpolationErrors& r = *rp;
         for (int kind = 0; kind < 2; ++kind) {
             const ErrorStats& e = kind == 0 ? r.rel_stats : r.abs_stats;
             std::snprintf(buf, sizeof buf, "  %-7s %-8s %11.4g %11.4g %11.4g %11.4g %11.4g\n",
@@ -269,16 +275,17 @@ void run_validate(const ValidateArgs& va) {
     if (noisy) {
         std::cout << "\n  reference stderr per point: median " << format_short(noise.p50) << ", max "
                   << format_short(noise.max) << " (" << rep.quantity_units << ")\n";
-        for (const InterpolationErrors& r : rep.results)
-            std::cout << "  " << r.name << ": rms with the reference noise removed: abs "
-                      << format_short(r.rms_abs_corrected) << ", rel " << format_short(r.rms_rel_corrected)
-                      << "; |diff| > 3 reference stderr at " << r.significant << "/" << n
+        for (const InterpolationErrors* rp : results)
+            std::cout << "  " << rp->name << ": rms with the reference noise removed: abs "
+                      << format_short(rp->rms_abs_corrected) << ", rel " << format_short(rp->rms_rel_corrected)
+                      << "; |diff| > 3 reference stderr at " << rp->significant << "/" << n
                       << " points\n";
     }
     if (rep.has_table_stderr)
         std::cout << "  table stderr (interpolated) at the points: median " << format_short(tnoise.p50)
                   << ", max " << format_short(tnoise.max) << "\n";
-    for (const InterpolationErrors& r : rep.results) {
+    for (const InterpolationErrors* rp : results) {
+        const InterpolationErrors& r = *rp;
         std::cout << "\n  worst " << r.worst.size() << " (" << r.name << ", by relative error):\n";
         for (std::size_t k : r.worst) {
             std::cout << "    " << coords_text(k) << ": table " << format_short(r.value[k])
@@ -301,11 +308,30 @@ std::string axis_label(const Axis& a) {
     return a.unit.empty() || a.unit == "1" ? a.name : a.name + " [" + a.unit + "]";
 }
 
+// The table `plot` draws: a tensor table as stored, or an adaptive one
+// (docs/adaptive.md) resampled onto the default tensor grid of `export`
+// (adaptive_resample.h), with a note stating the resampling error.
+LookupTable plot_table(const PlotArgs& pa) {
+    if (!is_adaptive_table(pa.file, pa.table)) return LookupTable::open(pa.file, pa.table);
+    if (pa.cubic)
+        throw InputError("table '" + pa.table + "' of '" + pa.file +
+                         "' is adaptive: its patches interpolate linearly only (no --cubic)");
+    ResampleReport rep;
+    TableData t = resample_adaptive(read_adaptive_table(pa.file, pa.table), ResampleOptions{}, rep);
+    std::string grid;
+    for (std::size_t k = 0; k < t.axes.size(); ++k)
+        grid += (k ? " x " : "") + t.axes[k].name + "(" + std::to_string(rep.counts[k]) + ")";
+    std::cerr << "brdftab: note: adaptive table '" << pa.table << "' drawn through a tensor grid " << grid
+              << " resampled from it: resampling error max abs " << format_short(rep.max_abs) << " [" << t.units
+              << "] over " << rep.probes << (rep.probes_at_centres ? " cell centres" : " random points") << "\n";
+    return LookupTable(std::move(t));
+}
+
 void run_plot(const PlotArgs& pa) {
     if (pa.output.empty()) throw InputError("plot needs -o OUT.png");
     check_output_writable(pa.output);
     guard_table_file(pa.file);
-    const LookupTable lt = LookupTable::open(pa.file, pa.table);
+    const LookupTable lt = plot_table(pa);
     const auto& axes = lt.axes();
     const auto names = lt.coordinate_names();
     const std::map<std::string, double> slice = parse_assignments(pa.slices, "--slice");

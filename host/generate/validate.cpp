@@ -6,6 +6,7 @@
 #include <cmath>
 #include <map>
 
+#include "host/adaptive/adaptive_io.h"
 #include "host/core/error.h"
 #include "host/core/text.h"
 #include "host/core/splitmix.h"
@@ -23,12 +24,15 @@ nlohmann::json stats_json(const ErrorStats& s) {
 // The options' own checks, then the table: error and inverted tables have
 // no model quantity of their own.  Returns the stored values without the
 // recombination recipe (a user-level formula applied on top of them).
-LookupTable stored_table(const std::string& file, const std::string& table,
-                         const ValidateOptions& options, bool& recombination_skipped) {
+void check_options(const ValidateOptions& options) {
     if (options.points < 1) throw InputError("validation needs at least one point");
     if (!(options.rel_floor > 0 && options.rel_floor < 1))
         throw InputError("the relative-error floor factor must be in (0, 1), got " +
                          number_text(options.rel_floor, 6));
+}
+
+LookupTable stored_table(const std::string& file, const std::string& table,
+                         bool& recombination_skipped) {
     const LookupTable full = LookupTable::open(file, table);
     if (full.table().kind == TableKind::Error) {
         const nlohmann::json& e = full.table().parameters.value("comparison", nlohmann::json::object());
@@ -70,9 +74,15 @@ ErrorStats error_stats(std::vector<double> x) {
 
 ValidationPlan::ValidationPlan(const std::string& file, const std::string& table,
                                const ValidateOptions& options)
-    : file_(file), options_(options),
-      table_(stored_table(file, table, options, recombination_skipped_)) {
-    const TableData& t = table_.table();
+    : file_(file), options_(options) {
+    check_options(options_);
+    // An adaptive table is generated from a model quantity only (no
+    // recombined, error or inverted adaptive tables: cli_adaptive.cpp).
+    if (is_adaptive_table(file, table))
+        adaptive_ = read_adaptive_table(file, table);
+    else
+        table_ = stored_table(file, table, recombination_skipped_);
+    const TableData& t = data();
     const ModelInfo& model = find_model(t.model);
     const QuantityInfo& q = model.quantity(t.quantity);
     model_ = &model;
@@ -101,10 +111,13 @@ ValidationPlan::ValidationPlan(const std::string& file, const std::string& table
     coords_.resize(n * dims);
     std::vector<std::map<std::string, double>> named(n, fixed);
     const Grid grid(t.axes);  // places axes that depend on another (critical)
-    std::vector<double> tk(dims);
+    std::vector<double> tk(dims), xk(dims);
     for (std::size_t k = 0; k < n; ++k) {
         for (std::size_t a = 0; a < dims; ++a) tk[a] = rng.uniform();
-        const std::vector<double> xk = grid.point_at(tk);
+        if (adaptive_)
+            adaptive_->to_x(tk.data(), xk.data());
+        else
+            xk = grid.point_at(tk);
         for (std::size_t a = 0; a < dims; ++a) {
             coords_[k * dims + a] = xk[a];
             named[k][t.axes[a].name] = xk[a];
@@ -139,7 +152,7 @@ ValidationPlan::ValidationPlan(const std::string& file, const std::string& table
 }
 
 ValidationReport ValidationPlan::run(Backend& backend, const ProgressFn& progress) const {
-    const TableData& t = table_.table();
+    const TableData& t = data();
     const std::size_t n = options_.points, dims = t.axes.size();
     ValidationReport rep;
     rep.file = file_;
@@ -174,23 +187,31 @@ ValidationReport ValidationPlan::run(Backend& backend, const ProgressFn& progres
     rep.max_abs_table_value = scale;
     rep.relative_floor = floor;
 
-    const auto se_table = stderr_lookup(table_);
-    std::vector<double> ref_se(n, 0.0), table_se(n, 0.0);
+    // The table's interpolated stderr at the points (an adaptive table's
+    // stderr per node, interpolated by its patches like its values).
+    const auto se_table = table_ ? stderr_lookup(*table_) : nullptr;
+    const bool adaptive_se = adaptive_ && adaptive_->data.stderr_.size() == adaptive_->value_count();
+    std::vector<double> ref_se(n, 0.0), table_se(n, 0.0), tk(dims);
     for (std::size_t k = 0; k < n; ++k) {
         ref_se[k] = noisy ? ref.stderr_[k] : 0.0;
         if (se_table)
             table_se[k] = se_table->eval(std::vector<double>(&coords_[k * dims], &coords_[(k + 1) * dims]));
+        if (adaptive_se) {
+            adaptive_->to_t(&coords_[k * dims], tk.data());
+            table_se[k] = adaptive_->layout.eval(tk.data(), adaptive_->data.stderr_.data());
+        }
     }
 
+    rep.adaptive = adaptive_.has_value();
     rep.results[0].name = "linear";
     rep.results[1].name = "cubic";
-    for (int m = 0; m < 2; ++m) {
+    for (int m = 0; m < (adaptive_ ? 1 : 2); ++m) {
         InterpolationErrors& r = rep.results[m];
         const Interpolation interp = m == 0 ? Interpolation::Linear : Interpolation::Cubic;
         double noise_abs2 = 0, noise_rel2 = 0;
         for (std::size_t k = 0; k < n; ++k) {
             const std::vector<double> c(&coords_[k * dims], &coords_[(k + 1) * dims]);
-            const double v = table_.eval(c, interp, OutOfRange::Clamp);
+            const double v = adaptive_ ? adaptive_->eval(c.data()) : table_->eval(c, interp, OutOfRange::Clamp);
             const double den = std::max(std::fabs(ref.value[k]), floor);
             r.value.push_back(v);
             r.abs.push_back(v - ref.value[k]);
@@ -216,7 +237,7 @@ ValidationReport ValidationPlan::run(Backend& backend, const ProgressFn& progres
     }
     rep.reference_noise = error_stats(ref_se);
     rep.table_stderr = error_stats(table_se);
-    rep.has_table_stderr = se_table != nullptr;
+    rep.has_table_stderr = se_table != nullptr || adaptive_se;
     rep.reference_stderr = std::move(ref_se);
     return rep;
 }
@@ -253,7 +274,9 @@ nlohmann::json to_json(const ValidationReport& rep) {
           {"stderr", stats_json(rep.reference_noise)}}},
     };
     if (rep.has_table_stderr) j["table_stderr_interpolated"] = stats_json(rep.table_stderr);
+    if (rep.adaptive) j["representation"] = "adaptive";
     for (const InterpolationErrors& r : rep.results) {
+        if (rep.adaptive && &r != &rep.results[0]) continue;  // linear only
         nlohmann::json w = nlohmann::json::array();
         for (std::size_t k : r.worst) {
             nlohmann::json e = {{"coordinates", coords_json(k)},

@@ -11,11 +11,13 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include <nlohmann/json.hpp>
 
+#include "host/adaptive/adaptive_table.h"
 #include "host/engine/engine.h"
 #include "host/lookup/lookup.h"
 #include "host/models/registry.h"
@@ -79,6 +81,9 @@ struct ValidationReport {
     bool has_table_stderr = false;  // the table stores per-cell stderr
     ErrorStats table_stderr;        // interpolated at the points
     std::array<InterpolationErrors, 2> results;  // linear, cubic
+    // An adaptive table (docs/adaptive.md): its patches interpolate linearly
+    // only, so results[1] (cubic) is empty and not reported.
+    bool adaptive = false;
 
     // Coordinate a of point k.
     double coord(std::size_t k, std::size_t a) const { return coords[k * axes.size() + a]; }
@@ -86,8 +91,9 @@ struct ValidationReport {
 
 class ValidationPlan {
 public:
-    // Reads table `table` of `file`, checks that it has a model quantity of
-    // its own (not an error or inverted table), and draws the points.
+    // Reads table `table` of `file` (tensor or adaptive), checks that it has
+    // a model quantity of its own (not an error or inverted table), and draws
+    // the points.
     // Throws InputError.
     ValidationPlan(const std::string& file, const std::string& table,
                    const ValidateOptions& options);
@@ -103,7 +109,11 @@ private:
     std::string file_;
     ValidateOptions options_;
     bool recombination_skipped_ = false;  // set while table_ is initialised
-    LookupTable table_;                   // stored values only (recipe removed)
+    // Exactly one of the two: a tensor table's stored values (recipe
+    // removed), or an adaptive table.
+    std::optional<LookupTable> table_;
+    std::optional<AdaptiveTable> adaptive_;
+    const TableData& data() const { return table_ ? table_->table() : adaptive_->data; }
     const ModelInfo* model_ = nullptr;
     const QuantityInfo* quantity_ = nullptr;
     std::vector<int> model_options_;

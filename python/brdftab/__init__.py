@@ -69,7 +69,17 @@ class Table:
     broadcast against each other as in numpy."""
 
     def __init__(self, path, name):
-        self._t = _brdftab._Table(path, name)
+        # An adaptive table (docs/adaptive.md) is read by its own reader:
+        # eval() and eval_stderr() (linear only); values is one number per
+        # stored node; bind() raises.
+        if _brdftab._is_adaptive(str(path), name):
+            self._t = _brdftab._AdaptiveTable(str(path), name)
+        else:
+            self._t = _brdftab._Table(path, name)
+
+    representation = property(
+        lambda self: "adaptive" if isinstance(self._t, _brdftab._AdaptiveTable) else "tensor",
+        doc="'tensor' or 'adaptive' (docs/adaptive.md)")
 
     # --- metadata -------------------------------------------------------
     path = property(lambda self: self._t.path)
@@ -87,7 +97,8 @@ class Table:
                                 doc="names eval() expects: the axes, then the "
                                     "recombination parameter if any")
     values = property(lambda self: self._t.values,
-                      doc="stored values, a read-only numpy view (no copy), shape of the axes")
+                      doc="stored values, a read-only numpy view (no copy), shape of the axes "
+                          "(an adaptive table: one value per stored node, 1-D)")
     stderr = property(lambda self: self._t.stderr,
                       doc="stored standard errors (read-only view) or None")
     certificate = property(lambda self: self._t.certificate,
@@ -101,7 +112,11 @@ class Table:
         return self.parameters.get("recombine") if self._t.has_recombination else None
 
     def __repr__(self):
-        axes = ", ".join(f"{a.name}[{a.count}]" for a in self.axes)
+        if self.representation == "adaptive":
+            axes = (", ".join(a.name for a in self.axes) +
+                    f", adaptive: {self._t.leaf_count} patches, {len(self.values)} values")
+        else:
+            axes = ", ".join(f"{a.name}[{a.count}]" for a in self.axes)
         c = self.certificate
         if c is not None:
             accuracy = (f"; certified max total error {c['max_error']:.3g} {c['measure']} "
@@ -252,6 +267,9 @@ def to_xarray(table):
     in the axis value, not in the table's warped coordinate: use
     ``table.eval`` for brdftab's interpolation.  Needs xarray (ImportError
     otherwise)."""
+    if table.representation == "adaptive":
+        raise InputError(f"table '{table.name}' is adaptive: its values are patch nodes, not a "
+                         "grid; use table.eval at the points wanted")
     import xarray as xr
 
     coords = {}

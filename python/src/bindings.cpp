@@ -1,6 +1,7 @@
 // bindings.cpp — the Python extension `brdftab._brdftab`: the renderer-side
-// library (host/lookup/lookup.h) and the table reader (host/io/table_io.h)
-// over numpy arrays.  The user-facing API (keyword coordinates, broadcasting,
+// library (host/lookup/lookup.h), the table reader (host/io/table_io.h) and
+// adaptive tables (host/adaptive/adaptive_io.h, evaluation only) over numpy
+// arrays.  The user-facing API (keyword coordinates, broadcasting,
 // the file object) is in python/brdftab/__init__.py; this file only moves
 // arrays in and out and loops over points with the GIL released (the lookup
 // objects are immutable, lookup.h "Thread safety").
@@ -24,6 +25,7 @@
 #include <thread>
 #include <vector>
 
+#include "host/adaptive/adaptive_io.h"
 #include "host/core/error.h"
 #include "host/core/vocabulary.h"
 #include "host/io/table_io.h"
@@ -106,6 +108,38 @@ OutOfRange out_of_range_of(const std::string& name) {
     throw InputError("out_of_range must be 'clamp' or 'reject', got '" + name + "'");
 }
 
+// The provenance attributes of a table as a dict.
+py::dict provenance_of(const TableData& d) {
+    py::dict p;
+    p["method"] = method_attribute(d);
+    p["samples_requested"] = d.samples_requested;
+    p["tolerance_requested"] = d.tolerance_requested;
+    p["abs_floor"] = d.abs_floor;
+    p["tolerance_achieved"] = d.tolerance_achieved;
+    p["seed"] = d.seed;
+    p["precision"] = d.precision;
+    p["device"] = d.device;
+    p["version"] = d.version;
+    p["elapsed_seconds"] = d.elapsed_seconds;
+    p["total_samples"] = d.total_samples;
+    return p;
+}
+
+// The stored certificate of a table as a dict, or None.
+py::object certificate_of(const std::string& path, const std::string& name) {
+    const auto c = read_stored_certificate(path, name);
+    if (!c) return py::none();
+    py::dict d;
+    d["max_error"] = c->max_error;
+    d["rms_error"] = c->rms_error;
+    d["measure"] = c->absolute ? "absolute" : "relative";
+    d["abs_floor"] = c->abs_floor;
+    d["interpolation"] = c->interpolation;
+    d["target"] = c->target;
+    d["passed"] = c->passed;
+    return std::move(d);
+}
+
 // A read-only numpy view of `data` (row-major, shape of the axes) that keeps
 // `owner` alive.
 py::array view(const std::vector<double>& data, const std::vector<Axis>& axes,
@@ -178,6 +212,110 @@ struct PyTable {
 
 struct PyBound {
     std::shared_ptr<const BoundTable> bound;
+};
+
+// An adaptive table (docs/adaptive.md): linear interpolation in its patches,
+// exactly as `brdftab query` evaluates it (each coordinate clamped to its
+// axis' range, or rejected).  No cubic interpolation and no bind: the lookup
+// library reads tensor tables only.
+struct PyAdaptive {
+    std::string path;
+    std::shared_ptr<const AdaptiveTable> table;
+
+    PyAdaptive(const std::string& file, const std::string& name)
+        : path(file), table(std::make_shared<const AdaptiveTable>(read_adaptive_table(file, name))) {}
+
+    const TableData& data() const { return table->data; }
+
+    std::vector<std::string> names() const {
+        std::vector<std::string> n;
+        for (const Axis& a : data().axes) n.push_back(a.name);
+        return n;
+    }
+
+    // Which given name goes to each axis; unknown or missing names raise
+    // the message `brdftab query` prints.
+    std::vector<std::size_t> order(const std::vector<std::string>& given) const {
+        std::string all;
+        for (const Axis& a : data().axes) all += (all.empty() ? "" : ", ") + a.name;
+        for (const std::string& g : given)
+            if (std::none_of(data().axes.begin(), data().axes.end(), [&](const Axis& a) { return a.name == g; }))
+                throw InputError("arguments: '" + g + "' is not a coordinate of table '" + data().name +
+                                 "' (coordinates: " + all + ")");
+        std::vector<std::size_t> out;
+        for (const Axis& a : data().axes) {
+            const auto it = std::find(given.begin(), given.end(), a.name);
+            if (it == given.end())
+                throw InputError("arguments: missing coordinate '" + a.name + "' (table '" + data().name +
+                                 "' needs " + all + ")");
+            out.push_back(std::size_t(it - given.begin()));
+        }
+        return out;
+    }
+
+    py::array eval_rows(const py::array& points, const std::string& interp, const std::string& mode,
+                        bool of_stderr) const {
+        if (interp != "linear") {
+            interpolation_of(interp);  // the message for an unknown name
+            throw InputError("table '" + data().name + "' is adaptive: its patches interpolate linearly only");
+        }
+        const bool reject = out_of_range_of(mode) == OutOfRange::Reject;
+        const std::vector<double>& values = of_stderr ? data().stderr_ : data().value;
+        if (of_stderr && values.size() != data().value.size())
+            throw InputError("table '" + data().name + "' stores no standard errors");
+        const std::size_t dims = data().axes.size();
+        const DoubleArray rows = rows_of(points, dims, "coordinates");
+        const std::size_t n = std::size_t(rows.shape(0));
+        py::array_t<double> out(rows.shape(0));
+        double* dst = out.mutable_data();
+        const double* src = rows.data();
+        const AdaptiveTable& t = *table;
+        {
+            py::gil_scoped_release release;
+            parallel_for(n, [&](std::size_t a, std::size_t b) {
+                std::vector<double> x(dims), tt(dims);
+                for (std::size_t k = a; k < b; ++k) {
+                    for (std::size_t d = 0; d < dims; ++d) {
+                        const Axis& ax = t.data.axes[d];
+                        const double lo = std::min(ax.min, ax.max), hi = std::max(ax.min, ax.max);
+                        double v = src[k * dims + d];
+                        if (!(v >= lo && v <= hi)) {
+                            if (reject || std::isnan(v))
+                                throw InputError("coordinates: " + ax.name + " = " + std::to_string(v) +
+                                                 " outside [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
+                            v = std::clamp(v, lo, hi);
+                        }
+                        x[d] = v;
+                    }
+                    t.to_t(x.data(), tt.data());
+                    dst[k] = t.layout.eval(tt.data(), values.data());
+                }
+            });
+        }
+        return out;
+    }
+
+    // As PyTable's _clamped: (name, count, first value, min, max) per axis
+    // with clamped coordinates.
+    py::list clamped(const py::array& points) const {
+        const std::size_t dims = data().axes.size();
+        const DoubleArray rows = rows_of(points, dims, "coordinates");
+        const std::size_t n = std::size_t(rows.shape(0));
+        py::list out;
+        for (std::size_t d = 0; d < dims; ++d) {
+            const Axis& ax = data().axes[d];
+            const double lo = std::min(ax.min, ax.max), hi = std::max(ax.min, ax.max);
+            std::size_t count = 0;
+            double first = 0;
+            for (std::size_t k = 0; k < n; ++k) {
+                const double v = rows.data()[k * dims + d];
+                if (v < lo || v > hi)
+                    if (count++ == 0) first = v;
+            }
+            if (count) out.append(py::make_tuple(ax.name, count, first, lo, hi));
+        }
+        return out;
+    }
 };
 
 
@@ -519,22 +657,7 @@ PYBIND11_MODULE(_brdftab, m) {
                 return view(d.stderr_, d.axes, self);
             })
         .def_property_readonly("provenance",
-                               [](const PyTable& t) {
-                                   const TableData& d = t.lookup->table();
-                                   py::dict p;
-                                   p["method"] = method_attribute(d);
-                                   p["samples_requested"] = d.samples_requested;
-                                   p["tolerance_requested"] = d.tolerance_requested;
-                                   p["abs_floor"] = d.abs_floor;
-                                   p["tolerance_achieved"] = d.tolerance_achieved;
-                                   p["seed"] = d.seed;
-                                   p["precision"] = d.precision;
-                                   p["device"] = d.device;
-                                   p["version"] = d.version;
-                                   p["elapsed_seconds"] = d.elapsed_seconds;
-                                   p["total_samples"] = d.total_samples;
-                                   return p;
-                               })
+                               [](const PyTable& t) { return provenance_of(t.lookup->table()); })
         .def("_eval_rows",
              [](const PyTable& t, const py::array& points, const std::string& interp,
                 const std::string& mode) { return t.eval_rows(points, interp, mode, false); })
@@ -577,25 +700,69 @@ PYBIND11_MODULE(_brdftab, m) {
                  return out;
              })
         .def_property_readonly("certificate",
-                               [](const PyTable& t) -> py::object {
-                                   const auto c = read_stored_certificate(t.path, t.lookup->table().name);
-                                   if (!c) return py::none();
-                                   py::dict d;
-                                   d["max_error"] = c->max_error;
-                                   d["rms_error"] = c->rms_error;
-                                   d["measure"] = c->absolute ? "absolute" : "relative";
-                                   d["abs_floor"] = c->abs_floor;
-                                   d["interpolation"] = c->interpolation;
-                                   d["target"] = c->target;
-                                   d["passed"] = c->passed;
-                                   return std::move(d);
-                               })
+                               [](const PyTable& t) { return certificate_of(t.path, t.lookup->table().name); })
         .def("_bind",
              [](const PyTable& t, const std::map<std::string, double>& params,
                 const std::string& interp, const std::string& mode) {
                  return PyBound{std::make_shared<const BoundTable>(
                      t.lookup->bind(params, interpolation_of(interp), out_of_range_of(mode)))};
              });
+
+    m.def("_is_adaptive", [](const std::string& path, const std::string& name) { return is_adaptive_table(path, name); },
+          py::arg("path"), py::arg("name"), "whether a table is adaptive (docs/adaptive.md)");
+    py::class_<PyAdaptive>(m, "_AdaptiveTable")
+        .def(py::init<const std::string&, const std::string&>(), py::arg("path"), py::arg("name"))
+        .def_readonly("path", &PyAdaptive::path)
+        .def_property_readonly("name", [](const PyAdaptive& t) { return t.data().name; })
+        .def_property_readonly("model", [](const PyAdaptive& t) { return t.data().model; })
+        .def_property_readonly("quantity", [](const PyAdaptive& t) { return t.data().quantity; })
+        .def_property_readonly("units", [](const PyAdaptive& t) { return t.data().units; })
+        .def_property_readonly("description", [](const PyAdaptive& t) { return t.data().description; })
+        .def_property_readonly("parameters", [](const PyAdaptive& t) { return json_to_python(t.data().parameters); })
+        .def_property_readonly("axes", [](const PyAdaptive& t) { return t.data().axes; })
+        .def_property_readonly("coordinate_names", &PyAdaptive::names)
+        .def_property_readonly("has_recombination", [](const PyAdaptive&) { return false; })
+        .def_property_readonly("has_stderr", [](const PyAdaptive& t) {
+            return !t.data().stderr_.empty() && t.data().stderr_.size() == t.data().value.size();
+        })
+        .def_property_readonly("leaf_count", [](const PyAdaptive& t) { return t.table->layout.leaf_count(); })
+        .def_property_readonly("patch_nodes", [](const PyAdaptive& t) { return t.table->layout.patch_nodes; })
+        .def_property_readonly(
+            "values",
+            [](py::object self) {
+                // One value per stored node (no tensor shape), read-only.
+                const PyAdaptive& t = self.cast<const PyAdaptive&>();
+                const std::vector<double>& v = t.data().value;
+                py::array a(py::dtype::of<double>(), {py::ssize_t(v.size())}, {py::ssize_t(sizeof(double))}, v.data(), self);
+                py::detail::array_proxy(a.ptr())->flags &= ~py::detail::npy_api::NPY_ARRAY_WRITEABLE_;
+                return a;
+            })
+        .def_property_readonly(
+            "stderr",
+            [](py::object self) -> py::object {
+                const PyAdaptive& t = self.cast<const PyAdaptive&>();
+                const std::vector<double>& v = t.data().stderr_;
+                if (v.empty() || v.size() != t.data().value.size()) return py::none();
+                py::array a(py::dtype::of<double>(), {py::ssize_t(v.size())}, {py::ssize_t(sizeof(double))}, v.data(), self);
+                py::detail::array_proxy(a.ptr())->flags &= ~py::detail::npy_api::NPY_ARRAY_WRITEABLE_;
+                return a;
+            })
+        .def_property_readonly("provenance", [](const PyAdaptive& t) { return provenance_of(t.data()); })
+        .def_property_readonly("certificate", [](const PyAdaptive& t) { return certificate_of(t.path, t.data().name); })
+        .def("_eval_rows",
+             [](const PyAdaptive& t, const py::array& points, const std::string& interp,
+                const std::string& mode) { return t.eval_rows(points, interp, mode, false); })
+        .def("_eval_stderr_rows",
+             [](const PyAdaptive& t, const py::array& points, const std::string& interp,
+                const std::string& mode) { return t.eval_rows(points, interp, mode, true); })
+        .def("_order", &PyAdaptive::order)
+        .def("_clamped", &PyAdaptive::clamped)
+        .def("_bind", [](const PyAdaptive& t, const std::map<std::string, double>&, const std::string&,
+                         const std::string&) -> py::object {
+            throw InputError("table '" + t.data().name +
+                             "' is adaptive (docs/adaptive.md): bind, eval on directions and sampling "
+                             "read tensor tables only; eval() interpolates it");
+        });
 
     py::class_<PyBound>(m, "_Bound")
         .def_property_readonly("can_sample", [](const PyBound& b) { return b.bound->can_sample(); })
