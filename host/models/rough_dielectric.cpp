@@ -224,6 +224,13 @@ ModelInfo rough_dielectric_model() {
                         "directional albedo of both lobes, albedo_r + albedo_t: the fraction of "
                         "light from direction i that leaves the interface (glass albedo)",
                         kAlbedoEqs, {"theta_i"}, albedo_opts, 2));
+    b.quantity(integral("sheen_albedo", RD_Q_SHEEN_ALBEDO,
+                        "directional albedo of the Charlie sheen lobe (Estevez & Kulla 2017) with "
+                        "Neubelt & Pettineo's visibility 1/(4 (n.l + n.v - n.l n.v)), roughness "
+                        "alpha: Filament's cloth DFG channel (eta and the microfacet options are not "
+                        "read)",
+                        "Estevez & Kulla 2017 eq. 2; Neubelt & Pettineo 2013", {"theta_i"},
+                        {"coarse_rule"}, 2));
     b.check_cell(&check_phong_alpha);
     b.cells_pass(&phong_alpha_cells_pass);
     return b.build();

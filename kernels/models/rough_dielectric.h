@@ -54,6 +54,10 @@
  *                 (neither reads eta or the fresnel option)
  *   8 albedo      directional albedo of both lobes, albedo_r + albedo_t (the
  *                 glass albedo of energy compensation)
+ *   9 sheen_albedo directional albedo of the Charlie sheen lobe with
+ *                 Neubelt's visibility at roughness alpha (Filament's cloth
+ *                 DFG channel, charlie_sheen.h); reads neither eta nor the
+ *                 microfacet options
  * Random dimensions: 0, 1 sample m (visible normals or D(m)|m.n|);
  * 2 picks mu = sqrt(u) (avg).  Method quadrature (the albedos' default):
  * deterministic tensor Gauss-Legendre, batch 0 with p[6] nodes, batch 1 with
@@ -103,7 +107,8 @@
 #define RD_Q_SPLIT_A 6
 #define RD_Q_SPLIT_B 7
 #define RD_Q_ALBEDO 8
-#define RD_Q_COUNT 9
+#define RD_Q_SHEEN_ALBEDO 9
+#define RD_Q_COUNT 10
 
 /* The model contract: slots of the point p[] and of the options o[]
  * (quantity ids: RD_Q_* in rough_dielectric.h).  host/models/rough_dielectric.cpp registers the
@@ -1077,6 +1082,8 @@ BT_INLINE REAL rd_albedo_avg_quadrature_graded(const bt_microfacet* mf, REAL eta
     return sum;
 }
 
+#include "charlie_sheen.h"
+
 /* The model's sample function (estimator.h signature). */
 BT_INLINE REAL rough_dielectric_sample(const REAL* p, const int* o, int quantity,
                                        const bt_sampler* s)
@@ -1084,6 +1091,13 @@ BT_INLINE REAL rough_dielectric_sample(const REAL* p, const int* o, int quantity
     if (quantity == RD_Q_BRDF) return rough_dielectric_fr(p, o);
     if (quantity == RD_Q_BTDF) return rough_dielectric_ft(p, o);
     if (quantity == RD_Q_BSDF) return rough_dielectric_fs(p, o);
+
+    if (quantity == RD_Q_SHEEN_ALBEDO) {
+        REAL cv = bt_cos(p[0]);
+        if (s->method == BT_METHOD_QUADRATURE)
+            return cs_sheen_albedo_quadrature(cv, p[RD_PARAM_ALPHA], rd_quad_nodes(p, o, s));
+        return cs_sheen_albedo_sample(cv, p[RD_PARAM_ALPHA], bt_uniform(s, 0u), bt_uniform(s, 1u));
+    }
 
     bt_microfacet mf = rd_microfacet(p, o);
     /* The split-sum factors are F = 1 reflection albedos weighted by their
