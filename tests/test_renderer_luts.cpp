@@ -458,12 +458,16 @@ TEST_CASE("Filament preset: texel placement as cmgen and CubemapIBL::DFG define 
     CHECK(table_of(s, "dfg_x").quantity == "split_b");
     CHECK(table_of(s, "dfg_y").quantity == "albedo_r");
     CHECK(table_of(s, "dfg_y").options["fresnel"] == "none");
+    CHECK(table_of(s, "dfg_z").quantity == "sheen_albedo");  // the cloth channel, same texels
+    CHECK(table_of(s, "dfg_z").axes[0].values == table_of(s, "dfg_x").axes[0].values);
+    CHECK(table_of(s, "dfg_z").axes[1].values == table_of(s, "dfg_x").axes[1].values);
 }
 
-TEST_CASE("UE4 preset: texel centres in (NoV, roughness), alpha = roughness^2, Karis' G")
+TEST_CASE("UE4 preset: texel centres in (NoV, roughness), alpha = roughness^2, UE4's visibility")
 {
-    // Columns NoV = (x + 0.5)/32, rows roughness = (y + 0.5)/32, alpha = roughness^2;
-    // GGX with Schlick's G1 (k = alpha/2), separable: Karis 2013's integrand.
+    // UE4's PreintegratedGF (SystemTextures.cpp): 128 x 32, columns NoV = (x + 0.5)/128,
+    // rows roughness = (y + 0.5)/32, alpha = roughness^2; GGX with
+    // Vis_SmithJointApprox, i.e. Schlick's G1 (k = alpha/2) combined height-correlated.
     const brdftab::Spec s =
         brdftab::parse_spec_file(std::string(BT_SOURCE_DIR) + "/tables/renderers/ue4-splitsum.toml");
     for (const char* name : {"ue4_a", "ue4_b"}) {
@@ -472,16 +476,37 @@ TEST_CASE("UE4 preset: texel centres in (NoV, roughness), alpha = roughness^2, K
         CHECK(t.axes[0].name == "alpha");
         CHECK(t.axes[1].name == "mu_i");
         REQUIRE(t.axes[0].count == 32);
-        REQUIRE(t.axes[1].count == 32);
+        REQUIRE(t.axes[1].count == 128);
         for (std::size_t k = 0; k < 32; ++k) {
             const double c = (double(k) + 0.5) / 32.0;
             CHECK(t.axes[0].values[k] == doctest::Approx(c * c).epsilon(1e-14));
-            CHECK(t.axes[1].values[k] == doctest::Approx(c).epsilon(1e-14));
         }
+        for (std::size_t k = 0; k < 128; ++k)
+            CHECK(t.axes[1].values[k] == doctest::Approx((double(k) + 0.5) / 128.0).epsilon(1e-14));
         CHECK(t.options["distribution"] == "ggx");
         CHECK(t.options["g1"] == "schlick");
-        CHECK(t.options["shadowing"] == "separable");
+        CHECK(t.options["shadowing"] == "height-correlated");
     }
+    // The model's f_r with these options is UE4's D Vis: Vis = 0.5 / (n.l (n.v (1 - a)
+    // + a) + n.v (n.l (1 - a) + a)), written out here from the engine's formula.
+    Options op(BT_MF_GGX, BT_SHADOW_HEIGHT_CORRELATED, RD_FRESNEL_NONE);
+    op.o[RD_OPT_G1] = BT_G1_SCHLICK;
+    for (double a : {0.05, 0.3, 0.9})
+        for (double ti : {10.0, 50.0, 80.0})
+            for (double to : {5.0, 40.0, 85.0}) {
+                const double d2r = kPi / 180, nv = std::cos(ti * d2r), nl = std::cos(to * d2r);
+                double p[8] = {ti * d2r, 0, to * d2r, 2.0, a, 1.5, 16, 0};
+                bt_sampler sm = quad_sampler();
+                const double fr = rough_dielectric_sample(p, op.o, RD_Q_BRDF, &sm);
+                // h and D_GGX(h)
+                const double hx = std::sin(ti * d2r) + std::sin(to * d2r) * std::cos(2.0),
+                             hy = std::sin(to * d2r) * std::sin(2.0), hz = nv + nl;
+                const double nh = hz / std::sqrt(hx * hx + hy * hy + hz * hz);
+                const double a2 = a * a, dd = nh * nh * (a2 - 1) + 1, D = a2 / (kPi * dd * dd);
+                const double vis = 0.5 / (nl * (nv * (1 - a) + a) + nv * (nl * (1 - a) + a));
+                INFO("alpha " << a << " theta_i " << ti << " theta_o " << to);
+                CHECK(fr == doctest::Approx(D * vis).epsilon(1e-12));
+            }
     CHECK(table_of(s, "ue4_a").quantity == "split_a");
     CHECK(table_of(s, "ue4_b").quantity == "split_b");
 }
