@@ -31,10 +31,13 @@
 #ifndef BRDFTAB_CHARLIE_SHEEN_H
 #define BRDFTAB_CHARLIE_SHEEN_H
 
+#include "../common/bt_math.h"
 #include "../common/compat.h"
 #include "../common/gauss_legendre.h"
 #include "../common/sampler.h"
 
+#define CS_MAX_NODES 64
+#define CS_MIN_COS R(1e-9) /* floor on n.v, as the rough-dielectric albedos' */
 #define CS_DECAY_LEVELS 8
 #define CS_MAX_EDGES (4 + CS_DECAY_LEVELS)
 
@@ -60,10 +63,10 @@ BT_INLINE REAL cs_integrand(REAL sv, REAL cv, REAL u, REAL sh, REAL cphi, REAL d
 /* The albedo E(n.v = cv) at roughness alpha by quadrature, n nodes per panel. */
 BT_INLINE REAL cs_sheen_albedo_quadrature(REAL cv, REAL alpha, int n)
 {
-    REAL gx[RD_QUAD_MAX_NODES], gw[RD_QUAD_MAX_NODES];
-    n = n < 1 ? 1 : (n > RD_QUAD_MAX_NODES ? RD_QUAD_MAX_NODES : n);
+    REAL gx[CS_MAX_NODES], gw[CS_MAX_NODES];
+    n = n < 1 ? 1 : (n > CS_MAX_NODES ? CS_MAX_NODES : n);
     bt_gauss_legendre_rule(n, gx, gw);
-    cv = fmin(fmax(cv, RD_MIN_COS), R(1.0));
+    cv = fmin(fmax(cv, CS_MIN_COS), R(1.0));
     REAL sv = bt_safe_sqrt(R(1.0) - cv * cv);
     REAL k = R(1.0) / alpha;
     REAL tv = bt_acos(cv);
@@ -124,7 +127,7 @@ BT_INLINE REAL cs_sheen_albedo_quadrature(REAL cv, REAL alpha, int n)
  * estimator Filament's cmgen uses: D V n.l 4 (v.h) 2 pi. */
 BT_INLINE REAL cs_sheen_albedo_sample(REAL cv, REAL alpha, REAL u0, REAL u1)
 {
-    cv = fmin(fmax(cv, RD_MIN_COS), R(1.0));
+    cv = fmin(fmax(cv, CS_MIN_COS), R(1.0));
     REAL sv = bt_safe_sqrt(R(1.0) - cv * cv);
     REAL u = R(1.0) - u0; /* cos theta_h uniform in (0, 1] */
     REAL sh = bt_safe_sqrt(R(1.0) - u * u);
