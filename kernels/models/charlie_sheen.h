@@ -46,7 +46,7 @@ BT_INLINE REAL cs_charlie_d(REAL u, REAL k)
 {
     REAL s2 = fmax(R(1.0) - u * u, R(0.0));
     if (!(s2 > R(0.0))) return R(0.0);
-    return (R(2.0) + k) * bt_exp(R(0.5) * k * bt_log(s2)) / (R(2.0) * BT_PI);
+    return (R(2.0) + k) * bt_exp(R(0.5) * k * bt_log(s2)) / (R(2.0) * BT_PI); /* eq. 2 */
 }
 
 /* The integrand D V 4 (v.h) n.l at normal h = (s_h cos phi, s_h sin phi, u)

@@ -31,8 +31,9 @@
  *                       F0 = ((eta - 1)/(eta + 1))^2, see rd_fresnel)
  *   o[7] mu_rule        albedo_avg under quadrature: 0 single (one Gauss-
  *                       Legendre rule per side of the critical cosine), 1
- *                       graded (panels geometric towards grazing and the
- *                       critical cosine; rd_albedo_avg_quadrature_graded)
+ *                       graded (panels geometric towards grazing, normal
+ *                       incidence and the kinks of E(mu);
+ *                       rd_albedo_avg_quadrature_graded)
  *   o[8] tir_rule       albedos under quadrature: 0 split (the TIR level is a
  *                       graded split of each row), 1 sqrt (also the sqrt map
  *                       on the panels just short of it, the theta~ splits of
