@@ -1,18 +1,36 @@
 #!/usr/bin/env bash
 # renderer_luts.sh — times the renderer LUT presets (docs/renderer-luts.md):
-# the whole Cycles set (target < 60 s on 2 cores) and Filament's 128 x 128 DFG
-# texture (target < 10 s), the UE4 split-sum LUT, and prints each table's largest error estimate.
+# the whole Cycles set generated and certified in Cycles' interpolation
+# (target < 60 s on 2 cores), Filament's 128 x 128 DFG texture (target < 10 s)
+# and the UE4 split-sum LUT, and prints each table's largest error estimate
+# and its certificate in the renderer's interpolation.  Times are wall and
+# CPU (user + system) seconds; other jobs on the machine inflate the wall time.
 # Usage: bench/renderer_luts.sh BRDFTAB [SOURCE_DIR]
 set -eu
 BT=$(realpath "$1")
 SRC=$(realpath "${2:-$(dirname "$0")/..}")
 WORK=$(mktemp -d)
 trap 'rm -rf "$WORK"' EXIT
+timed() {  # timed LABEL COMMAND...: runs it, prints LABEL: wall, CPU
+  /usr/bin/time -f "%e %U %S" -o "$WORK/time.txt" "${@:2}" >"$WORK/log.txt" 2>&1
+  read -r wall user sys <"$WORK/time.txt"
+  printf '%s: %.1f s wall, %.1f s CPU\n' "$1" "$wall" "$(echo "$user + $sys" | bc)"
+}
+total_cpu=0
+add_cpu() { total_cpu=$(echo "$total_cpu + $(awk '{print $2 + $3}' "$WORK/time.txt")" | bc); }
+declare -A layout=([cycles]=cycles [filament-dfg]=filament [ue4-splitsum]=ue4)
 for preset in cycles filament-dfg ue4-splitsum; do
-  start=$(date +%s.%N)
-  "$BT" generate "$SRC/tables/renderers/$preset.toml" -o "$WORK/$preset.h5" >"$WORK/log.txt" 2>&1
-  end=$(date +%s.%N)
-  printf '%s: %.1f s wall\n' "$preset" "$(echo "$end - $start" | bc)"
-  grep -E '^  [a-z_A-Z]+: ' "$WORK/log.txt" | sed -E 's/^  ([^:]+):.*max stderr ([^ ]+) absolute.*, ([0-9.]+m?[0-9.]*s)$/  \1: largest estimate \2, \3/'
+  total_cpu=0
+  timed "$preset generate" "$BT" generate "$SRC/tables/renderers/$preset.toml" -o "$WORK/$preset.h5"
+  add_cpu
+  grep -E '^  [a-z_A-Z]+: ' "$WORK/log.txt" | sed -E 's/^  ([^:]+):.*max error estimate[^0-9]*([0-9.e+-]+) absolute.*, ([0-9.]+m?[0-9.]*s)$/  \1: largest estimate \2, \3/'
+  tables=$("$BT" info "$WORK/$preset.h5" | sed -nE "s/^  table '([a-zA-Z_0-9]+)'.*/\1/p" | paste -sd, -)
+  # one run for all tables; the direct values at 8 quadrature nodes: their
+  # error (reported) stays far below the interpolation error it measures
+  timed "$preset certify --layout ${layout[$preset]}" "$BT" certify "$WORK/$preset.h5" --table "$tables" \
+    --layout "${layout[$preset]}" --reference-nodes 8 --store -q
+  add_cpu
+  sed -nE 's/.* table ([a-zA-Z_0-9]+) in .*interpolation: (max [^;]*); (RMS [^;]*)(; [0-9]+ nodes[^;]*)?;.*/  \1: \2, \3\4/p' "$WORK/log.txt"
+  printf '%s total: %.1f s CPU\n' "$preset" "$total_cpu"
 done
 echo "load average: $(cut -d' ' -f1-3 /proc/loadavg)"

@@ -60,6 +60,9 @@ name = "E2"
 quantity = "albedo_r"
 [tables.parameters]
 fresnel = "none"
+[[tables]]
+name = "S"
+quantity = "sheen_albedo"
 [[axes]]
 name = "alpha"
 range = [0.01, 1.0]
@@ -88,7 +91,7 @@ EOF
 }
 query_nodes E mu_i=0.0001,0.5,1.0 alpha=1e-8,0.25,1.0
 query_nodes glass eta=1.2,1.5 mu_i=0.2,0.6,1.0 alpha=0.01,0.3,0.6,1.0
-for t in A B E2; do query_nodes "$t" alpha=0.01,0.505,1.0 mu_i=0.1,0.4,0.7,1.0; done
+for t in A B E2 S; do query_nodes "$t" alpha=0.01,0.505,1.0 mu_i=0.1,0.4,0.7,1.0; done
 
 expect_exit 0 "export --layout cycles (3-D)" -- \
   "$BT" export luts.h5 --table glass --header glass.h --layout cycles
@@ -99,6 +102,21 @@ expect_grep "static const float table_ggx_E\[9\]" e.h "--name sets the array nam
 expect_exit 0 "export --layout filament (half)" -- \
   "$BT" export luts.h5 --table B,E2 --header dfg.h --layout filament
 expect_grep "const uint16_t DFG_LUT\[\]" dfg.h "Filament's declaration: binary16 bits"
+expect_exit 0 "export --layout filament with the cloth channel (R, G, B)" -- \
+  "$BT" export luts.h5 --table B,E2,S --header dfg3.h --layout filament
+expect_grep "3 channels" dfg3.h "the header says three channels"
+expect_exit 2 "ue4 takes two channels" -- \
+  "$BT" export luts.h5 --table A,B,S --header bad.h --layout ue4
+# The certificate in Cycles' interpolation, stored in a copy of the file.
+cp luts.h5 cert.h5
+expect_exit 0 "certify --layout cycles --store" -- \
+  "$BT" certify cert.h5 --table E,glass --layout cycles --store -q
+expect_grep "table glass in cycles's interpolation: max" out.txt "one line per table"
+expect_grep "trilinear in .z, mu, r., node k of n at k/.n-1." out.txt "the interpolation named"
+h5dump -a /glass/layout_certificate_cycles_max_error cert.h5 >attr.txt 2>&1 && ok || bad "the certificate is stored"
+expect_exit 2 "certify --layout ue4: a 3-D table is not a texture" -- \
+  "$BT" certify cert.h5 --table glass --layout ue4 -q
+expect_exit 2 "certify needs --accuracy or --layout" -- "$BT" certify cert.h5 --table E -q
 expect_exit 0 "export --layout ue4 (float)" -- \
   "$BT" export luts.h5 --table A,B --header ue4.h --layout ue4
 # Refusals: wrong axis order, channels on different grids, half for Cycles.
@@ -122,7 +140,7 @@ if [ -z "$CC_BIN" ] || ! command -v "$CC_BIN" >/dev/null 2>&1; then
   echo "SKIP: no C compiler (pass CMake's CMAKE_C_COMPILER as the third argument)"
 else
   # Print each array in its own order (half decoded here, from the format).
-  for h in glass:table_glass:float e:table_ggx_E:float dfg:DFG_LUT:half ue4:ue4_split_sum_lut:float; do
+  for h in glass:table_glass:float e:table_ggx_E:float dfg:DFG_LUT:half dfg3:DFG_LUT:half ue4:ue4_split_sum_lut:float; do
     IFS=: read -r file name kind <<<"$h"
     cat >"p_$file.c" <<EOF
 #include <stdio.h>
@@ -166,6 +184,8 @@ check("cycles E", got("e"), q("E"), 2.0**-24)
 inter = lambda r, g: [v for pair in zip(r, g) for v in pair]
 check("filament (B, E)", got("dfg"), inter(q("B"), q("E2")), 2.0**-11, 2.0**-25)
 check("ue4 (A, B)", got("ue4"), inter(q("A"), q("B")), 2.0**-24)
+inter3 = lambda r, g, b: [v for t in zip(r, g, b) for v in t]
+check("filament (B, E, S)", got("dfg3"), inter3(q("B"), q("E2"), q("S")), 2.0**-11, 2.0**-25)
 sys.exit(1 if fails else 0)
 EOF
   then ok; else bad "a layout's elements differ from query at their nodes"; fi

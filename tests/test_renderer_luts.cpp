@@ -18,7 +18,9 @@
 #include <vector>
 
 #include "host/core/error.h"
+#include "host/engine/engine.h"
 #include "host/io/renderer_layout.h"
+#include "host/plan/layout_certify.h"
 #include "host/spec/spec.h"
 #include "kernels/common/gauss_legendre.h"
 #include "kernels/models/rough_dielectric.h"
@@ -456,12 +458,16 @@ TEST_CASE("Filament preset: texel placement as cmgen and CubemapIBL::DFG define 
     CHECK(table_of(s, "dfg_x").quantity == "split_b");
     CHECK(table_of(s, "dfg_y").quantity == "albedo_r");
     CHECK(table_of(s, "dfg_y").options["fresnel"] == "none");
+    CHECK(table_of(s, "dfg_z").quantity == "sheen_albedo");  // the cloth channel, same texels
+    CHECK(table_of(s, "dfg_z").axes[0].values == table_of(s, "dfg_x").axes[0].values);
+    CHECK(table_of(s, "dfg_z").axes[1].values == table_of(s, "dfg_x").axes[1].values);
 }
 
-TEST_CASE("UE4 preset: texel centres in (NoV, roughness), alpha = roughness^2, Karis' G")
+TEST_CASE("UE4 preset: texel centres in (NoV, roughness), alpha = roughness^2, UE4's visibility")
 {
-    // Columns NoV = (x + 0.5)/32, rows roughness = (y + 0.5)/32, alpha = roughness^2;
-    // GGX with Schlick's G1 (k = alpha/2), separable: Karis 2013's integrand.
+    // UE4's PreintegratedGF (SystemTextures.cpp): 128 x 32, columns NoV = (x + 0.5)/128,
+    // rows roughness = (y + 0.5)/32, alpha = roughness^2; GGX with
+    // Vis_SmithJointApprox, i.e. Schlick's G1 (k = alpha/2) combined height-correlated.
     const brdftab::Spec s =
         brdftab::parse_spec_file(std::string(BT_SOURCE_DIR) + "/tables/renderers/ue4-splitsum.toml");
     for (const char* name : {"ue4_a", "ue4_b"}) {
@@ -470,16 +476,37 @@ TEST_CASE("UE4 preset: texel centres in (NoV, roughness), alpha = roughness^2, K
         CHECK(t.axes[0].name == "alpha");
         CHECK(t.axes[1].name == "mu_i");
         REQUIRE(t.axes[0].count == 32);
-        REQUIRE(t.axes[1].count == 32);
+        REQUIRE(t.axes[1].count == 128);
         for (std::size_t k = 0; k < 32; ++k) {
             const double c = (double(k) + 0.5) / 32.0;
             CHECK(t.axes[0].values[k] == doctest::Approx(c * c).epsilon(1e-14));
-            CHECK(t.axes[1].values[k] == doctest::Approx(c).epsilon(1e-14));
         }
+        for (std::size_t k = 0; k < 128; ++k)
+            CHECK(t.axes[1].values[k] == doctest::Approx((double(k) + 0.5) / 128.0).epsilon(1e-14));
         CHECK(t.options["distribution"] == "ggx");
         CHECK(t.options["g1"] == "schlick");
-        CHECK(t.options["shadowing"] == "separable");
+        CHECK(t.options["shadowing"] == "height-correlated");
     }
+    // The model's f_r with these options is UE4's D Vis: Vis = 0.5 / (n.l (n.v (1 - a)
+    // + a) + n.v (n.l (1 - a) + a)), written out here from the engine's formula.
+    Options op(BT_MF_GGX, BT_SHADOW_HEIGHT_CORRELATED, RD_FRESNEL_NONE);
+    op.o[RD_OPT_G1] = BT_G1_SCHLICK;
+    for (double a : {0.05, 0.3, 0.9})
+        for (double ti : {10.0, 50.0, 80.0})
+            for (double to : {5.0, 40.0, 85.0}) {
+                const double d2r = kPi / 180, nv = std::cos(ti * d2r), nl = std::cos(to * d2r);
+                double p[8] = {ti * d2r, 0, to * d2r, 2.0, a, 1.5, 16, 0};
+                bt_sampler sm = quad_sampler();
+                const double fr = rough_dielectric_sample(p, op.o, RD_Q_BRDF, &sm);
+                // h and D_GGX(h)
+                const double hx = std::sin(ti * d2r) + std::sin(to * d2r) * std::cos(2.0),
+                             hy = std::sin(to * d2r) * std::sin(2.0), hz = nv + nl;
+                const double nh = hz / std::sqrt(hx * hx + hy * hy + hz * hz);
+                const double a2 = a * a, dd = nh * nh * (a2 - 1) + 1, D = a2 / (kPi * dd * dd);
+                const double vis = 0.5 / (nl * (nv * (1 - a) + a) + nv * (nl * (1 - a) + a));
+                INFO("alpha " << a << " theta_i " << ti << " theta_o " << to);
+                CHECK(fr == doctest::Approx(D * vis).epsilon(1e-12));
+            }
     CHECK(table_of(s, "ue4_a").quantity == "split_a");
     CHECK(table_of(s, "ue4_b").quantity == "split_b");
 }
@@ -523,4 +550,183 @@ TEST_CASE("renderer layouts: element order and the tables each layout accepts")
     }
     CHECK_THROWS_AS(renderer_layout_values({r}, fil), InputError);
     CHECK_THROWS_AS(renderer_layout_values({r, table({{"mu_i", 5}, {"alpha", 3}}, 0)}, fil), InputError);
+}
+
+// ---------------------------------------------------------------- sheen (cloth)
+
+namespace {
+
+// Estevez & Kulla's Charlie D and Neubelt's V, written out here (not the kernel's).
+double charlie_d(double nh, double alpha) {
+    const double s2 = std::max(1 - nh * nh, 0.0);
+    return (2 + 1 / alpha) * std::pow(s2, 0.5 / alpha) / (2 * kPi);
+}
+
+// int D V n.l dl over the l hemisphere, midpoint rule on (n.l, phi_l) with
+// n x 2n cells (phi over [0, pi], doubled by symmetry).
+double sheen_brute(double nv, double alpha, int n) {
+    const double sv = std::sqrt(1 - nv * nv);
+    double sum = 0;
+    for (int a = 0; a < n; ++a) {
+        const double cl = (a + 0.5) / n, sl = std::sqrt(1 - cl * cl);
+        for (int b = 0; b < 2 * n; ++b) {
+            const double phi = kPi * (b + 0.5) / (2 * n);
+            const double hx = sv + sl * std::cos(phi), hy = sl * std::sin(phi), hz = nv + cl;
+            const double nh = hz / std::sqrt(hx * hx + hy * hy + hz * hz);
+            const double vis = 1 / (4 * (cl + nv - cl * nv));
+            sum += charlie_d(nh, alpha) * vis * cl;
+        }
+    }
+    return 2 * sum * (1.0 / n) * (kPi / (2 * n));  // dl = d(n.l) dphi
+}
+
+double sheen_quad(double nv, double alpha, int n) {
+    const Options op(BT_MF_GGX, BT_SHADOW_HEIGHT_CORRELATED, RD_FRESNEL_DIELECTRIC);
+    return quad(RD_Q_SHEEN_ALBEDO, nv, alpha, 1.5, n, op.o);
+}
+
+}  // namespace
+
+TEST_CASE("sheen_albedo: closed form at normal view, E = 2^(-k/2) / (k + 4), k = 1/alpha")
+{
+    // At v = n, h = l's half-vector with theta_h = theta_l / 2: E = (2 + k)
+    // int_0^(1/sqrt 2) s^(k+1) (1 - 2 s^2) ds = 2^(-k/2) / (k + 4).
+    for (double alpha : {1.0, 0.7, 0.5, 0.25, 0.1, 0.02}) {
+        const double k = 1 / alpha, exact = std::pow(2.0, -k / 2) / (k + 4);
+        INFO("alpha " << alpha << ": quadrature " << sheen_quad(1.0, alpha, 16) << ", closed form " << exact);
+        CHECK(std::fabs(sheen_quad(1.0, alpha, 16) - exact) <= 1e-10);
+    }
+}
+
+TEST_CASE("sheen_albedo: against a brute-force integral over outgoing directions")
+{
+    for (double alpha : {1.0, 0.3, 0.1})
+        for (double nv : {0.2, 0.6, 0.9}) {
+            const double b1 = sheen_brute(nv, alpha, 400), b2 = sheen_brute(nv, alpha, 800);
+            const double q = sheen_quad(nv, alpha, 16);
+            INFO("alpha " << alpha << " n.v " << nv << ": quadrature " << q << ", midpoint " << b1 << " / " << b2);
+            // the midpoint rule's error at 800 is bounded by its change from 400
+            CHECK(std::fabs(q - b2) <= 2 * std::fabs(b2 - b1) + 1e-9);
+            CHECK(std::fabs(b2 - b1) <= 1e-4 * b2);  // the brute force itself is converged
+        }
+}
+
+TEST_CASE("sheen_albedo: RQMC (Filament's uniform-h estimator) agrees with the quadrature")
+{
+    const Options op(BT_MF_GGX, BT_SHADOW_HEIGHT_CORRELATED, RD_FRESNEL_DIELECTRIC);
+    for (double alpha : {0.8, 0.05})
+        for (double nv : {0.05, 0.5}) {
+            double p[8] = {std::acos(nv), 0, 0, 0, alpha, 1.5, 16, 0};
+            brdftab::test::RunningStat st;
+            for (uint b = 0; b < 16; ++b) {
+                double sum = 0;
+                for (uint k = 0; k < (1u << 14); ++k) {
+                    bt_sampler r = brdftab::test::make_sampler(BT_METHOD_RQMC, 3, 4, 0, b, k);
+                    sum += rough_dielectric_sample(p, op.o, RD_Q_SHEEN_ALBEDO, &r);
+                }
+                st.add(sum / (1u << 14));
+            }
+            const double q = sheen_quad(nv, alpha, 16);
+            INFO("alpha " << alpha << " n.v " << nv << ": quadrature " << q << ", RQMC " << st.mean << " +- " << st.se());
+            CHECK(std::fabs(q - st.mean) <= 4 * st.se() + 1e-9);
+        }
+}
+
+// ---------------------------------------------------------------- layout certificates
+
+namespace {
+
+// A 2-D table (alpha outer, mu_i inner) of rough-dielectric albedo_r with
+// F = 1 at the given nodes, computed here by the host quadrature.
+brdftab::TableData e_table(const std::vector<double>& alphas, const std::vector<double>& mus, int nodes) {
+    brdftab::TableData t;
+    t.name = "e";
+    t.model = "rough-dielectric";
+    t.quantity = "albedo_r";
+    t.parameters = {{"distribution", "ggx"}, {"shadowing", "height-correlated"}, {"fresnel", "none"},
+                    {"eta", 1.5}, {"nodes", double(nodes)}};
+    brdftab::Axis a, m;
+    a.name = "alpha";
+    a.values = alphas;
+    a.count = alphas.size();
+    a.spacing = brdftab::Spacing::Explicit;
+    m.name = "mu_i";
+    m.values = mus;
+    m.count = mus.size();
+    m.spacing = brdftab::Spacing::Explicit;
+    t.axes = {a, m};
+    const Options op(BT_MF_GGX, BT_SHADOW_HEIGHT_CORRELATED, RD_FRESNEL_NONE);
+    for (double al : alphas)
+        for (double mu : mus) t.value.push_back(quad(RD_Q_ALBEDO_R, mu, al, 1.5, nodes, op.o));
+    return t;
+}
+
+}  // namespace
+
+TEST_CASE("layout certificate: Cycles' bilinear read at cell centres, Filament's texel offset at the nodes")
+{
+    auto backend = brdftab::make_backend("host", brdftab::Precision::Double);
+    const Options op(BT_MF_GGX, BT_SHADOW_HEIGHT_CORRELATED, RD_FRESNEL_NONE);
+    SUBCASE("cycles: node k of n at k/(n-1), roughness r = sqrt(alpha)") {
+        const int n = 5;
+        std::vector<double> alphas, mus;
+        for (int k = 0; k < n; ++k) {
+            const double t = std::max(double(k) / (n - 1), 1e-4);
+            alphas.push_back(t * t);
+            mus.push_back(t);
+        }
+        const brdftab::TableData t = e_table(alphas, mus, 12);
+        const brdftab::LayoutCertificate c = brdftab::certify_layout(t, brdftab::RendererLayout::Cycles, *backend);
+        // The oracle: at each cell centre (r, mu) = ((i + 1/2)/(n-1), (j + 1/2)/(n-1)) the
+        // bilinear read is the mean of the cell's corners.
+        double worst = 0, worst_alpha = 0, worst_mu = 0, sum2 = 0;
+        for (int i = 0; i + 1 < n; ++i)
+            for (int j = 0; j + 1 < n; ++j) {
+                const double r = (i + 0.5) / (n - 1), mu = (j + 0.5) / (n - 1);
+                const double mean = 0.25 * (t.value[i * n + j] + t.value[i * n + j + 1] + t.value[(i + 1) * n + j] +
+                                            t.value[(i + 1) * n + j + 1]);
+                const double e = std::fabs(mean - quad(RD_Q_ALBEDO_R, mu, r * r, 1.5, 12, op.o));
+                sum2 += e * e;
+                if (e > worst) {
+                    worst = e;
+                    worst_alpha = r * r;
+                    worst_mu = mu;
+                }
+            }
+        CHECK(c.cell_probes == std::size_t((n - 1) * (n - 1)));
+        CHECK(c.node_probes == 0);  // every node was computed where Cycles reads it
+        CHECK(c.max_error == doctest::Approx(worst).epsilon(1e-9));
+        CHECK(c.rms_error == doctest::Approx(std::sqrt(sum2 / ((n - 1) * (n - 1)))).epsilon(1e-9));
+        CHECK(c.max_at.at("alpha") == doctest::Approx(worst_alpha));
+        CHECK(c.max_at.at("mu_i") == doctest::Approx(worst_mu));
+        CHECK(worst > 1e-3);  // a 5 x 5 grid is coarse: the certificate sees it
+    }
+    SUBCASE("filament: texel k of n at (k + 1/2)/n, rows computed one texel up") {
+        const int n = 6;
+        std::vector<double> alphas, mus;
+        for (int k = 0; k < n; ++k) {
+            const double c = std::min(1.0, (k + 1.5) / n);  // cmgen's row coordinate
+            alphas.push_back(c * c);
+            mus.push_back((k + 0.5) / n);
+        }
+        const brdftab::TableData t = e_table(alphas, mus, 12);
+        const brdftab::LayoutCertificate c = brdftab::certify_layout(t, brdftab::RendererLayout::Filament, *backend);
+        CHECK(c.node_probes == std::size_t(n * n));
+        // At texel (row k, column j) the shader reads the stored value at
+        // perceptual roughness (k + 1/2)/n: its error is the offset's.
+        double node_worst = 0;
+        for (int k = 0; k < n; ++k)
+            for (int j = 0; j < n; ++j) {
+                const double u = (k + 0.5) / n;
+                node_worst = std::max(node_worst, std::fabs(t.value[k * n + j] -
+                                                            quad(RD_Q_ALBEDO_R, mus[j], u * u, 1.5, 12, op.o)));
+            }
+        CHECK(c.node_max == doctest::Approx(node_worst).epsilon(1e-9));
+        CHECK(node_worst > 1e-3);
+    }
+    SUBCASE("an axis the layout does not know is refused") {
+        brdftab::TableData t = e_table({0.1, 0.2}, {0.5, 0.6}, 8);
+        t.axes[1].name = "theta_o";
+        CHECK_THROWS_AS(brdftab::certify_layout(t, brdftab::RendererLayout::Ue4, *backend), brdftab::InputError);
+    }
 }

@@ -10,6 +10,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "host/adaptive/adaptive_io.h"
 #include "host/cli/cli_common.h"
@@ -18,6 +19,7 @@
 #include "host/core/error.h"
 #include "host/io/table_io.h"
 #include "host/plan/certify.h"
+#include "host/plan/layout_certify.h"
 #include "host/plan/plan.h"
 #include "host/spec/spec.h"
 
@@ -26,8 +28,8 @@ namespace brdftab::cli {
 namespace {
 
 struct CertifyArgs {
-    std::string file, table, interpolation = "linear";
-    double accuracy = 0, abs_floor = 0;
+    std::string file, table, interpolation = "linear", layout;
+    double accuracy = 0, abs_floor = 0, reference_nodes = 0;
     bool absolute = false, store = false, quiet = false, no_advice = false;
     ComputeOptions compute;
 };
@@ -107,7 +109,44 @@ void print_failure_advice(const Certificate& c, const CertifyArgs& st, Backend& 
     }
 }
 
+// "a,b" -> {a, b}.
+std::vector<std::string> split_list(const std::string& s) {
+    std::vector<std::string> out;
+    for (std::size_t start = 0;;) {
+        const std::size_t c = s.find(',', start);
+        out.push_back(s.substr(start, c == std::string::npos ? std::string::npos : c - start));
+        if (c == std::string::npos) return out;
+        start = c + 1;
+    }
+}
+
+// --layout: the certificate in a renderer's own interpolation (layout_certify.h),
+// of each table of a comma-separated --table list, on one device.
+void run_layout_certify(const CertifyArgs& st) {
+    auto backend = st.compute.make_backend();
+    std::vector<LayoutCertificate> done;
+    for (const std::string& table : split_list(st.table)) {
+        std::unique_ptr<ProgressPrinter> printer;
+        if (!st.quiet) printer = std::make_unique<ProgressPrinter>("certify " + table + " (" + st.layout + ")");
+        done.push_back(certify_layout(read_table(st.file, table), parse_renderer_layout(st.layout), *backend,
+                                      st.reference_nodes, [&](const Progress& p) { if (printer) (*printer)(p); }));
+        if (printer) printer->finish();
+        std::cout << st.file << " table " << table << " in " << st.layout
+                  << "'s interpolation: " << layout_certificate_text(done.back()) << ", "
+                  << sci_text(done.back().seconds) << " s\n";
+    }
+    if (st.store) {
+        AtomicOutput out(st.file);
+        std::filesystem::copy_file(st.file, out.path(), std::filesystem::copy_options::overwrite_existing);
+        for (const LayoutCertificate& c : done) write_layout_certificate(out.path(), c);
+        out.commit();
+        std::cout << "stored the certificate" << (done.size() > 1 ? "s" : "") << " in " << st.file << "\n";
+    }
+}
+
 void run_certify(const CertifyArgs& st) {
+    if (!st.layout.empty()) return run_layout_certify(st);
+    if (st.accuracy == 0) throw InputError("certify needs --accuracy E (or --layout cycles|filament|ue4)");
     if (!(st.accuracy > 0) || !std::isfinite(st.accuracy))
         throw InputError("--accuracy must be a finite number > 0 (got " + sci_text(st.accuracy) + ")");
     if (st.abs_floor < 0 || !std::isfinite(st.abs_floor))
@@ -156,11 +195,18 @@ void register_certify(CLI::App& app) {
         "with a target; exit code 1 when it misses (docs/planning.md, \"Certified generation\")");
     auto st = std::make_shared<CertifyArgs>();
     cmd->add_option("FILE", st->file, "table file (HDF5)")->required();
-    cmd->add_option("--table", st->table, "table (group) name in FILE")->required();
-    cmd->add_option("--accuracy", st->accuracy,
-                    "the target E: max total error, relative to max(|value|, floor) by default, "
-                    "absolute with --abs")
+    cmd->add_option("--table", st->table, "table (group) name in FILE (with --layout: a comma-separated list)")
         ->required();
+    auto* accuracy = cmd->add_option("--accuracy", st->accuracy,
+                                     "the target E: max total error, relative to max(|value|, floor) by "
+                                     "default, absolute with --abs");
+    cmd->add_option("--layout", st->layout,
+                    "instead: measure the error in a renderer's own interpolation (cycles, filament, ue4: "
+                    "its node coordinates, multilinear; docs/renderer-luts.md)")
+        ->check(CLI::IsMember({"cycles", "filament", "ue4"}))
+        ->excludes(accuracy);
+    cmd->add_option("--reference-nodes", st->reference_nodes,
+                    "with --layout: quadrature nodes of the direct values (default: the table's own)");
     cmd->add_flag("--abs", st->absolute, "absolute errors (default: relative)");
     cmd->add_option("--abs-floor", st->abs_floor,
                     "relative errors divide by max(|value|, floor); default 1e-3 x the table's "

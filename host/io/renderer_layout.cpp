@@ -36,20 +36,22 @@ void check_cycles(const TableData& t) {
         bad();
 }
 
-// Two-channel textures: both tables on one (alpha, mu_i) grid.
-void check_texture(const std::vector<TableData>& ch, const char* layout) {
-    if (ch.size() != 2)
-        throw InputError(std::string("--layout ") + layout +
-                         " takes two tables, the texture's R and G channels: --table R,G");
+// Textures: two tables (three for Filament: its cloth channel) on one
+// (alpha, mu_i) grid.
+void check_texture(const std::vector<TableData>& ch, const char* layout, bool rgb) {
+    if (ch.size() != 2 && !(rgb && ch.size() == 3))
+        throw InputError(std::string("--layout ") + layout + " takes two tables, the texture's R and G channels: " +
+                         (rgb ? "--table R,G (or three, --table R,G,B)" : "--table R,G"));
     for (const auto& t : ch)
         if (t.axes.size() != 2 || t.axes[0].name != "alpha" || t.axes[1].name != "mu_i")
             throw InputError("table '" + t.name + "' has axes " + axis_list(t) + "; --layout " +
                              layout + " needs (alpha, mu_i): rows of roughness, NoV fastest");
-    for (std::size_t d = 0; d < 2; ++d)
-        if (ch[0].axes[d].values != ch[1].axes[d].values)
-            throw InputError("tables '" + ch[0].name + "' and '" + ch[1].name +
-                             "' differ in the nodes of axis '" + ch[0].axes[d].name +
-                             "'; the two channels must share one grid");
+    for (std::size_t c = 1; c < ch.size(); ++c)
+        for (std::size_t d = 0; d < 2; ++d)
+            if (ch[0].axes[d].values != ch[c].axes[d].values)
+                throw InputError("tables '" + ch[0].name + "' and '" + ch[c].name +
+                                 "' differ in the nodes of axis '" + ch[0].axes[d].name +
+                                 "'; the channels must share one grid");
 }
 
 }  // namespace
@@ -78,13 +80,11 @@ std::vector<double> renderer_layout_values(const std::vector<TableData>& channel
         check_cycles(channels[0]);
         return channels[0].value;  // row-major = Cycles' order
     }
-    check_texture(channels, renderer_layout_name(o.layout));
+    check_texture(channels, renderer_layout_name(o.layout), o.layout == RendererLayout::Filament);
     std::vector<double> out;
-    out.reserve(2 * channels[0].value.size());
-    for (std::size_t k = 0; k < channels[0].value.size(); ++k) {
-        out.push_back(channels[0].value[k]);
-        out.push_back(channels[1].value[k]);
-    }
+    out.reserve(channels.size() * channels[0].value.size());
+    for (std::size_t k = 0; k < channels[0].value.size(); ++k)
+        for (const TableData& c : channels) out.push_back(c.value[k]);
     return out;
 }
 
@@ -133,9 +133,10 @@ void export_renderer_header(const std::vector<TableData>& channels, const std::s
         h << "};\n";
     } else {
         const std::size_t width = channels[0].axes[1].count, height = channels[0].axes[0].count;
-        h << " * " << width << " x " << height << " texels, 2 channels (R = table '"
-          << channels[0].name << "', G = table '" << channels[1].name
-          << "') interleaved; row r = alpha node r (GL order, first row first), NoV fastest. */\n";
+        h << " * " << width << " x " << height << " texels, " << channels.size() << " channels (R = table '"
+          << channels[0].name << "', G = table '" << channels[1].name << "'";
+        if (channels.size() > 2) h << ", B = table '" << channels[2].name << "'";
+        h << ") interleaved; row r = alpha node r (GL order, first row first), NoV fastest. */\n";
         h << "#define " << name << "_WIDTH " << width << "\n#define " << name << "_HEIGHT "
           << height << "\n";
         if (type == HeaderValueType::Half) {

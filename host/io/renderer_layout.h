@@ -5,10 +5,11 @@
 //             z nx ny + y nx + x with x = roughness, y = mu, z = IOR: the
 //             table's axes must be (eta,) (mu_i | theta_i,) alpha, outermost
 //             first, so the file's row-major order is Cycles' order.
-//   filament  two tables (the texture's R and G channels) on the same 2-D
-//             grid (alpha outer, mu_i inner): `const uint16_t DFG_LUT[]`,
-//             binary16 bits, R G interleaved per texel, rows in GL order
-//             (first row = first alpha node), NoV fastest.
+//   filament  two or three tables (the texture's R, G and B, the cloth
+//             channel) on the same 2-D grid (alpha outer, mu_i inner):
+//             `const uint16_t DFG_LUT[]`, binary16 bits, channels interleaved
+//             per texel, rows in GL order (first row = first alpha node),
+//             NoV fastest.
 //   ue4       the same two-channel grid as `float` (or binary16 with
 //             type = half): R = scale A, G = bias B of the split sum.
 // Library code: no printing.

@@ -138,12 +138,20 @@ ModelInfo rough_dielectric_model() {
               "and, for albedo_avg, mu = 2 mu_c and mu = 1/eta; for errors near 1e-6)",
               {"split", "sqrt"},
               "split"});
+    b.option(RD_OPT_COARSE_RULE,
+             {"coarse_rule",
+              "method quadrature: the rule the error estimate compares with, half the nodes "
+              "(half) or ceil(3 nodes / 4) (three-quarters: its error is closer to the accurate "
+              "rule's, so the estimate overstates that less, at a higher cost)",
+              {"half", "three-quarters"},
+              "half"});
 
     const std::vector<std::string> all_dirs = {"theta_i", "phi_i", "theta_o", "phi_o"};
     const std::vector<std::string> shape_opts = {"distribution", "g1", "shadowing", "fresnel"};
     const std::vector<std::string> albedo_opts = {"distribution", "g1", "shadowing", "sampling",
-                                                  "fresnel", "tir_rule"};
-    const std::vector<std::string> split_opts = {"distribution", "g1", "shadowing", "sampling"};
+                                                  "fresnel", "tir_rule", "coarse_rule"};
+    const std::vector<std::string> split_opts = {"distribution", "g1", "shadowing", "sampling",
+                                                 "coarse_rule"};
     auto closed = [&](const char* name, int id, const char* desc, const char* eqs) {
         QuantityInfo q;
         q.name = name;
@@ -198,7 +206,7 @@ ModelInfo rough_dielectric_model() {
                         "2 * int E(mu) mu dmu, for the chosen lobe(s) and side",
                         kAlbedoEqs, {},
                         {"distribution", "g1", "shadowing", "lobe", "side", "sampling", "fresnel",
-                         "mu_rule", "tir_rule"},
+                         "mu_rule", "tir_rule", "coarse_rule"},
                         3));
     const char* kSplitEqs =
         "eqs. 14, 20, 39 with F = 1, weighted by Schlick's factors (Schlick 1994 eq. 15; "
@@ -216,6 +224,13 @@ ModelInfo rough_dielectric_model() {
                         "directional albedo of both lobes, albedo_r + albedo_t: the fraction of "
                         "light from direction i that leaves the interface (glass albedo)",
                         kAlbedoEqs, {"theta_i"}, albedo_opts, 2));
+    b.quantity(integral("sheen_albedo", RD_Q_SHEEN_ALBEDO,
+                        "directional albedo of the Charlie sheen lobe (Estevez & Kulla 2017) with "
+                        "Neubelt & Pettineo's visibility 1/(4 (n.l + n.v - n.l n.v)), roughness "
+                        "alpha: Filament's cloth DFG channel (eta and the microfacet options are not "
+                        "read)",
+                        "Estevez & Kulla 2017 eq. 2; Neubelt & Pettineo 2013", {"theta_i"},
+                        {"coarse_rule"}, 2));
     b.check_cell(&check_phong_alpha);
     b.cells_pass(&phong_alpha_cells_pass);
 

@@ -31,13 +31,16 @@
  *                       F0 = ((eta - 1)/(eta + 1))^2, see rd_fresnel)
  *   o[7] mu_rule        albedo_avg under quadrature: 0 single (one Gauss-
  *                       Legendre rule per side of the critical cosine), 1
- *                       graded (panels geometric towards grazing and the
- *                       critical cosine; rd_albedo_avg_quadrature_graded)
+ *                       graded (panels geometric towards grazing, normal
+ *                       incidence and the kinks of E(mu);
+ *                       rd_albedo_avg_quadrature_graded)
  *   o[8] tir_rule       albedos under quadrature: 0 split (the TIR level is a
  *                       graded split of each row), 1 sqrt (also the sqrt map
  *                       on the panels just short of it, the theta~ splits of
  *                       rd_quad_add_crossings and, for albedo_avg with the
  *                       single mu rule, mu splits at 2 mu_c and eta)
+ *   o[9] coarse_rule    quadrature: the error estimate's coarse rule, 0 half
+ *                       the nodes, 1 three-quarters (rd_quad_nodes)
  * Quantities:
  *   0 brdf        f_r (1/sr); 0 when i and o are on opposite sides
  *   1 btdf        f_t (1/sr); 0 when i and o are on the same side
@@ -52,6 +55,10 @@
  *                 (neither reads eta or the fresnel option)
  *   8 albedo      directional albedo of both lobes, albedo_r + albedo_t (the
  *                 glass albedo of energy compensation)
+ *   9 sheen_albedo directional albedo of the Charlie sheen lobe with
+ *                 Neubelt's visibility at roughness alpha (Filament's cloth
+ *                 DFG channel, charlie_sheen.h); reads neither eta nor the
+ *                 microfacet options
  * Random dimensions: 0, 1 sample m (visible normals or D(m)|m.n|);
  * 2 picks mu = sqrt(u) (avg).  Method quadrature (the albedos' default):
  * deterministic tensor Gauss-Legendre, batch 0 with p[6] nodes, batch 1 with
@@ -101,7 +108,8 @@
 #define RD_Q_SPLIT_A 6
 #define RD_Q_SPLIT_B 7
 #define RD_Q_ALBEDO 8
-#define RD_Q_COUNT 9
+#define RD_Q_SHEEN_ALBEDO 9
+#define RD_Q_COUNT 10
 
 /* The model contract: slots of the point p[] and of the options o[]
  * (quantity ids: RD_Q_* in rough_dielectric.h).  host/models/rough_dielectric.cpp registers the
@@ -119,13 +127,17 @@
 #define RD_OPT_FRESNEL 6
 #define RD_OPT_MU_RULE 7
 #define RD_OPT_TIR_RULE 8
-#define RD_OPT_COUNT 9
+#define RD_OPT_COARSE_RULE 9
+#define RD_OPT_COUNT 10
 
 #define RD_MU_RULE_SINGLE 0
 #define RD_MU_RULE_GRADED 1
 
 #define RD_TIR_RULE_SPLIT 0
 #define RD_TIR_RULE_SQRT 1
+
+#define RD_COARSE_RULE_HALF 0
+#define RD_COARSE_RULE_THREE_QUARTERS 1
 
 #define RD_LOBE_BOTH 0
 #define RD_LOBE_REFLECTION 1
@@ -853,12 +865,17 @@ BT_INLINE void rd_albedo_quadrature(const bt_microfacet* mf, bt_vec3 i, REAL eta
 
 /* Node count of the quadrature for this batch: batch 0 the accurate rule
  * (p[RD_PARAM_NODES]), batch 1 the coarse one, whose distance to it the
- * engine reports as the error (RD_QUAD_COARSE). */
-BT_INLINE int rd_quad_nodes(const REAL* p, const bt_sampler* s)
+ * engine reports as the error: half as many nodes (RD_QUAD_COARSE), or with
+ * coarse_rule = three-quarters ceil(3n/4) (RD_QUAD_COARSE_34), whose error
+ * is closer to the accurate rule's, so that the estimate overstates it less. */
+#define RD_QUAD_COARSE_34(n) ((3 * (n) + 3) / 4)
+BT_INLINE int rd_quad_nodes(const REAL* p, const int* o, const bt_sampler* s)
 {
     int n = (int)(p[RD_PARAM_NODES] + R(0.5));
     n = n < 2 ? 2 : (n > RD_QUAD_MAX_NODES ? RD_QUAD_MAX_NODES : n);
-    if (s->batch != 0u) n = RD_QUAD_COARSE(n);
+    if (s->batch != 0u)
+        n = o[RD_OPT_COARSE_RULE] == RD_COARSE_RULE_THREE_QUARTERS ? RD_QUAD_COARSE_34(n)
+                                                                    : RD_QUAD_COARSE(n);
     return n;
 }
 
@@ -934,17 +951,73 @@ BT_INLINE REAL rd_albedo_avg_quadrature(const bt_microfacet* mf, REAL eta, int s
 
 /* albedo_avg by quadrature on graded panels (mu_rule = graded).  E(mu)
  * changes on the scale of alpha near grazing (masking of i and of the
- * reflected directions) and within ~alpha of the critical cosine mu_c
- * (light from the denser side), which one rule on [0, mu_c] and [mu_c, 1]
- * resolves slowly (measured: 4.5e-5 between 16 and 8 nodes for GGX, F = 1).
- * Panels: [0, e] cut at e 4^-k (k = 1 .. RD_AVG_GRAZING_LEVELS) with e the
- * first of mu_c and 1; around mu_c at mu_c -+ d 4^-k (k = 1 ..
- * RD_AVG_CRITICAL_LEVELS, d the distance to the next boundary), the two
- * panels touching mu_c graded towards it (power 2) as in the single rule.
+ * reflected directions), behaves like a + b sqrt(1 - mu) at normal incidence
+ * (smooth in theta_i, not in mu), and has kinks that roughness only softens,
+ * over ~alpha: the critical cosine mu_c (light from the denser side) and,
+ * with tir_rule = sqrt, 2 mu_c and 1/eta as in the single rule
+ * (rd_albedo_avg_quadrature).  One rule per smooth piece resolves those
+ * slowly (measured: 4.5e-5 between 16 and 8 nodes for GGX, F = 1).  Panel
+ * ends, merged into one ascending list:
+ *   grazing   4^-k (k = 1 .. RD_AVG_GRAZING_LEVELS);
+ *   kinks     K -+ d 4^-k (k = 1 .. RD_AVG_CRITICAL_LEVELS at mu_c,
+ *             RD_AVG_KINK_LEVELS at the others), d the distance to the
+ *             midpoint to the neighbouring kink (or to 0 and 1); the panels
+ *             touching K are graded towards it (power 2);
+ *   normal    1 - d/4, d the length of the last panel, the panel touching 1
+ *             graded towards it (power 2).
  * (n + 1)/2 Gauss-Legendre nodes in mu per panel, each an albedo quadrature
  * with n nodes. */
 #define RD_AVG_GRAZING_LEVELS 6
-#define RD_AVG_CRITICAL_LEVELS 4
+#define RD_AVG_CRITICAL_LEVELS 3
+#define RD_AVG_KINK_LEVELS 1
+#define RD_AVG_MAX_KINKS 3
+#define RD_AVG_MAX_EDGES (4 + RD_AVG_GRAZING_LEVELS + RD_AVG_MAX_KINKS * (2 * RD_AVG_CRITICAL_LEVELS + 2))
+
+/* The kinks of E(mu) in (0, 1), ascending and distinct (see above). */
+BT_INLINE int rd_avg_kinks(REAL ec, int fresnel, int tir_rule, REAL* kink)
+{
+    int nk = 0;
+    if (!(rd_fresnel_reads_eta(fresnel) && ec < R(1.0))) return 0;
+    REAL mu_c = sqrt((R(1.0) - ec) * (R(1.0) + ec));
+    REAL cand[RD_AVG_MAX_KINKS] = {mu_c, R(2.0) * mu_c, ec};
+    int nc = tir_rule == RD_TIR_RULE_SQRT ? 3 : 1;
+    for (int c = 0; c < nc; ++c) {
+        REAL x = cand[c];
+        if (!(x > R(0.0) && x < R(1.0))) continue;
+        int dup = 0;
+        for (int k = 0; k < nk; ++k) dup |= kink[k] == x;
+        if (dup) continue;
+        int j = nk - 1;
+        while (j >= 0 && kink[j] > x) {
+            kink[j + 1] = kink[j];
+            --j;
+        }
+        kink[j + 1] = x;
+        ++nk;
+    }
+    return nk;
+}
+
+/* Adds panel end x in (0, 1) with grading g to the ascending list e[0..*ne-1]
+ * (an end already there keeps the larger grading). */
+BT_INLINE void rd_avg_add_edge(REAL* e, int* g, int* ne, REAL x, int grade)
+{
+    if (!(x > R(0.0) && x < R(1.0)) || *ne >= RD_AVG_MAX_EDGES) return;
+    int j = *ne - 1;
+    while (j >= 0 && e[j] > x) --j;
+    if (j >= 0 && e[j] == x) {
+        if (grade > g[j]) g[j] = grade;
+        return;
+    }
+    for (int k = *ne; k > j + 1; --k) {
+        e[k] = e[k - 1];
+        g[k] = g[k - 1];
+    }
+    e[j + 1] = x;
+    g[j + 1] = grade;
+    ++*ne;
+}
+
 BT_INLINE REAL rd_albedo_avg_quadrature_graded(const bt_microfacet* mf, REAL eta, int side,
                                                int lobe, int fresnel, int n, int tir_rule)
 {
@@ -953,41 +1026,53 @@ BT_INLINE REAL rd_albedo_avg_quadrature_graded(const bt_microfacet* mf, REAL eta
     int nm = (nn + 1) / 2;
     bt_gauss_legendre_rule(nm, gx, gw);
     REAL ec = side == 1 ? R(1.0) / eta : eta; /* canonical index */
-    REAL mu_c = rd_fresnel_reads_eta(fresnel) && ec < R(1.0) ? sqrt((R(1.0) - ec) * (R(1.0) + ec))
-                                                              : -R(1.0);
-    /* Boundaries in increasing order; g[k] = 2 where a panel end is mu_c. */
-    REAL e[2 + RD_AVG_GRAZING_LEVELS + 2 * RD_AVG_CRITICAL_LEVELS + 2];
+    REAL kink[RD_AVG_MAX_KINKS];
+    int nk = rd_avg_kinks(ec, fresnel, tir_rule, kink);
+    REAL mu_c = nk > 0 ? sqrt((R(1.0) - ec) * (R(1.0) + ec)) : -R(1.0); /* critical cosine */
+    /* Interior panel ends, ascending; g = 2 where the panels are graded. */
+    REAL e[RD_AVG_MAX_EDGES + 2];
+    int g[RD_AVG_MAX_EDGES + 2];
     int ne = 0;
-    REAL first = mu_c > R(0.0) ? mu_c : R(1.0);
-    e[ne++] = R(0.0);
-    REAL q = R(1.0);
-    for (int k = 0; k < RD_AVG_GRAZING_LEVELS; ++k) q *= R(0.25);
-    for (int k = RD_AVG_GRAZING_LEVELS; k >= 1; --k, q *= R(4.0)) e[ne++] = first * q; /* first 4^-k */
-    if (mu_c > R(0.0)) {
-        REAL d = mu_c - e[ne - 1]; /* to the last grazing level */
-        REAL s = R(0.25);
-        for (int k = 1; k <= RD_AVG_CRITICAL_LEVELS; ++k, s *= R(0.25)) e[ne++] = mu_c - d * s;
-        e[ne++] = mu_c;
-        d = R(1.0) - mu_c;
-        s = R(0.25);
-        for (int k = 1; k <= RD_AVG_CRITICAL_LEVELS; ++k, s *= R(0.25)) e[ne++] = mu_c + d * s;
-        /* ascending: reverse the last RD_AVG_CRITICAL_LEVELS entries */
-        for (int a = ne - RD_AVG_CRITICAL_LEVELS, b = ne - 1; a < b; ++a, --b) {
-            REAL t = e[a];
-            e[a] = e[b];
-            e[b] = t;
+    REAL t = R(1.0);
+    for (int k = 1; k <= RD_AVG_GRAZING_LEVELS; ++k) {
+        t *= R(0.25);
+        rd_avg_add_edge(e, g, &ne, t, 1);
+    }
+    for (int j = 0; j < nk; ++j) {
+        REAL K = kink[j];
+        REAL before = j > 0 ? R(0.5) * (kink[j - 1] + K) : R(0.0);
+        REAL after = j + 1 < nk ? R(0.5) * (K + kink[j + 1]) : R(1.0);
+        int levels = K == mu_c ? RD_AVG_CRITICAL_LEVELS : RD_AVG_KINK_LEVELS;
+        rd_avg_add_edge(e, g, &ne, K, 2);
+        if (j + 1 < nk) rd_avg_add_edge(e, g, &ne, after, 1);
+        t = R(1.0);
+        for (int k = 1; k <= levels; ++k) {
+            t *= R(0.25);
+            rd_avg_add_edge(e, g, &ne, K - (K - before) * t, 1);
+            rd_avg_add_edge(e, g, &ne, K + (after - K) * t, 1);
         }
     }
-    if (e[ne - 1] < R(1.0)) e[ne++] = R(1.0);
+    REAL last = ne > 0 ? e[ne - 1] : R(0.0);
+    rd_avg_add_edge(e, g, &ne, R(1.0) - R(0.25) * (R(1.0) - last), 1);
+    /* the ends 0 and 1 */
+    for (int k = ne; k > 0; --k) {
+        e[k] = e[k - 1];
+        g[k] = g[k - 1];
+    }
+    e[0] = R(0.0);
+    g[0] = 1;
+    ++ne;
+    e[ne] = R(1.0);
+    g[ne++] = 2;
     REAL sum = R(0.0);
     for (int k = 0; k + 1 < ne; ++k) {
         REAL lo = e[k], L = e[k + 1] - lo;
         if (!(L > R(0.0))) continue;
-        int glo = lo == mu_c ? 2 : 1, ghi = e[k + 1] == mu_c ? 2 : 1;
+        int glo = g[k], ghi = g[k + 1];
         for (int j = 0; j < nm; ++j) {
             REAL jac;
-            REAL t = bt_graded_map(R(0.5) * (gx[j] + R(1.0)), glo, ghi, &jac);
-            REAL mu = fmax(lo + L * t, RD_MIN_COS);
+            REAL tm = bt_graded_map(R(0.5) * (gx[j] + R(1.0)), glo, ghi, &jac);
+            REAL mu = fmax(lo + L * tm, RD_MIN_COS);
             bt_vec3 i = bt_v3(bt_safe_sqrt(R(1.0) - mu * mu), R(0.0), mu);
             REAL ar, at;
             rd_albedo_quadrature_rule(mf, i, ec, fresnel, nn, tir_rule, &ar, &at);
@@ -998,6 +1083,8 @@ BT_INLINE REAL rd_albedo_avg_quadrature_graded(const bt_microfacet* mf, REAL eta
     return sum;
 }
 
+#include "charlie_sheen.h"
+
 /* The model's sample function (estimator.h signature). */
 BT_INLINE REAL rough_dielectric_sample(const REAL* p, const int* o, int quantity,
                                        const bt_sampler* s)
@@ -1005,6 +1092,13 @@ BT_INLINE REAL rough_dielectric_sample(const REAL* p, const int* o, int quantity
     if (quantity == RD_Q_BRDF) return rough_dielectric_fr(p, o);
     if (quantity == RD_Q_BTDF) return rough_dielectric_ft(p, o);
     if (quantity == RD_Q_BSDF) return rough_dielectric_fs(p, o);
+
+    if (quantity == RD_Q_SHEEN_ALBEDO) {
+        REAL cv = bt_cos(p[0]);
+        if (s->method == BT_METHOD_QUADRATURE)
+            return cs_sheen_albedo_quadrature(cv, p[RD_PARAM_ALPHA], rd_quad_nodes(p, o, s));
+        return cs_sheen_albedo_sample(cv, p[RD_PARAM_ALPHA], bt_uniform(s, 0u), bt_uniform(s, 1u));
+    }
 
     bt_microfacet mf = rd_microfacet(p, o);
     /* The split-sum factors are F = 1 reflection albedos weighted by their
@@ -1020,7 +1114,7 @@ BT_INLINE REAL rough_dielectric_sample(const REAL* p, const int* o, int quantity
     const int directional = quantity == RD_Q_ALBEDO_R || quantity == RD_Q_ALBEDO_T ||
                             quantity == RD_Q_ALBEDO || split;
     if (s->method == BT_METHOD_QUADRATURE) {
-        int n = rd_quad_nodes(p, s);
+        int n = rd_quad_nodes(p, o, s);
         if (directional) {
             bt_vec3 i;
             bt_direction(p[0], p[1], RD_MIN_COS, BT_DIR_SIGNED_COS, &i);
