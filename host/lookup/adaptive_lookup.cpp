@@ -23,9 +23,26 @@ constexpr std::size_t kMaxAdaptiveDims = 8;
 // AdaptiveTable::to_t forms it (the inverse warp, unwarp_at on a dependent
 // axis, clamped to [0, 1]), then the layout's eval: AdaptiveTable::eval's
 // result bit for bit.
+// The leaf holding t (every t_a in [0, 1]): AdaptiveLayout::leaf_of's
+// descent (whose clamp is then the identity) over the packed nodes.
+BT_LOOKUP_INLINE std::size_t leaf_at(const lookup_detail::TreeNode* tree, const double* t) {
+    const lookup_detail::TreeNode* n = tree;
+    // The child indexed by the comparison: no branch to mispredict per level.
+    while (n->axis >= 0) n = tree + n->child[!(t[n->axis] < n->split)];
+    return n->child[0];
+}
+
+std::vector<lookup_detail::TreeNode> pack_tree(const AdaptiveLayout& L) {
+    std::vector<lookup_detail::TreeNode> tree(L.split_axis.size());
+    for (std::size_t k = 0; k < tree.size(); ++k)
+        tree[k] = {L.split_t[k], L.split_axis[k], {L.lower[k], L.upper[k]}};
+    return tree;
+}
+
 template <int D>
-BT_LOOKUP_INLINE double adaptive_value(const AdaptiveTable& at, const FastAxis* fast,
-                                       const int* dependency, const double* x, std::size_t dims) {
+BT_LOOKUP_INLINE double adaptive_value(const AdaptiveTable& at, const lookup_detail::TreeNode* tree,
+                                       const FastAxis* fast, const int* dependency, const double* x,
+                                       std::size_t dims) {
     double t[kMaxAdaptiveDims];
     const Axis* axes = at.data.axes.data();
     auto one = [&](std::size_t d) {
@@ -39,7 +56,7 @@ BT_LOOKUP_INLINE double adaptive_value(const AdaptiveTable& at, const FastAxis* 
     } else {
         for (std::size_t d = 0; d < dims && d < kMaxAdaptiveDims; ++d) one(d);
     }
-    return at.layout.eval(t, at.data.value.data());
+    return at.layout.eval_leaf(leaf_at(tree, t), t, at.data.value.data());
 }
 
 }  // namespace
@@ -74,7 +91,7 @@ double LookupTable::adaptive_kernel(const LookupTable& lt, const double* coords,
 #pragma GCC unroll 8
     for (int d = 0; d < D; ++d)
         x[d] = resolve_fast(fast[d], ax[d], coords[d], mode, lt.pieces_.front().name);
-    return adaptive_value<D>(*lt.adaptive_, fast, lt.dependency_.data(), x, D);
+    return adaptive_value<D>(*lt.adaptive_, lt.tree_.data(), fast, lt.dependency_.data(), x, D);
 }
 
 void LookupTable::init_adaptive() {
@@ -89,6 +106,7 @@ void LookupTable::init_adaptive() {
     }
     init_axes();
     strides_.clear();
+    tree_ = pack_tree(adaptive_->layout);
     init_angles();
     using Fn = double (*)(const LookupTable&, const double*, OutOfRange);
     static const Fn kernels[] = {&adaptive_kernel<1>, &adaptive_kernel<2>, &adaptive_kernel<3>,
@@ -107,6 +125,7 @@ void BoundTable::bind_adaptive(const LookupTable& lt, const std::vector<double>&
     adaptive_fast_ = lt.fast_;
     adaptive_coords_ = coords;
     adaptive_dependency_ = lt.dependency_;
+    adaptive_tree_ = lt.tree_;
     kernel_ = Kernel::Adaptive;
     // The sampling densities' corners: the table at the angle axes' nodes.
     const std::size_t ni = axes_[0].count, no = axes_[1].count, np = axes_[2].count;
@@ -126,8 +145,8 @@ double BoundTable::eval_adaptive(const double* x) const {
     c[layout_.axis_i] = x[0];
     c[layout_.axis_o] = x[1];
     if (has_phi_) c[layout_.axis_phi] = x[2];
-    return adaptive_value<0>(*adaptive_, adaptive_fast_.data(), adaptive_dependency_.data(), c,
-                             dims);
+    return adaptive_value<0>(*adaptive_, adaptive_tree_.data(), adaptive_fast_.data(),
+                             adaptive_dependency_.data(), c, dims);
 }
 
 }  // namespace brdftab

@@ -102,6 +102,14 @@ struct FastAxis {
     void build(const Axis& a);
 };
 
+// One node of an adaptive table's tree, packed for the descent: split axis
+// (-1: a leaf, child[0] its index), cut, children below and above the cut.
+struct TreeNode {
+    double split = 0;
+    std::int32_t axis = -1;
+    std::uint32_t child[2] = {0, 0};
+};
+
 }  // namespace lookup_detail
 
 class LookupTable {
@@ -280,6 +288,7 @@ private:
     std::vector<double> num_{1.0}, den_{1.0};
     AngleLayout layout_;
     std::shared_ptr<const AdaptiveTable> adaptive_;  // null: a tensor table
+    std::vector<lookup_detail::TreeNode> tree_;      // its tree, packed
     bool directional_ = false;
     std::string directional_error_;
 
@@ -368,6 +377,7 @@ private:
     std::vector<lookup_detail::FastAxis> adaptive_fast_;
     std::vector<double> adaptive_coords_;
     std::vector<int> adaptive_dependency_;
+    std::vector<lookup_detail::TreeNode> adaptive_tree_;
     double eval_adaptive(const double* x) const;  // x: resolved angles
     // Kernel::Adaptive from the table and every coordinate (the bound ones
     // resolved), once axes_ and has_phi_ are set.
