@@ -8,12 +8,19 @@
 // representation's reference evaluation, host/adaptive), which eval must
 // equal bit for bit because it forms the same t and calls the same leaf
 // interpolant; the normalisation of a density (a midpoint quadrature over
-// the hemisphere written here).
+// the hemisphere written here).  The C header's traversal, compiled by the
+// system's C compiler, must equal AdaptiveTable::eval (what `brdftab query`
+// prints) bit for bit on values exactly representable as float.
 #include <doctest/doctest.h>
 
 #include "test_support.h"
 
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <iterator>
 #include <random>
 #include <string>
 #include <vector>
@@ -21,6 +28,7 @@
 #include "host/adaptive/adaptive_io.h"
 #include "host/adaptive/adaptive_table.h"
 #include "host/core/error.h"
+#include "host/io/header_export.h"
 #include "host/lookup/lookup.h"
 
 using namespace brdftab;
@@ -213,4 +221,66 @@ TEST_CASE("adaptive lookup: bound sampling is a normalised density consistent wi
             CHECK(s.value == doctest::Approx(b.eval(wi, s.wo)).epsilon(1e-12));
         }
     }
+}
+
+TEST_CASE("adaptive C header: the compiled traversal equals AdaptiveTable::eval bit for bit") {
+    AdaptiveTable at = make_table(smooth, 1e-3, 20000, {});
+    REQUIRE(at.layout.leaf_count() > 20);
+    for (double& v : at.data.value) v = double(float(v));  // a float header stores them exactly
+    const std::string dir = std::string(BT_BINARY_DIR);
+    const std::string header = dir + "/test_adaptive_hdr.h";
+    HeaderExportOptions opt;
+    opt.type = HeaderValueType::Float;
+    opt.name = "ad";
+    export_c_header(at, header, opt);
+    std::mt19937_64 rng(21);
+    std::uniform_real_distribution<double> U(0, 1);
+    std::vector<std::vector<double>> pts;
+    for (int n = 0; n < 2000; ++n) {
+        std::vector<double> x;
+        for (const Axis& a : at.data.axes) {
+            const double w = a.max - a.min;
+            x.push_back(a.min - 0.05 * w + 1.1 * w * U(rng));  // some outside: clamped
+        }
+        pts.push_back(x);
+    }
+    const std::string prog = dir + "/test_adaptive_hdr.c", exe = dir + "/test_adaptive_hdr";
+    {
+        std::ofstream c(prog);
+        c << "#include <stdio.h>\n#include \"test_adaptive_hdr.h\"\nstatic const double p[][4] = {\n";
+        char buf[40];
+        for (const auto& x : pts) {
+            c << "  {";
+            for (double v : x) {
+                std::snprintf(buf, sizeof buf, "%a", v);
+                c << buf << ",";
+            }
+            c << "},\n";
+        }
+        c << "};\nint main(void) {\n  size_t i;\n  for (i = 0; i < sizeof p / sizeof p[0]; ++i)"
+             " printf(\"%a\\n\", ad_eval(p[i]));\n  return 0;\n}\n";
+    }
+    const char* cc = std::getenv("CC");
+    const std::string compiler = cc && *cc ? cc : "cc";
+    const std::string cmd = compiler + " -std=c99 -Wall -Wextra -Werror -I" + dir + " " + prog +
+                            " -o " + exe + " -lm 2>" + exe + ".err && " + exe + " > " + exe + ".out";
+    if (std::system(cmd.c_str()) != 0) {
+        std::ifstream err(exe + ".err");
+        const std::string text((std::istreambuf_iterator<char>(err)), {});
+        // A compiler that exists but rejects the header is a failure.
+        CHECK_MESSAGE(text.find("ad_") == std::string::npos, text);
+        MESSAGE("no working C compiler ('" << compiler << "'): header not compiled");
+        return;
+    }
+    std::ifstream in(exe + ".out");
+    int mismatches = 0;
+    for (const auto& x : pts) {
+        std::string line;
+        REQUIRE(static_cast<bool>(std::getline(in, line)));
+        const double got = std::strtod(line.c_str(), nullptr), want = at.eval(x.data());
+        if (std::memcmp(&got, &want, sizeof got) != 0) ++mismatches;
+    }
+    CHECK(mismatches == 0);
+    for (const std::string& p : {header, prog, exe, exe + ".out", exe + ".err"})
+        std::remove(p.c_str());
 }
