@@ -102,6 +102,22 @@ struct FastAxis {
     void build(const Axis& a);
 };
 
+// What the adaptive kernels need besides the table (adaptive_lookup.cpp):
+// the packed tree, the leaves' node strides, and the kernel chosen once.
+struct TreeNode;
+struct AdaptiveKernel {
+    std::size_t stride[8] = {0, 0, 0, 0, 0, 0, 0, 0};  // of a leaf's nodes, per axis
+    std::size_t nodes_per_leaf = 0;
+    // A uniform grid of 2^grid_bits cells per axis over t: per cell the
+    // deepest tree node whose box holds the whole cell, where the descent
+    // starts (it would reach that node anyway: the same leaf).
+    unsigned grid_bits = 0;
+    std::vector<std::uint32_t> start;
+    // The value at resolved coordinates x (every axis inside its range).
+    double (*value)(const AdaptiveTable& at, const AdaptiveKernel& k, const TreeNode* tree,
+                    const FastAxis* fast, const int* dependency, const double* x) = nullptr;
+};
+
 // One node of an adaptive table's tree, packed for the descent: split axis
 // (-1: a leaf, child[0] its index), cut, children below and above the cut.
 struct TreeNode {
@@ -289,6 +305,7 @@ private:
     AngleLayout layout_;
     std::shared_ptr<const AdaptiveTable> adaptive_;  // null: a tensor table
     std::vector<lookup_detail::TreeNode> tree_;      // its tree, packed
+    lookup_detail::AdaptiveKernel akernel_;
     bool directional_ = false;
     std::string directional_error_;
 
@@ -378,6 +395,7 @@ private:
     std::vector<double> adaptive_coords_;
     std::vector<int> adaptive_dependency_;
     std::vector<lookup_detail::TreeNode> adaptive_tree_;
+    lookup_detail::AdaptiveKernel akernel_;
     double eval_adaptive(const double* x) const;  // x: resolved angles
     // Kernel::Adaptive from the table and every coordinate (the bound ones
     // resolved), once axes_ and has_phi_ are set.
