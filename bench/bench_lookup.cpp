@@ -8,7 +8,10 @@
 //   - BoundTable::sample(wi, u1, u2) and BoundTable::pdf,
 //   - the batch forms of the four (eval_many, BoundTable::eval_many,
 //     sample_many, pdf_many) on blocks of 256 points,
-// for a 3-D table (theta_i, theta_o, phi_d) and a 5-D table (+ alpha, eta).
+// for a 3-D table (theta_i, theta_o, phi_d), an adaptive 3-D table of the
+// same function with at most as many stored values (docs/adaptive.md; linear
+// only) and a 5-D table (+ alpha, eta).  The last lines compare the adaptive
+// table's linear rates with the tensor table's.
 // Usage: bench_lookup [seconds per measurement, default 0.4]
 #include <atomic>
 #include <ctime>
@@ -20,6 +23,7 @@
 #include <thread>
 #include <vector>
 
+#include "host/adaptive/adaptive_table.h"
 #include "host/core/grid.h"
 #include "host/lookup/lookup.h"
 #include "host/core/table.h"
@@ -84,6 +88,30 @@ TableData make_table(bool five_d) {
     return t;
 }
 
+// The 3-D function as an adaptive table: refined to 1e-3 absolute (or until
+// it holds as many values as the tensor table has cells).
+AdaptiveTable make_adaptive(std::size_t max_values) {
+    const TableData grid = make_table(false);
+    AdaptiveTable t;
+    t.data = grid;
+    t.data.value.clear();
+    AdaptiveBuildOptions o;
+    o.target = 1e-3;
+    o.max_values = max_values;
+    std::vector<double> stderrs;
+    build_adaptive(
+        3, o,
+        [&](std::size_t count, const double* tp, double* v, double*) {
+            for (std::size_t k = 0; k < count; ++k) {
+                double x[3];
+                t.to_x(tp + 3 * k, x);
+                v[k] = ggx_brdf(x[0], x[1], x[2], 0.3, 1.5);
+            }
+        },
+        false, t.layout, t.data.value, stderrs);
+    return t;
+}
+
 struct Rng {  // splitmix64
     std::uint64_t s;
     double uniform() {
@@ -143,14 +171,26 @@ Vec3 dir(double theta_deg, double phi_deg) {
             std::sin(theta_deg * d) * std::sin(phi_deg * d), std::cos(theta_deg * d)};
 }
 
-void bench(bool five_d, int threads, double seconds) {
+// Per-core linear rates of eval(coords) and eval(wi, wo), for the summary.
+struct Rates {
+    double eval = 0, dirs = 0;
+};
+
+Rates bench(const char* label, const std::function<LookupTable()>& make, bool five_d, int threads,
+            double seconds) {
     const auto tb0 = std::chrono::steady_clock::now();
-    const LookupTable lt(make_table(five_d));
+    const LookupTable lt = make();
     const std::size_t dims = lt.axes().size();
-    std::printf("\n%s table: ", five_d ? "5-D" : "3-D");
+    std::printf("\n%s table: ", label);
     for (const auto& a : lt.axes()) std::printf("%s(%zu) ", a.name.c_str(), a.count);
-    std::printf("= %zu cells, built in %.2f s\n", lt.table().value.size(),
+    if (lt.is_adaptive())
+        std::printf("axes; adaptive, %zu leaves, %zu stored values", lt.adaptive()->layout.leaf_count(),
+                    lt.table().value.size());
+    else
+        std::printf("= %zu cells", lt.table().value.size());
+    std::printf(", built in %.2f s\n",
                 std::chrono::duration<double>(std::chrono::steady_clock::now() - tb0).count());
+    Rates rates;
 
     // Pre-drawn random inputs (the RNG is not part of the measurement).
     const std::size_t n = 1 << 16;
@@ -179,6 +219,7 @@ void bench(bool five_d, int threads, double seconds) {
                : std::map<std::string, double>{};
 
     for (Interpolation interp : {Interpolation::Linear, Interpolation::Cubic}) {
+        if (lt.is_adaptive() && interp == Interpolation::Cubic) continue;  // linear patches
         const char* name = interp == Interpolation::Linear ? "linear" : "cubic";
         // Each thread keeps its own coordinate vector (eval takes a vector).
         std::vector<std::vector<double>> scratch(threads, std::vector<double>(dims));
@@ -243,6 +284,8 @@ void bench(bool five_d, int threads, double seconds) {
             else wall_all = wall1;
             std::printf("  %-6s %-13s %8.2f M/s per core (CPU time)  %8.2f M/s wall, %d threads\n",
                         name, it.what, one / 1e6, wall_all * double(it.points) / 1e6, threads);
+            if (interp == Interpolation::Linear && it.body.target<decltype(eval_body)>()) rates.eval = one;
+            if (interp == Interpolation::Linear && it.body.target<decltype(dir_body)>()) rates.dirs = one;
         }
         // Sanity: the mean sample weight estimates the directional albedo
         // (integral of f cos) averaged over the drawn wi.
@@ -259,6 +302,7 @@ void bench(bool five_d, int threads, double seconds) {
         std::printf("  %-6s mean sample weight %.4f (uniform-hemisphere estimate %.4f)\n", name,
                     mean_w / m, mean_q / m);
     }
+    return rates;
 }
 
 }  // namespace
@@ -268,7 +312,14 @@ int main(int argc, char** argv) {
     const int threads = std::max(1u, std::thread::hardware_concurrency());
     std::printf("bench_lookup: GGX reflection tables (alpha = 0.3, eta = 1.5 for bind/sample), "
                 "%.2f s per figure, %d hardware threads\n", seconds, threads);
-    bench(false, threads, seconds);
-    bench(true, threads, seconds);
+    const std::size_t cells3 = make_table(false).value.size();
+    const Rates tensor = bench("3-D", [] { return LookupTable(make_table(false)); }, false, threads, seconds);
+    const Rates adaptive = bench(
+        "3-D adaptive", [&] { return LookupTable(make_adaptive(cells3)); }, false, threads, seconds);
+    bench("5-D", [] { return LookupTable(make_table(true)); }, true, threads, seconds);
+    std::printf("\n3-D adaptive / tensor, linear, per core: eval(coords) %.2f M/s vs %.2f M/s (%.0f %%), "
+                "eval(wi, wo) %.2f M/s vs %.2f M/s (%.0f %%)\n",
+                adaptive.eval / 1e6, tensor.eval / 1e6, 100 * adaptive.eval / tensor.eval,
+                adaptive.dirs / 1e6, tensor.dirs / 1e6, 100 * adaptive.dirs / tensor.dirs);
     return 0;
 }

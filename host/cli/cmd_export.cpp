@@ -261,7 +261,13 @@ void run_export(const ExportArgs& a) {
         if (o.type_given) o.type = parse_header_value_type(a.type);
         o.source = std::filesystem::path(a.file).filename().string();
         std::vector<TableData> channels;
-        for (const auto& t : split_commas(a.table)) channels.push_back(LookupTable::open(a.file, t).table());
+        for (const auto& t : split_commas(a.table)) {
+            const LookupTable lt = LookupTable::open(a.file, t);
+            if (lt.is_adaptive())
+                throw InputError(a.file + ": table '" + t + "' is adaptive (docs/adaptive.md): --layout "
+                                 "writes tensor arrays; export it with --header alone (a tree traversal)");
+            channels.push_back(lt.table());
+        }
         export_renderer_header(channels, a.header, o);
     } else if (header) {
         HeaderExportOptions o;
@@ -272,7 +278,10 @@ void run_export(const ExportArgs& a) {
         // Through the lookup library, so a reciprocal-half table is completed
         // exactly as `query` sees it.
         const LookupTable lt = LookupTable::open(a.file, a.table);
-        export_c_header(lt.table(), a.header, o);
+        if (lt.is_adaptive())
+            export_c_header(*lt.adaptive(), a.header, o);  // the tree traversal
+        else
+            export_c_header(lt.table(), a.header, o);
     } else {
         MerlExportOptions o;
         o.parameters = slice;

@@ -13,6 +13,8 @@
 // contracting them in place measured slower in C than this recursion.)
 #include "host/io/header_export.h"
 
+#include "host/adaptive/adaptive_table.h"
+
 #include <algorithm>
 #include <cctype>
 #include <cmath>
@@ -129,7 +131,7 @@ namespace {
 
 // Checks what the header format cannot hold; returns whether some axis has
 // log-complement spacing (its pivot array is written only then).
-bool check_exportable(const TableData& table, const std::string& where) {
+bool check_exportable(const TableData& table, const std::string& where, bool tensor = true) {
     if (table.parameters.is_object() && table.parameters.contains("recombine"))
         throw InputError(where +
                          "the table is recombined from other tables at lookup time; export "
@@ -148,7 +150,7 @@ bool check_exportable(const TableData& table, const std::string& where) {
                              "Python module) or regenerate the table with another spacing");
         has_pivot = has_pivot || a.spacing == Spacing::LogComplement;
     }
-    const std::size_t cells = checked_cell_count(table.axes, where);
+    const std::size_t cells = tensor ? checked_cell_count(table.axes, where) : table.value.size();
     if (table.value.size() != cells)
         throw Error(where + "value has " + std::to_string(table.value.size()) +
                     " entries, the axes need " + std::to_string(cells));
@@ -467,36 +469,177 @@ std::string lookup_functions(const std::string& id, const Storage& st, bool has_
 
 }  // namespace
 
-void export_c_header(const TableData& table, const std::string& out_path,
-                     const HeaderExportOptions& options) {
-    const std::string where = "C header export of table '" + table.name + "': ";
-    const bool has_pivot = check_exportable(table, where);
-    bool has_explicit = false;
-    for (const Axis& a : table.axes) has_explicit = has_explicit || a.spacing == Spacing::Explicit;
-    const std::size_t cells = table.value.size(), dims = table.axes.size();
-    const std::string id = header_identifier(table, options);
-    std::string guard = "BRDFTAB_" + id + "_H";
-    for (char& c : guard) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
-    const Storage st = make_storage(table, options.type, id, where);
-    const std::string D = id + "_DIMS";
+namespace {
 
-    std::string h = header_comment(table, options, id, st);
-    h += "#ifndef " + guard + "\n#define " + guard + "\n\n";
+// The guard, includes, macros and axis arrays every header opens with.
+std::string header_preamble(const TableData& table, const std::string& id, const std::string& guard,
+                            const Storage& st, HeaderValueType type, bool has_pivot,
+                            bool has_explicit) {
+    const std::string D = id + "_DIMS";
+    std::string h = "#ifndef " + guard + "\n#define " + guard + "\n\n";
     h += "#include <math.h>\n#include <stddef.h>\n#include <stdint.h>\n\n";
-    h += "#define " + D + " " + std::to_string(dims) + "\n";
-    h += "#define " + id + "_CELLS " + std::to_string(cells) + "u\n";
+    h += "#define " + D + " " + std::to_string(table.axes.size()) + "\n";
+    h += "#define " + id + "_CELLS " + std::to_string(table.value.size()) + "u\n";
     const char* spacing_names[] = {"LINEAR", "COS", "LOG", "QUADRATIC", "EXPLICIT"};
     for (int k = 0; k < 5; ++k)
         h += "#define " + id + "_SPACING_" + spacing_names[k] + " " + std::to_string(k) + "\n";
     // Only in headers that use it, so other headers stay as they were.
     if (has_pivot) h += "#define " + id + "_SPACING_LOG_COMPLEMENT 5\n";
-    if (options.type == HeaderValueType::Uint16) {
+    if (type == HeaderValueType::Uint16) {
         h += "#define " + id + "_OFFSET " + dbl(st.offset) + "\n";
         h += "#define " + id + "_SCALE " + dbl(st.scale) + "\n";
     }
     h += "\n" + axis_arrays(table, id, has_pivot, has_explicit) + "\n";
     put_array(h, st.c_type + " " + id + "_values[" + id + "_CELLS]", st.items);
+    return h;
+}
+
+std::string guard_of(const std::string& id) {
+    std::string guard = "BRDFTAB_" + id + "_H";
+    for (char& c : guard) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+    return guard;
+}
+
+bool any_explicit(const TableData& table) {
+    for (const Axis& a : table.axes)
+        if (a.spacing == Spacing::Explicit) return true;
+    return false;
+}
+
+// The tree and leaf arrays of an adaptive table.
+std::string adaptive_arrays(const AdaptiveLayout& L, const std::string& id) {
+    std::vector<std::string> axis, split, lower, upper, box, nodes;
+    for (std::size_t k = 0; k < L.split_axis.size(); ++k) {
+        axis.push_back(std::to_string(L.split_axis[k]));
+        split.push_back(dbl(L.split_t[k]));
+        lower.push_back(std::to_string(L.lower[k]) + "u");
+        upper.push_back(std::to_string(L.upper[k]) + "u");
+    }
+    for (double b : L.box) box.push_back(dbl(b));
+    for (auto n : L.leaf_nodes) nodes.push_back(std::to_string(n) + "u");
+    const std::string tn = std::to_string(axis.size());
+    std::string h;
+    h += "#define " + id + "_PATCH_NODES " + std::to_string(L.patch_nodes) + "u\n";
+    h += "#define " + id + "_LEAVES " + std::to_string(L.leaf_count()) + "u\n";
+    h += "/* tree node k: split_axis[k] >= 0 cuts that axis at t = split_t[k], children\n"
+         "   lower[k] (t < split_t[k]) and upper[k]; split_axis[k] = -1: a leaf, lower[k]\n"
+         "   its index.  Node 0 is the root. */\n";
+    put_array(h, "int32_t " + id + "_split_axis[" + tn + "]", axis);
+    put_array(h, "double " + id + "_split_t[" + tn + "]", split);
+    put_array(h, "uint32_t " + id + "_lower[" + tn + "]", lower);
+    put_array(h, "uint32_t " + id + "_upper[" + tn + "]", upper);
+    h += "/* leaf l's box on axis a: [box[(l*DIMS + a)*2], box[(l*DIMS + a)*2 + 1]] in t */\n";
+    put_array(h, "double " + id + "_box[" + std::to_string(box.size()) + "]", box);
+    h += "/* leaf l's PATCH_NODES^DIMS nodes (row-major, last axis fastest): indices into\n"
+         "   the values; node (i_0, ...) at t_a = lo_a + i_a (hi_a - lo_a) / (PATCH_NODES - 1) */\n";
+    put_array(h, "uint32_t " + id + "_leaf_nodes[" + std::to_string(nodes.size()) + "]", nodes);
+    return h;
+}
+
+// eval: clamp, t per axis, the descent, the leaf's multilinear interpolant.
+std::string adaptive_eval(const std::string& id) {
+    const std::string D = id + "_DIMS", N = id + "_PATCH_NODES";
+    std::string h;
+    h += "static inline double " + id + "_eval(const double x[" + D + "]) {\n"
+         "    double t[" + D + "], frac[" + D + "], sum = 0;\n"
+         "    size_t stride[" + D + "], base = 0, s = 1, npl = 1, corner, leaf;\n"
+         "    uint32_t node = 0;\n"
+         "    const double* box;\n"
+         "    const uint32_t* nodes;\n"
+         "    int k;\n"
+         "    for (k = 0; k < " + D + "; ++k) {\n"
+         "        double v = x[k];\n"
+         "        if (v != v) return v; /* NaN */\n"
+         "        if (v < " + id + "_min[k]) v = " + id + "_min[k];\n"
+         "        if (v > " + id + "_max[k]) v = " + id + "_max[k];\n"
+         "        v = " + id + "_unwarp(k, v);\n"
+         "        t[k] = v < 0 ? 0 : (v > 1 ? 1 : v);\n"
+         "    }\n"
+         "    while (" + id + "_split_axis[node] >= 0)\n"
+         "        node = t[" + id + "_split_axis[node]] < " + id + "_split_t[node] ? " + id +
+         "_lower[node] : " + id + "_upper[node];\n"
+         "    leaf = " + id + "_lower[node];\n"
+         "    for (k = " + D + " - 1; k >= 0; --k) {\n"
+         "        stride[k] = s;\n"
+         "        s *= " + N + ";\n"
+         "    }\n"
+         "    npl = s;\n"
+         "    box = " + id + "_box + leaf * " + D + " * 2;\n"
+         "    nodes = " + id + "_leaf_nodes + leaf * npl;\n"
+         "    for (k = 0; k < " + D + "; ++k) {\n"
+         "        const double lo = box[2 * k], hi = box[2 * k + 1];\n"
+         "        double v = t[k] < lo ? lo : (t[k] > hi ? hi : t[k]), u;\n"
+         "        size_t i;\n"
+         "        u = (v - lo) / (hi - lo) * (double)(" + N + " - 1);\n"
+         "        if (u < 0) u = 0;\n"
+         "        if (u > (double)(" + N + " - 1)) u = (double)(" + N + " - 1);\n"
+         "        i = (size_t)u;\n"
+         "        if (i > " + N + " - 2) i = " + N + " - 2;\n"
+         "        frac[k] = u - (double)i;\n"
+         "        base += i * stride[k];\n"
+         "    }\n"
+         "    for (corner = 0; corner < ((size_t)1 << " + D + "); ++corner) {\n"
+         "        double w = 1;\n"
+         "        size_t idx = base;\n"
+         "        for (k = 0; k < " + D + "; ++k) {\n"
+         "            if ((corner >> k) & 1u) {\n"
+         "                w *= frac[k];\n"
+         "                idx += stride[k];\n"
+         "            } else {\n"
+         "                w *= 1 - frac[k];\n"
+         "            }\n"
+         "        }\n"
+         "        if (w != 0) sum += w * " + id + "_value(nodes[idx]);\n"
+         "    }\n"
+         "    (void)npl;\n"
+         "    return sum;\n"
+         "}\n\n";
+    return h;
+}
+
+}  // namespace
+
+void export_c_header(const TableData& table, const std::string& out_path,
+                     const HeaderExportOptions& options) {
+    const std::string where = "C header export of table '" + table.name + "': ";
+    const bool has_pivot = check_exportable(table, where);
+    const bool has_explicit = any_explicit(table);
+    const std::string id = header_identifier(table, options);
+    const std::string guard = guard_of(id);
+    const Storage st = make_storage(table, options.type, id, where);
+    std::string h = header_comment(table, options, id, st);
+    h += header_preamble(table, id, guard, st, options.type, has_pivot, has_explicit);
     h += "\n" + lookup_functions(id, st, has_pivot, has_explicit);
+    h += "#endif /* " + guard + " */\n";
+    write_text_atomically(out_path, h);
+}
+
+void export_c_header(const AdaptiveTable& at, const std::string& out_path,
+                     const HeaderExportOptions& options) {
+    TableData table = at.data;
+    const std::string where = "C header export of table '" + table.name + "': ";
+    for (auto& a : table.axes)  // the node lists of the warps, as the lookup library forms them
+        if (a.values.empty() && a.count >= 2 && !a.dependent())
+            for (std::size_t k = 0; k < a.count; ++k) a.values.push_back(a.warp(double(k) / double(a.count - 1)));
+    const bool has_pivot = check_exportable(table, where, false);
+    at.layout.check(table.value.size(), where);
+    const bool has_explicit = any_explicit(table);
+    const std::string id = header_identifier(table, options);
+    const std::string guard = guard_of(id);
+    const Storage st = make_storage(table, options.type, id, where);
+    std::string h = header_comment(table, options, id, st);
+    // The tensor comment's interpolation paragraph, corrected for the tree.
+    h += "/* Adaptive table (docs/adaptive.md): " + id + "_eval descends the k-d tree to the\n"
+         "   leaf holding t and interpolates its " + std::to_string(at.layout.patch_nodes) +
+         "^DIMS-node patch multilinearly in t\n"
+         "   (instead of one tensor grid; " + id + "_values holds one value per stored node). */\n";
+    h += header_preamble(table, id, guard, st, options.type, has_pivot, has_explicit);
+    h += adaptive_arrays(at.layout, id) + "\n";
+    std::string f = lookup_functions(id, st, has_pivot, has_explicit);
+    // Keep the value decode and the inverse warp; the tensor contraction and
+    // eval give way to the adaptive eval.
+    f = f.substr(0, f.find("static inline double " + id + "_contract_("));
+    h += "\n" + f + adaptive_eval(id);
     h += "#endif /* " + guard + " */\n";
     write_text_atomically(out_path, h);
 }

@@ -55,4 +55,12 @@ std::string header_identifier(const TableData& table, const HeaderExportOptions&
 void export_c_header(const TableData& table, const std::string& out_path,
                      const HeaderExportOptions& options);
 
+struct AdaptiveTable;  // host/adaptive/adaptive_table.h
+// An adaptive table (docs/adaptive.md) as a header: the axes as above, the
+// tree (split axis, cut, children), the leaves' boxes and node lists, the
+// node values and an eval that descends the tree and interpolates the leaf
+// as AdaptiveLayout::eval does.  The same storage types and refusals.
+void export_c_header(const AdaptiveTable& table, const std::string& out_path,
+                     const HeaderExportOptions& options);
+
 }  // namespace brdftab

@@ -130,13 +130,17 @@ void LookupTable::eval_dirs_many(const double* wi, const double* wo, std::size_t
 BoundTable LookupTable::bind(const std::map<std::string, double>& params,
                              Interpolation interp, OutOfRange mode) const {
     std::vector<double> v = param_coords(params, nullptr);
+    if (adaptive_ && interp == Interpolation::Cubic) refuse_adaptive("no cubic interpolation");
     const auto& ax = axes();
     const std::size_t dims = ax.size();
     std::vector<AxisWeights> ws(dims);
     for (std::size_t d = 0; d < dims; ++d) {
         if (int(d) == layout_.axis_i || int(d) == layout_.axis_o || int(d) == layout_.axis_phi)
             continue;
-        axis_weights(ax[d], resolve(ax[d], v[d], mode, table().name), interp, ws[d]);
+        if (adaptive_)  // resolved as eval() resolves them
+            v[d] = resolve_fast(fast_[d], ax[d], v[d], mode, table().name);
+        else
+            axis_weights(ax[d], resolve(ax[d], v[d], mode, table().name), interp, ws[d]);
     }
     double p = 0;
     if (!terms_.empty()) {
@@ -170,6 +174,14 @@ BoundTable LookupTable::bind(const std::map<std::string, double>& params,
         b.layout_.scale_phi = kDeg;
     }
     const std::size_t ni = b.axes_[0].count, no = b.axes_[1].count, np = b.axes_[2].count;
+    for (int d = 0; d < 3; ++d) b.fast_[d].build(b.axes_[d]);
+    b.stride_i_ = no * np;
+    b.stride_o_ = np;
+    if (adaptive_) {
+        b.bind_adaptive(*this, v);
+        b.build_sampling();
+        return b;
+    }
     b.values_.resize(ni * no * np);
     std::vector<double> pv(pieces_.size());
     for (std::size_t i = 0; i < ni; ++i)
@@ -182,9 +194,6 @@ BoundTable LookupTable::bind(const std::map<std::string, double>& params,
                     pv[k] = contract(ws.data(), strides_.data(), dims, pieces_[k].value.data());
                 b.values_[(i * no + o) * np + f] = combine(pv.data(), p);
             }
-    for (int d = 0; d < 3; ++d) b.fast_[d].build(b.axes_[d]);
-    b.stride_i_ = no * np;
-    b.stride_o_ = np;
     b.kernel_ = interp == Interpolation::Cubic ? BoundTable::Kernel::GridCubic
                 : all_finite(b.values_)            ? BoundTable::Kernel::GridLinear
                                                    : BoundTable::Kernel::GridLinearNonFinite;
@@ -215,6 +224,8 @@ double BoundTable::eval_angles(double xi, double xo, double xphi) const {
         }
         case Kernel::GridCubic:
             break;
+        case Kernel::Adaptive:
+            return eval_adaptive(x);
     }
     AxisWeights ws[3];
     for (int d = 0; d < 3; ++d)

@@ -164,6 +164,7 @@ void stencil_indices(const AxisWeights* ws, const std::size_t* strides, std::siz
 
 void LookupTable::stencil_cells(const std::vector<double>& coords, Interpolation interp,
                                 OutOfRange mode, std::vector<std::size_t>& cells) const {
+    if (adaptive_) refuse_adaptive("it has no tensor stencil");
     const auto& ax = axes();
     if (coords.size() < ax.size())
         throw InputError("table '" + table().name + "': stencil_cells needs " +
@@ -248,6 +249,7 @@ double LookupTable::eval_point(const double* coords, Interpolation interp,
 // axes: the per-axis weights and contract().
 double LookupTable::eval_general(const double* coords, Interpolation interp,
                                  OutOfRange mode) const {
+    if (adaptive_) refuse_adaptive("no cubic interpolation");
     const auto& ax = axes();
     const std::size_t dims = ax.size();
     const std::size_t np = pieces_.size();
@@ -382,7 +384,7 @@ void LookupTable::eval_many(const double* coords, std::size_t count, double* out
                             Interpolation interp, OutOfRange mode) const {
     const std::size_t dims = axes().size();
     const std::size_t width = dims + (terms_.empty() ? 0 : 1);
-    if (interp == Interpolation::Linear && linear_ && terms_.empty()) {
+    if (interp == Interpolation::Linear && linear_ && terms_.empty() && !adaptive_) {
         const ManyLinear m{fast_.data(), axes().data(), strides_.data(),
                            pieces_.front().value.data(), &table().name};
         // The choice of choose_linear_kernel(): the unskipped kernel when finite.

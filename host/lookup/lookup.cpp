@@ -9,6 +9,7 @@
 #include <cmath>
 
 #include "host/core/error.h"
+#include "host/adaptive/adaptive_io.h"
 #include "host/io/table_io.h"
 #include "host/lookup/lookup_internal.h"
 
@@ -124,6 +125,14 @@ LookupTable LookupTable::from_tables(const std::vector<TableData>& tables,
 LookupTable LookupTable::open(const std::string& path, const std::string& table) {
     // One open file for the head table and the tables its recipe names.
     const TableReader reader(path);
+    if (is_adaptive_table(reader, table)) {
+        AdaptiveTable at = read_adaptive_table(reader, table);
+        try {
+            return LookupTable(std::move(at));
+        } catch (const InputError& e) {
+            throw InputError(path + ": " + e.what());
+        }
+    }
     std::vector<TableData> tables;
     tables.push_back(reader.read(table));
     for (const auto& n : recombine_tables(tables.front())) {
@@ -145,6 +154,56 @@ void LookupTable::init() {
         if (!same_axes(head.axes, pieces_[k].axes))
             throw InputError("table '" + head.name + "': recombine term table '" +
                              pieces_[k].name + "' has different axes");
+    init_axes();
+    const std::size_t dims = head.axes.size();
+    strides_.assign(dims, 1);
+    for (std::size_t d = dims - 1; d-- > 0;) strides_[d] = strides_[d + 1] * head.axes[d + 1].count;
+
+    // Recombination.
+    init_recombination();
+
+    init_angles();
+    const AngleLayout& L = layout_;
+
+    // Reciprocal half tables: complete the unstored half from f(i,o) = f(o,i).
+    if (head.parameters.is_object() && head.parameters.contains("reciprocal_half")) {
+        const auto& rh = head.parameters["reciprocal_half"];
+        if (!rh.is_boolean())
+            throw InputError("table '" + head.name + "': parameters.reciprocal_half must be a boolean");
+        if (rh.get<bool>()) {
+            if (!directional_) throw InputError(directional_error_ + " (reciprocal_half)");
+            const Axis& ai = head.axes[L.axis_i];
+            const Axis& ao = head.axes[L.axis_o];
+            bool same = L.mu_i == L.mu_o && ai.count == ao.count && L.scale_i == L.scale_o;
+            for (std::size_t k = 0; same && k < ai.count; ++k)
+                same = std::fabs(ai.values[k] - ao.values[k]) <=
+                       1e-12 * std::max(1.0, std::fabs(ai.values[k]));
+            if (!same)
+                throw InputError("table '" + head.name +
+                                 "': reciprocal_half needs identical incident and "
+                                 "outgoing axes");
+            const std::size_t si = strides_[L.axis_i], so = strides_[L.axis_o];
+            const std::size_t n = ai.count;
+            for (auto& p : pieces_) {
+                for (std::size_t flat = 0; flat < p.value.size(); ++flat) {
+                    const std::size_t ii = (flat / si) % n, io = (flat / so) % n;
+                    // Stored half: theta_i <= theta_o, i.e. index_i <= index_o on
+                    // theta axes and index_i >= index_o on mu axes.
+                    const bool stored = L.mu_i ? ii >= io : ii <= io;
+                    if (stored) continue;
+                    const std::size_t mirror = flat - ii * si - io * so + io * si + ii * so;
+                    p.value[flat] = p.value[mirror];
+                    if (p.stderr_.size() == p.value.size()) p.stderr_[flat] = p.stderr_[mirror];
+                }
+            }
+        }
+    }
+    choose_linear_kernel();
+}
+
+// Per axis: the axis its nodes depend on, the prepared FastAxis.
+void LookupTable::init_axes() {
+    const TableData& head = pieces_.front();
     const std::size_t dims = head.axes.size();
     dependency_.assign(dims, -1);
     for (std::size_t d = 0; d < dims; ++d) {
@@ -163,13 +222,12 @@ void LookupTable::init() {
         fast_[d].build(head.axes[d]);
         has_dependent_ = has_dependent_ || head.axes[d].dependent();
     }
-    strides_.assign(dims, 1);
-    for (std::size_t d = dims - 1; d-- > 0;) strides_[d] = strides_[d + 1] * head.axes[d + 1].count;
+}
 
-    // Recombination.
-    init_recombination();
-
-    // Angular layout.
+// The angular layout of direction-level lookups (the head table's axes).
+void LookupTable::init_angles() {
+    const TableData& head = pieces_.front();
+    const std::size_t dims = head.axes.size();
     AngleLayout L;
     for (std::size_t d = 0; d < dims; ++d) {
         const std::string& n = head.axes[d].name;
@@ -211,41 +269,6 @@ void LookupTable::init() {
         }
     }
     layout_ = L;
-
-    // Reciprocal half tables: complete the unstored half from f(i,o) = f(o,i).
-    if (head.parameters.is_object() && head.parameters.contains("reciprocal_half")) {
-        const auto& rh = head.parameters["reciprocal_half"];
-        if (!rh.is_boolean())
-            throw InputError("table '" + head.name + "': parameters.reciprocal_half must be a boolean");
-        if (rh.get<bool>()) {
-            if (!directional_) throw InputError(directional_error_ + " (reciprocal_half)");
-            const Axis& ai = head.axes[L.axis_i];
-            const Axis& ao = head.axes[L.axis_o];
-            bool same = L.mu_i == L.mu_o && ai.count == ao.count && L.scale_i == L.scale_o;
-            for (std::size_t k = 0; same && k < ai.count; ++k)
-                same = std::fabs(ai.values[k] - ao.values[k]) <=
-                       1e-12 * std::max(1.0, std::fabs(ai.values[k]));
-            if (!same)
-                throw InputError("table '" + head.name +
-                                 "': reciprocal_half needs identical incident and "
-                                 "outgoing axes");
-            const std::size_t si = strides_[L.axis_i], so = strides_[L.axis_o];
-            const std::size_t n = ai.count;
-            for (auto& p : pieces_) {
-                for (std::size_t flat = 0; flat < p.value.size(); ++flat) {
-                    const std::size_t ii = (flat / si) % n, io = (flat / so) % n;
-                    // Stored half: theta_i <= theta_o, i.e. index_i <= index_o on
-                    // theta axes and index_i >= index_o on mu axes.
-                    const bool stored = L.mu_i ? ii >= io : ii <= io;
-                    if (stored) continue;
-                    const std::size_t mirror = flat - ii * si - io * so + io * si + ii * so;
-                    p.value[flat] = p.value[mirror];
-                    if (p.stderr_.size() == p.value.size()) p.stderr_[flat] = p.stderr_[mirror];
-                }
-            }
-        }
-    }
-    choose_linear_kernel();
 }
 
 TableData without_recombination(const TableData& table) {
@@ -256,6 +279,13 @@ TableData without_recombination(const TableData& table) {
 
 std::unique_ptr<LookupTable> stderr_lookup(const LookupTable& lt) {
     const TableData& t = lt.table();
+    if (const AdaptiveTable* at = lt.adaptive()) {
+        if (at->data.stderr_.size() != at->data.value.size()) return nullptr;
+        AdaptiveTable e = *at;
+        e.data.value = at->data.stderr_;
+        e.data.stderr_.clear();
+        return std::make_unique<LookupTable>(std::move(e));
+    }
     if (lt.has_recombination() || t.stderr_.size() != t.value.size()) return nullptr;
     TableData d = without_recombination(t);
     d.value = t.stderr_;

@@ -24,6 +24,8 @@
 
 namespace brdftab {
 
+struct AdaptiveTable;  // host/adaptive/adaptive_table.h
+
 struct Vec3 {
     double x = 0, y = 0, z = 0;
 };
@@ -100,6 +102,30 @@ struct FastAxis {
     void build(const Axis& a);
 };
 
+// What the adaptive kernels need besides the table (adaptive_lookup.cpp):
+// the packed tree, the leaves' node strides, and the kernel chosen once.
+struct TreeNode;
+struct AdaptiveKernel {
+    std::size_t stride[8] = {0, 0, 0, 0, 0, 0, 0, 0};  // of a leaf's nodes, per axis
+    std::size_t nodes_per_leaf = 0;
+    // A uniform grid of 2^grid_bits cells per axis over t: per cell the
+    // deepest tree node whose box holds the whole cell, where the descent
+    // starts (it would reach that node anyway: the same leaf).
+    unsigned grid_bits = 0;
+    std::vector<std::uint32_t> start;
+    // The value at resolved coordinates x (every axis inside its range).
+    double (*value)(const AdaptiveTable& at, const AdaptiveKernel& k, const TreeNode* tree,
+                    const FastAxis* fast, const int* dependency, const double* x) = nullptr;
+};
+
+// One node of an adaptive table's tree, packed for the descent: split axis
+// (-1: a leaf, child[0] its index), cut, children below and above the cut.
+struct TreeNode {
+    double split = 0;
+    std::int32_t axis = -1;
+    std::uint32_t child[2] = {0, 0};
+};
+
 }  // namespace lookup_detail
 
 class LookupTable {
@@ -114,6 +140,13 @@ public:
     static LookupTable from_tables(const std::vector<TableData>& tables,
                                    const std::string& name);
     explicit LookupTable(TableData table);
+    // An adaptive table (docs/adaptive.md): eval, eval_many, eval_dirs and
+    // bind() (eval, sample, pdf) as for a tensor table, linear interpolation
+    // only (Cubic is an InputError); no recombination, no reciprocal half.
+    // open() takes this path by itself for an adaptive table of the file.
+    explicit LookupTable(AdaptiveTable table);
+    bool is_adaptive() const { return adaptive_ != nullptr; }
+    const AdaptiveTable* adaptive() const { return adaptive_.get(); }
 
     // Metadata of the (head) table: name, model, quantity, units, parameters,
     // provenance.  Its `value` array is the stored one (after the reciprocal
@@ -243,6 +276,14 @@ private:
     template <int D, bool Skip>
     static double linear_kernel(const LookupTable& lt, const double* coords, OutOfRange mode);
     void choose_linear_kernel();
+    // Adaptive tables (adaptive_lookup.cpp): checks, and the kernel for the
+    // table's axis count, chosen once into linear_.
+    void init_adaptive();
+    void init_axes();    // dependency_, fast_, has_dependent_
+    void init_angles();  // layout_, directional_, directional_error_
+    [[noreturn]] void refuse_adaptive(const char* what) const;
+    template <int D>
+    static double adaptive_kernel(const LookupTable& lt, const double* coords, OutOfRange mode);
     double (*linear_)(const LookupTable&, const double*, OutOfRange) = nullptr;
     void dirs_point(const double* param_coords, const Vec3& wi, const Vec3& wo,
                     double* coords) const;
@@ -262,6 +303,9 @@ private:
     double rmin_ = -1e300, rmax_ = 1e300;
     std::vector<double> num_{1.0}, den_{1.0};
     AngleLayout layout_;
+    std::shared_ptr<const AdaptiveTable> adaptive_;  // null: a tensor table
+    std::vector<lookup_detail::TreeNode> tree_;      // its tree, packed
+    lookup_detail::AdaptiveKernel akernel_;
     bool directional_ = false;
     std::string directional_error_;
 
@@ -323,7 +367,7 @@ private:
     // How the bound values are stored and interpolated, chosen once by
     // bind(); eval_angles() dispatches on it.  A second representation of
     // the angular table gets its own enumerator here.
-    enum class Kernel : std::uint8_t { GridLinear, GridLinearNonFinite, GridCubic };
+    enum class Kernel : std::uint8_t { GridLinear, GridLinearNonFinite, GridCubic, Adaptive };
 
     double eval_angles(double x_i, double x_o, double phi) const;
     Incident incident(const Vec3& wi) const;          // without the node mixture
@@ -342,6 +386,20 @@ private:
     lookup_detail::FastAxis fast_[3];
     std::size_t stride_i_ = 0, stride_o_ = 0;  // no * np, np
     Kernel kernel_ = Kernel::GridLinear;
+    // Kernel::Adaptive: the table, its prepared axes, every coordinate with
+    // the bound ones resolved (the angle slots are filled per lookup), and
+    // per axis the axis its nodes depend on or -1.  values_ then holds the
+    // table at the angle nodes (the sampling densities' corners).
+    std::shared_ptr<const AdaptiveTable> adaptive_;
+    std::vector<lookup_detail::FastAxis> adaptive_fast_;
+    std::vector<double> adaptive_coords_;
+    std::vector<int> adaptive_dependency_;
+    std::vector<lookup_detail::TreeNode> adaptive_tree_;
+    lookup_detail::AdaptiveKernel akernel_;
+    double eval_adaptive(const double* x) const;  // x: resolved angles
+    // Kernel::Adaptive from the table and every coordinate (the bound ones
+    // resolved), once axes_ and has_phi_ are set.
+    void bind_adaptive(const LookupTable& lt, const std::vector<double>& coords);
     LookupTable::AngleLayout layout_;
     Interpolation interp_ = Interpolation::Linear;
     OutOfRange mode_ = OutOfRange::Clamp;
