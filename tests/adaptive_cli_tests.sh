@@ -201,4 +201,5 @@ else bad "plot of an adaptive table: $(cat plot.out)"; fi
 expect_exit 2 "plot --cubic refused" -- "$BT" plot a.h5 --table albedo_t_inside --slice eta=1.5 --cubic -o plot2.png
 expect_exit 2 "query --cubic refused" -- "$BT" query a.h5 --table albedo_t_inside --cubic mu_i=-0.5 alpha=0.1 eta=1.5
 expect_exit 2 "adaptive needs --accuracy" -- "$BT" generate inside.toml --representation adaptive -q -o x.h5
+expect_exit 2 "export --rgl of an adaptive table refused" -- "$BT" export a.h5 --table albedo_t_inside --rgl a.bsdf
 cli_summary

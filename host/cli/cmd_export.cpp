@@ -175,6 +175,9 @@ void export_rgl_file(const ExportArgs& a, const std::map<std::string, double>& s
     o.ndf_resolution = a.rgl_ndf_res;
     o.source = std::filesystem::path(a.file).filename().string();
     const LookupTable lt = LookupTable::open(a.file, a.table);
+    if (lt.is_adaptive())
+        throw InputError(a.file + ": table '" + a.table + "' is adaptive (docs/adaptive.md): --rgl reads tensor "
+                         "tables (generate this one with --representation tensor)");
     const RglExportReport r = export_rgl(lt, a.rgl, o);
     for (const auto& note : r.notes) std::cerr << "brdftab: note: " << note << "\n";
     std::cout << "RGL " << (a.spectral ? "spectral" : "RGB") << " file: " << r.theta_i_nodes << " theta_i x "

@@ -811,9 +811,8 @@ TableData read_group(hid_t file, const std::string& path, const std::string& nam
     TableData t = read_description(file, path, name);
     const std::string where = "'" + path + "', table '" + name + "': ";
     if (const std::string r = representation_of(file, name); r != "tensor")
-        throw InputError(where + "is an " + r + " table (docs/adaptive.md): this command and the lookup "
-                         "library read tensor tables only; `brdftab query`, `info` and `certify` read " + r +
-                         " tables");
+        throw InputError(where + "is an " + r + " table (docs/adaptive.md): this command reads tensor "
+                         "tables only (docs/adaptive.md lists the commands that read " + r + " tables)");
     Handle group(H5Gopen2(file, name.c_str(), H5P_DEFAULT), H5Gclose, "H5Gopen2", name);
     auto str = [&](const char* key) {
         return has_attr(group, key) ? read_string_attr(group, key) : std::string();

@@ -216,8 +216,8 @@ struct PyBound {
 
 // An adaptive table (docs/adaptive.md): linear interpolation in its patches,
 // exactly as `brdftab query` evaluates it (each coordinate clamped to its
-// axis' range, or rejected).  No cubic interpolation and no bind: the lookup
-// library reads tensor tables only.
+// axis' range, or rejected).  No cubic interpolation, and no bind: the
+// module's bind, direction and sampling calls wrap tensor tables only.
 struct PyAdaptive {
     std::string path;
     std::shared_ptr<const AdaptiveTable> table;
