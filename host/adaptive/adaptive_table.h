@@ -17,7 +17,10 @@
 // leaf's interpolated value; this is iterated to a fixed point (nested
 // grids: the common trace of two leaves on a face is then the interpolant
 // on the coarser node set in each direction), so the table is continuous
-// across every face that is not a declared jump.
+// across every face that is not a declared jump.  Order 2: the same where
+// one leaf's face nodes refine the other's along every tangent axis (its
+// triples nest in the coarse ones); a 3-D face between leaves finer along
+// different tangent axes can keep a gap (docs/adaptive.md, "Continuity").
 //
 // Evaluation descends the tree (flat arrays), then interpolates in the leaf:
 // no allocation.  Library code: no printing.
