@@ -156,8 +156,8 @@ Certificate certify_adaptive(const AdaptiveTable& t, Backend& backend, const Cer
     if (!(options.target > 0) || !std::isfinite(options.target))
         throw InputError("certificate target must be a positive number");
     if (options.interpolation != Interpolation::Linear)
-        throw InputError("table '" + t.data.name + "' is adaptive: its patches interpolate linearly only "
-                         "(--interpolation linear)");
+        throw InputError("table '" + t.data.name + "' is adaptive: it is certified with its own patch "
+                         "interpolation (--interpolation linear)");
     if (t.data.kind != TableKind::Computed)
         throw InputError("table '" + t.data.name + "' is " + method_attribute(t.data) +
                          ": only computed tables can be certified");

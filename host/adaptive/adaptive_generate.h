@@ -50,8 +50,9 @@ AdaptiveGenerated generate_adaptive(const Spec& spec, std::size_t table, Backend
 // certify_table (certify.h), with probes made for leaves: random points
 // uniform in t; in every leaf (up to options.local_probe_cap of them) its
 // centre and a random point; then the local search: the 3^d points at 1/4,
-// 1/2, 3/4 of the leaves of the worst probes so far.  Linear (multilinear)
-// interpolation only; the reference is certify_table's.
+// 1/2, 3/4 of the leaves of the worst probes so far.  Every probe compares
+// the table's own interpolation (AdaptiveLayout::eval, its patch_order)
+// with the reference, certify_table's.
 Certificate certify_adaptive(const AdaptiveTable& table, Backend& backend, const CertifyOptions& options,
                              const ProgressFn& progress = nullptr);
 // The same for table `table` of the file `path`.

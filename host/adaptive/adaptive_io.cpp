@@ -77,6 +77,7 @@ void add_adaptive_table(TableFileWriter& out, const AdaptiveTable& t) {
     detail::write_description(group, t.data, max_abs, with_stderr);
     write_string_attr(group, "representation", "adaptive");
     write_i32_attr(group, "patch_nodes", static_cast<std::int32_t>(L.patch_nodes));
+    write_i32_attr(group, "patch_order", static_cast<std::int32_t>(L.patch_order));
     write_string_attr(group, "breakpoints", breakpoints_json(t).dump());
     write_double_attr(group, "adaptive_target", t.target);
     write_string_attr(group, "adaptive_measure", t.absolute ? "absolute" : "relative");
@@ -125,6 +126,11 @@ AdaptiveTable read_adaptive_table(const TableReader& reader, const std::string& 
         const std::uint64_t pn = read_u64_attr(group, "patch_nodes");
         if (pn > 9) throw InputError(where + "patch_nodes " + std::to_string(pn) + "; allowed: 2, 3, 5, 9");
         L.patch_nodes = static_cast<std::size_t>(pn);
+        if (has_attr(group, "patch_order")) {
+            const std::uint64_t po = read_u64_attr(group, "patch_order");
+            if (po != 1 && po != 2) throw InputError(where + "patch_order " + std::to_string(po) + "; allowed: 1, 2");
+            L.patch_order = static_cast<int>(po);
+        }
         auto shape = [&](const char* ds, std::vector<std::uint64_t> want) {
             if (!detail::has_dataset(group, ds)) throw InputError(where + "dataset '" + ds + "' is missing");
             const std::vector<std::uint64_t> got = detail::dataset_shape(group, ds);

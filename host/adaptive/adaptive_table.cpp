@@ -30,7 +30,64 @@ std::size_t AdaptiveLayout::leaf_of(const double* t) const {
     return lower[k];
 }
 
+std::size_t adaptive_stencil(double u, std::size_t n, int order, double* w) {
+    if (order == 2) {
+        const std::size_t pairs = (n - 1) / 2;
+        const std::size_t i = 2 * std::min(static_cast<std::size_t>(u / 2), pairs - 1);
+        const double s = u - double(i);
+        w[0] = 0.5 * (s - 1) * (s - 2);
+        w[1] = s * (2 - s);
+        w[2] = 0.5 * s * (s - 1);
+        return i;
+    }
+    const std::size_t i = std::min(static_cast<std::size_t>(u), n - 2);
+    w[1] = u - double(i);
+    w[0] = 1 - w[1];
+    return i;
+}
+
+namespace {
+
+// Piecewise-quadratic interpolant of a leaf: per axis a stencil of 3 nodes,
+// the tensor product of the axes' weights over the 3^d nodes.
+double eval_leaf_quadratic(const AdaptiveLayout& L, std::size_t leaf, const double* t, const double* values) {
+    const std::size_t n = L.patch_nodes, d = L.dims;
+    const double* b = L.box.data() + leaf * d * 2;
+    const std::uint32_t* nodes = L.leaf_nodes.data() + leaf * L.nodes_per_leaf();
+    std::size_t base = 0, stride[8];
+    double w[8][3];
+    std::size_t s = 1;
+    for (std::size_t a = d; a-- > 0;) {
+        stride[a] = s;
+        s *= n;
+    }
+    for (std::size_t a = 0; a < d; ++a) {
+        const double lo = b[2 * a], hi = b[2 * a + 1];
+        double u = (std::clamp(t[a], lo, hi) - lo) / (hi - lo) * double(n - 1);
+        u = std::clamp(u, 0.0, double(n - 1));
+        base += adaptive_stencil(u, n, 2, w[a]) * stride[a];
+    }
+    std::size_t digit[8] = {0, 0, 0, 0, 0, 0, 0, 0};
+    double sum = 0;
+    for (;;) {
+        double wt = 1;
+        std::size_t idx = base;
+        for (std::size_t a = 0; a < d; ++a) {
+            wt *= w[a][digit[a]];
+            idx += digit[a] * stride[a];
+        }
+        if (wt != 0) sum += wt * values[nodes[idx]];
+        std::size_t a = 0;
+        while (a < d && ++digit[a] == 3) digit[a++] = 0;
+        if (a == d) break;
+    }
+    return sum;
+}
+
+}  // namespace
+
 double AdaptiveLayout::eval_leaf(std::size_t leaf, const double* t, const double* values) const {
+    if (patch_order == 2) return eval_leaf_quadratic(*this, leaf, t, values);
     const std::size_t n = patch_nodes;
     const double* b = box.data() + leaf * dims * 2;
     const std::uint32_t* nodes = leaf_nodes.data() + leaf * nodes_per_leaf();
@@ -72,6 +129,9 @@ void AdaptiveLayout::check(std::size_t value_count, const std::string& where) co
     if (dims < 1 || dims > 8) fail("an adaptive table has 1 to 8 axes, not " + std::to_string(dims));
     if (patch_nodes != 2 && patch_nodes != 3 && patch_nodes != 5 && patch_nodes != 9)
         fail("patch_nodes is " + std::to_string(patch_nodes) + "; allowed: 2, 3, 5, 9");
+    if (patch_order != 1 && patch_order != 2)
+        fail("patch_order is " + std::to_string(patch_order) + "; allowed: 1, 2");
+    if (patch_order == 2 && patch_nodes == 2) fail("patch_order 2 needs patch_nodes 3, 5 or 9, not 2");
     const std::size_t tn = split_axis.size();
     if (tn == 0 || split_t.size() != tn || lower.size() != tn || upper.size() != tn)
         fail("the tree datasets (tree_axis, tree_split, tree_child) differ in length or are empty");
@@ -326,6 +386,7 @@ public:
         layout = AdaptiveLayout{};
         layout.dims = d_;
         layout.patch_nodes = n_;
+        layout.patch_order = o_.patch_order;
         for (const BuildNode& b : nodes_) {
             layout.split_axis.push_back(b.axis);
             layout.split_t.push_back(b.axis >= 0 ? b.split_t : 0.0);
@@ -501,28 +562,49 @@ private:
         rep.evaluations += pending_.size();
     }
 
-    // Multilinear interpolant of leaf l's raw node values at integer point k.
-    double interp_raw(const BuildLeaf& l, const Key& k) const {
+    // Calls f(q, w) for each node q of leaf l's interpolation stencil at
+    // integer point k and its weight w != 0 (adaptive_stencil's, with the
+    // fractions exact in integers).
+    template <class F>
+    void for_each_weight(const BuildLeaf& l, const Key& k, F&& f) const {
+        const std::size_t m = std::size_t(o_.patch_order) + 1;
         std::array<std::uint64_t, kMaxDims> c0{};
-        std::array<double, kMaxDims> f{};
+        std::array<std::array<double, 3>, kMaxDims> w{};
         for (std::size_t a = 0; a < d_; ++a) {
             const std::uint64_t sp = spacing(l, a);
-            std::uint64_t i = (k[a] - l.lo[a]) / sp;
-            if (i >= n_ - 1) i = n_ - 2;
-            c0[a] = l.lo[a] + i * sp;
-            f[a] = double(k[a] - c0[a]) / double(sp);
+            if (o_.patch_order == 2) {
+                std::uint64_t j = (k[a] - l.lo[a]) / (2 * sp);
+                if (j >= (n_ - 1) / 2) j = (n_ - 1) / 2 - 1;
+                c0[a] = l.lo[a] + 2 * j * sp;
+                const double u = double(k[a] - c0[a]) / double(sp);
+                w[a] = {0.5 * (u - 1) * (u - 2), u * (2 - u), 0.5 * u * (u - 1)};
+            } else {
+                std::uint64_t i = (k[a] - l.lo[a]) / sp;
+                if (i >= n_ - 1) i = n_ - 2;
+                c0[a] = l.lo[a] + i * sp;
+                const double u = double(k[a] - c0[a]) / double(sp);
+                w[a] = {1 - u, u, 0.0};
+            }
         }
-        double sum = 0;
-        for (std::size_t corner = 0; corner < (std::size_t{1} << d_); ++corner) {
-            double w = 1;
+        std::array<std::size_t, kMaxDims> digit{};
+        for (;;) {
+            double wt = 1;
             Key q{};
             for (std::size_t a = 0; a < d_; ++a) {
-                const bool up = corner >> a & 1;
-                w *= up ? f[a] : 1 - f[a];
-                q[a] = c0[a] + (up ? spacing(l, a) : 0);
+                wt *= w[a][digit[a]];
+                q[a] = c0[a] + digit[a] * spacing(l, a);
             }
-            if (w != 0) sum += w * known_.at(q).value;
+            if (wt != 0) f(q, wt);
+            std::size_t a = 0;
+            while (a < d_ && ++digit[a] == m) digit[a++] = 0;
+            if (a == d_) break;
         }
+    }
+
+    // Leaf l's interpolant of its raw node values at integer point k.
+    double interp_raw(const BuildLeaf& l, const Key& k) const {
+        double sum = 0;
+        for_each_weight(l, k, [&](const Key& q, double w) { sum += w * known_.at(q).value; });
         return sum;
     }
 
@@ -576,9 +658,8 @@ private:
 
     struct Constraint {
         std::uint32_t node;
-        std::array<std::uint32_t, 1u << kMaxDims> corner{};
-        std::array<double, 1u << kMaxDims> weight{};
-        std::size_t corners = 0;
+        std::vector<std::uint32_t> corner;
+        std::vector<double> weight;
         int coarseness = 0;
     };
 
@@ -603,28 +684,12 @@ private:
                 if (is_node_of(l, k)) continue;
                 Constraint c;
                 c.node = i;
-                std::array<std::uint64_t, kMaxDims> c0{};
-                std::array<double, kMaxDims> f{};
-                for (std::size_t a = 0; a < d_; ++a) {
-                    const std::uint64_t sp = spacing(l, a);
-                    std::uint64_t j = (k[a] - l.lo[a]) / sp;
-                    if (j >= n_ - 1) j = n_ - 2;
-                    c0[a] = l.lo[a] + j * sp;
-                    f[a] = double(k[a] - c0[a]) / double(sp);
+                for (std::size_t a = 0; a < d_; ++a)
                     c.coarseness -= int(__builtin_ctzll(k[a] | (std::uint64_t{1} << 62)));
-                }
-                for (std::size_t corner = 0; corner < (std::size_t{1} << d_); ++corner) {
-                    double w = 1;
-                    Key q{};
-                    for (std::size_t a = 0; a < d_; ++a) {
-                        const bool up = corner >> a & 1;
-                        w *= up ? f[a] : 1 - f[a];
-                        q[a] = c0[a] + (up ? spacing(l, a) : 0);
-                    }
-                    if (w == 0) continue;
-                    c.corner[c.corners] = node_index_.at(q);
-                    c.weight[c.corners++] = w;
-                }
+                for_each_weight(l, k, [&](const Key& q, double w) {
+                    c.corner.push_back(node_index_.at(q));
+                    c.weight.push_back(w);
+                });
                 (hanging[i] ? ties : cs).push_back(c);
                 hanging[i] = 1;
             }
@@ -639,7 +704,7 @@ private:
         const double tol = 1e-15 * std::max(scale, 1e-300);
         auto apply = [&](const Constraint& c) {
             double s = 0;
-            for (std::size_t j = 0; j < c.corners; ++j) s += c.weight[j] * values[c.corner[j]];
+            for (std::size_t j = 0; j < c.corner.size(); ++j) s += c.weight[j] * values[c.corner[j]];
             return s;
         };
         rep.continuity_sweeps = 0;
@@ -683,6 +748,8 @@ void check_build_options(std::size_t dims, const AdaptiveBuildOptions& o) {
                          std::to_string(dims));
     if (o.patch_nodes != 3 && o.patch_nodes != 5 && o.patch_nodes != 9)
         throw InputError("adaptive patch_nodes " + std::to_string(o.patch_nodes) + "; allowed: 3, 5, 9");
+    if (o.patch_order != 1 && o.patch_order != 2)
+        throw InputError("adaptive patch_order " + std::to_string(o.patch_order) + "; allowed: 1, 2");
     if (!(o.target > 0) || !std::isfinite(o.target))
         throw InputError("adaptive target must be a positive number");
     if (!(o.safety > 0 && o.safety <= 1)) throw InputError("adaptive safety must lie in (0, 1]");

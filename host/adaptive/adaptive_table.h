@@ -17,7 +17,10 @@
 // leaf's interpolated value; this is iterated to a fixed point (nested
 // grids: the common trace of two leaves on a face is then the interpolant
 // on the coarser node set in each direction), so the table is continuous
-// across every face that is not a declared jump.
+// across every face that is not a declared jump.  Order 2: the same where
+// one leaf's face nodes refine the other's along every tangent axis (its
+// triples nest in the coarse ones); a 3-D face between leaves finer along
+// different tangent axes can keep a gap (docs/adaptive.md, "Continuity").
 //
 // Evaluation descends the tree (flat arrays), then interpolates in the leaf:
 // no allocation.  Library code: no printing.
@@ -34,11 +37,19 @@
 
 namespace brdftab {
 
+// One axis' interpolation stencil at patch coordinate u in [0, n - 1] (node
+// units): returns the first node index i; w[0..order] are the weights of
+// nodes i .. i + order.  Order 1: i = min(floor(u), n - 2), s = u - i,
+// w = (1 - s, s).  Order 2: i = 2 min(floor(u / 2), (n - 1)/2 - 1),
+// s = u - i in [0, 2], w = ((s-1)(s-2)/2, s(2-s), s(s-1)/2).
+std::size_t adaptive_stencil(double u, std::size_t n, int order, double* w);
+
 // The tree and the leaves' node lists of an adaptive table (the datasets of
 // docs/format.md "Adaptive tables").  Values live in AdaptiveTable::data.
 struct AdaptiveLayout {
     std::size_t dims = 0;
     std::size_t patch_nodes = 3;  // n, nodes per axis of every leaf
+    int patch_order = 1;          // 1: multilinear, 2: piecewise quadratic per axis
     // Tree node k: split_axis[k] >= 0: an inner node cutting axis
     // split_axis[k] at t = split_t[k], children lower[k] (t < split_t) and
     // upper[k] (t >= split_t); split_axis[k] = -1: a leaf, lower[k] = its
@@ -56,14 +67,15 @@ struct AdaptiveLayout {
     std::size_t nodes_per_leaf() const;
     // Leaf containing t (each t_a clamped to [0, 1]).
     std::size_t leaf_of(const double* t) const;
-    // The leaf's multilinear interpolant of `values` at t (t clamped to the
-    // leaf's box).
+    // The leaf's interpolant (of patch_order) of `values` at t (t clamped
+    // to the leaf's box).
     double eval_leaf(std::size_t leaf, const double* t, const double* values) const;
     double eval(const double* t, const double* values) const {
         return eval_leaf(leaf_of(t), t, values);
     }
     // InputError (prefixed by `where`) unless the arrays are consistent:
-    // sizes, child indices in range and forming a tree over every leaf, boxes
+    // sizes, patch_order 1 or 2 (2 with an odd patch_nodes >= 3), child
+    // indices in range and forming a tree over every leaf, boxes
     // inside [0, 1] with lo < hi, node indices below value_count.
     void check(std::size_t value_count, const std::string& where) const;
 };
@@ -100,6 +112,7 @@ struct AdaptiveBreakpoint {
 
 struct AdaptiveBuildOptions {
     std::size_t patch_nodes = 3;  // 2^m + 1, m in 1..3
+    int patch_order = 1;          // 1 (multilinear) or 2 (piecewise quadratic per axis)
     double target = 1e-3;         // largest probe error a leaf may keep
     bool absolute = true;         // else relative to max(|f|, floor)
     double floor = 0;             // relative measure: 0 = rel_floor_factor x max |f| seen

@@ -45,6 +45,10 @@ void add_adaptive_options(CLI::App& cmd, AdaptiveCliOptions& o) {
         ->check(CLI::Range(std::size_t{2}, std::size_t{1} << 31));
     cmd.add_option("--patch-nodes", o.patch_nodes, "adaptive: nodes per axis of a patch: 3 (default), 5 or 9")
         ->check(CLI::IsMember({3, 5, 9}));
+    cmd.add_option("--patch-order", o.patch_order,
+                   "adaptive: interpolation inside a patch, per axis: 1 (default, linear between nodes) or 2 "
+                   "(quadratic on consecutive node triples)")
+        ->check(CLI::IsMember({1, 2}));
     cmd.add_option("--breakpoint", o.breakpoints,
                    "adaptive: NAME=X puts patch faces on X of axis NAME (a known kink; repeatable). "
                    "A critical axis gets one on its critical node by itself");
@@ -81,6 +85,7 @@ void run_adaptive_generate(const std::string& spec_path, const std::string& outp
     if (compute.abs_floor > 0) go.build.floor = compute.abs_floor;
     go.build.max_values = o.max_values;
     go.build.patch_nodes = o.patch_nodes;
+    go.build.patch_order = o.patch_order;
     for (const std::string& s : o.breakpoints) {
         const auto [name, x] = name_value(s, "--breakpoint");
         go.breakpoints.push_back({name, x, false});
@@ -198,7 +203,8 @@ void print_adaptive_summary(const AdaptiveTable& t, bool values) {
     const TableData& d = t.data;
     std::cout << "  " << d.name << ": " << d.model << " " << d.quantity << " [" << d.units << "], adaptive: "
               << t.value_count() << " values in " << t.layout.leaf_count() << " patches of " << t.layout.patch_nodes
-              << "^" << d.axes.size() << " nodes, " << method_attribute(d) << ", " << stored_type_name(d.stored_type)
+              << "^" << d.axes.size() << " nodes ("
+              << (t.layout.patch_order == 2 ? "piecewise quadratic" : "multilinear") << "), " << method_attribute(d) << ", " << stored_type_name(d.stored_type)
               << "\n";
     for (std::size_t a = 0; a < d.axes.size(); ++a) {
         const Axis& ax = d.axes[a];
@@ -225,15 +231,16 @@ void run_adaptive_query(const std::string& file, const std::string& table,
                         const std::string& points_file, const std::string& output, bool json) {
     if (cubic)
         throw InputError("table '" + table + "' of '" + file +
-                         "' is adaptive: its patches interpolate linearly only (no --cubic)");
+                         "' is adaptive: it interpolates with its own patches (no --cubic)");
     const AdaptiveTable t = read_adaptive_table(file, table);
+    const char* interp = t.layout.patch_order == 2 ? "quadratic" : "linear";
     const std::optional<StoredCertificate> cert = read_stored_certificate(file, table);
     if (points_file.empty()) {
         const std::vector<double> x = axis_values(t, fixed, reject, "arguments");
         const double v = t.eval(x.data());
         if (json) {
             nlohmann::json j = {{"table", t.data.name}, {"model", t.data.model}, {"quantity", t.data.quantity},
-                                {"value", v}, {"units", t.data.units}, {"interpolation", "linear"},
+                                {"value", v}, {"units", t.data.units}, {"interpolation", interp},
                                 {"representation", "adaptive"}};
             if (cert)
                 j["certified_error"] = {{"max", cert->max_error}, {"rms", cert->rms_error},
@@ -242,7 +249,7 @@ void run_adaptive_query(const std::string& file, const std::string& table,
                                         {"target", cert->target}, {"passed", cert->passed}};
             std::cout << j.dump() << "\n";
         } else {
-            std::cout << t.data.name << " = " << full(v) << " [" << t.data.units << "] (linear, adaptive)";
+            std::cout << t.data.name << " = " << full(v) << " [" << t.data.units << "] (" << interp << ", adaptive)";
             if (cert)
                 std::cout << "; certified max total error " << sci_text(cert->max_error)
                           << (cert->absolute ? " absolute" : " relative") << (cert->passed ? "" : " (missed its target)");

@@ -22,6 +22,7 @@ struct AdaptiveCliOptions {
     std::string representation = "tensor";  // "tensor" | "adaptive"
     std::size_t max_values = 65536;
     std::size_t patch_nodes = 3;
+    int patch_order = 1;  // 1: multilinear patches, 2: piecewise quadratic per axis
     std::vector<std::string> breakpoints, jumps, initial_levels;  // NAME=X / NAME=L
     bool adaptive() const { return representation == "adaptive"; }
 };
@@ -41,7 +42,8 @@ void run_adaptive_generate(const std::string& spec_path, const std::string& outp
 void print_adaptive_summary(const AdaptiveTable& t, bool values);
 
 // `query` on an adaptive table (run_query hands it over): one point from
-// `fixed` (axis name -> value) or every row of `points_file`; linear only.
+// `fixed` (axis name -> value) or every row of `points_file`, with the
+// table's own patch interpolation (no --cubic).
 // Coordinates outside an axis are clamped with a warning, or refused with
 // `reject`.
 void run_adaptive_query(const std::string& file, const std::string& table,

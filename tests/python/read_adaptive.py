@@ -9,6 +9,7 @@ POINTS.csv has a header of axis names and one point per row; prints the
 rows with a `value` column, each value with 17 significant digits.
 """
 import csv
+import itertools
 import json
 import math
 import sys
@@ -74,6 +75,7 @@ def main():
         names = json.loads(g.attrs["axes"])
         d = len(names)
         n = int(g.attrs["patch_nodes"])
+        order = int(g.attrs["patch_order"]) if "patch_order" in g.attrs else 1
         value = g["value"][...].astype(np.float64)
         tree_axis = g["tree_axis"][...]
         tree_split = g["tree_split"][...]
@@ -96,21 +98,26 @@ def main():
             while tree_axis[k] >= 0:
                 k = tree_child[k][0] if t[tree_axis[k]] < tree_split[k] else tree_child[k][1]
             leaf = tree_child[k][0]
-            base, frac = [], []
+            # Per axis: the stencil's first node and its weights.
+            base, weights = [], []
             for a in range(d):
                 lo, hi = box[leaf, a]
                 u = (min(max(t[a], lo), hi) - lo) / (hi - lo) * (n - 1)
                 u = min(max(u, 0.0), n - 1.0)
-                i = min(int(math.floor(u)), n - 2)
+                if order == 2:
+                    i = 2 * min(int(math.floor(u / 2)), (n - 1) // 2 - 1)
+                    s = u - i
+                    weights.append([0.5 * (s - 1) * (s - 2), s * (2 - s), 0.5 * s * (s - 1)])
+                else:
+                    i = min(int(math.floor(u)), n - 2)
+                    weights.append([1 - (u - i), u - i])
                 base.append(i)
-                frac.append(u - i)
             total = 0.0
-            for corner in range(1 << d):
+            for combo in itertools.product(*[range(len(w)) for w in weights]):
                 w, idx = 1.0, 0
                 for a in range(d):
-                    c = (corner >> a) & 1
-                    w *= frac[a] if c else 1 - frac[a]
-                    idx = idx * n + base[a] + c
+                    w *= weights[a][combo[a]]
+                    idx = idx * n + base[a] + combo[a]
                 if w != 0:
                     total += w * value[nodes[leaf, idx]]
             out.writerow(row + [repr(float(total))])
