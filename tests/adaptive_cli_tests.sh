@@ -53,6 +53,18 @@ expect_grep "certificate max .* \(passed\)" gen.out "generate summary"
 expect_grep "adaptive: [0-9]+ values in [0-9]+ patches" info.out "info"
 expect_grep "faces at t = 0.5" info.out "info: the critical node's plane"
 
+# The stored values are rounded to what the accuracy needs, unless
+# --full-precision keeps the stored type's own rounding.
+"$BT" generate inside.toml --representation adaptive --accuracy 3e-2 --abs --max-values 4000 --full-precision \
+  -q -o full.h5 > /dev/null 2>&1
+if "$PY" - <<'PY'
+import h5py, sys
+rounded = "rounding_accuracy" in h5py.File("a.h5", "r")["albedo_t_inside"].attrs
+full = "rounding_accuracy" in h5py.File("full.h5", "r")["albedo_t_inside"].attrs
+sys.exit(0 if rounded and not full else 1)
+PY
+then ok; else bad "--full-precision did not keep unrounded adaptive values"; fi
+
 # query at random points (some outside the ranges: clamped) against the Python reader.
 "$PY" - <<'PY'
 import random
@@ -82,6 +94,8 @@ then ok; else bad "query and tests/python/read_adaptive.py differ"; fi
 if [ $? -eq 0 ] && [ -f a2.h5 ]; then ok; else bad "adaptive generate --patch-order 2 failed: $(cat gen2.err)"; fi
 "$BT" info a2.h5 > info2.out 2>&1
 expect_grep "piecewise quadratic" info2.out "info: order 2"
+expect_exit 2 "export --header of an order-2 table refused (its traversal is multilinear)" -- \
+  "$BT" export a2.h5 --table albedo_t_inside --header a2.h
 "$BT" query a2.h5 --table albedo_t_inside --points pts.csv -o q2.csv 2> /dev/null
 "$PY" "$SRC/tests/python/read_adaptive.py" a2.h5 albedo_t_inside pts.csv > py2.csv
 if "$PY" - <<'PY'

@@ -121,9 +121,10 @@ void run_adaptive_generate(const std::string& spec_path, const std::string& outp
                   << (g.report.budget_hit ? ", value budget reached" : "") << "\n";
         tables.push_back(g.table);
         // Stored values keep the bits the accuracy needs (rounding error
-        // <= 0.1 E, as generate --accuracy does), unless the spec rounds.
+        // <= 0.1 E, as generate --accuracy does), unless the spec rounds or
+        // --full-precision keeps the stored type's own rounding.
         AdaptiveTable& stored = tables.back();
-        if (!(stored.data.round_accuracy > 0)) {
+        if (!(stored.data.round_accuracy > 0) && !o.full_precision) {
             stored.data.round_accuracy = *accuracy;
             stored.data.round_absolute = absolute;
         }

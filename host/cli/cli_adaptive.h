@@ -24,6 +24,7 @@ struct AdaptiveCliOptions {
     std::size_t patch_nodes = 3;
     int patch_order = 1;  // 1: multilinear patches, 2: piecewise quadratic per axis
     std::vector<std::string> breakpoints, jumps, initial_levels;  // NAME=X / NAME=L
+    bool full_precision = false;  // generate --full-precision: no rounded storage
     bool adaptive() const { return representation == "adaptive"; }
 };
 

@@ -618,6 +618,12 @@ void export_c_header(const AdaptiveTable& at, const std::string& out_path,
                      const HeaderExportOptions& options) {
     TableData table = at.data;
     const std::string where = "C header export of table '" + table.name + "': ";
+    // The generated eval interpolates multilinearly; a piecewise-quadratic
+    // table would be misread, so it is refused rather than approximated.
+    if (at.layout.patch_order != 1)
+        throw InputError(where + "the table has piecewise-quadratic patches (patch_order " +
+                         std::to_string(at.layout.patch_order) +
+                         "); the header's tree traversal interpolates multilinearly (patch_order 1) only");
     for (auto& a : table.axes)  // the node lists of the warps, as the lookup library forms them
         if (a.values.empty() && a.count >= 2 && !a.dependent())
             for (std::size_t k = 0; k < a.count; ++k) a.values.push_back(a.warp(double(k) / double(a.count - 1)));

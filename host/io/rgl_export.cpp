@@ -530,9 +530,8 @@ void put(std::vector<unsigned char>& out, std::uint64_t v, int bytes) {
 // rank uint64 extents; then each field's data, little-endian, C order, at
 // an 8-byte-aligned offset.
 std::vector<unsigned char> tensor_file(const std::vector<Field>& fields) {
-    std::vector<unsigned char> out;
     const char magic[12] = {'t', 'e', 'n', 's', 'o', 'r', '_', 'f', 'i', 'l', 'e', '\0'};
-    out.insert(out.end(), magic, magic + 12);
+    std::vector<unsigned char> out(magic, magic + 12);
     out.push_back(1);
     out.push_back(0);
     put(out, fields.size(), 4);
