@@ -30,19 +30,27 @@ __kernel void bt_node_prepare(__global const REAL* points, uint stride, __global
         state[(size_t)gid * (BT_HOOK_STATE_SIZE) + i] = st[i];
 }
 
-/* The term of global node `node` (of work item node_item[node], its number
- * node - node_offset[w] there) from its work item's state (copied whole,
- * unrolled). */
+/* Global node `node` belongs to work item w = node_item[node], where it is
+ * term number node - node_offset[w]: copies w's state into `st` (whole,
+ * unrolled) and returns that term number.  Shared with node_split.cl. */
+BT_INLINE int bt_node_state(uint node, __global const uint* node_item, __global const uint* node_offset,
+                            uint first_work, __global const REAL* state, REAL* st)
+{
+    const uint w = node_item[node];
+    __global const REAL* my_state = state + (size_t)(w - first_work) * (BT_HOOK_STATE_SIZE);
+#pragma unroll
+    for (uint i = 0; i < (uint)(BT_HOOK_STATE_SIZE); ++i) st[i] = my_state[i];
+    return (int)(node - node_offset[w]);
+}
+
+/* The term of global node `node` from its work item's state. */
 BT_INLINE REAL bt_node_term(uint node, const int* o, int quantity, __global const uint* node_item,
                             __global const uint* node_offset, uint first_work,
                             __global const REAL* state)
 {
-    const uint w = node_item[node];
-    __global const REAL* my_state = state + (size_t)(w - first_work) * (BT_HOOK_STATE_SIZE);
     REAL st[BT_HOOK_STATE_SIZE];
-#pragma unroll
-    for (uint i = 0; i < (uint)(BT_HOOK_STATE_SIZE); ++i) st[i] = my_state[i];
-    return bt_hook_term(st, o, quantity, (int)(node - node_offset[w]));
+    const int k = bt_node_state(node, node_item, node_offset, first_work, state, st);
+    return bt_hook_term(st, o, quantity, k);
 }
 
 __kernel void bt_node(__global const int* options, uint n_options, int quantity,

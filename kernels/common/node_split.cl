@@ -12,24 +12,18 @@ BT_INLINE REAL bt_node_term_first(uint node, const int* o, int quantity, __globa
                                   __global const uint* node_offset, uint first_work,
                                   __global const REAL* state)
 {
-    const uint w = node_item[node];
-    __global const REAL* my_state = state + (size_t)(w - first_work) * (BT_HOOK_STATE_SIZE);
     REAL st[BT_HOOK_STATE_SIZE];
-#pragma unroll
-    for (uint i = 0; i < (uint)(BT_HOOK_STATE_SIZE); ++i) st[i] = my_state[i];
-    return bt_hook_term_first(st, o, quantity, (int)(node - node_offset[w]));
+    const int k = bt_node_state(node, node_item, node_offset, first_work, state, st);
+    return bt_hook_term_first(st, o, quantity, k);
 }
 
 BT_INLINE REAL bt_node_term_second(uint node, const int* o, int quantity, __global const uint* node_item,
                                    __global const uint* node_offset, uint first_work,
                                    __global const REAL* state)
 {
-    const uint w = node_item[node];
-    __global const REAL* my_state = state + (size_t)(w - first_work) * (BT_HOOK_STATE_SIZE);
     REAL st[BT_HOOK_STATE_SIZE];
-#pragma unroll
-    for (uint i = 0; i < (uint)(BT_HOOK_STATE_SIZE); ++i) st[i] = my_state[i];
-    return bt_hook_term_second(st, o, quantity, (int)(node - node_offset[w]));
+    const int k = bt_node_state(node, node_item, node_offset, first_work, state, st);
+    return bt_hook_term_second(st, o, quantity, k);
 }
 
 __kernel void bt_node_first(__global const int* options, uint n_options, int quantity,
