@@ -15,34 +15,7 @@ if ! "$PY" -c "import h5py, numpy" 2>/dev/null; then
   exit 77
 fi
 
-cat > inside.toml <<'SPEC'
-model = "rough-dielectric"
-[parameters]
-distribution = "ggx"
-nodes = 8
-[[axes]]
-name = "mu_i"
-range = [-1.0, -0.02]
-count = 33
-spacing = "critical"
-[[axes]]
-name = "alpha"
-range = [0.05, 1.0]
-count = 2
-spacing = "log"
-[[axes]]
-name = "eta"
-range = [1.2, 2.0]
-count = 2
-spacing = "log"
-[[tables]]
-name = "albedo_t_inside"
-quantity = "albedo_t"
-[integration]
-method = "quadrature"
-[output]
-type = "float32"
-SPEC
+cp "$SRC/tests/data/adaptive_inside.toml" inside.toml
 
 # A table refined to 3e-2 passes its certificate.
 "$BT" generate inside.toml --representation adaptive --accuracy 3e-2 --abs --max-values 4000 -q -o a.h5 \
