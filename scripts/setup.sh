@@ -3,6 +3,10 @@
 # are missing.  Non-interactive.  When not root, prints the command instead of
 # running it (prefix with sudo yourself).
 #
+# By default: everything the build, the test suite and the Python module need.
+#   --build-only  just what building and running the `brdftab` CLI needs (README
+#            command 1): no test framework, Python, MPI or HDF5 tools; run
+#            again without it before the tests (README command 2)
 # Optional groups, installed only when asked:
 #   --fuzz   clang and its sanitizer/libFuzzer runtimes (scripts/fuzz.sh)
 #   --mitsuba  LLVM 19 for Mitsuba's llvm_* variants, and the venv .venv-mitsuba
@@ -14,27 +18,34 @@ set -euo pipefail
 
 with_fuzz=0
 with_mitsuba=0
+build_only=0
 for arg in "$@"; do
   case $arg in
     --fuzz) with_fuzz=1 ;;
     --mitsuba) with_mitsuba=1 ;;
-    *) echo "setup: unknown option '$arg' (known: --fuzz, --mitsuba)" >&2; exit 2 ;;
+    --build-only) build_only=1 ;;
+    *) echo "setup: unknown option '$arg' (known: --build-only, --fuzz, --mitsuba)" >&2; exit 2 ;;
   esac
 done
 
 packages=(
   build-essential cmake pkg-config
   pocl-opencl-icd ocl-icd-opencl-dev opencl-clhpp-headers   # OpenCL on the CPU
-  libhdf5-dev hdf5-tools                                    # tables
+  libhdf5-dev                                               # tables
   libopenexr-dev                                            # EXR export (and Imath half)
   libpng-dev                                                # `brdftab plot`
   libpugixml-dev                                            # Mitsuba scene files (`brdftab scene`)
-  doctest-dev libtomlplusplus-dev libcli11-dev nlohmann-json3-dev
-  python3-h5py python3-numpy                                # format tests read files with h5py
-  python3-dev pybind11-dev python3-pybind11 python3-pytest   # Python module brdftab and its tests
-  python3-venv                                              # `pip install .` test in a fresh venv
-  libopenmpi-dev openmpi-bin                                # the MPI build (docs/cluster.md)
+  libtomlplusplus-dev libcli11-dev nlohmann-json3-dev
 )
+if [ $build_only -eq 0 ]; then
+  packages+=(
+    hdf5-tools doctest-dev                                  # tests: h5dump/h5diff, the test framework
+    python3-h5py python3-numpy                              # format tests read files with h5py
+    python3-dev pybind11-dev python3-pybind11 python3-pytest   # Python module brdftab and its tests
+    python3-venv                                            # `pip install .` test in a fresh venv
+    libopenmpi-dev openmpi-bin                              # the MPI build (docs/cluster.md)
+  )
+fi
 if [ $with_fuzz -eq 1 ]; then
   packages+=(clang libclang-rt-dev)
 fi
