@@ -21,6 +21,7 @@
 #include <exception>
 #include <map>
 #include <memory>
+#include <mutex>
 #include <string>
 #include <thread>
 #include <vector>
@@ -166,9 +167,121 @@ DoubleArray rows_of(const py::array& in, std::size_t width, const char* what) {
     return a;
 }
 
-Vec3 vec_at(const DoubleArray& a, py::ssize_t k) {
-    const double* p = a.data(k, 0);
-    return {p[0], p[1], p[2]};
+// The coordinates of a batch eval as columns: one float64 array per
+// coordinate (in the library's order) of n values, or of one value that
+// every point shares.  Python passes numpy's broadcast columns as they are,
+// so no (n, width) array of rows is built there.
+struct Columns {
+    std::vector<DoubleArray> arrays;
+    std::vector<const double*> data;
+    std::vector<std::size_t> step;  // 1, or 0 for a shared value
+    std::size_t n = 0;
+
+    Columns(const std::vector<py::array>& in, std::size_t count, std::size_t width) : n(count) {
+        if (in.size() != width)
+            throw InputError("coordinates: expected " + std::to_string(width) + " columns, got " +
+                             std::to_string(in.size()));
+        for (const py::array& a : in) {
+            arrays.push_back(DoubleArray::ensure(a));
+            const DoubleArray& c = arrays.back();
+            if (!c) throw InputError("coordinates: expected arrays of numbers");
+            const std::size_t size = std::size_t(c.size());
+            if (size != n && size != 1)
+                throw InputError("coordinates: a column of " + std::to_string(size) + " values for " +
+                                 std::to_string(n) + " points");
+            data.push_back(c.data());
+            step.push_back(size == 1 ? 0 : 1);
+        }
+    }
+    double at(std::size_t d, std::size_t k) const { return data[d][k * step[d]]; }
+};
+
+// Per coordinate whose values the lookup clamps: how many points, and the
+// first such value (Python's clamp warning).
+struct ClampCount {
+    std::size_t count = 0;
+    double first = 0;
+};
+
+// Batch eval over columns: rows gathered in blocks of 256 into a buffer and
+// handed to many(rows, count, out) (LookupTable::eval_many), threaded.  With
+// `outside` (a function (coordinate, value) -> bool) the same pass counts the
+// values outside their axes.  Returns the values and, per coordinate, the
+// counts.
+template <class Many, class Outside>
+std::pair<py::array_t<double>, std::vector<ClampCount>>
+eval_columns(const Columns& c, const Many& many, const Outside* outside) {
+    const std::size_t width = c.data.size(), n = c.n;
+    py::array_t<double> out(py::ssize_t(n), nullptr);
+    double* dst = out.mutable_data();
+    std::vector<std::vector<ClampCount>> chunk_counts;
+    std::mutex lock;
+    {
+        py::gil_scoped_release release;
+        parallel_for(n, [&](std::size_t a, std::size_t e) {
+            constexpr std::size_t kBlock = 256;
+            std::vector<double> rows(kBlock * std::max<std::size_t>(width, 1));
+            std::vector<ClampCount> counts(width);
+            for (std::size_t b = a; b < e; b += kBlock) {
+                const std::size_t m = std::min(kBlock, e - b);
+                for (std::size_t d = 0; d < width; ++d) {
+                    const double* col = c.data[d] + b * c.step[d];
+                    const std::size_t step = c.step[d];
+                    for (std::size_t k = 0; k < m; ++k) rows[k * width + d] = col[k * step];
+                }
+                many(rows.data(), m, dst + b);
+                if (outside)
+                    for (std::size_t d = 0; d < width; ++d)
+                        for (std::size_t k = 0; k < m; ++k) {
+                            const double v = rows[k * width + d];
+                            if ((*outside)(d, v) && counts[d].count++ == 0) counts[d].first = v;
+                        }
+            }
+            std::lock_guard<std::mutex> g(lock);
+            chunk_counts.emplace_back(std::move(counts));
+            chunk_counts.back().push_back({a, 0});  // the chunk's start, for ordering
+        });
+    }
+    // Merge in point order: the first value is the lowest chunk's.
+    std::sort(chunk_counts.begin(), chunk_counts.end(),
+              [](const auto& x, const auto& y) { return x.back().count < y.back().count; });
+    std::vector<ClampCount> total(width);
+    for (const auto& counts : chunk_counts)
+        for (std::size_t d = 0; d < width; ++d) {
+            if (counts[d].count && !total[d].count) total[d].first = counts[d].first;
+            total[d].count += counts[d].count;
+        }
+    return {std::move(out), std::move(total)};
+}
+
+// A per-pair batch call (BoundTable::eval_many, pdf_many) over (n, 3)
+// float64 rows of wi and wo: one value per row, threaded.
+template <class Many>
+py::array_t<double> pair_call(const py::array& wi_in, const py::array& wo_in, const Many& many) {
+    const DoubleArray wi = rows_of(wi_in, 3, "wi"), wo = rows_of(wo_in, 3, "wo");
+    const py::ssize_t n = wi.shape(0);
+    if (wo.shape(0) != n) throw InputError("wi and wo: different numbers of rows");
+    py::array_t<double> out(n);
+    double* dst = out.mutable_data();
+    const double *pi = wi.data(), *po = wo.data();
+    {
+        py::gil_scoped_release release;
+        parallel_for(std::size_t(n), [&](std::size_t a, std::size_t e) {
+            many(pi + 3 * a, po + 3 * a, e - a, dst + a);
+        });
+    }
+    return out;
+}
+
+// The clamp warnings' data: (name, count, first value, min, max) per
+// coordinate with values outside its range.
+py::list clamp_list(const std::vector<ClampCount>& counts, const std::vector<Axis>& axes) {
+    py::list out;
+    for (std::size_t d = 0; d < counts.size() && d < axes.size(); ++d)
+        if (counts[d].count)
+            out.append(py::make_tuple(axes[d].name, counts[d].count, counts[d].first,
+                                      std::min(axes[d].min, axes[d].max), std::max(axes[d].min, axes[d].max)));
+    return out;
 }
 
 // The lookup table of one stored table, with its standard-error lookup.
@@ -182,8 +295,11 @@ struct PyTable {
           lookup(std::make_shared<const LookupTable>(LookupTable::open(file, name))),
           stderr_table(stderr_lookup(*lookup)) {}
 
-    py::array eval_rows(const py::array& points, const std::string& interp,
-                        const std::string& mode, bool of_stderr) const {
+    // Values at n points given as columns (Columns), and the clamp
+    // warnings' data (clamp mode only; phi_d folded or wrapped first, as
+    // `brdftab query` warns; the recombination parameter is not an axis).
+    py::tuple eval_columns_of(const std::vector<py::array>& cols, std::size_t n, const std::string& interp,
+                              const std::string& mode, bool of_stderr) const {
         const LookupTable* lt = lookup.get();
         if (of_stderr) {
             lt = stderr_table.get();
@@ -192,21 +308,23 @@ struct PyTable {
                                  "' stores no standard errors (a closed form, a table "
                                  "written without them, or a recombined table)");
         }
-        const DoubleArray rows = rows_of(points, lt->coordinate_names().size(), "coordinates");
+        const Columns c(cols, n, lt->coordinate_names().size());
         const Interpolation ip = interpolation_of(interp);
         const OutOfRange om = out_of_range_of(mode);
-        py::array_t<double> out(rows.shape(0));
-        double* dst = out.mutable_data();
-        const double* src = rows.data();
-        const std::size_t n = std::size_t(rows.shape(0));
-        const std::size_t width = std::size_t(rows.shape(1));
-        {
-            py::gil_scoped_release release;
-            parallel_for(n, [&](std::size_t a, std::size_t b) {
-                lt->eval_many(src + a * width, b - a, dst + a, ip, om);
-            });
-        }
-        return out;
+        const std::vector<Axis>& axes = lt->axes();
+        std::vector<double> tol;
+        for (const Axis& a : axes) tol.push_back(1e-9 * (a.max - a.min));
+        const auto outside = [&](std::size_t d, double v) {
+            if (d >= axes.size() || (v >= axes[d].min - tol[d] && v <= axes[d].max + tol[d])) return false;
+            // Only a value outside its axis can be folded (fold_periodic
+            // returns one inside unchanged).
+            const double x = lookup_internal::fold_periodic(axes[d], v);
+            return !(x >= axes[d].min - tol[d] && x <= axes[d].max + tol[d]);
+        };
+        auto [values, counts] = eval_columns(
+            c, [&](const double* rows, std::size_t m, double* out) { lt->eval_many(rows, m, out, ip, om); },
+            om == OutOfRange::Clamp ? &outside : nullptr);
+        return py::make_tuple(std::move(values), clamp_list(counts, axes));
     }
 };
 
@@ -216,14 +334,21 @@ struct PyBound {
 
 // An adaptive table (docs/adaptive.md): linear interpolation in its patches,
 // exactly as `brdftab query` evaluates it (each coordinate clamped to its
-// axis' range, or rejected).  No cubic interpolation, and no bind: the
-// module's bind, direction and sampling calls wrap tensor tables only.
+// axis' range, or rejected), through the lookup library's adaptive kernel
+// (host/lookup/adaptive_lookup.cpp), which bind() also serves: eval, pdf and
+// sampling on directions for a table over theta_i|mu_i, theta_o|mu_o and
+// optionally phi_d.  No cubic interpolation.
 struct PyAdaptive {
     std::string path;
-    std::shared_ptr<const AdaptiveTable> table;
+    std::shared_ptr<const LookupTable> lookup;
+    std::shared_ptr<const AdaptiveTable> table;  // lookup's own
 
     PyAdaptive(const std::string& file, const std::string& name)
-        : path(file), table(std::make_shared<const AdaptiveTable>(read_adaptive_table(file, name))) {}
+        : path(file), lookup(std::make_shared<const LookupTable>(LookupTable::open(file, name))) {
+        if (!lookup->is_adaptive())
+            throw InputError("table '" + name + "' of '" + file + "' is not adaptive");
+        table = std::shared_ptr<const AdaptiveTable>(lookup, lookup->adaptive());
+    }
 
     const TableData& data() const { return table->data; }
 
@@ -253,68 +378,56 @@ struct PyAdaptive {
         return out;
     }
 
-    py::array eval_rows(const py::array& points, const std::string& interp, const std::string& mode,
-                        bool of_stderr) const {
+    // The stored standard errors at `count` rows, interpolated by the
+    // table's patches as the values are (coordinates clamped or rejected).
+    void stderr_many(const double* rows, std::size_t count, double* out, bool reject) const {
+        const std::size_t dims = data().axes.size();
+        double x[16], tt[16];
+        for (std::size_t k = 0; k < count; ++k) {
+            for (std::size_t d = 0; d < dims; ++d) {
+                const Axis& ax = data().axes[d];
+                const double lo = std::min(ax.min, ax.max), hi = std::max(ax.min, ax.max);
+                double v = rows[k * dims + d];
+                if (!(v >= lo && v <= hi)) {
+                    if (reject || std::isnan(v))
+                        throw InputError("coordinates: " + ax.name + " = " + std::to_string(v) + " outside [" +
+                                         std::to_string(lo) + ", " + std::to_string(hi) + "]");
+                    v = std::clamp(v, lo, hi);
+                }
+                x[d] = v;
+            }
+            table->to_t(x, tt);
+            out[k] = table->layout.eval(tt, data().stderr_.data());
+        }
+    }
+
+    py::tuple eval_columns_of(const std::vector<py::array>& cols, std::size_t n, const std::string& interp,
+                              const std::string& mode, bool of_stderr) const {
         if (interp != "linear") {
             interpolation_of(interp);  // the message for an unknown name
             throw InputError("table '" + data().name + "' is adaptive: its patches interpolate linearly only");
         }
-        const bool reject = out_of_range_of(mode) == OutOfRange::Reject;
-        const std::vector<double>& values = of_stderr ? data().stderr_ : data().value;
-        if (of_stderr && values.size() != data().value.size())
+        const OutOfRange om = out_of_range_of(mode);
+        if (of_stderr && data().stderr_.size() != data().value.size())
             throw InputError("table '" + data().name + "' stores no standard errors");
         const std::size_t dims = data().axes.size();
-        const DoubleArray rows = rows_of(points, dims, "coordinates");
-        const std::size_t n = std::size_t(rows.shape(0));
-        py::array_t<double> out(rows.shape(0));
-        double* dst = out.mutable_data();
-        const double* src = rows.data();
-        const AdaptiveTable& t = *table;
-        {
-            py::gil_scoped_release release;
-            parallel_for(n, [&](std::size_t a, std::size_t b) {
-                std::vector<double> x(dims), tt(dims);
-                for (std::size_t k = a; k < b; ++k) {
-                    for (std::size_t d = 0; d < dims; ++d) {
-                        const Axis& ax = t.data.axes[d];
-                        const double lo = std::min(ax.min, ax.max), hi = std::max(ax.min, ax.max);
-                        double v = src[k * dims + d];
-                        if (!(v >= lo && v <= hi)) {
-                            if (reject || std::isnan(v))
-                                throw InputError("coordinates: " + ax.name + " = " + std::to_string(v) +
-                                                 " outside [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
-                            v = std::clamp(v, lo, hi);
-                        }
-                        x[d] = v;
-                    }
-                    t.to_t(x.data(), tt.data());
-                    dst[k] = t.layout.eval(tt.data(), values.data());
-                }
-            });
-        }
-        return out;
-    }
-
-    // As PyTable's _clamped: (name, count, first value, min, max) per axis
-    // with clamped coordinates.
-    py::list clamped(const py::array& points) const {
-        const std::size_t dims = data().axes.size();
-        const DoubleArray rows = rows_of(points, dims, "coordinates");
-        const std::size_t n = std::size_t(rows.shape(0));
-        py::list out;
-        for (std::size_t d = 0; d < dims; ++d) {
+        if (dims > 16) throw InputError("table '" + data().name + "': more than 16 axes");
+        const Columns c(cols, n, dims);
+        const auto outside = [&](std::size_t d, double v) {
             const Axis& ax = data().axes[d];
-            const double lo = std::min(ax.min, ax.max), hi = std::max(ax.min, ax.max);
-            std::size_t count = 0;
-            double first = 0;
-            for (std::size_t k = 0; k < n; ++k) {
-                const double v = rows.data()[k * dims + d];
-                if (v < lo || v > hi)
-                    if (count++ == 0) first = v;
-            }
-            if (count) out.append(py::make_tuple(ax.name, count, first, lo, hi));
-        }
-        return out;
+            return v < std::min(ax.min, ax.max) || v > std::max(ax.min, ax.max);
+        };
+        const bool reject = om == OutOfRange::Reject;
+        auto [values, counts] = eval_columns(
+            c,
+            [&](const double* rows, std::size_t m, double* out) {
+                if (of_stderr)
+                    stderr_many(rows, m, out, reject);
+                else
+                    lookup->eval_many(rows, m, out, Interpolation::Linear, om);
+            },
+            reject ? nullptr : &outside);
+        return py::make_tuple(std::move(values), clamp_list(counts, data().axes));
     }
 };
 
@@ -658,12 +771,10 @@ PYBIND11_MODULE(_brdftab, m) {
             })
         .def_property_readonly("provenance",
                                [](const PyTable& t) { return provenance_of(t.lookup->table()); })
-        .def("_eval_rows",
-             [](const PyTable& t, const py::array& points, const std::string& interp,
-                const std::string& mode) { return t.eval_rows(points, interp, mode, false); })
-        .def("_eval_stderr_rows",
-             [](const PyTable& t, const py::array& points, const std::string& interp,
-                const std::string& mode) { return t.eval_rows(points, interp, mode, true); })
+        .def("_eval_columns", &PyTable::eval_columns_of, py::arg("columns"), py::arg("n"), py::arg("interpolation"),
+             py::arg("out_of_range"), py::arg("of_stderr"),
+             "values at n points (one float64 column per coordinate, n values or 1) and the clamp "
+             "warnings' data: [(name, count, first, min, max)]")
         .def("_order",
              [](const PyTable& t, const std::vector<std::string>& names) {
                  // Which given name goes to each coordinate; unknown or missing
@@ -674,30 +785,6 @@ PYBIND11_MODULE(_brdftab, m) {
                  for (double k : t.lookup->ordered_coordinates(probe, "arguments"))
                      order.push_back(std::size_t(k));
                  return order;
-             })
-        .def("_clamped",
-             [](const PyTable& t, const py::array& points) {
-                 // Per axis whose coordinates the lookup clamps: (name, how
-                 // many points, the first such value, min, max); phi_d is
-                 // folded or wrapped first, as `brdftab query` warns.
-                 const auto& axes = t.lookup->axes();
-                 const DoubleArray rows = rows_of(points, t.lookup->coordinate_names().size(), "coordinates");
-                 const std::size_t n = std::size_t(rows.shape(0)), width = std::size_t(rows.shape(1));
-                 py::list out;
-                 for (std::size_t a = 0; a < axes.size() && a < width; ++a) {
-                     const double tol = 1e-9 * (axes[a].max - axes[a].min);
-                     std::size_t count = 0;
-                     double first = 0;
-                     for (std::size_t i = 0; i < n; ++i) {
-                         const double given = rows.data()[i * width + a];
-                         const double x = lookup_internal::fold_periodic(axes[a], given);
-                         if (x < axes[a].min - tol || x > axes[a].max + tol) {
-                             if (count++ == 0) first = given;
-                         }
-                     }
-                     if (count) out.append(py::make_tuple(axes[a].name, count, first, axes[a].min, axes[a].max));
-                 }
-                 return out;
              })
         .def_property_readonly("certificate",
                                [](const PyTable& t) { return certificate_of(t.path, t.lookup->table().name); })
@@ -749,20 +836,20 @@ PYBIND11_MODULE(_brdftab, m) {
             })
         .def_property_readonly("provenance", [](const PyAdaptive& t) { return provenance_of(t.data()); })
         .def_property_readonly("certificate", [](const PyAdaptive& t) { return certificate_of(t.path, t.data().name); })
-        .def("_eval_rows",
-             [](const PyAdaptive& t, const py::array& points, const std::string& interp,
-                const std::string& mode) { return t.eval_rows(points, interp, mode, false); })
-        .def("_eval_stderr_rows",
-             [](const PyAdaptive& t, const py::array& points, const std::string& interp,
-                const std::string& mode) { return t.eval_rows(points, interp, mode, true); })
+        .def("_eval_columns", &PyAdaptive::eval_columns_of, py::arg("columns"), py::arg("n"),
+             py::arg("interpolation"), py::arg("out_of_range"), py::arg("of_stderr"))
         .def("_order", &PyAdaptive::order)
-        .def("_clamped", &PyAdaptive::clamped)
-        .def("_bind", [](const PyAdaptive& t, const std::map<std::string, double>&, const std::string&,
-                         const std::string&) -> py::object {
-            throw InputError("table '" + t.data().name +
-                             "' is adaptive (docs/adaptive.md): bind, eval on directions and sampling "
-                             "read tensor tables only; eval() interpolates it");
-        });
+        .def("_bind",
+             [](const PyAdaptive& t, const std::map<std::string, double>& params, const std::string& interp,
+                const std::string& mode) {
+                 if (interp != "linear") {
+                     interpolation_of(interp);
+                     throw InputError("table '" + t.data().name +
+                                      "' is adaptive: its patches interpolate linearly only");
+                 }
+                 return PyBound{std::make_shared<const BoundTable>(
+                     t.lookup->bind(params, Interpolation::Linear, out_of_range_of(mode)))};
+             });
 
     py::class_<PyBound>(m, "_Bound")
         .def_property_readonly("can_sample", [](const PyBound& b) { return b.bound->can_sample(); })
@@ -770,54 +857,30 @@ PYBIND11_MODULE(_brdftab, m) {
                                [](const PyBound& b) { return b.bound->sampling_error(); })
         .def("_eval",
              [](const PyBound& b, const py::array& wi_in, const py::array& wo_in) {
-                 const DoubleArray wi = rows_of(wi_in, 3, "wi"), wo = rows_of(wo_in, 3, "wo");
-                 const py::ssize_t n = wi.shape(0);
-                 py::array_t<double> out(n);
-                 double* dst = out.mutable_data();
-                 {
-                     py::gil_scoped_release release;
-                     parallel_for(std::size_t(n), [&](std::size_t a, std::size_t e) {
-                         for (std::size_t k = a; k < e; ++k)
-                             dst[k] = b.bound->eval(vec_at(wi, py::ssize_t(k)), vec_at(wo, py::ssize_t(k)));
-                     });
-                 }
-                 return out;
+                 return pair_call(wi_in, wo_in, [&](const double* wi, const double* wo, std::size_t n, double* out) {
+                     b.bound->eval_many(wi, wo, n, out);
+                 });
              })
         .def("_pdf",
              [](const PyBound& b, const py::array& wi_in, const py::array& wo_in) {
-                 const DoubleArray wi = rows_of(wi_in, 3, "wi"), wo = rows_of(wo_in, 3, "wo");
-                 const py::ssize_t n = wi.shape(0);
-                 py::array_t<double> out(n);
-                 double* dst = out.mutable_data();
-                 {
-                     py::gil_scoped_release release;
-                     parallel_for(std::size_t(n), [&](std::size_t a, std::size_t e) {
-                         for (std::size_t k = a; k < e; ++k)
-                             dst[k] = b.bound->pdf(vec_at(wi, py::ssize_t(k)), vec_at(wo, py::ssize_t(k)));
-                     });
-                 }
-                 return out;
+                 return pair_call(wi_in, wo_in, [&](const double* wi, const double* wo, std::size_t n, double* out) {
+                     b.bound->pdf_many(wi, wo, n, out);
+                 });
              })
         .def("_sample", [](const PyBound& b, const py::array& wi_in, const py::array& u_in) {
             const DoubleArray wi = rows_of(wi_in, 3, "wi"), u = rows_of(u_in, 2, "u");
             const py::ssize_t n = wi.shape(0);
+            if (u.shape(0) != n) throw InputError("wi and u: different numbers of rows");
             py::array_t<double> wo({n, py::ssize_t(3)});
             py::array_t<double> weight(n), pdf(n), value(n);
             double *pw = wo.mutable_data(), *pweight = weight.mutable_data(),
                    *ppdf = pdf.mutable_data(), *pvalue = value.mutable_data();
+            const double *pi = wi.data(), *pu = u.data();
             {
                 py::gil_scoped_release release;
                 parallel_for(std::size_t(n), [&](std::size_t a, std::size_t e) {
-                    for (std::size_t k = a; k < e; ++k) {
-                        const double* uk = u.data(py::ssize_t(k), 0);
-                        const SampleResult s = b.bound->sample(vec_at(wi, py::ssize_t(k)), uk[0], uk[1]);
-                        pw[3 * k] = s.wo.x;
-                        pw[3 * k + 1] = s.wo.y;
-                        pw[3 * k + 2] = s.wo.z;
-                        pweight[k] = s.weight;
-                        ppdf[k] = s.pdf;
-                        pvalue[k] = s.value;
-                    }
+                    b.bound->sample_many(pi + 3 * a, pu + 2 * a, e - a, pw + 3 * a, ppdf + a, pvalue + a,
+                                         pweight + a);
                 });
             }
             return py::make_tuple(wo, weight, pdf, value);

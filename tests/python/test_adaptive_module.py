@@ -2,7 +2,8 @@
 # eval against `brdftab query` (the CLI's own reader, a separate code path
 # through the same patch interpolation) to 1e-12, and against the
 # independent reader written from docs/format.md (read_adaptive.py, numpy +
-# h5py); the refusals (cubic, bind, reject) carry clear messages.
+# h5py); the refusals (cubic, bind of an albedo table, reject) carry clear
+# messages.
 import csv
 import io
 import json
@@ -116,7 +117,9 @@ def test_refusals_are_clear(adaptive):
         table.eval(mu_i=-0.5, alpha=0.2)
     with pytest.raises(brdftab.InputError, match="'colour' is not a coordinate"):
         table.eval(mu_i=-0.5, alpha=0.2, eta=1.5, colour=1)
-    with pytest.raises(brdftab.InputError, match="is adaptive"):
+    # An albedo table has no directions to bind over (the message of the
+    # tensor tables' bind).
+    with pytest.raises(brdftab.InputError, match="direction-level lookup needs axes"):
         table.bind(alpha=0.2, eta=1.5)
     with pytest.raises(brdftab.InputError, match="is adaptive"):
         brdftab.to_xarray(table)
