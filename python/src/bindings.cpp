@@ -471,6 +471,39 @@ struct PluginKernel {
             out[c] = sum * poly(num, p[c]) / poly(den, p[c]);
         }
     }
+
+    // eval_pdf at lane k (wi already read; ok: active with a valid wi):
+    // out[0..2] f |cos theta_o| per channel and out[3] the pdf, each
+    // skipped when null.
+    template <class Lane3>
+    void eval_lane(bool ok, const Vec3& wi, const Lane3& ox, const Lane3& oy, const Lane3& oz,
+                   const double p[3], std::size_t k, float* const* out) const;
+
+    // A sample at lane k: out[0..2] wo, out[3] pdf, out[4..6] weight.
+    void sample_lane(bool ok, const Vec3& wi, double u1, double u2, const double p[3], std::size_t k,
+                     float* const* out) const {
+        ok = ok && (lit_from_below || wi.z > 0);
+        SampleResult s;
+        s.wo = {0, 0, 1};
+        if (ok) {
+            // u below 1: u = 1 in float32 stays in the last cell.
+            s = sampler->sample(wi, std::min(u1, 1 - 1e-12), std::min(u2, 1 - 1e-12));
+            ok = (transmits || s.wo.z > 0) && s.pdf > 0;
+        }
+        double v[3] = {0, 0, 0};
+        if (ok) {
+            if (single)
+                v[0] = v[1] = v[2] = s.value;
+            else
+                f_rgb(wi, s.wo, p, v);
+        }
+        const double c = std::fabs(s.wo.z);
+        out[0][k] = float(s.wo.x);
+        out[1][k] = float(s.wo.y);
+        out[2][k] = float(s.wo.z);
+        out[3][k] = ok ? float(s.pdf) : 0.0f;
+        for (int ch = 0; ch < 3; ++ch) out[4 + ch][k] = ok ? float(v[ch] * c / s.pdf) : 0.0f;
+    }
 };
 
 // One component of a Dr.Jit array (float32 numbers, or the active mask as
@@ -530,6 +563,62 @@ bool direction_at(const FloatLane& x, const FloatLane& y, const FloatLane& z, st
     w = {0, 0, 1};
     return false;
 }
+
+template <class Lane3>
+void PluginKernel::eval_lane(bool ok, const Vec3& wi, const Lane3& ox, const Lane3& oy, const Lane3& oz,
+                             const double p[3], std::size_t k, float* const* out) const {
+    Vec3 wo;
+    ok = ok && direction_at(ox, oy, oz, k, wo);
+    ok = ok && (lit_from_below || wi.z > 0) && (transmits || wo.z > 0);
+    if (out[0]) {
+        double v[3] = {0, 0, 0};
+        if (ok) f_rgb(wi, wo, p, v);
+        const double c = std::fabs(wo.z);
+        for (int ch = 0; ch < 3; ++ch) out[ch][k] = float(v[ch] * c);
+    }
+    if (out[3]) out[3][k] = ok ? float(sampler->pdf(wi, wo)) : 0.0f;
+}
+
+// The output arrays of a _PluginKernel call: the caller's (`out`, a tuple
+// of float32 views of Dr.Jit arrays, None where a result is not wanted) or,
+// when `out` is None, one new (slots, n) float32 array whose rows are
+// returned.  ptr[i] is null for a result not wanted.
+struct Outputs {
+    bool given;
+    py::array_t<float> own;
+    std::vector<float*> ptr;
+    std::vector<bool> want;
+
+    Outputs(const py::object& out, std::size_t n, std::size_t slots, const bool* wants,
+            std::initializer_list<const char*> names)
+        : given(!out.is_none()), ptr(slots, nullptr), want(wants, wants + slots) {
+        const std::vector<const char*> name(names);
+        if (given) {
+            const py::tuple o = out.cast<py::tuple>();
+            if (o.size() != slots)
+                throw InputError("plugin kernel: out needs " + std::to_string(slots) + " arrays");
+            for (std::size_t i = 0; i < slots; ++i)
+                if (want[i]) ptr[i] = out_ptr(o[i], n, name[i]);
+            return;
+        }
+        own = py::array_t<float>({py::ssize_t(slots), py::ssize_t(n)});
+        for (std::size_t i = 0; i < slots; ++i)
+            if (want[i]) ptr[i] = own.mutable_data() + i * n;
+    }
+
+    // Rows first .. first + count - 1 of the own array ((count, n), or (n,)
+    // for one row), or None when `out` was given or the result not wanted.
+    py::object result(std::initializer_list<std::size_t> rows, std::size_t count) const {
+        const std::size_t first = *rows.begin();
+        if (given || !want[first]) return py::none();
+        const py::ssize_t n = own.shape(1);
+        const py::ssize_t item = py::ssize_t(sizeof(float));
+        if (count == 1)
+            return py::array(py::dtype::of<float>(), {n}, {item}, own.data() + first * n, own);
+        return py::array(py::dtype::of<float>(), {py::ssize_t(count), n}, {n * item, item},
+                         own.data() + first * n, own);
+    }
+};
 }  // namespace
 
 PYBIND11_MODULE(_brdftab, m) {
@@ -565,6 +654,16 @@ PYBIND11_MODULE(_brdftab, m) {
     m.def("threads", &thread_count, "threads the batch calls use");
 
 
+    // The plugin kernel's methods take Dr.Jit's arrays as numpy arrays (one
+    // per component, length n or 1).  `out` is None (the results come back
+    // as new float32 numpy arrays) or a tuple of writable float32 arrays of
+    // n values, views of Dr.Jit arrays, which the results go into (None is
+    // returned in their place):
+    //   eval_pdf: (f_r, f_g, f_b, pdf), None where not wanted;
+    //   sample: (wo_x, wo_y, wo_z, pdf, w_r, w_g, w_b).
+    // f is f |cos theta_o|; a sample's weight is f |cos theta_o| / pdf.
+    // Inactive and invalid lanes get f = pdf = weight = 0 (a sample's wo is
+    // then +z), so pdf > 0 tells a valid sample.
     py::class_<PluginKernel>(m, "_PluginKernel")
         .def(py::init([](py::object single, py::list terms, std::vector<double> num,
                          std::vector<double> den, py::object sampler, bool lit_from_below,
@@ -593,129 +692,54 @@ PYBIND11_MODULE(_brdftab, m) {
                 const py::array& woz, const py::array& pr, const py::array& pg,
                 const py::array& pb, const py::array& active_in, bool want_f, bool want_pdf,
                 const py::object& out) -> py::tuple {
-                 // (f |cos theta_o| as a (3, n) float32 array or None, pdf as
-                 // (n,) float32 or None); inactive lanes are skipped (0).
-                 // With `out` = (f_r, f_g, f_b, pdf) (float32 arrays of n
-                 // values, None where not wanted) the results go there and
-                 // (None, None) is returned.
+                 // Returns (f as a (3, n) array or None, pdf (n,) or None).
                  const FloatLane ix(wix, "wi.x"), iy(wiy, "wi.y"), iz(wiz, "wi.z"),
                      ox(wox, "wo.x"), oy(woy, "wo.y"), oz(woz, "wo.z"), r(pr, "p.r"),
                      g(pg, "p.g"), b(pb, "p.b");
                  const MaskLane active(active_in, "active");
                  const std::size_t n = common_size(ix, iy, iz, ox, oy, oz, r, g, b, active);
                  if (want_pdf && !pk.sampler) throw InputError("plugin kernel: no sampler");
-                 const bool given = !out.is_none();
-                 py::array_t<float> f(want_f && !given ? std::vector<py::ssize_t>{3, py::ssize_t(n)}
-                                                       : std::vector<py::ssize_t>{0});
-                 py::array_t<float> pdf(want_pdf && !given ? py::ssize_t(n) : 0);
-                 float* fo[3] = {f.mutable_data(), f.mutable_data() + n, f.mutable_data() + 2 * n};
-                 float* pp = pdf.mutable_data();
-                 if (given) {
-                     const py::tuple o = out.cast<py::tuple>();
-                     if (o.size() != 4) throw InputError("plugin kernel: out needs 4 arrays");
-                     const char* names[3] = {"f_r", "f_g", "f_b"};
-                     for (int ch = 0; ch < 3; ++ch)
-                         fo[ch] = want_f ? out_ptr(o[ch], n, names[ch]) : nullptr;
-                     pp = want_pdf ? out_ptr(o[3], n, "pdf") : nullptr;
-                 }
+                 const bool wants[4] = {want_f, want_f, want_f, want_pdf};
+                 Outputs o(out, n, 4, wants, {"f_r", "f_g", "f_b", "pdf"});
                  {
                      py::gil_scoped_release release;
                      parallel_for(n, [&](std::size_t a, std::size_t e) {
                          for (std::size_t k = a; k < e; ++k) {
-                             Vec3 wi, wo;
-                             bool ok = active[k] && direction_at(ix, iy, iz, k, wi);
-                             ok = ok && direction_at(ox, oy, oz, k, wo);
-                             ok = ok && (pk.lit_from_below || wi.z > 0) &&
-                                  (pk.transmits || wo.z > 0);
-                             if (want_f) {
-                                 double v[3] = {0, 0, 0};
-                                 if (ok) {
-                                     const double p[3] = {r[k], g[k], b[k]};
-                                     pk.f_rgb(wi, wo, p, v);
-                                 }
-                                 const double c = std::fabs(wo.z);
-                                 for (int ch = 0; ch < 3; ++ch) fo[ch][k] = float(v[ch] * c);
-                             }
-                             if (want_pdf) pp[k] = ok ? float(pk.sampler->pdf(wi, wo)) : 0.0f;
+                             Vec3 wi;
+                             const bool ok = active[k] && direction_at(ix, iy, iz, k, wi);
+                             const double p[3] = {r[k], g[k], b[k]};
+                             pk.eval_lane(ok, wi, ox, oy, oz, p, k, o.ptr.data());
                          }
                      });
                  }
-                 return py::make_tuple(want_f && !given ? py::object(f) : py::none(),
-                                       want_pdf && !given ? py::object(pdf) : py::none());
+                 return py::make_tuple(o.result({0, 1, 2}, 3), o.result({3}, 1));
              })
         .def("sample",
              [](const PluginKernel& pk, const py::array& wix, const py::array& wiy,
                 const py::array& wiz, const py::array& u1_in, const py::array& u2_in,
                 const py::array& pr, const py::array& pg, const py::array& pb,
                 const py::array& active_in, const py::object& out) -> py::tuple {
-                 // (wo (3, n), pdf (n,), weight (3, n) = f |cos theta_o| / pdf,
-                 // valid (n,) bool), float32; invalid lanes have pdf = weight =
-                 // 0, and inactive ones are not sampled (wo = +z).  With `out`
-                 // = (wo_x, wo_y, wo_z, pdf, w_r, w_g, w_b) (float32 arrays of
-                 // n values) those results go there and (None, None, None,
-                 // valid) is returned.
+                 // Returns (wo (3, n), pdf (n,), weight (3, n)) or Nones.
                  const FloatLane ix(wix, "wi.x"), iy(wiy, "wi.y"), iz(wiz, "wi.z"),
                      u1(u1_in, "u.x"), u2(u2_in, "u.y"), r(pr, "p.r"), g(pg, "p.g"),
                      b(pb, "p.b");
                  const MaskLane active(active_in, "active");
                  const std::size_t n = common_size(ix, iy, iz, u1, u2, r, g, b, active);
                  if (!pk.sampler) throw InputError("plugin kernel: no sampler");
-                 const bool given = !out.is_none();
-                 const py::ssize_t m = given ? 0 : py::ssize_t(n);
-                 py::array_t<float> wo({py::ssize_t(3), m});
-                 py::array_t<float> pdf(m), weight({py::ssize_t(3), m});
-                 py::array_t<bool> valid(n);
-                 float* pw[3] = {wo.mutable_data(), wo.mutable_data() + n, wo.mutable_data() + 2 * n};
-                 float* pp = pdf.mutable_data();
-                 float* pwt[3] = {weight.mutable_data(), weight.mutable_data() + n,
-                                  weight.mutable_data() + 2 * n};
-                 if (given) {
-                     const py::tuple o = out.cast<py::tuple>();
-                     if (o.size() != 7) throw InputError("plugin kernel: out needs 7 arrays");
-                     const char* names[7] = {"wo_x", "wo_y", "wo_z", "pdf", "w_r", "w_g", "w_b"};
-                     for (int c = 0; c < 3; ++c) pw[c] = out_ptr(o[c], n, names[c]);
-                     pp = out_ptr(o[3], n, names[3]);
-                     for (int c = 0; c < 3; ++c) pwt[c] = out_ptr(o[4 + c], n, names[4 + c]);
-                 }
-                 bool* pv = valid.mutable_data();
+                 const bool wants[7] = {true, true, true, true, true, true, true};
+                 Outputs o(out, n, 7, wants, {"wo_x", "wo_y", "wo_z", "pdf", "w_r", "w_g", "w_b"});
                  {
                      py::gil_scoped_release release;
                      parallel_for(n, [&](std::size_t a, std::size_t e) {
                          for (std::size_t k = a; k < e; ++k) {
                              Vec3 wi;
-                             bool ok = active[k] && direction_at(ix, iy, iz, k, wi);
-                             ok = ok && (pk.lit_from_below || wi.z > 0);
-                             SampleResult s;
-                             s.wo = {0, 0, 1};
-                             if (ok) {
-                                 // u below 1: u = 1 in float32 stays in the last cell.
-                                 const double a1 = std::min(double(u1[k]), 1 - 1e-12);
-                                 const double a2 = std::min(double(u2[k]), 1 - 1e-12);
-                                 s = pk.sampler->sample(wi, a1, a2);
-                             }
-                             ok = ok && (pk.transmits || s.wo.z > 0) && s.pdf > 0;
-                             double v[3] = {0, 0, 0};
-                             if (ok) {
-                                 if (pk.single) {
-                                     v[0] = v[1] = v[2] = s.value;
-                                 } else {
-                                     const double p[3] = {r[k], g[k], b[k]};
-                                     pk.f_rgb(wi, s.wo, p, v);
-                                 }
-                             }
-                             const double c = std::fabs(s.wo.z);
-                             pw[0][k] = float(s.wo.x);
-                             pw[1][k] = float(s.wo.y);
-                             pw[2][k] = float(s.wo.z);
-                             pp[k] = ok ? float(s.pdf) : 0.0f;
-                             for (int ch = 0; ch < 3; ++ch)
-                                 pwt[ch][k] = ok ? float(v[ch] * c / s.pdf) : 0.0f;
-                             pv[k] = ok;
+                             const bool ok = active[k] && direction_at(ix, iy, iz, k, wi);
+                             const double p[3] = {r[k], g[k], b[k]};
+                             pk.sample_lane(ok, wi, u1[k], u2[k], p, k, o.ptr.data());
                          }
                      });
                  }
-                 if (given) return py::make_tuple(py::none(), py::none(), py::none(), valid);
-                 return py::make_tuple(wo, pdf, weight, valid);
+                 return py::make_tuple(o.result({0, 1, 2}, 3), o.result({3}, 1), o.result({4, 5, 6}, 3));
              });
 
     py::class_<Axis>(m, "Axis", "one table axis: node placement in user units")
