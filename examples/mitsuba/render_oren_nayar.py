@@ -12,7 +12,10 @@ docs/python.md shows the result and the measured time.  With --table-only
 the script renders (and writes) the table's image alone, for timing the
 plugin; with --diffuse it renders the same scene with Mitsuba's own
 `diffuse` BSDF instead (same albedo), the time of everything but the
-plugin.  Each render prints its time and the image's mean per channel.
+plugin.  --passes=N (default 8) renders the 128 spp as N renders of
+128 / N spp with seeds 1 .. N and averages them; --passes=1 is one render
+with seed 1.  Each render prints its time and the image's mean per
+channel.
 """
 
 import math
@@ -119,9 +122,10 @@ def scene(material):
 def render(the_scene, passes):
     """SPP samples per pixel in `passes` renders of SPP / passes each (seeds
     1, 2, ...), averaged.  With symbolic loops off (the plugin's register())
-    Mitsuba traces every sample of a render as one wavefront; at 256^2 x 128
-    its arrays are 33 MB each, which the allocator returns to the system and
-    takes back, zeroed, on every use; at 32 spp (8 MB) they stay cached."""
+    Mitsuba traces every sample of a render as one wavefront: at 256^2 x 128
+    spp its arrays hold 33 MB each, which go back to the system when freed
+    and come back as fresh, zeroed pages (system time: docs/python.md); at
+    16 spp (4 MB) they are reused."""
     image = None
     for k in range(passes):
         one = mi.render(the_scene, seed=1 + k, spp=SPP // passes)
@@ -131,7 +135,7 @@ def render(the_scene, passes):
     return image
 
 
-def main(table_path, png_path, table_only=False, diffuse=False, passes=4):
+def main(table_path, png_path, table_only=False, diffuse=False, passes=8):
     brdftab.mitsuba.register()
     mi.register_bsdf("qualitative_oren_nayar", lambda props: QualitativeOrenNayar(props))
     albedo = {"type": "rgb", "value": ALBEDO}
@@ -161,6 +165,6 @@ if __name__ == "__main__":
     args = [a for a in sys.argv[1:] if a not in flags and a not in passes]
     if len(args) != 2 or (passes and passes[-1][9:] not in ("1", "2", "4", "8", "16")):
         sys.exit("usage: render_oren_nayar.py TABLE.h5 OUT.png [--table-only | --diffuse] "
-                 "[--passes=1|2|4|8|16 (default 4)]")
+                 "[--passes=1|2|4|8|16 (default 8)]")
     main(args[0], args[1], table_only="--table-only" in sys.argv[1:],
-         diffuse="--diffuse" in sys.argv[1:], passes=int(passes[-1][9:]) if passes else 4)
+         diffuse="--diffuse" in sys.argv[1:], passes=int(passes[-1][9:]) if passes else 8)
