@@ -10,7 +10,12 @@ as pbrt writes it (right), same roughness and albedo.  Writes one PNG.
 
 docs/python.md shows the result and the measured time.  With --table-only
 the script renders (and writes) the table's image alone, for timing the
-plugin.
+plugin; with --diffuse it renders the same scene with Mitsuba's own
+`diffuse` BSDF instead (same albedo), the time of everything but the
+plugin.  --passes=N (default 8) renders the 128 spp as N renders of
+128 / N spp with seeds 1 .. N and averages them; --passes=1 is one render
+with seed 1.  Each render prints its time and the image's mean per
+channel.
 """
 
 import math
@@ -114,7 +119,23 @@ def scene(material):
     })
 
 
-def main(table_path, png_path, table_only=False):
+def render(the_scene, passes):
+    """SPP samples per pixel in `passes` renders of SPP / passes each (seeds
+    1, 2, ...), averaged.  With symbolic loops off (the plugin's register())
+    Mitsuba traces every sample of a render as one wavefront: at 256^2 x 128
+    spp its arrays hold 33 MB each, which go back to the system when freed
+    and come back as fresh, zeroed pages (system time: docs/python.md); at
+    16 spp (4 MB) they are reused."""
+    image = None
+    for k in range(passes):
+        one = mi.render(the_scene, seed=1 + k, spp=SPP // passes)
+        image = one if image is None else image + one
+    image = image / passes if passes > 1 else image
+    dr.eval(image)
+    return image
+
+
+def main(table_path, png_path, table_only=False, diffuse=False, passes=8):
     brdftab.mitsuba.register()
     mi.register_bsdf("qualitative_oren_nayar", lambda props: QualitativeOrenNayar(props))
     albedo = {"type": "rgb", "value": ALBEDO}
@@ -122,21 +143,28 @@ def main(table_path, png_path, table_only=False):
     approx = {"type": "qualitative_oren_nayar", "sigma": SIGMA_DEG, "reflectance": albedo}
     images = []
     materials = [("exact table", exact), ("pbrt approximation", approx)]
-    for name, material in materials[:1] if table_only else materials:
+    if diffuse:
+        materials = [("Mitsuba diffuse", {"type": "diffuse", "reflectance": albedo})]
+    for name, material in materials[:1] if table_only or diffuse else materials:
         start = time.time()
-        images.append(mi.render(scene(material), seed=1))
-        dr.eval(images[-1])
-        print(f"{name}: {time.time() - start:.1f} s ({RESOLUTION}x{RESOLUTION}, {SPP} spp)")
+        images.append(render(scene(material), passes))
+        mean = np.array(images[-1]).reshape(-1, 3).mean(axis=0)
+        print(f"{name}: {time.time() - start:.1f} s ({RESOLUTION}x{RESOLUTION}, {SPP} spp), "
+              f"mean {mean[0]:.5f} {mean[1]:.5f} {mean[2]:.5f}")
     # Side by side, 4 white columns between.
     gap = np.ones((RESOLUTION, 4, 3))
-    both = np.array(images[0]) if table_only else \
+    both = np.array(images[0]) if table_only or diffuse else \
         np.concatenate([np.array(images[0]), gap, np.array(images[1])], axis=1)
     mi.util.write_bitmap(png_path, mi.TensorXf(both.astype(np.float32)))
     print(f"wrote {png_path}")
 
 
 if __name__ == "__main__":
-    args = [a for a in sys.argv[1:] if a != "--table-only"]
-    if len(args) != 2:
-        sys.exit("usage: render_oren_nayar.py TABLE.h5 OUT.png [--table-only]")
-    main(args[0], args[1], table_only="--table-only" in sys.argv[1:])
+    flags = {"--table-only", "--diffuse"}
+    passes = [a for a in sys.argv[1:] if a.startswith("--passes=")]
+    args = [a for a in sys.argv[1:] if a not in flags and a not in passes]
+    if len(args) != 2 or (passes and passes[-1][9:] not in ("1", "2", "4", "8", "16")):
+        sys.exit("usage: render_oren_nayar.py TABLE.h5 OUT.png [--table-only | --diffuse] "
+                 "[--passes=1|2|4|8|16 (default 8)]")
+    main(args[0], args[1], table_only="--table-only" in sys.argv[1:],
+         diffuse="--diffuse" in sys.argv[1:], passes=int(passes[-1][9:]) if passes else 8)

@@ -25,14 +25,23 @@ __all__ = ["open", "File", "Table", "BoundTable", "Axis", "Error", "InputError",
            "set_threads", "threads"]
 
 
-def _rows(coords, order, names):
-    """Broadcast the coordinate arrays, stack them as (n, len(order)) rows in
-    the library's order; returns (rows, broadcast shape)."""
-    arrays = np.broadcast_arrays(*[np.asarray(coords[n], dtype=np.float64) for n in names])
-    shape = arrays[0].shape if arrays else ()
-    columns = [arrays[i].reshape(-1) for i in order]
-    rows = np.ascontiguousarray(np.stack(columns, axis=1)) if columns else np.zeros((1, 0))
-    return rows, shape
+def _columns(coords, order, names):
+    """The coordinate arrays as float64 columns in the library's order, each
+    of the broadcast size or of one value (shared by every point, not
+    copied); returns (columns, point count, broadcast shape)."""
+    arrays = [np.asarray(coords[n], dtype=np.float64) for n in names]
+    shape = np.broadcast_shapes(*(a.shape for a in arrays)) if arrays else ()
+    n = int(np.prod(shape)) if shape else 1
+    columns = []
+    for i in order:
+        a = arrays[i]
+        if a.size == 1:
+            columns.append(a.reshape(1))
+        elif a.shape == shape:
+            columns.append(a.reshape(-1))
+        else:
+            columns.append(np.broadcast_to(a, shape).reshape(-1))
+    return columns, n, shape
 
 
 def _warn_clamped(clamped, points):
@@ -69,9 +78,9 @@ class Table:
     broadcast against each other as in numpy."""
 
     def __init__(self, path, name):
-        # An adaptive table (docs/adaptive.md) is read by its own reader:
-        # eval() and eval_stderr() (linear only); values is one number per
-        # stored node; bind() raises.
+        # An adaptive table (docs/adaptive.md): eval(), eval_stderr() and
+        # bind() as for a tensor table, linear only; values is one number
+        # per stored node.
         if _brdftab._is_adaptive(str(path), name):
             self._t = _brdftab._AdaptiveTable(str(path), name)
         else:
@@ -132,12 +141,10 @@ class Table:
     def _eval(self, coords, interpolation, out_of_range, of_stderr):
         names = list(coords)
         order = self._t._order(names)
-        rows, shape = _rows(coords, order, names)
-        fn = self._t._eval_stderr_rows if of_stderr else self._t._eval_rows
-        values = _shaped(fn(rows, interpolation, out_of_range), shape)
-        if out_of_range == "clamp":
-            _warn_clamped(self._t._clamped(rows), rows.shape[0])
-        return values
+        columns, n, shape = _columns(coords, order, names)
+        values, clamped = self._t._eval_columns(columns, n, interpolation, out_of_range, of_stderr)
+        _warn_clamped(clamped, n)
+        return _shaped(values, shape)
 
     def eval(self, interpolation="linear", out_of_range="clamp", **coords):
         """Interpolated value(s). interpolation: 'linear' (multilinear) or

@@ -239,11 +239,21 @@ class _TableBSDF:
         return np.broadcast_to(wi_np, (n, 3)), np.broadcast_to(wo_np, (n, 3)), bad
 
     def _albedo(self, si, active):
-        """The reflectance texture's value per channel (three float32 lanes)."""
+        """The reflectance texture's value per channel (three lanes)."""
         if self.reflectance is None:
             return _ONE, _ONE, _ONE
         a = self.reflectance.eval(si, active)
-        return _f32(a[0]), _f32(a[1]), _f32(a[2])
+        return a[0], a[1], a[2]
+
+    def _lanes(self, *values):
+        """The kernel's inputs as 1-D numpy arrays (float32; the last, the
+        active mask, bool).  In JIT variants the Dr.Jit arrays are evaluated
+        together first, one kernel for all of them, and numpy then views
+        their memory; converting them one by one would evaluate each
+        component's expression separately."""
+        if not self._scalar:
+            dr.eval(*values)
+        return tuple(_f32(v) for v in values[:-1]) + (_mask(values[-1]),)
 
     def _outputs(self, n, count):
         """In JIT variants, `count` new Dr.Jit arrays of n floats and writable
@@ -257,23 +267,16 @@ class _TableBSDF:
 
     def _kernel_eval_pdf(self, si, wo, active, want_f, want_pdf):
         wi = si.wi
-        lanes = (_f32(wi.x), _f32(wi.y), _f32(wi.z), _f32(wo.x), _f32(wo.y), _f32(wo.z),
-                 *self._albedo(si, active), _mask(active))
-        n = max(a.size for a in lanes)
-        arrays, views = self._outputs(n, 4)
+        lanes = self._lanes(wi.x, wi.y, wi.z, wo.x, wo.y, wo.z, *self._albedo(si, active), active)
+        arrays, views = self._outputs(max(a.size for a in lanes), 4)
         if views is not None:
             views = tuple(v if want else None for v, want in
                           zip(views, (want_f, want_f, want_f, want_pdf)))
         f, p = self.kernel.eval_pdf(*lanes, want_f, want_pdf, views)
+        # Inactive lanes are 0 already (the kernel skips them).
         if arrays is not None:
-            f = mi.Spectrum(*arrays[:3]) if want_f else None
-            p = arrays[3] if want_pdf else None
-        else:
-            f = None if f is None else self._spectrum(f)
-            p = None if p is None else self._float(p)
-        f = None if f is None else dr.select(active, f, 0.0)
-        p = None if p is None else dr.select(active, p, 0.0)
-        return f, p
+            return (mi.Spectrum(*arrays[:3]) if want_f else None), (arrays[3] if want_pdf else None)
+        return (None if f is None else self._spectrum(f)), (None if p is None else self._float(p))
 
     def eval(self, ctx, si, wo, active=True):
         if self.kernel is not None:
@@ -295,45 +298,47 @@ class _TableBSDF:
             return self._kernel_eval_pdf(si, wo, active, True, True)
         return self.eval(ctx, si, wo, active), self.pdf(ctx, si, wo, active)
 
-    def _finish_sample(self, wo, pdf, weight, valid, wi_z, active):
-        """BSDFSample3f and weight from numpy results, or (JIT variants) from
-        Dr.Jit arrays the kernel wrote (wo, pdf and weight as lists of
-        mi.Float)."""
+    def _sample_record(self, wo, pdf, weight, wi_z, active):
+        """BSDFSample3f and weight from the kernel's or the numpy path's
+        results: wo as three lanes, pdf (0 where the sample is invalid) and
+        weight (three lanes), as Dr.Jit arrays or numpy arrays."""
         bs = dr.zeros(mi.BSDFSample3f)
         if isinstance(pdf, np.ndarray):
             bs.wo = mi.Vector3f(self._float(wo[0]), self._float(wo[1]), self._float(wo[2]))
             bs.pdf = self._float(pdf)
             weight = self._spectrum(weight)
-            transmitted = wo[2] * wi_z < 0
         else:
             bs.wo = mi.Vector3f(*wo)
             bs.pdf = pdf
             weight = mi.Spectrum(*weight)
-            transmitted = None
         bs.eta = 1.0
         reflect = mi.UInt32(+mi.BSDFFlags.GlossyReflection)
-        transmit = mi.UInt32(+mi.BSDFFlags.GlossyTransmission)
-        if self._scalar:
-            bs.sampled_type = transmit if transmitted[0] else reflect
-        elif transmitted is None:
-            bs.sampled_type = dr.select(bs.wo.z * wi_z < 0, transmit, reflect)
+        if self.transmits:
+            transmit = mi.UInt32(+mi.BSDFFlags.GlossyTransmission)
+            if self._scalar:
+                bs.sampled_type = transmit if bs.wo.z * wi_z < 0 else reflect
+            else:
+                bs.sampled_type = dr.select(bs.wo.z * wi_z < 0, transmit, reflect)
         else:
-            bs.sampled_type = dr.select(mi.Bool(transmitted), transmit, reflect)
+            bs.sampled_type = reflect
         bs.sampled_component = mi.UInt32(0)
-        active = active & mi.Bool(bool(valid[0])) if self._scalar else active & mi.Bool(valid)
-        return bs, dr.select(active, weight, 0.0)
+        if self._scalar:
+            return bs, weight if (active and bs.pdf > 0) else mi.Spectrum(0.0)
+        # Invalid and inactive lanes have pdf = weight = 0.
+        return bs, weight
+
+    def _kernel_sample(self, si, sample2, active):
+        wi = si.wi
+        lanes = self._lanes(wi.x, wi.y, wi.z, sample2[0], sample2[1], *self._albedo(si, active), active)
+        arrays, views = self._outputs(max(a.size for a in lanes), 7)
+        wo, pdf, weight = self.kernel.sample(*lanes, views)
+        if arrays is not None:
+            wo, pdf, weight = arrays[:3], arrays[3], arrays[4:]
+        return self._sample_record(wo, pdf, weight, wi.z, active)
 
     def sample(self, ctx, si, sample1, sample2, active=True):
         if self.kernel is not None:
-            wi = si.wi
-            wi_z = _f32(wi.z)
-            lanes = (_f32(wi.x), _f32(wi.y), wi_z, _f32(sample2[0]), _f32(sample2[1]),
-                     *self._albedo(si, active), _mask(active))
-            arrays, views = self._outputs(max(a.size for a in lanes), 7)
-            wo, pdf, weight, valid = self.kernel.sample(*lanes, views)
-            if arrays is not None:
-                wo, pdf, weight, wi_z = arrays[:3], arrays[3], arrays[4:], wi.z
-            return self._finish_sample(wo, pdf, weight, valid, wi_z, active)
+            return self._kernel_sample(si, sample2, active)
         wi_np, bad = _vectors(si.wi)
         u1, u2 = _lanes(sample2[0], sample2[1])
         n = max(len(wi_np), len(u1))
@@ -346,11 +351,11 @@ class _TableBSDF:
             pdf = self._pdf_np(wi_np, wo_np)
         else:
             wo_np, _, pdf = self.sampler.sample(wi_np, np.minimum(u, 1 - 1e-12))
-        valid = self._valid(wi_np, wo_np, bad) & (pdf > 0)
+        valid = self._valid(wi_np, wo_np, bad) & (pdf > 0) & _mask(active)
         f = self._f_rgb(si, wi_np, wo_np, active) * np.abs(wo_np[:, 2])
         weight = np.where(valid, f / np.where(valid, pdf, 1.0), 0.0)
-        return self._finish_sample(wo_np.T, np.where(valid, pdf, 0.0), weight, valid,
-                                   wi_np[:, 2], active)
+        return self._sample_record(wo_np.T, np.where(valid, pdf, 0.0), weight,
+                                   self._float(wi_np[:, 2]), active)
 
     def traverse(self, callback):
         pass

@@ -21,6 +21,7 @@
 #include <exception>
 #include <map>
 #include <memory>
+#include <mutex>
 #include <string>
 #include <thread>
 #include <vector>
@@ -166,9 +167,121 @@ DoubleArray rows_of(const py::array& in, std::size_t width, const char* what) {
     return a;
 }
 
-Vec3 vec_at(const DoubleArray& a, py::ssize_t k) {
-    const double* p = a.data(k, 0);
-    return {p[0], p[1], p[2]};
+// The coordinates of a batch eval as columns: one float64 array per
+// coordinate (in the library's order) of n values, or of one value that
+// every point shares.  Python passes numpy's broadcast columns as they are,
+// so no (n, width) array of rows is built there.
+struct Columns {
+    std::vector<DoubleArray> arrays;
+    std::vector<const double*> data;
+    std::vector<std::size_t> step;  // 1, or 0 for a shared value
+    std::size_t n = 0;
+
+    Columns(const std::vector<py::array>& in, std::size_t count, std::size_t width) : n(count) {
+        if (in.size() != width)
+            throw InputError("coordinates: expected " + std::to_string(width) + " columns, got " +
+                             std::to_string(in.size()));
+        for (const py::array& a : in) {
+            arrays.push_back(DoubleArray::ensure(a));
+            const DoubleArray& c = arrays.back();
+            if (!c) throw InputError("coordinates: expected arrays of numbers");
+            const std::size_t size = std::size_t(c.size());
+            if (size != n && size != 1)
+                throw InputError("coordinates: a column of " + std::to_string(size) + " values for " +
+                                 std::to_string(n) + " points");
+            data.push_back(c.data());
+            step.push_back(size == 1 ? 0 : 1);
+        }
+    }
+    double at(std::size_t d, std::size_t k) const { return data[d][k * step[d]]; }
+};
+
+// Per coordinate whose values the lookup clamps: how many points, and the
+// first such value (Python's clamp warning).
+struct ClampCount {
+    std::size_t count = 0;
+    double first = 0;
+};
+
+// Batch eval over columns: rows gathered in blocks of 256 into a buffer and
+// handed to many(rows, count, out) (LookupTable::eval_many), threaded.  With
+// `outside` (a function (coordinate, value) -> bool) the same pass counts the
+// values outside their axes.  Returns the values and, per coordinate, the
+// counts.
+template <class Many, class Outside>
+std::pair<py::array_t<double>, std::vector<ClampCount>>
+eval_columns(const Columns& c, const Many& many, const Outside* outside) {
+    const std::size_t width = c.data.size(), n = c.n;
+    py::array_t<double> out(py::ssize_t(n), nullptr);
+    double* dst = out.mutable_data();
+    std::vector<std::vector<ClampCount>> chunk_counts;
+    std::mutex lock;
+    {
+        py::gil_scoped_release release;
+        parallel_for(n, [&](std::size_t a, std::size_t e) {
+            constexpr std::size_t kBlock = 256;
+            std::vector<double> rows(kBlock * std::max<std::size_t>(width, 1));
+            std::vector<ClampCount> counts(width);
+            for (std::size_t b = a; b < e; b += kBlock) {
+                const std::size_t m = std::min(kBlock, e - b);
+                for (std::size_t d = 0; d < width; ++d) {
+                    const double* col = c.data[d] + b * c.step[d];
+                    const std::size_t step = c.step[d];
+                    for (std::size_t k = 0; k < m; ++k) rows[k * width + d] = col[k * step];
+                }
+                many(rows.data(), m, dst + b);
+                if (outside)
+                    for (std::size_t d = 0; d < width; ++d)
+                        for (std::size_t k = 0; k < m; ++k) {
+                            const double v = rows[k * width + d];
+                            if ((*outside)(d, v) && counts[d].count++ == 0) counts[d].first = v;
+                        }
+            }
+            std::lock_guard<std::mutex> g(lock);
+            chunk_counts.emplace_back(std::move(counts));
+            chunk_counts.back().push_back({a, 0});  // the chunk's start, for ordering
+        });
+    }
+    // Merge in point order: the first value is the lowest chunk's.
+    std::sort(chunk_counts.begin(), chunk_counts.end(),
+              [](const auto& x, const auto& y) { return x.back().count < y.back().count; });
+    std::vector<ClampCount> total(width);
+    for (const auto& counts : chunk_counts)
+        for (std::size_t d = 0; d < width; ++d) {
+            if (counts[d].count && !total[d].count) total[d].first = counts[d].first;
+            total[d].count += counts[d].count;
+        }
+    return {std::move(out), std::move(total)};
+}
+
+// A per-pair batch call (BoundTable::eval_many, pdf_many) over (n, 3)
+// float64 rows of wi and wo: one value per row, threaded.
+template <class Many>
+py::array_t<double> pair_call(const py::array& wi_in, const py::array& wo_in, const Many& many) {
+    const DoubleArray wi = rows_of(wi_in, 3, "wi"), wo = rows_of(wo_in, 3, "wo");
+    const py::ssize_t n = wi.shape(0);
+    if (wo.shape(0) != n) throw InputError("wi and wo: different numbers of rows");
+    py::array_t<double> out(n);
+    double* dst = out.mutable_data();
+    const double *pi = wi.data(), *po = wo.data();
+    {
+        py::gil_scoped_release release;
+        parallel_for(std::size_t(n), [&](std::size_t a, std::size_t e) {
+            many(pi + 3 * a, po + 3 * a, e - a, dst + a);
+        });
+    }
+    return out;
+}
+
+// The clamp warnings' data: (name, count, first value, min, max) per
+// coordinate with values outside its range.
+py::list clamp_list(const std::vector<ClampCount>& counts, const std::vector<Axis>& axes) {
+    py::list out;
+    for (std::size_t d = 0; d < counts.size() && d < axes.size(); ++d)
+        if (counts[d].count)
+            out.append(py::make_tuple(axes[d].name, counts[d].count, counts[d].first,
+                                      std::min(axes[d].min, axes[d].max), std::max(axes[d].min, axes[d].max)));
+    return out;
 }
 
 // The lookup table of one stored table, with its standard-error lookup.
@@ -182,8 +295,11 @@ struct PyTable {
           lookup(std::make_shared<const LookupTable>(LookupTable::open(file, name))),
           stderr_table(stderr_lookup(*lookup)) {}
 
-    py::array eval_rows(const py::array& points, const std::string& interp,
-                        const std::string& mode, bool of_stderr) const {
+    // Values at n points given as columns (Columns), and the clamp
+    // warnings' data (clamp mode only; phi_d folded or wrapped first, as
+    // `brdftab query` warns; the recombination parameter is not an axis).
+    py::tuple eval_columns_of(const std::vector<py::array>& cols, std::size_t n, const std::string& interp,
+                              const std::string& mode, bool of_stderr) const {
         const LookupTable* lt = lookup.get();
         if (of_stderr) {
             lt = stderr_table.get();
@@ -192,21 +308,23 @@ struct PyTable {
                                  "' stores no standard errors (a closed form, a table "
                                  "written without them, or a recombined table)");
         }
-        const DoubleArray rows = rows_of(points, lt->coordinate_names().size(), "coordinates");
+        const Columns c(cols, n, lt->coordinate_names().size());
         const Interpolation ip = interpolation_of(interp);
         const OutOfRange om = out_of_range_of(mode);
-        py::array_t<double> out(rows.shape(0));
-        double* dst = out.mutable_data();
-        const double* src = rows.data();
-        const std::size_t n = std::size_t(rows.shape(0));
-        const std::size_t width = std::size_t(rows.shape(1));
-        {
-            py::gil_scoped_release release;
-            parallel_for(n, [&](std::size_t a, std::size_t b) {
-                lt->eval_many(src + a * width, b - a, dst + a, ip, om);
-            });
-        }
-        return out;
+        const std::vector<Axis>& axes = lt->axes();
+        std::vector<double> tol;
+        for (const Axis& a : axes) tol.push_back(1e-9 * (a.max - a.min));
+        const auto outside = [&](std::size_t d, double v) {
+            if (d >= axes.size() || (v >= axes[d].min - tol[d] && v <= axes[d].max + tol[d])) return false;
+            // Only a value outside its axis can be folded (fold_periodic
+            // returns one inside unchanged).
+            const double x = lookup_internal::fold_periodic(axes[d], v);
+            return !(x >= axes[d].min - tol[d] && x <= axes[d].max + tol[d]);
+        };
+        auto [values, counts] = eval_columns(
+            c, [&](const double* rows, std::size_t m, double* out) { lt->eval_many(rows, m, out, ip, om); },
+            om == OutOfRange::Clamp ? &outside : nullptr);
+        return py::make_tuple(std::move(values), clamp_list(counts, axes));
     }
 };
 
@@ -216,14 +334,21 @@ struct PyBound {
 
 // An adaptive table (docs/adaptive.md): linear interpolation in its patches,
 // exactly as `brdftab query` evaluates it (each coordinate clamped to its
-// axis' range, or rejected).  No cubic interpolation, and no bind: the
-// module's bind, direction and sampling calls wrap tensor tables only.
+// axis' range, or rejected), through the lookup library's adaptive kernel
+// (host/lookup/adaptive_lookup.cpp), which bind() also serves: eval, pdf and
+// sampling on directions for a table over theta_i|mu_i, theta_o|mu_o and
+// optionally phi_d.  No cubic interpolation.
 struct PyAdaptive {
     std::string path;
-    std::shared_ptr<const AdaptiveTable> table;
+    std::shared_ptr<const LookupTable> lookup;
+    std::shared_ptr<const AdaptiveTable> table;  // lookup's own
 
     PyAdaptive(const std::string& file, const std::string& name)
-        : path(file), table(std::make_shared<const AdaptiveTable>(read_adaptive_table(file, name))) {}
+        : path(file), lookup(std::make_shared<const LookupTable>(LookupTable::open(file, name))) {
+        if (!lookup->is_adaptive())
+            throw InputError("table '" + name + "' of '" + file + "' is not adaptive");
+        table = std::shared_ptr<const AdaptiveTable>(lookup, lookup->adaptive());
+    }
 
     const TableData& data() const { return table->data; }
 
@@ -253,68 +378,56 @@ struct PyAdaptive {
         return out;
     }
 
-    py::array eval_rows(const py::array& points, const std::string& interp, const std::string& mode,
-                        bool of_stderr) const {
+    // The stored standard errors at `count` rows, interpolated by the
+    // table's patches as the values are (coordinates clamped or rejected).
+    void stderr_many(const double* rows, std::size_t count, double* out, bool reject) const {
+        const std::size_t dims = data().axes.size();
+        double x[16], tt[16];
+        for (std::size_t k = 0; k < count; ++k) {
+            for (std::size_t d = 0; d < dims; ++d) {
+                const Axis& ax = data().axes[d];
+                const double lo = std::min(ax.min, ax.max), hi = std::max(ax.min, ax.max);
+                double v = rows[k * dims + d];
+                if (!(v >= lo && v <= hi)) {
+                    if (reject || std::isnan(v))
+                        throw InputError("coordinates: " + ax.name + " = " + std::to_string(v) + " outside [" +
+                                         std::to_string(lo) + ", " + std::to_string(hi) + "]");
+                    v = std::clamp(v, lo, hi);
+                }
+                x[d] = v;
+            }
+            table->to_t(x, tt);
+            out[k] = table->layout.eval(tt, data().stderr_.data());
+        }
+    }
+
+    py::tuple eval_columns_of(const std::vector<py::array>& cols, std::size_t n, const std::string& interp,
+                              const std::string& mode, bool of_stderr) const {
         if (interp != "linear") {
             interpolation_of(interp);  // the message for an unknown name
             throw InputError("table '" + data().name + "' is adaptive: its patches interpolate linearly only");
         }
-        const bool reject = out_of_range_of(mode) == OutOfRange::Reject;
-        const std::vector<double>& values = of_stderr ? data().stderr_ : data().value;
-        if (of_stderr && values.size() != data().value.size())
+        const OutOfRange om = out_of_range_of(mode);
+        if (of_stderr && data().stderr_.size() != data().value.size())
             throw InputError("table '" + data().name + "' stores no standard errors");
         const std::size_t dims = data().axes.size();
-        const DoubleArray rows = rows_of(points, dims, "coordinates");
-        const std::size_t n = std::size_t(rows.shape(0));
-        py::array_t<double> out(rows.shape(0));
-        double* dst = out.mutable_data();
-        const double* src = rows.data();
-        const AdaptiveTable& t = *table;
-        {
-            py::gil_scoped_release release;
-            parallel_for(n, [&](std::size_t a, std::size_t b) {
-                std::vector<double> x(dims), tt(dims);
-                for (std::size_t k = a; k < b; ++k) {
-                    for (std::size_t d = 0; d < dims; ++d) {
-                        const Axis& ax = t.data.axes[d];
-                        const double lo = std::min(ax.min, ax.max), hi = std::max(ax.min, ax.max);
-                        double v = src[k * dims + d];
-                        if (!(v >= lo && v <= hi)) {
-                            if (reject || std::isnan(v))
-                                throw InputError("coordinates: " + ax.name + " = " + std::to_string(v) +
-                                                 " outside [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
-                            v = std::clamp(v, lo, hi);
-                        }
-                        x[d] = v;
-                    }
-                    t.to_t(x.data(), tt.data());
-                    dst[k] = t.layout.eval(tt.data(), values.data());
-                }
-            });
-        }
-        return out;
-    }
-
-    // As PyTable's _clamped: (name, count, first value, min, max) per axis
-    // with clamped coordinates.
-    py::list clamped(const py::array& points) const {
-        const std::size_t dims = data().axes.size();
-        const DoubleArray rows = rows_of(points, dims, "coordinates");
-        const std::size_t n = std::size_t(rows.shape(0));
-        py::list out;
-        for (std::size_t d = 0; d < dims; ++d) {
+        if (dims > 16) throw InputError("table '" + data().name + "': more than 16 axes");
+        const Columns c(cols, n, dims);
+        const auto outside = [&](std::size_t d, double v) {
             const Axis& ax = data().axes[d];
-            const double lo = std::min(ax.min, ax.max), hi = std::max(ax.min, ax.max);
-            std::size_t count = 0;
-            double first = 0;
-            for (std::size_t k = 0; k < n; ++k) {
-                const double v = rows.data()[k * dims + d];
-                if (v < lo || v > hi)
-                    if (count++ == 0) first = v;
-            }
-            if (count) out.append(py::make_tuple(ax.name, count, first, lo, hi));
-        }
-        return out;
+            return v < std::min(ax.min, ax.max) || v > std::max(ax.min, ax.max);
+        };
+        const bool reject = om == OutOfRange::Reject;
+        auto [values, counts] = eval_columns(
+            c,
+            [&](const double* rows, std::size_t m, double* out) {
+                if (of_stderr)
+                    stderr_many(rows, m, out, reject);
+                else
+                    lookup->eval_many(rows, m, out, Interpolation::Linear, om);
+            },
+            reject ? nullptr : &outside);
+        return py::make_tuple(std::move(values), clamp_list(counts, data().axes));
     }
 };
 
@@ -357,6 +470,39 @@ struct PluginKernel {
             for (std::size_t k = 0; k < nt; ++k) sum += poly(coeffs[k], p[c]) * t[k];
             out[c] = sum * poly(num, p[c]) / poly(den, p[c]);
         }
+    }
+
+    // eval_pdf at lane k (wi already read; ok: active with a valid wi):
+    // out[0..2] f |cos theta_o| per channel and out[3] the pdf, each
+    // skipped when null.
+    template <class Lane3>
+    void eval_lane(bool ok, const Vec3& wi, const Lane3& ox, const Lane3& oy, const Lane3& oz,
+                   const double p[3], std::size_t k, float* const* out) const;
+
+    // A sample at lane k: out[0..2] wo, out[3] pdf, out[4..6] weight.
+    void sample_lane(bool ok, const Vec3& wi, double u1, double u2, const double p[3], std::size_t k,
+                     float* const* out) const {
+        ok = ok && (lit_from_below || wi.z > 0);
+        SampleResult s;
+        s.wo = {0, 0, 1};
+        if (ok) {
+            // u below 1: u = 1 in float32 stays in the last cell.
+            s = sampler->sample(wi, std::min(u1, 1 - 1e-12), std::min(u2, 1 - 1e-12));
+            ok = (transmits || s.wo.z > 0) && s.pdf > 0;
+        }
+        double v[3] = {0, 0, 0};
+        if (ok) {
+            if (single)
+                v[0] = v[1] = v[2] = s.value;
+            else
+                f_rgb(wi, s.wo, p, v);
+        }
+        const double c = std::fabs(s.wo.z);
+        out[0][k] = float(s.wo.x);
+        out[1][k] = float(s.wo.y);
+        out[2][k] = float(s.wo.z);
+        out[3][k] = ok ? float(s.pdf) : 0.0f;
+        for (int ch = 0; ch < 3; ++ch) out[4 + ch][k] = ok ? float(v[ch] * c / s.pdf) : 0.0f;
     }
 };
 
@@ -417,6 +563,62 @@ bool direction_at(const FloatLane& x, const FloatLane& y, const FloatLane& z, st
     w = {0, 0, 1};
     return false;
 }
+
+template <class Lane3>
+void PluginKernel::eval_lane(bool ok, const Vec3& wi, const Lane3& ox, const Lane3& oy, const Lane3& oz,
+                             const double p[3], std::size_t k, float* const* out) const {
+    Vec3 wo;
+    ok = ok && direction_at(ox, oy, oz, k, wo);
+    ok = ok && (lit_from_below || wi.z > 0) && (transmits || wo.z > 0);
+    if (out[0]) {
+        double v[3] = {0, 0, 0};
+        if (ok) f_rgb(wi, wo, p, v);
+        const double c = std::fabs(wo.z);
+        for (int ch = 0; ch < 3; ++ch) out[ch][k] = float(v[ch] * c);
+    }
+    if (out[3]) out[3][k] = ok ? float(sampler->pdf(wi, wo)) : 0.0f;
+}
+
+// The output arrays of a _PluginKernel call: the caller's (`out`, a tuple
+// of float32 views of Dr.Jit arrays, None where a result is not wanted) or,
+// when `out` is None, one new (slots, n) float32 array whose rows are
+// returned.  ptr[i] is null for a result not wanted.
+struct Outputs {
+    bool given;
+    py::array_t<float> own;
+    std::vector<float*> ptr;
+    std::vector<bool> want;
+
+    Outputs(const py::object& out, std::size_t n, std::size_t slots, const bool* wants,
+            std::initializer_list<const char*> names)
+        : given(!out.is_none()), ptr(slots, nullptr), want(wants, wants + slots) {
+        const std::vector<const char*> name(names);
+        if (given) {
+            const py::tuple o = out.cast<py::tuple>();
+            if (o.size() != slots)
+                throw InputError("plugin kernel: out needs " + std::to_string(slots) + " arrays");
+            for (std::size_t i = 0; i < slots; ++i)
+                if (want[i]) ptr[i] = out_ptr(o[i], n, name[i]);
+            return;
+        }
+        own = py::array_t<float>({py::ssize_t(slots), py::ssize_t(n)});
+        for (std::size_t i = 0; i < slots; ++i)
+            if (want[i]) ptr[i] = own.mutable_data() + i * n;
+    }
+
+    // Rows first .. first + count - 1 of the own array ((count, n), or (n,)
+    // for one row), or None when `out` was given or the result not wanted.
+    py::object result(std::initializer_list<std::size_t> rows, std::size_t count) const {
+        const std::size_t first = *rows.begin();
+        if (given || !want[first]) return py::none();
+        const py::ssize_t n = own.shape(1);
+        const py::ssize_t item = py::ssize_t(sizeof(float));
+        if (count == 1)
+            return py::array(py::dtype::of<float>(), {n}, {item}, own.data() + first * n, own);
+        return py::array(py::dtype::of<float>(), {py::ssize_t(count), n}, {n * item, item},
+                         own.data() + first * n, own);
+    }
+};
 }  // namespace
 
 PYBIND11_MODULE(_brdftab, m) {
@@ -452,6 +654,16 @@ PYBIND11_MODULE(_brdftab, m) {
     m.def("threads", &thread_count, "threads the batch calls use");
 
 
+    // The plugin kernel's methods take Dr.Jit's arrays as numpy arrays (one
+    // per component, length n or 1).  `out` is None (the results come back
+    // as new float32 numpy arrays) or a tuple of writable float32 arrays of
+    // n values, views of Dr.Jit arrays, which the results go into (None is
+    // returned in their place):
+    //   eval_pdf: (f_r, f_g, f_b, pdf), None where not wanted;
+    //   sample: (wo_x, wo_y, wo_z, pdf, w_r, w_g, w_b).
+    // f is f |cos theta_o|; a sample's weight is f |cos theta_o| / pdf.
+    // Inactive and invalid lanes get f = pdf = weight = 0 (a sample's wo is
+    // then +z), so pdf > 0 tells a valid sample.
     py::class_<PluginKernel>(m, "_PluginKernel")
         .def(py::init([](py::object single, py::list terms, std::vector<double> num,
                          std::vector<double> den, py::object sampler, bool lit_from_below,
@@ -480,129 +692,54 @@ PYBIND11_MODULE(_brdftab, m) {
                 const py::array& woz, const py::array& pr, const py::array& pg,
                 const py::array& pb, const py::array& active_in, bool want_f, bool want_pdf,
                 const py::object& out) -> py::tuple {
-                 // (f |cos theta_o| as a (3, n) float32 array or None, pdf as
-                 // (n,) float32 or None); inactive lanes are skipped (0).
-                 // With `out` = (f_r, f_g, f_b, pdf) (float32 arrays of n
-                 // values, None where not wanted) the results go there and
-                 // (None, None) is returned.
+                 // Returns (f as a (3, n) array or None, pdf (n,) or None).
                  const FloatLane ix(wix, "wi.x"), iy(wiy, "wi.y"), iz(wiz, "wi.z"),
                      ox(wox, "wo.x"), oy(woy, "wo.y"), oz(woz, "wo.z"), r(pr, "p.r"),
                      g(pg, "p.g"), b(pb, "p.b");
                  const MaskLane active(active_in, "active");
                  const std::size_t n = common_size(ix, iy, iz, ox, oy, oz, r, g, b, active);
                  if (want_pdf && !pk.sampler) throw InputError("plugin kernel: no sampler");
-                 const bool given = !out.is_none();
-                 py::array_t<float> f(want_f && !given ? std::vector<py::ssize_t>{3, py::ssize_t(n)}
-                                                       : std::vector<py::ssize_t>{0});
-                 py::array_t<float> pdf(want_pdf && !given ? py::ssize_t(n) : 0);
-                 float* fo[3] = {f.mutable_data(), f.mutable_data() + n, f.mutable_data() + 2 * n};
-                 float* pp = pdf.mutable_data();
-                 if (given) {
-                     const py::tuple o = out.cast<py::tuple>();
-                     if (o.size() != 4) throw InputError("plugin kernel: out needs 4 arrays");
-                     const char* names[3] = {"f_r", "f_g", "f_b"};
-                     for (int ch = 0; ch < 3; ++ch)
-                         fo[ch] = want_f ? out_ptr(o[ch], n, names[ch]) : nullptr;
-                     pp = want_pdf ? out_ptr(o[3], n, "pdf") : nullptr;
-                 }
+                 const bool wants[4] = {want_f, want_f, want_f, want_pdf};
+                 Outputs o(out, n, 4, wants, {"f_r", "f_g", "f_b", "pdf"});
                  {
                      py::gil_scoped_release release;
                      parallel_for(n, [&](std::size_t a, std::size_t e) {
                          for (std::size_t k = a; k < e; ++k) {
-                             Vec3 wi, wo;
-                             bool ok = active[k] && direction_at(ix, iy, iz, k, wi);
-                             ok = ok && direction_at(ox, oy, oz, k, wo);
-                             ok = ok && (pk.lit_from_below || wi.z > 0) &&
-                                  (pk.transmits || wo.z > 0);
-                             if (want_f) {
-                                 double v[3] = {0, 0, 0};
-                                 if (ok) {
-                                     const double p[3] = {r[k], g[k], b[k]};
-                                     pk.f_rgb(wi, wo, p, v);
-                                 }
-                                 const double c = std::fabs(wo.z);
-                                 for (int ch = 0; ch < 3; ++ch) fo[ch][k] = float(v[ch] * c);
-                             }
-                             if (want_pdf) pp[k] = ok ? float(pk.sampler->pdf(wi, wo)) : 0.0f;
+                             Vec3 wi;
+                             const bool ok = active[k] && direction_at(ix, iy, iz, k, wi);
+                             const double p[3] = {r[k], g[k], b[k]};
+                             pk.eval_lane(ok, wi, ox, oy, oz, p, k, o.ptr.data());
                          }
                      });
                  }
-                 return py::make_tuple(want_f && !given ? py::object(f) : py::none(),
-                                       want_pdf && !given ? py::object(pdf) : py::none());
+                 return py::make_tuple(o.result({0, 1, 2}, 3), o.result({3}, 1));
              })
         .def("sample",
              [](const PluginKernel& pk, const py::array& wix, const py::array& wiy,
                 const py::array& wiz, const py::array& u1_in, const py::array& u2_in,
                 const py::array& pr, const py::array& pg, const py::array& pb,
                 const py::array& active_in, const py::object& out) -> py::tuple {
-                 // (wo (3, n), pdf (n,), weight (3, n) = f |cos theta_o| / pdf,
-                 // valid (n,) bool), float32; invalid lanes have pdf = weight =
-                 // 0, and inactive ones are not sampled (wo = +z).  With `out`
-                 // = (wo_x, wo_y, wo_z, pdf, w_r, w_g, w_b) (float32 arrays of
-                 // n values) those results go there and (None, None, None,
-                 // valid) is returned.
+                 // Returns (wo (3, n), pdf (n,), weight (3, n)) or Nones.
                  const FloatLane ix(wix, "wi.x"), iy(wiy, "wi.y"), iz(wiz, "wi.z"),
                      u1(u1_in, "u.x"), u2(u2_in, "u.y"), r(pr, "p.r"), g(pg, "p.g"),
                      b(pb, "p.b");
                  const MaskLane active(active_in, "active");
                  const std::size_t n = common_size(ix, iy, iz, u1, u2, r, g, b, active);
                  if (!pk.sampler) throw InputError("plugin kernel: no sampler");
-                 const bool given = !out.is_none();
-                 const py::ssize_t m = given ? 0 : py::ssize_t(n);
-                 py::array_t<float> wo({py::ssize_t(3), m});
-                 py::array_t<float> pdf(m), weight({py::ssize_t(3), m});
-                 py::array_t<bool> valid(n);
-                 float* pw[3] = {wo.mutable_data(), wo.mutable_data() + n, wo.mutable_data() + 2 * n};
-                 float* pp = pdf.mutable_data();
-                 float* pwt[3] = {weight.mutable_data(), weight.mutable_data() + n,
-                                  weight.mutable_data() + 2 * n};
-                 if (given) {
-                     const py::tuple o = out.cast<py::tuple>();
-                     if (o.size() != 7) throw InputError("plugin kernel: out needs 7 arrays");
-                     const char* names[7] = {"wo_x", "wo_y", "wo_z", "pdf", "w_r", "w_g", "w_b"};
-                     for (int c = 0; c < 3; ++c) pw[c] = out_ptr(o[c], n, names[c]);
-                     pp = out_ptr(o[3], n, names[3]);
-                     for (int c = 0; c < 3; ++c) pwt[c] = out_ptr(o[4 + c], n, names[4 + c]);
-                 }
-                 bool* pv = valid.mutable_data();
+                 const bool wants[7] = {true, true, true, true, true, true, true};
+                 Outputs o(out, n, 7, wants, {"wo_x", "wo_y", "wo_z", "pdf", "w_r", "w_g", "w_b"});
                  {
                      py::gil_scoped_release release;
                      parallel_for(n, [&](std::size_t a, std::size_t e) {
                          for (std::size_t k = a; k < e; ++k) {
                              Vec3 wi;
-                             bool ok = active[k] && direction_at(ix, iy, iz, k, wi);
-                             ok = ok && (pk.lit_from_below || wi.z > 0);
-                             SampleResult s;
-                             s.wo = {0, 0, 1};
-                             if (ok) {
-                                 // u below 1: u = 1 in float32 stays in the last cell.
-                                 const double a1 = std::min(double(u1[k]), 1 - 1e-12);
-                                 const double a2 = std::min(double(u2[k]), 1 - 1e-12);
-                                 s = pk.sampler->sample(wi, a1, a2);
-                             }
-                             ok = ok && (pk.transmits || s.wo.z > 0) && s.pdf > 0;
-                             double v[3] = {0, 0, 0};
-                             if (ok) {
-                                 if (pk.single) {
-                                     v[0] = v[1] = v[2] = s.value;
-                                 } else {
-                                     const double p[3] = {r[k], g[k], b[k]};
-                                     pk.f_rgb(wi, s.wo, p, v);
-                                 }
-                             }
-                             const double c = std::fabs(s.wo.z);
-                             pw[0][k] = float(s.wo.x);
-                             pw[1][k] = float(s.wo.y);
-                             pw[2][k] = float(s.wo.z);
-                             pp[k] = ok ? float(s.pdf) : 0.0f;
-                             for (int ch = 0; ch < 3; ++ch)
-                                 pwt[ch][k] = ok ? float(v[ch] * c / s.pdf) : 0.0f;
-                             pv[k] = ok;
+                             const bool ok = active[k] && direction_at(ix, iy, iz, k, wi);
+                             const double p[3] = {r[k], g[k], b[k]};
+                             pk.sample_lane(ok, wi, u1[k], u2[k], p, k, o.ptr.data());
                          }
                      });
                  }
-                 if (given) return py::make_tuple(py::none(), py::none(), py::none(), valid);
-                 return py::make_tuple(wo, pdf, weight, valid);
+                 return py::make_tuple(o.result({0, 1, 2}, 3), o.result({3}, 1), o.result({4, 5, 6}, 3));
              });
 
     py::class_<Axis>(m, "Axis", "one table axis: node placement in user units")
@@ -658,12 +795,10 @@ PYBIND11_MODULE(_brdftab, m) {
             })
         .def_property_readonly("provenance",
                                [](const PyTable& t) { return provenance_of(t.lookup->table()); })
-        .def("_eval_rows",
-             [](const PyTable& t, const py::array& points, const std::string& interp,
-                const std::string& mode) { return t.eval_rows(points, interp, mode, false); })
-        .def("_eval_stderr_rows",
-             [](const PyTable& t, const py::array& points, const std::string& interp,
-                const std::string& mode) { return t.eval_rows(points, interp, mode, true); })
+        .def("_eval_columns", &PyTable::eval_columns_of, py::arg("columns"), py::arg("n"), py::arg("interpolation"),
+             py::arg("out_of_range"), py::arg("of_stderr"),
+             "values at n points (one float64 column per coordinate, n values or 1) and the clamp "
+             "warnings' data: [(name, count, first, min, max)]")
         .def("_order",
              [](const PyTable& t, const std::vector<std::string>& names) {
                  // Which given name goes to each coordinate; unknown or missing
@@ -674,30 +809,6 @@ PYBIND11_MODULE(_brdftab, m) {
                  for (double k : t.lookup->ordered_coordinates(probe, "arguments"))
                      order.push_back(std::size_t(k));
                  return order;
-             })
-        .def("_clamped",
-             [](const PyTable& t, const py::array& points) {
-                 // Per axis whose coordinates the lookup clamps: (name, how
-                 // many points, the first such value, min, max); phi_d is
-                 // folded or wrapped first, as `brdftab query` warns.
-                 const auto& axes = t.lookup->axes();
-                 const DoubleArray rows = rows_of(points, t.lookup->coordinate_names().size(), "coordinates");
-                 const std::size_t n = std::size_t(rows.shape(0)), width = std::size_t(rows.shape(1));
-                 py::list out;
-                 for (std::size_t a = 0; a < axes.size() && a < width; ++a) {
-                     const double tol = 1e-9 * (axes[a].max - axes[a].min);
-                     std::size_t count = 0;
-                     double first = 0;
-                     for (std::size_t i = 0; i < n; ++i) {
-                         const double given = rows.data()[i * width + a];
-                         const double x = lookup_internal::fold_periodic(axes[a], given);
-                         if (x < axes[a].min - tol || x > axes[a].max + tol) {
-                             if (count++ == 0) first = given;
-                         }
-                     }
-                     if (count) out.append(py::make_tuple(axes[a].name, count, first, axes[a].min, axes[a].max));
-                 }
-                 return out;
              })
         .def_property_readonly("certificate",
                                [](const PyTable& t) { return certificate_of(t.path, t.lookup->table().name); })
@@ -749,20 +860,20 @@ PYBIND11_MODULE(_brdftab, m) {
             })
         .def_property_readonly("provenance", [](const PyAdaptive& t) { return provenance_of(t.data()); })
         .def_property_readonly("certificate", [](const PyAdaptive& t) { return certificate_of(t.path, t.data().name); })
-        .def("_eval_rows",
-             [](const PyAdaptive& t, const py::array& points, const std::string& interp,
-                const std::string& mode) { return t.eval_rows(points, interp, mode, false); })
-        .def("_eval_stderr_rows",
-             [](const PyAdaptive& t, const py::array& points, const std::string& interp,
-                const std::string& mode) { return t.eval_rows(points, interp, mode, true); })
+        .def("_eval_columns", &PyAdaptive::eval_columns_of, py::arg("columns"), py::arg("n"),
+             py::arg("interpolation"), py::arg("out_of_range"), py::arg("of_stderr"))
         .def("_order", &PyAdaptive::order)
-        .def("_clamped", &PyAdaptive::clamped)
-        .def("_bind", [](const PyAdaptive& t, const std::map<std::string, double>&, const std::string&,
-                         const std::string&) -> py::object {
-            throw InputError("table '" + t.data().name +
-                             "' is adaptive (docs/adaptive.md): bind, eval on directions and sampling "
-                             "read tensor tables only; eval() interpolates it");
-        });
+        .def("_bind",
+             [](const PyAdaptive& t, const std::map<std::string, double>& params, const std::string& interp,
+                const std::string& mode) {
+                 if (interp != "linear") {
+                     interpolation_of(interp);
+                     throw InputError("table '" + t.data().name +
+                                      "' is adaptive: its patches interpolate linearly only");
+                 }
+                 return PyBound{std::make_shared<const BoundTable>(
+                     t.lookup->bind(params, Interpolation::Linear, out_of_range_of(mode)))};
+             });
 
     py::class_<PyBound>(m, "_Bound")
         .def_property_readonly("can_sample", [](const PyBound& b) { return b.bound->can_sample(); })
@@ -770,54 +881,30 @@ PYBIND11_MODULE(_brdftab, m) {
                                [](const PyBound& b) { return b.bound->sampling_error(); })
         .def("_eval",
              [](const PyBound& b, const py::array& wi_in, const py::array& wo_in) {
-                 const DoubleArray wi = rows_of(wi_in, 3, "wi"), wo = rows_of(wo_in, 3, "wo");
-                 const py::ssize_t n = wi.shape(0);
-                 py::array_t<double> out(n);
-                 double* dst = out.mutable_data();
-                 {
-                     py::gil_scoped_release release;
-                     parallel_for(std::size_t(n), [&](std::size_t a, std::size_t e) {
-                         for (std::size_t k = a; k < e; ++k)
-                             dst[k] = b.bound->eval(vec_at(wi, py::ssize_t(k)), vec_at(wo, py::ssize_t(k)));
-                     });
-                 }
-                 return out;
+                 return pair_call(wi_in, wo_in, [&](const double* wi, const double* wo, std::size_t n, double* out) {
+                     b.bound->eval_many(wi, wo, n, out);
+                 });
              })
         .def("_pdf",
              [](const PyBound& b, const py::array& wi_in, const py::array& wo_in) {
-                 const DoubleArray wi = rows_of(wi_in, 3, "wi"), wo = rows_of(wo_in, 3, "wo");
-                 const py::ssize_t n = wi.shape(0);
-                 py::array_t<double> out(n);
-                 double* dst = out.mutable_data();
-                 {
-                     py::gil_scoped_release release;
-                     parallel_for(std::size_t(n), [&](std::size_t a, std::size_t e) {
-                         for (std::size_t k = a; k < e; ++k)
-                             dst[k] = b.bound->pdf(vec_at(wi, py::ssize_t(k)), vec_at(wo, py::ssize_t(k)));
-                     });
-                 }
-                 return out;
+                 return pair_call(wi_in, wo_in, [&](const double* wi, const double* wo, std::size_t n, double* out) {
+                     b.bound->pdf_many(wi, wo, n, out);
+                 });
              })
         .def("_sample", [](const PyBound& b, const py::array& wi_in, const py::array& u_in) {
             const DoubleArray wi = rows_of(wi_in, 3, "wi"), u = rows_of(u_in, 2, "u");
             const py::ssize_t n = wi.shape(0);
+            if (u.shape(0) != n) throw InputError("wi and u: different numbers of rows");
             py::array_t<double> wo({n, py::ssize_t(3)});
             py::array_t<double> weight(n), pdf(n), value(n);
             double *pw = wo.mutable_data(), *pweight = weight.mutable_data(),
                    *ppdf = pdf.mutable_data(), *pvalue = value.mutable_data();
+            const double *pi = wi.data(), *pu = u.data();
             {
                 py::gil_scoped_release release;
                 parallel_for(std::size_t(n), [&](std::size_t a, std::size_t e) {
-                    for (std::size_t k = a; k < e; ++k) {
-                        const double* uk = u.data(py::ssize_t(k), 0);
-                        const SampleResult s = b.bound->sample(vec_at(wi, py::ssize_t(k)), uk[0], uk[1]);
-                        pw[3 * k] = s.wo.x;
-                        pw[3 * k + 1] = s.wo.y;
-                        pw[3 * k + 2] = s.wo.z;
-                        pweight[k] = s.weight;
-                        ppdf[k] = s.pdf;
-                        pvalue[k] = s.value;
-                    }
+                    b.bound->sample_many(pi + 3 * a, pu + 2 * a, e - a, pw + 3 * a, ppdf + a, pvalue + a,
+                                         pweight + a);
                 });
             }
             return py::make_tuple(wo, weight, pdf, value);

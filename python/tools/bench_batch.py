@@ -6,7 +6,13 @@ examples/mitsuba/oren-nayar-sphere.toml:
 
     build/brdftab generate examples/mitsuba/oren-nayar-sphere.toml -o on.h5
     PYTHONPATH=build/python python3 python/tools/bench_batch.py on.h5 brdf_direct [N] [THREADS]
+
+The points are Weyl sequences (coordinate j of point k: frac((k + 1) a_j),
+a_j the fractional part of the square root of the j-th prime), the same as
+python/tools/bench_batch_cpp.cpp, which times the library's batch calls on
+them in C++: the ratio of the two rates is the module's overhead per call.
 """
+import math
 import sys
 import time
 
@@ -18,16 +24,21 @@ import brdftab
 def main(path, name, n, threads):
     brdftab.set_threads(threads)
     table = brdftab.open(path).tables[name]
-    rng = np.random.default_rng(1)
-    coords = {a.name: rng.uniform(a.min, a.max, n) for a in table.axes}
+    k1 = np.arange(1, n + 1, dtype=np.float64)
+
+    def weyl(j):
+        a = math.sqrt([2, 3, 5, 7, 11, 13, 17, 19][j])
+        x = k1 * (a - math.floor(a))
+        return x - np.floor(x)
+    coords = {a.name: a.min + (a.max - a.min) * weyl(j) for j, a in enumerate(table.axes)}
     bound = table.bind()
 
     def directions(theta, phi):
-        t, p = np.radians(theta), np.radians(phi)
+        t, p = theta * (math.pi / 180), phi * (math.pi / 180)
         return np.stack([np.sin(t) * np.cos(p), np.sin(t) * np.sin(p), np.cos(t)], axis=1)
-    wi = directions(rng.uniform(0, 85, n), np.zeros(n))
-    wo = directions(rng.uniform(0, 90, n), rng.uniform(0, 360, n))
-    u = rng.random((n, 2))
+    wi = directions(85 * weyl(3), np.zeros(n))
+    wo = directions(90 * weyl(4), 360 * weyl(5))
+    u = np.stack([weyl(6), weyl(7)], axis=1)
     calls = {
         "Table.eval(coords), linear": lambda: table.eval(**coords),
         "BoundTable.eval(wi, wo)": lambda: bound.eval(wi, wo),
