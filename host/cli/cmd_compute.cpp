@@ -804,7 +804,26 @@ void register_generate(CLI::App& app) {
     state->compute.add_to(*cmd);
     cmd->callback([state] {
         state->adaptive.full_precision = state->full_precision;
-        if (state->adaptive.adaptive())
+        // tensor | adaptive | auto (cli_adaptive.h): auto compares the two
+        // plans for the accuracy and generates the smaller one.
+        std::string representation =
+            generate_representation(state->spec_path, state->adaptive, state->accuracy.has_value());
+        if (representation == "auto" && state->budget) {
+            if (!state->adaptive.representation.empty())
+                throw InputError("--representation auto compares plans for an accuracy: give --accuracy E, not "
+                                 "--budget");
+            representation = "tensor";  // a time budget: the tensor planner's choice
+        }
+        if (representation == "auto")
+            representation = choose_generate_adaptive(state->spec_path, state->compute, state->accuracy,
+                                                      state->absolute, state->interpolation == "cubic",
+                                                      state->quiet, state->adaptive)
+                                 ? "adaptive"
+                                 : "tensor";
+        if (representation == "adaptive" && state->budget)
+            throw InputError("--budget plans tensor tables; an adaptive table is refined to an accuracy: give "
+                             "--accuracy E, or --representation tensor");
+        if (representation == "adaptive")
             return run_adaptive_generate(state->spec_path, state->output, state->compute, state->accuracy,
                                          state->absolute, state->quiet, state->adaptive);
         if (state->certified()) {
