@@ -18,6 +18,7 @@
 #include "host/generate/chunked.h"
 #include "host/generate/generate.h"
 #include "host/io/table_io.h"
+#include "host/plan/adaptive_plan.h"
 #include "host/scene/scene.h"
 #include "host/spec/spec.h"
 
@@ -230,6 +231,14 @@ void register_scene(CLI::App& app) {
             }
             if (!set.plan_note.empty()) std::cout << "      " << set.plan_note << "\n";
         }
+        // A set above 10^8 cells (adaptive_plan.h): named with the axis
+        // responsible; refused below unless --tabulate-closed-forms asks
+        // for large tables (docs/scenes.md).
+        std::vector<std::string> large;
+        for (std::size_t k = 0; k < plan.sets.size(); ++k)
+            if (const std::string w = large_plan_warning(specs[k]); !w.empty())
+                large.push_back(plan.sets[k].id + " (" + plan.sets[k].model + " " + plan.sets[k].purpose + "): " + w);
+        for (const std::string& w : large) std::cout << "  warning: " << w << "\n";
         // Against the presets of the same models (their whole parameter spaces).
         const std::string presets = find_presets_dir(st.presets);
         if (!presets.empty()) {
@@ -286,6 +295,10 @@ void register_scene(CLI::App& app) {
             std::cout << "dry run: nothing computed or written\n";
             return;
         }
+        if (!large.empty() && !st.tabulate_closed_forms)
+            throw InputError("table set " + large.front() +
+                             ". scene refuses plans above 1e+08 cells: relax --accuracy, tabulate less (--for), "
+                             "or pass --tabulate-closed-forms to accept large tables; nothing computed or written");
         if (plan.sets.empty()) {
             std::cout << "no material needs a table; nothing written\n";
             return;

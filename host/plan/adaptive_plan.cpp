@@ -251,4 +251,19 @@ std::string large_plan_warning(const Candidate& plan, const std::vector<TablePil
     return s.str();
 }
 
+std::string large_plan_warning(const Spec& spec) {
+    Candidate c;
+    std::vector<TablePilot> names;
+    for (const TableSpec& ts : spec.tables) {
+        TablePlan t;
+        t.table = ts.name;
+        for (const Axis& a : ts.axes) t.counts.push_back(a.count);
+        c.tables.push_back(t);
+        TablePilot p;
+        p.axes = ts.axes;
+        names.push_back(p);
+    }
+    return large_plan_warning(c, names);
+}
+
 }  // namespace brdftab

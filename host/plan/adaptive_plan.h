@@ -128,5 +128,7 @@ constexpr double kLargePlanCells = 1e8;
 // most nodes (the one responsible; names from `pilots`, which hold the
 // plan's computed tables in order), and suggesting the adaptive representation.
 std::string large_plan_warning(const Candidate& plan, const std::vector<TablePilot>& pilots);
+// The same for a spec's tables at their own node counts (a scene's sets).
+std::string large_plan_warning(const Spec& spec);
 
 }  // namespace brdftab
