@@ -175,7 +175,7 @@ std::string generate_representation(const std::string& spec_path, const Adaptive
     // [output] representation = "tensor" written out, or left out: the
     // parser cannot tell them apart in the Spec, so read the key itself.
     if (spec.output.representation_given) return "tensor";
-    return accuracy_given || spec.adaptive.accuracy ? "auto" : "tensor";
+    return accuracy_given ? "auto" : "tensor";
 }
 
 bool choose_generate_adaptive(const std::string& spec_path, const ComputeOptions& compute,
