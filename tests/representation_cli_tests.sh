@@ -13,7 +13,8 @@
 #   * spec keys: [output] representation and [adaptive] generate adaptive
 #     tables with no option; command-line options override them; bad keys
 #     exit 2 naming the key.
-#   * plan warns of a tensor plan above 10^8 cells, naming the axis.
+#   * plan warns of a tensor plan above 10^8 cells, naming the axis; so does
+#     scene --dry-run for a table set that large.
 # About a minute of CPU.  Usage: representation_cli_tests.sh BRDFTAB SOURCE_DIR
 source "$(dirname "$0")/cli_lib.sh"
 cli_setup "$1" "$2"
@@ -112,5 +113,11 @@ expect_exit 0 "plan of a large tensor table" -- "$BT" plan "$DATA/plan_large.tom
 expect_grep "warning: choice: the plan has [0-9.e+]+ cells, above 1e\+08: .* axis 'phi_d' needs the most nodes" \
   out.txt "large-plan warning"
 expect_grep "adaptive representation" out.txt "large-plan warning suggests adaptive"
+
+# ---- scene: a set above 10^8 cells is named with its axis (dry run: warned only)
+expect_exit 0 "scene dry run with large BSDF sets" -- "$BT" scene "$DATA/scenes/pbrt_v4.pbrt" --for bsdf \
+  --tabulate-closed-forms --dry-run -q
+expect_grep "warning: t[0-9]+ \(rough-dielectric bsdf\): the plan has [0-9.e+]+ cells, above 1e\+08: .*axis '[a-z_]+' needs the most nodes" \
+  out.txt "scene: large-set warning"
 
 cli_summary

@@ -108,6 +108,22 @@ void print_materials(const std::string& scene, const std::vector<MappedMaterial>
     }
 }
 
+// The sets above 10^8 cells (adaptive_plan.h), each printed as a warning
+// naming the axis responsible; with `refuse` (a run, not --dry-run, without
+// --tabulate-closed-forms asking for large tables) the first is refused
+// (docs/scenes.md).
+void warn_large_sets(const ScenePlan& plan, const std::vector<Spec>& specs, bool refuse) {
+    std::vector<std::string> large;
+    for (std::size_t k = 0; k < plan.sets.size(); ++k)
+        if (const std::string w = large_plan_warning(specs[k]); !w.empty())
+            large.push_back(plan.sets[k].id + " (" + plan.sets[k].model + " " + plan.sets[k].purpose + "): " + w);
+    for (const std::string& w : large) std::cout << "  warning: " << w << "\n";
+    if (refuse && !large.empty())
+        throw InputError("table set " + large.front() +
+                         ". scene refuses plans above 1e+08 cells: relax --accuracy, tabulate less (--for), "
+                         "or pass --tabulate-closed-forms to accept large tables; nothing computed or written");
+}
+
 }  // namespace
 
 void register_scene(CLI::App& app) {
@@ -231,14 +247,7 @@ void register_scene(CLI::App& app) {
             }
             if (!set.plan_note.empty()) std::cout << "      " << set.plan_note << "\n";
         }
-        // A set above 10^8 cells (adaptive_plan.h): named with the axis
-        // responsible; refused below unless --tabulate-closed-forms asks
-        // for large tables (docs/scenes.md).
-        std::vector<std::string> large;
-        for (std::size_t k = 0; k < plan.sets.size(); ++k)
-            if (const std::string w = large_plan_warning(specs[k]); !w.empty())
-                large.push_back(plan.sets[k].id + " (" + plan.sets[k].model + " " + plan.sets[k].purpose + "): " + w);
-        for (const std::string& w : large) std::cout << "  warning: " << w << "\n";
+        warn_large_sets(plan, specs, !st.dry_run && !st.tabulate_closed_forms);
         // Against the presets of the same models (their whole parameter spaces).
         const std::string presets = find_presets_dir(st.presets);
         if (!presets.empty()) {
@@ -295,10 +304,6 @@ void register_scene(CLI::App& app) {
             std::cout << "dry run: nothing computed or written\n";
             return;
         }
-        if (!large.empty() && !st.tabulate_closed_forms)
-            throw InputError("table set " + large.front() +
-                             ". scene refuses plans above 1e+08 cells: relax --accuracy, tabulate less (--for), "
-                             "or pass --tabulate-closed-forms to accept large tables; nothing computed or written");
         if (plan.sets.empty()) {
             std::cout << "no material needs a table; nothing written\n";
             return;

@@ -246,7 +246,7 @@ std::string large_plan_warning(const Candidate& plan, const std::vector<TablePil
     s << "the plan has " << cells << " cells, above 1e+08: table '" << t.table << "' holds " << worst_cells
       << " of them, and its axis '" << name << "' needs the most nodes (" << t.counts[axis]
       << (others.empty() ? "" : "; " + others) << "). A tensor grid pays for that axis' finest feature "
-      << "everywhere; the adaptive representation (--representation adaptive, docs/adaptive.md) puts nodes "
+      << "everywhere; the adaptive representation (generate --representation adaptive, docs/adaptive.md) puts nodes "
          "only where the error needs them";
     return s.str();
 }
