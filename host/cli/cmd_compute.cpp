@@ -820,7 +820,9 @@ void register_generate(CLI::App& app) {
             if (!state->adaptive.representation.empty())
                 throw InputError("--representation auto compares plans for an accuracy: give --accuracy E, not "
                                  "--budget");
-            representation = "tensor";  // a time budget: the tensor planner's choice
+            std::cerr << "brdftab: representation: tensor (--budget plans tensor tables; an adaptive table is "
+                         "refined to an accuracy)\n";
+            representation = "tensor";
         }
         if (representation == "auto" && state->certified()) check_certified_options(*state);
         if (representation == "auto")
