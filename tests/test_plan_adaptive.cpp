@@ -127,3 +127,21 @@ TEST_CASE("large_plan_warning: above 10^8 cells it names the table and its axis 
     CHECK(two.find("table 't1'") != std::string::npos);
     CHECK(two.find("'#1'") != std::string::npos);  // unnamed axes: their index
 }
+
+TEST_CASE("large_plan_warning of a spec: its tables at their own counts (a scene's sets)") {
+    auto spec = [](int phi_count) {
+        return parse_spec_string(
+            "model = \"rough-dielectric\"\n[parameters]\nalpha = 0.3\neta = 1.5\n"
+            "[[axes]]\nname = \"theta_i\"\nrange = [0, 80]\ncount = 1000\n"
+            "[[axes]]\nname = \"theta_o\"\nrange = [0, 80]\ncount = 1000\n"
+            "[[axes]]\nname = \"phi_d\"\nrange = [0, 180]\ncount = " + std::to_string(phi_count) + "\n"
+            "[[tables]]\nname = \"r\"\nquantity = \"brdf\"\n",
+            "spec.toml");
+    };
+    CHECK(large_plan_warning(spec(100)).empty());  // exactly 10^8 cells
+    const std::string w = large_plan_warning(spec(1500));
+    CAPTURE(w);
+    CHECK(w.find("1.5e+09 cells") != std::string::npos);
+    CHECK(w.find("table 'r'") != std::string::npos);
+    CHECK(w.find("axis 'phi_d'") != std::string::npos);
+}
