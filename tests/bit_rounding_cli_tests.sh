@@ -164,9 +164,9 @@ expect_grep "tables\[0\].round_to_accuracy" err.txt "names the table's key"
 # --- certified generation rounds by default; the certificate is measured
 # on the rounded values and still passes.
 spec cert.toml
-expect_exit 0 "certified, rounded" -- "$BT" generate cert.toml --accuracy 3e-2 -o cert.h5 -q --max-refinements 1
+expect_exit 0 "certified, rounded" -- "$BT" generate cert.toml --representation tensor --accuracy 3e-2 -o cert.h5 -q --max-refinements 1
 expect_grep "certificate passed" out.txt "certificate passed"
-expect_exit 0 "certified, full precision" -- "$BT" generate cert.toml --accuracy 3e-2 --full-precision -o full.h5 -q --max-refinements 1
+expect_exit 0 "certified, full precision" -- "$BT" generate cert.toml --representation tensor --accuracy 3e-2 --full-precision -o full.h5 -q --max-refinements 1
 "$PY" - <<'PY' >py.txt 2>&1 && ok || { bad "certified files"; cat py.txt; }
 import h5py, numpy as np
 with h5py.File("cert.h5", "r") as f, h5py.File("full.h5", "r") as p:

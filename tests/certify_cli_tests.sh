@@ -36,7 +36,7 @@ if ls bad.h5* >/dev/null 2>&1; then bad "a refused run wrote bad.h5"; else ok; f
 
 # ---- an existing output survives a failed run (no plan reaches 1e-15)
 echo "precious" > keep.h5
-expect_exit 1 "unreachable accuracy" -- "$BT" generate "$SPEC" --accuracy 1e-15 -o keep.h5 -q
+expect_exit 1 "unreachable accuracy" -- "$BT" generate "$SPEC" --representation tensor --accuracy 1e-15 -o keep.h5 -q
 expect_grep "no candidate plan is predicted to reach" err.txt "unreachable message"
 if [ "$(cat keep.h5)" = "precious" ]; then ok; else bad "keep.h5 was replaced by a failed run"; fi
 expect_exit 2 "bad input keeps the output" -- "$BT" generate "$SPEC" --accuracy 0 -o keep.h5
@@ -45,7 +45,7 @@ if ls keep.h5.tmp* >/dev/null 2>&1; then bad "temporary files left"; else ok; fi
 
 # ---- certificate honesty: the first plan misses 1e-2 absolute (the narrow
 # peak at normal incidence), no refinement allowed: exit 1, file written.
-expect_exit 1 "failing certificate" -- "$BT" generate "$SPEC" --accuracy 1e-2 --abs --max-refinements 0 -o fail.h5 -q
+expect_exit 1 "failing certificate" -- "$BT" generate "$SPEC" --representation tensor --accuracy 1e-2 --abs --max-refinements 0 -o fail.h5 -q
 expect_grep "brdf: certificate FAILED: max absolute total error" out.txt "FAILED in the summary"
 expect_grep "stopped after --max-refinements 0" out.txt "stop reason"
 expect_grep "the certificate missed --accuracy 0.01 \(--max-refinements 0 reached\)" err.txt "exit-1 message"
@@ -91,7 +91,7 @@ then ok; else bad "stored certificate vs dense measurement"; fi
 
 # ---- refinement turns it into a passing certificate (exit 0)
 echo "old" > pass.h5
-expect_exit 0 "refined certificate" -- "$BT" generate "$SPEC" --accuracy 1e-2 --abs -o pass.h5 -q
+expect_exit 0 "refined certificate" -- "$BT" generate "$SPEC" --representation tensor --accuracy 1e-2 --abs -o pass.h5 -q
 expect_grep "brdf: certificate passed" out.txt "passed in the summary"
 expect_grep "certification: [2-3] round\(s\) \([1-2] refinement\(s\)\).*every certificate passed" out.txt "refined"
 if "$PY" -c '

@@ -40,7 +40,7 @@ method = "quadrature"
 type = "float32"
 SPEC
 # `timeout`: a binary without the guard starts the hours-long run.
-expect_exit 2 "costly plan refused" -- timeout 120 "$BT" generate inside.toml -o inside.h5 --accuracy 1e-2 --abs </dev/null
+expect_exit 2 "costly plan refused" -- timeout 120 "$BT" generate inside.toml -o inside.h5 --representation tensor --accuracy 1e-2 --abs </dev/null
 expect_grep "beyond what a run starts unasked" err.txt "the refusal says why"
 expect_grep "x the spec's own 2304" err.txt "names the cell factor"
 expect_grep "cheaper plans \(predicted\)" err.txt "offers cheaper plans"

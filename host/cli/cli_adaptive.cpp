@@ -10,7 +10,10 @@
 #include "host/adaptive/adaptive_io.h"
 #include "host/core/atomic_file.h"
 #include "host/core/error.h"
+#include "host/core/text.h"
 #include "host/io/point_file.h"
+#include "host/plan/adaptive_plan.h"
+#include "host/plan/plan.h"
 #include "host/plan/certify.h"
 #include "host/spec/spec.h"
 
@@ -37,35 +40,43 @@ std::pair<std::string, double> name_value(const std::string& s, const char* opti
 
 void add_adaptive_options(CLI::App& cmd, AdaptiveCliOptions& o) {
     cmd.add_option("--representation", o.representation,
-                   "tensor (default: one grid per table) or adaptive (a k-d tree of small patches "
-                   "refined where probes fail, docs/adaptive.md); adaptive needs --accuracy E")
-        ->check(CLI::IsMember({"tensor", "adaptive"}));
+                   "tensor (one grid per table), adaptive (a k-d tree of small patches refined where "
+                   "probes fail, docs/adaptive.md; needs an accuracy) or auto (the planner predicts both "
+                   "and generates the one that stores fewer values). Default: the spec's [output] "
+                   "representation, else auto with --accuracy and tensor without")
+        ->check(CLI::IsMember({"tensor", "adaptive", "auto"}));
     cmd.add_option("--max-values", o.max_values,
-                   "adaptive: stored values per table at most (default 65536)")
+                   "adaptive: stored values per table at most (default: the spec's [adaptive] max_values, "
+                   "else 65536)")
         ->check(CLI::Range(std::size_t{2}, std::size_t{1} << 31));
-    cmd.add_option("--patch-nodes", o.patch_nodes, "adaptive: nodes per axis of a patch: 3 (default), 5 or 9")
+    cmd.add_option("--patch-nodes", o.patch_nodes, "adaptive: nodes per axis of a patch: 3 (default), 5 or 9 (overrides the spec's patch_nodes)")
         ->check(CLI::IsMember({3, 5, 9}));
     cmd.add_option("--patch-order", o.patch_order,
                    "adaptive: interpolation inside a patch, per axis: 1 (default, linear between nodes) or 2 "
-                   "(quadratic on consecutive node triples)")
+                   "(quadratic on consecutive node triples); overrides the spec's patch_order")
         ->check(CLI::IsMember({1, 2}));
     cmd.add_option("--breakpoint", o.breakpoints,
                    "adaptive: NAME=X puts patch faces on X of axis NAME (a known kink; repeatable). "
-                   "A critical axis gets one on its critical node by itself");
+                   "A critical axis gets one on its critical node by itself. Replaces the spec's breakpoints");
     cmd.add_option("--jump", o.jumps,
                    "adaptive: NAME=X, a known jump of the function at X of axis NAME: no continuity "
-                   "across it, each side keeps its own values (repeatable)");
+                   "across it, each side keeps its own values (repeatable; replaces the spec's jumps)");
     cmd.add_option("--initial-level", o.initial_levels,
-                   "adaptive: NAME=L starts with 2^L patches along axis NAME (default 0; repeatable)");
+                   "adaptive: NAME=L starts with 2^L patches along axis NAME (default 0; repeatable; wins over "
+                   "the spec's initial_level for that axis)");
 }
 
 void run_adaptive_generate(const std::string& spec_path, const std::string& output,
                            const ComputeOptions& compute, std::optional<double> accuracy, bool absolute,
                            bool quiet, const AdaptiveCliOptions& o) {
-    if (!accuracy) throw InputError("--representation adaptive needs --accuracy E (the refinement's target)");
+    const Spec spec = parse_spec_file(spec_path);
+    if (!accuracy) accuracy = spec.adaptive.accuracy;
+    if (!accuracy)
+        throw InputError("--representation adaptive needs --accuracy E (the refinement's target), or "
+                         "[adaptive] accuracy = E in " + spec_path);
     if (!(*accuracy > 0) || !std::isfinite(*accuracy))
         throw InputError("--accuracy must be a positive number");
-    const Spec spec = parse_spec_file(spec_path);
+    if (!absolute && spec.adaptive.absolute) absolute = *spec.adaptive.absolute;
     if (!spec.recombined.empty() || !spec.errors.empty() || !spec.inverted.empty())
         throw InputError(spec_path + ": --representation adaptive does not handle [[recombined]], [[errors]] "
                          "or [[inverted]] tables; generate a copy of the spec without them");
@@ -74,42 +85,21 @@ void run_adaptive_generate(const std::string& spec_path, const std::string& outp
     const OutputLock lock(out_path);
     const IntegrationSettings settings = compute.apply(spec.integration);
     check_settings(settings);
+    const AdaptiveSpecSettings cli = o.overrides();
     auto backend = compute.make_backend();
     std::cerr << "brdftab: " << spec.model << ", " << spec.tables.size() << " adaptive table(s) from " << spec_path
               << " on " << backend->device_name() << ", target max " << (absolute ? "absolute" : "relative")
-              << " error " << sci_text(*accuracy) << ", at most " << o.max_values << " values each\n";
+              << " error " << sci_text(*accuracy) << "\n";
 
-    AdaptiveGenerateOptions go;
-    go.build.target = *accuracy;
-    go.build.absolute = absolute;
-    if (compute.abs_floor > 0) go.build.floor = compute.abs_floor;
-    go.build.max_values = o.max_values;
-    go.build.patch_nodes = o.patch_nodes;
-    go.build.patch_order = o.patch_order;
-    for (const std::string& s : o.breakpoints) {
-        const auto [name, x] = name_value(s, "--breakpoint");
-        go.breakpoints.push_back({name, x, false});
-    }
-    for (const std::string& s : o.jumps) {
-        const auto [name, x] = name_value(s, "--jump");
-        go.breakpoints.push_back({name, x, true});
-    }
     std::vector<AdaptiveTable> tables;
     std::vector<Certificate> certs;
     std::vector<double> predicted;  // the refinements' largest probe errors
     for (std::size_t i = 0; i < spec.tables.size(); ++i) {
         const TableSpec& ts = spec.tables[i];
-        AdaptiveGenerateOptions tgo = go;
-        tgo.build.initial_level.assign(ts.axes.size(), 0);
-        for (const std::string& s : o.initial_levels) {
-            const auto [name, lv] = name_value(s, "--initial-level");
-            std::size_t a = 0;
-            while (a < ts.axes.size() && ts.axes[a].name != name) ++a;
-            if (a == ts.axes.size()) throw InputError("--initial-level '" + s + "': table '" + ts.name + "' has no axis '" + name + "'");
-            if (lv < 0 || lv > 16 || lv != std::floor(lv))
-                throw InputError("--initial-level '" + s + "': the level must be an integer in [0, 16]");
-            tgo.build.initial_level[a] = int(lv);
-        }
+        const AdaptiveGenerateOptions tgo =
+            adaptive_generate_options(spec, i, cli, *accuracy, absolute, compute.abs_floor);
+        std::cerr << "  " << ts.name << ": at most " << tgo.build.max_values << " values, " << tgo.build.patch_nodes
+                  << "-node patches of order " << tgo.build.patch_order << "\n";
         const AdaptiveGenerated g = generate_adaptive(spec, i, *backend, settings, tgo, [&](const AdaptiveBuildReport& r) {
             if (!quiet)
                 std::cerr << "  " << ts.name << ": round " << r.rounds << ", " << r.leaves << " patches, " << r.values
@@ -157,6 +147,105 @@ void run_adaptive_generate(const std::string& spec_path, const std::string& outp
                   << (certs[i].passed ? " (passed)" : " (FAILED)") << "\n";
     for (const Certificate& c : certs)
         if (!c.passed) throw Error("certificate of '" + c.table + "' misses --accuracy " + sci_text(*accuracy));
+}
+
+AdaptiveSpecSettings AdaptiveCliOptions::overrides() const {
+    AdaptiveSpecSettings s;
+    s.max_values = max_values;
+    s.patch_nodes = patch_nodes;
+    s.patch_order = patch_order;
+    for (const std::string& b : breakpoints) s.breakpoints.push_back(name_value(b, "--breakpoint"));
+    for (const std::string& j : jumps) s.jumps.push_back(name_value(j, "--jump"));
+    s.breakpoints_given = !breakpoints.empty();
+    s.jumps_given = !jumps.empty();
+    for (const std::string& l : initial_levels) {
+        const auto [name, lv] = name_value(l, "--initial-level");
+        if (lv < 0 || lv > 16 || lv != std::floor(lv))
+            throw InputError("--initial-level '" + l + "': the level must be an integer in [0, 16]");
+        s.initial_level[name] = int(lv);
+    }
+    return s;
+}
+
+std::string generate_representation(const std::string& spec_path, const AdaptiveCliOptions& o,
+                                    bool accuracy_given) {
+    if (!o.representation.empty()) return o.representation;
+    const Spec spec = parse_spec_file(spec_path);
+    if (spec.output.representation != "tensor") return spec.output.representation;
+    // [output] representation = "tensor" written out, or left out: the
+    // parser cannot tell them apart in the Spec, so read the key itself.
+    if (spec.output.representation_given) return "tensor";
+    return accuracy_given ? "auto" : "tensor";
+}
+
+bool choose_generate_adaptive(const std::string& spec_path, const ComputeOptions& compute,
+                              std::optional<double>& accuracy, bool& absolute, bool cubic, bool quiet,
+                              const AdaptiveCliOptions& o) {
+    const Spec spec = parse_spec_file(spec_path);
+    if (!accuracy) accuracy = spec.adaptive.accuracy;
+    if (!accuracy)
+        throw InputError("--representation auto needs --accuracy E, or [adaptive] accuracy = E in " + spec_path);
+    if (!absolute && spec.adaptive.absolute) absolute = *spec.adaptive.absolute;
+    const std::string what = "brdftab: representation: ";
+    if (!spec.recombined.empty() || !spec.errors.empty() || !spec.inverted.empty()) {
+        std::cerr << what << "tensor: adaptive tables do not handle the spec's [[recombined]], [[errors]] or "
+                     "[[inverted]] tables\n";
+        return false;
+    }
+    const AdaptiveSpecSettings cli = o.overrides();
+    auto backend = compute.make_backend();
+    PlanTarget target;
+    target.accuracy = accuracy;
+    target.absolute = absolute;
+    target.interpolation = cubic ? Interpolation::Cubic : Interpolation::Linear;
+    check_target(target);
+    std::optional<Candidate> tensor;
+    std::vector<TablePilot> pilots;
+    std::string tensor_note;
+    try {
+        PilotOptions po;
+        if (compute.abs_floor > 0) po.abs_floor = compute.abs_floor;
+        for (std::size_t i = 0; i < spec.tables.size(); ++i) pilots.push_back(run_pilot(spec, i, *backend, po));
+        const std::vector<Candidate> front = pareto_front(make_candidates(pilots, target));
+        if (const std::optional<std::size_t> c = choose_plan(front, target)) tensor = front[*c];
+    } catch (const InputError& e) {
+        tensor_note = std::string(" (not planned: ") + e.what() + ")";
+    }
+    std::string tensor_text;
+    if (tensor) {
+        for (std::size_t i = 0; i < tensor->tables.size(); ++i) {
+            tensor_text += (i ? "; " : "") + tensor->tables[i].table + " ";
+            for (std::size_t a = 0; a < tensor->tables[i].counts.size(); ++a)
+                tensor_text += (a ? "x" : "") + std::to_string(tensor->tables[i].counts[a]);
+        }
+        std::cerr << what << "tensor plan " << tensor_text << ": " << format_count(plan_cells(*tensor))
+                  << " cells, predicted max error " << sci_text(tensor->error_max) << ", time "
+                  << format_seconds(tensor->seconds) << "\n";
+    } else {
+        std::cerr << what << "no tensor plan is predicted to reach " << sci_text(*accuracy) << tensor_note << "\n";
+    }
+    const IntegrationSettings settings = compute.apply(spec.integration);
+    check_settings(settings);
+    AdaptivePlanOptions ao;
+    if (tensor) ao.stop_values = plan_cells(*tensor);
+    const AdaptivePlan ap = predict_adaptive_plan(
+        spec, *backend, settings, cli, *accuracy, absolute, compute.abs_floor, ao,
+        [&](const std::string& table, const AdaptivePilotRun& r) {
+            if (!quiet)
+                std::cerr << what << "adaptive pilot '" << table << "' at " << sci_text(r.target) << ": " << r.values
+                          << " values" << (r.budget_hit ? " (budget reached)" : "") << ", "
+                          << format_seconds(r.seconds) << "\n";
+        });
+    std::cerr << what << "adaptive plan: " << (ap.tables.front().lower_bound ? "at least " : "about ")
+              << format_count(ap.values) << " values";
+    for (const AdaptiveTablePrediction& t : ap.tables)
+        std::cerr << (ap.tables.size() > 1 ? "; " + t.table + " " + format_count(t.values) : std::string())
+                  << (t.lower_bound ? "" : " (values ~ E^-" + number_text(t.exponent, 3) + ")");
+    std::cerr << ", predicted time " << format_seconds(ap.seconds) << " (pilots " << format_seconds(ap.pilot_seconds)
+              << ")\n";
+    const RepresentationChoice ch = choose_representation(tensor, &ap);
+    std::cerr << what << (ch.any ? "chose " : "") << ch.why << "\n";
+    return ch.any && ch.adaptive;
 }
 
 namespace {

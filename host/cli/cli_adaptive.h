@@ -11,6 +11,7 @@
 #include <CLI/CLI.hpp>
 
 #include "host/cli/cli_common.h"
+#include "host/spec/spec.h"
 
 namespace brdftab {
 struct AdaptiveTable;
@@ -19,24 +20,47 @@ struct AdaptiveTable;
 namespace brdftab::cli {
 
 struct AdaptiveCliOptions {
-    std::string representation = "tensor";  // "tensor" | "adaptive"
-    std::size_t max_values = 65536;
-    std::size_t patch_nodes = 3;
-    int patch_order = 1;  // 1: multilinear patches, 2: piecewise quadratic per axis
+    // "tensor" | "adaptive" | "auto"; empty: not given (the spec's [output]
+    // representation, else auto with --accuracy and tensor without).
+    std::string representation;
+    // Unset: the spec's [adaptive] / table `adaptive` value, else the default
+    // (65536 values, 3-node patches, order 1).
+    std::optional<std::size_t> max_values;
+    std::optional<std::size_t> patch_nodes;
+    std::optional<int> patch_order;  // 1: multilinear patches, 2: piecewise quadratic per axis
     std::vector<std::string> breakpoints, jumps, initial_levels;  // NAME=X / NAME=L
     bool full_precision = false;  // generate --full-precision: no rounded storage
     bool adaptive() const { return representation == "adaptive"; }
+    // The options as spec settings (NAME=X parsed; InputError naming the option).
+    AdaptiveSpecSettings overrides() const;
 };
 
 void add_adaptive_options(CLI::App& cmd, AdaptiveCliOptions& o);
 
 // Every table of the spec as an adaptive table refined to `accuracy`
 // (absolute with `absolute`, else relative to max(|value|, floor)), each
-// certified (certify_adaptive) and written with its certificate.  Exit code
-// 1 (Error) when a certificate misses the accuracy; the file is written.
+// certified (certify_adaptive) and written with its certificate.  Without
+// --accuracy the spec's [adaptive] accuracy and measure are used (--abs wins
+// over the measure).  Exit code 1 (Error) when a certificate misses the
+// accuracy; the file is written.
 void run_adaptive_generate(const std::string& spec_path, const std::string& output,
                            const ComputeOptions& compute, std::optional<double> accuracy, bool absolute,
                            bool quiet, const AdaptiveCliOptions& o);
+
+// The representation `generate` uses: --representation, else the spec's
+// [output] representation, else "auto" with an accuracy (--accuracy, or the
+// spec's [adaptive] accuracy) and "tensor" without.
+std::string generate_representation(const std::string& spec_path, const AdaptiveCliOptions& o,
+                                    bool accuracy_given);
+
+// `generate --representation auto` (docs/adaptive.md, "Choosing the
+// representation"): the tensor planner's choice for the accuracy and the
+// adaptive plan predicted from pilot refinements, compared on stored values;
+// prints both and the choice with its reason, and returns true for adaptive.
+// `accuracy` unset: the spec's [adaptive] accuracy; none is an InputError.
+bool choose_generate_adaptive(const std::string& spec_path, const ComputeOptions& compute,
+                              std::optional<double>& accuracy, bool& absolute, bool cubic, bool quiet,
+                              const AdaptiveCliOptions& o);
 
 // `info`'s lines for an adaptive table (axes and warps, patches, values,
 // breakpoints, storage; value range with `values`).

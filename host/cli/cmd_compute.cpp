@@ -478,7 +478,9 @@ bool approve_costly_plan(const Candidate& plan, const std::vector<Candidate>& fr
 // only once the last round's certificates are stored in it.  A final
 // certificate that misses E still leaves a valid, certified-as-failed file
 // (certificate_passed = 0) and ends with exit code 1.
-void run_certified_generate(const GenerateArgs& st) {
+// The options of certified generation, checked before anything runs (also
+// before `--representation auto` compares plans).
+PlanTarget check_certified_options(const GenerateArgs& st) {
     PlanTarget target;
     target.accuracy = st.accuracy;
     target.budget = st.budget;
@@ -494,6 +496,12 @@ void run_certified_generate(const GenerateArgs& st) {
                          "--accuracy/--budget: the plan chooses the method and the samples");
     if (st.compute.abs_floor == 0)
         throw InputError("--abs-floor must be > 0 with --accuracy/--budget (omit it for the automatic floor)");
+    return target;
+}
+
+void run_certified_generate(const GenerateArgs& st) {
+    const PlanTarget target = check_certified_options(st);
+    const int max_refinements = st.max_refinements.value_or(2);
     const Spec spec = parse_spec_file(st.spec_path);
     const std::string out_path = st.output.empty() ? spec.output.path : st.output;
     check_output_writable(out_path);
@@ -804,7 +812,29 @@ void register_generate(CLI::App& app) {
     state->compute.add_to(*cmd);
     cmd->callback([state] {
         state->adaptive.full_precision = state->full_precision;
-        if (state->adaptive.adaptive())
+        // tensor | adaptive | auto (cli_adaptive.h): auto compares the two
+        // plans for the accuracy and generates the smaller one.
+        std::string representation =
+            generate_representation(state->spec_path, state->adaptive, state->accuracy.has_value());
+        if (representation == "auto" && state->budget) {
+            if (!state->adaptive.representation.empty())
+                throw InputError("--representation auto compares plans for an accuracy: give --accuracy E, not "
+                                 "--budget");
+            std::cerr << "brdftab: representation: tensor (--budget plans tensor tables; an adaptive table is "
+                         "refined to an accuracy)\n";
+            representation = "tensor";
+        }
+        if (representation == "auto" && state->certified()) check_certified_options(*state);
+        if (representation == "auto")
+            representation = choose_generate_adaptive(state->spec_path, state->compute, state->accuracy,
+                                                      state->absolute, state->interpolation == "cubic",
+                                                      state->quiet, state->adaptive)
+                                 ? "adaptive"
+                                 : "tensor";
+        if (representation == "adaptive" && state->budget)
+            throw InputError("--budget plans tensor tables; an adaptive table is refined to an accuracy: give "
+                             "--accuracy E, or --representation tensor");
+        if (representation == "adaptive")
             return run_adaptive_generate(state->spec_path, state->output, state->compute, state->accuracy,
                                          state->absolute, state->quiet, state->adaptive);
         if (state->certified()) {

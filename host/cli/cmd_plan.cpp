@@ -13,6 +13,7 @@
 #include "host/core/atomic_file.h"
 #include "host/core/error.h"
 #include "host/core/text.h"
+#include "host/plan/adaptive_plan.h"
 #include "host/plan/certify.h"
 #include "host/plan/plan.h"
 #include "host/spec/spec.h"
@@ -31,6 +32,9 @@ struct PlanArgs {
     double verify_limit = 0.25;  // --verify-limit: largest fraction of a table's cells a verification computes
     double abs_floor = 0;
     std::string interpolation = "linear";
+    // tensor | adaptive | auto; empty: the spec's [output] representation,
+    // auto with a target (docs/adaptive.md, "Choosing the representation").
+    std::string representation;
     ComputeOptions compute;
 };
 
@@ -63,6 +67,32 @@ std::string method_text(const Candidate& c) {
     if (c.method == Method::MonteCarlo || c.method == Method::Rqmc)
         return to_string(c.method) + " " + std::to_string(c.samples);
     return to_string(c.method);
+}
+
+nlohmann::json adaptive_json(const AdaptivePlan& ap) {
+    nlohmann::json j;
+    j["accuracy"] = ap.accuracy;
+    j["measure"] = ap.absolute ? "absolute" : "relative";
+    j["predicted_values"] = ap.values;
+    j["predicted_seconds"] = ap.seconds;
+    j["predicted_error"] = ap.error_max;
+    j["pilot_seconds"] = ap.pilot_seconds;
+    j["meets"] = ap.meets;
+    if (!ap.why.empty()) j["why"] = ap.why;
+    j["tables"] = nlohmann::json::array();
+    for (const AdaptiveTablePrediction& t : ap.tables) {
+        nlohmann::json e = {{"table", t.table},           {"predicted_values", t.values},
+                            {"predicted_evaluations", t.evaluations}, {"predicted_seconds", t.seconds},
+                            {"exponent", t.exponent},     {"max_values", t.max_values},
+                            {"within_budget", t.within_budget}, {"lower_bound", t.lower_bound}};
+        e["pilots"] = nlohmann::json::array();
+        for (const AdaptivePilotRun& r : t.runs)
+            e["pilots"].push_back({{"target", r.target}, {"values", r.values}, {"evaluations", r.evaluations},
+                                   {"patches", r.leaves}, {"seconds", r.seconds},
+                                   {"largest_probe_error", r.estimated_max}, {"budget_reached", r.budget_hit}});
+        j["tables"].push_back(e);
+    }
+    return j;
 }
 
 // The verification of a plan (docs/planning.md "Verified plans"), as JSON.
@@ -207,6 +237,12 @@ struct PlanState {
     std::optional<PlanVerification> verification;
     std::vector<std::string> verify_notes;
     int verify_corrections = 0;
+    // The adaptive plan (adaptive_plan.h), its comparison with the tensor
+    // choice, and why there is none (adaptive_note).
+    std::optional<AdaptivePlan> adaptive;
+    std::string adaptive_note;
+    std::optional<RepresentationChoice> representation;
+    std::vector<std::string> warnings;           // plans above kLargePlanCells
     std::string text;                            // the spec written by -o
 };
 
@@ -326,10 +362,101 @@ void verify_plans(const PlanArgs& pa, const Spec& spec, PlanState& st) {
                                sci(*target.accuracy));
 }
 
+// Text lines of the adaptive plan and the representation chosen.
+void print_adaptive_text(const PlanState& st) {
+    if (st.adaptive) {
+        const AdaptivePlan& ap = *st.adaptive;
+        for (const AdaptiveTablePrediction& t : ap.tables) {
+            std::cout << "adaptive '" << t.table << "': pilots";
+            for (const AdaptivePilotRun& r : t.runs)
+                std::cout << " " << r.values << "@" << sci(r.target) << (r.budget_hit ? "(budget)" : "");
+            std::cout << " -> " << (t.lower_bound ? "at least " : "about ") << format_count(t.values)
+                      << " values at " << sci(ap.accuracy);
+            if (!t.lower_bound) std::cout << " (values ~ E^-" << number_text(t.exponent, 3) << ")";
+            std::cout << ", max_values " << t.max_values << "\n";
+        }
+        std::cout << "adaptive plan: " << (ap.tables.empty() || !ap.tables.front().lower_bound ? "about " : "at least ")
+                  << format_count(ap.values) << " values, predicted max error " << sci(ap.error_max)
+                  << " (the refinement's target), predicted time " << sci(ap.seconds) << " s; pilots "
+                  << format_seconds(ap.pilot_seconds) << (ap.meets ? "" : "; does not qualify: " + ap.why) << "\n";
+    } else if (!st.adaptive_note.empty()) {
+        std::cout << "adaptive plan: none (" << st.adaptive_note << ")\n";
+    }
+    if (st.representation)
+        std::cout << "representation: " << (st.representation->any ? "" : "none: ") << st.representation->why
+                  << "\n";
+}
+
+// The adaptive plan beside the tensor one (docs/adaptive.md, "Choosing the
+// representation"): with --accuracy E at E; with --budget at the tensor
+// choice's predicted error, meeting the budget when its predicted time does.
+void compare_adaptive(const PlanArgs& pa, const Spec& spec, PlanState& st) {
+    std::string rep = pa.representation;
+    if (rep.empty()) rep = spec.output.representation_given ? spec.output.representation : "auto";
+    if (rep == "tensor" || (!st.target.accuracy && !st.target.budget)) return;
+    const std::optional<Candidate> tensor =
+        st.choice ? std::optional<Candidate>(st.placed ? *st.placed : st.front[*st.choice]) : std::nullopt;
+    double accuracy = st.target.accuracy ? *st.target.accuracy : tensor ? tensor->error_max : 0;
+    if (st.verification && st.verification->verified > 0 && st.target.budget) accuracy = st.verification->error_max;
+    if (!(accuracy > 0)) {
+        st.adaptive_note = "no tensor plan within the budget gives an error to aim the adaptive plan at";
+        return;
+    }
+    if (!spec.recombined.empty()) {
+        st.adaptive_note = "adaptive tables do not handle [[recombined]] tables";
+        return;
+    }
+    Spec sub = spec;
+    sub.tables.clear();
+    for (std::size_t i : st.indices) sub.tables.push_back(spec.tables[i]);
+    AdaptivePlanOptions ao;
+    if (tensor && rep == "auto") ao.stop_values = plan_cells(*tensor);
+    const IntegrationSettings settings = pa.compute.apply(spec.integration);
+    check_settings(settings);
+    try {
+        st.adaptive = predict_adaptive_plan(
+            sub, *st.backend, settings, AdaptiveSpecSettings{}, accuracy, st.target.absolute, pa.abs_floor, ao,
+            [&](const std::string& table, const AdaptivePilotRun& r) {
+                if (!pa.quiet)
+                    std::cerr << "plan: adaptive pilot '" << table << "' at " << sci(r.target) << ": " << r.values
+                              << " values, " << format_seconds(r.seconds) << "\n";
+            });
+    } catch (const InputError& e) {
+        st.adaptive_note = e.what();
+        return;
+    }
+    AdaptivePlan ap = *st.adaptive;
+    if (st.target.budget && ap.meets && ap.seconds > *st.target.budget) {
+        ap.meets = false;
+        ap.why = "predicted time " + format_seconds(ap.seconds) + " is beyond --budget";
+        st.adaptive = ap;
+    }
+    if (rep == "adaptive") {
+        RepresentationChoice c;
+        c.any = ap.meets;
+        c.adaptive = ap.meets;
+        c.why = ap.meets ? "adaptive (--representation adaptive)" : "the adaptive plan does not qualify: " + ap.why;
+        st.representation = c;
+        return;
+    }
+    st.representation = choose_representation(tensor, &ap);
+}
+
 // The planned spec that -o writes (empty without a choice or -o).
 std::string planned_output_text(const PlanArgs& pa, const Spec& spec, const PlanState& st) {
     std::string text;
     const Candidate* chosen = st.choice ? (st.placed ? &*st.placed : &st.front[*st.choice]) : nullptr;
+    if (st.representation && st.representation->adaptive && !pa.output.empty()) {
+        const AdaptivePlan& ap = *st.adaptive;
+        text = adaptive_spec_text(
+            spec, ap.accuracy, ap.absolute,
+            {"Planned by `brdftab plan` from " + pa.spec + ": adaptive tables for max " + std::string(st.measure) +
+                 " error <= " + sci(ap.accuracy) + " (device " + st.backend->device_name() + ").",
+             "Predicted: about " + format_count(ap.values) + " values in all, time " + sci(ap.seconds) +
+                 " s; " + st.representation->why + ".  docs/adaptive.md"});
+        parse_spec_string(text, pa.output);
+        return text;
+    }
     if (chosen && !pa.output.empty()) {
         const Candidate& c = *chosen;
         std::vector<std::string> header = {
@@ -404,6 +531,16 @@ void print_plan_json(const PlanArgs& pa, const PlanState& st) {
             }
         }
     }
+    if (st.adaptive)
+        j["adaptive"] = adaptive_json(*st.adaptive);
+    else if (!st.adaptive_note.empty())
+        j["adaptive"] = {{"why", st.adaptive_note}};
+    if (st.representation)
+        j["representation"] = {{"choice", st.representation->any
+                                              ? nlohmann::json(st.representation->adaptive ? "adaptive" : "tensor")
+                                              : nlohmann::json(nullptr)},
+                               {"why", st.representation->why}};
+    j["warnings"] = st.warnings;
     j["verified"] = verification.has_value() && verification->verified > 0;
     j["verification_seconds"] = verification ? verification->seconds : 0.0;
     j["verification_corrections"] = st.verify_corrections;
@@ -524,6 +661,8 @@ void print_plan_text(const PlanArgs& pa, const PlanState& st) {
         std::cout << "as written: no prediction (" << st.written_why << ")\n";
     }
     for (const std::string& n : st.verify_notes) std::cout << "verification: " << n << "\n";
+    print_adaptive_text(st);
+    for (const std::string& w : st.warnings) std::cout << "warning: " << w << "\n";
     if (verification) {
         print_verification(*verification, pilots, pa.as_written ? "as written" : "choice");
         if (verification->verified > 0)
@@ -580,6 +719,17 @@ void run_plan(const PlanArgs& pa) {
     // --place-nodes: explicit nodes equidistributing the pilot's error.
     place(pa, st);
     verify_plans(pa, spec, st);
+    compare_adaptive(pa, spec, st);
+    // A tensor plan above kLargePlanCells: the axis responsible, and the
+    // adaptive representation as the way out (also on stderr under --json).
+    if (st.choice)
+        if (std::string w = large_plan_warning(st.placed ? *st.placed : st.front[*st.choice], st.pilots); !w.empty())
+            st.warnings.push_back("choice: " + w);
+    if (st.written)
+        if (std::string w = large_plan_warning(*st.written, st.pilots); !w.empty())
+            st.warnings.push_back("as written: " + w);
+    if (pa.json)
+        for (const std::string& w : st.warnings) std::cerr << "brdftab: warning: " << w << "\n";
     st.text = planned_output_text(pa, spec, st);
     if (pa.json)
         print_plan_json(pa, st);
@@ -640,6 +790,11 @@ void register_plan(CLI::App& app) {
                     "verify a table only when its certificate's probes touch at most this fraction of its "
                     "cells (default 0.25; 1: always); a table predicted to generate in <= 5 s is verified "
                     "whatever the fraction");
+    cmd->add_option("--representation", st->representation,
+                    "with --accuracy/--budget: tensor (the tensor plans only), adaptive or auto (also predict "
+                    "the adaptive plan from pilot refinements and choose the one storing fewer values; "
+                    "docs/adaptive.md). Default: the spec's [output] representation, else auto")
+        ->check(CLI::IsMember({"tensor", "adaptive", "auto"}));
     cmd->add_flag("-q,--quiet", st->quiet, "no progress display");
     st->compute.add_to(*cmd, false);
     cmd->callback([st] { run_plan(*st); });

@@ -18,6 +18,7 @@
 #include "host/generate/chunked.h"
 #include "host/generate/generate.h"
 #include "host/io/table_io.h"
+#include "host/plan/adaptive_plan.h"
 #include "host/scene/scene.h"
 #include "host/spec/spec.h"
 
@@ -105,6 +106,22 @@ void print_materials(const std::string& scene, const std::vector<MappedMaterial>
                 std::cout << "      " << part << ": no-table-needed: " << why << "\n";
         for (const std::string& n : m.notes) std::cout << "      note: " << n << "\n";
     }
+}
+
+// The sets above 10^8 cells (adaptive_plan.h), each printed as a warning
+// naming the axis responsible; with `refuse` (a run, not --dry-run, without
+// --tabulate-closed-forms asking for large tables) the first is refused
+// (docs/scenes.md).
+void warn_large_sets(const ScenePlan& plan, const std::vector<Spec>& specs, bool refuse) {
+    std::vector<std::string> large;
+    for (std::size_t k = 0; k < plan.sets.size(); ++k)
+        if (const std::string w = large_plan_warning(specs[k]); !w.empty())
+            large.push_back(plan.sets[k].id + " (" + plan.sets[k].model + " " + plan.sets[k].purpose + "): " + w);
+    for (const std::string& w : large) std::cout << "  warning: " << w << "\n";
+    if (refuse && !large.empty())
+        throw InputError("table set " + large.front() +
+                         ". scene refuses plans above 1e+08 cells: relax --accuracy, tabulate less (--for), "
+                         "or pass --tabulate-closed-forms to accept large tables; nothing computed or written");
 }
 
 }  // namespace
@@ -230,6 +247,7 @@ void register_scene(CLI::App& app) {
             }
             if (!set.plan_note.empty()) std::cout << "      " << set.plan_note << "\n";
         }
+        warn_large_sets(plan, specs, !st.dry_run && !st.tabulate_closed_forms);
         // Against the presets of the same models (their whole parameter spaces).
         const std::string presets = find_presets_dir(st.presets);
         if (!presets.empty()) {

@@ -1514,6 +1514,25 @@ std::string planned_spec_text(const Spec& spec, const std::vector<std::size_t>& 
     return out.str();
 }
 
+std::string adaptive_spec_text(const Spec& spec, double accuracy, bool absolute,
+                               const std::vector<std::string>& header) {
+    toml::table root;
+    try {
+        root = toml::parse(spec.text, spec.file);
+    } catch (const toml::parse_error& e) {
+        throw InputError(spec.file + ": cannot re-read the spec: " + std::string(e.description()));
+    }
+    if (!root["output"].as_table()) root.insert("output", toml::table{});
+    root["output"].as_table()->insert_or_assign("representation", "adaptive");
+    if (!root["adaptive"].as_table()) root.insert("adaptive", toml::table{});
+    root["adaptive"].as_table()->insert_or_assign("accuracy", accuracy);
+    root["adaptive"].as_table()->insert_or_assign("measure", absolute ? "absolute" : "relative");
+    std::ostringstream out;
+    for (const std::string& h : header) out << "# " << h << "\n";
+    out << toml::toml_formatter(root) << "\n";
+    return out.str();
+}
+
 namespace {
 nlohmann::json fit_json(const PowerFit& f) {
     if (!f.valid) return nullptr;

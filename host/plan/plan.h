@@ -469,6 +469,13 @@ std::optional<Candidate> predict_as_written(const Spec& spec, const std::vector<
 std::string planned_spec_text(const Spec& spec, const std::vector<std::size_t>& table_indices,
                               const Candidate& plan, const std::vector<std::string>& header);
 
+// The spec text for an adaptive plan (`plan -o` when the adaptive plan is
+// chosen): the spec as it is, with [output] representation = "adaptive" and
+// [adaptive] accuracy and measure set, so that a plain `generate` of it
+// refines every table to `accuracy`.  Parses with parse_spec_string.
+std::string adaptive_spec_text(const Spec& spec, double accuracy, bool absolute,
+                               const std::vector<std::string>& header);
+
 // JSON of pilots, candidates and choice (`brdftab plan --json`).
 nlohmann::json pilot_json(const TablePilot& pilot);
 nlohmann::json candidate_json(const Candidate& c, const std::vector<TablePilot>& pilots);

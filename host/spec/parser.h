@@ -87,6 +87,13 @@ private:
     AxisSrc parse_axis(const toml::table& t, const std::string& prefix,
                        const char* free_unit = nullptr) const;
 
+    // adaptive_keys.cpp: [adaptive] (spec_level) and a table's `adaptive`,
+    // checked against the axes of `tables` (every table the settings apply
+    // to): a named axis must be one of theirs, a breakpoint inside its open
+    // range and on an axis whose warp depends on nothing else.
+    AdaptiveSpecSettings parse_adaptive(const toml::table& t, const std::string& prefix, bool spec_level,
+                                        const std::vector<const TableSpec*>& tables) const;
+
     // derived.cpp: tables formed from other tables of the spec.
     RecombinedSpec parse_recombined(const toml::table& t, const std::string& prefix,
                                     const Spec& spec, std::map<std::string, Pos>& names) const;

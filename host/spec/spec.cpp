@@ -35,7 +35,7 @@ Spec Parser::run() {
     }
 
     check_keys(root, "", {"model", "description", "parameters", "axes", "tables", "recombined",
-                          "errors", "inverted", "integration", "output"});
+                          "errors", "inverted", "integration", "output", "adaptive"});
 
     std::vector<std::string> model_names;
     for (const auto& m : all_models()) model_names.push_back(m.name);
@@ -107,6 +107,13 @@ Spec Parser::run() {
                              [](const TableSpec& ts) { return ts.round_accuracy > 0; }))
                 fail(pos_of(*m), "output.round_measure",
                      "needs round_to_accuracy (in [output] or in a [[tables]] entry)");
+    // [adaptive]: the settings of adaptive tables, for every table with the
+    // axes it names (a table's own `adaptive` key wins field by field).
+    if (const toml::table* at = get_table(root, "", "adaptive")) {
+        std::vector<const TableSpec*> all;
+        for (const TableSpec& ts : spec.tables) all.push_back(&ts);
+        spec.adaptive = parse_adaptive(*at, "adaptive", true, all);
+    }
     if (const toml::array* rs = get_table_array(root, "", "recombined"))
         for (std::size_t k = 0; k < rs->size(); ++k)
             spec.recombined.push_back(
@@ -179,7 +186,15 @@ void Parser::parse_integration(const toml::table& t, IntegrationSettings& s) con
 
 void Parser::parse_output(const toml::table& t, OutputSettings& o) const {
     const std::string pre = "output";
-    check_keys(t, pre, {"path", "type", "compression", "keep_stderr", "round_to_accuracy", "round_measure"});
+    check_keys(t, pre, {"path", "type", "compression", "keep_stderr", "round_to_accuracy", "round_measure",
+                        "representation"});
+    if (auto r = get_string(t, pre, "representation")) {
+        if (*r != "tensor" && *r != "adaptive" && *r != "auto")
+            fail(pos_of(*t.get("representation")), sub(pre, "representation"),
+                 "unknown representation '" + *r + "'; allowed: tensor, adaptive, auto");
+        o.representation = *r;
+        o.representation_given = true;
+    }
     if (auto p = get_string(t, pre, "path")) {
         if (p->empty()) fail(pos_of(*t.get("path")), sub(pre, "path"), "must not be empty");
         // A relative path is relative to the spec file's directory, so a spec

@@ -5,6 +5,7 @@
 // or range, so the CLI can print it as is and exit with code 2.
 #pragma once
 
+#include <map>
 #include <optional>
 #include <string>
 #include <utility>
@@ -28,6 +29,27 @@ struct OutputSettings {
     // mantissa bits this accuracy needs (host/io/bit_rounding.h); 0: off.
     double round_accuracy = 0;
     bool round_absolute = false;
+    // representation: "tensor" (one grid per table, the default), "adaptive"
+    // (docs/adaptive.md) or "auto" (the planner compares both and generates
+    // the one predicted to store fewer values; docs/adaptive.md, "Choosing").
+    std::string representation = "tensor";
+    bool representation_given = false;  // the key was written
+};
+
+// Settings of adaptive tables ([adaptive] and a [[tables]] entry's
+// `adaptive`, docs/spec.md): an unset field takes the command line's value,
+// else the default of AdaptiveCliOptions.  Positions are in user units.
+struct AdaptiveSpecSettings {
+    std::optional<double> accuracy;   // the refinement's target ([adaptive] only)
+    std::optional<bool> absolute;     // measure = "absolute" | "relative" ([adaptive] only)
+    std::optional<std::size_t> max_values;
+    std::optional<std::size_t> patch_nodes;  // 3, 5 or 9
+    std::optional<int> patch_order;          // 1 or 2
+    // axis name -> position; `*_given`: the key was present (an empty table
+    // then declares none, overriding [adaptive]'s list).
+    std::vector<std::pair<std::string, double>> breakpoints, jumps;
+    bool breakpoints_given = false, jumps_given = false;
+    std::map<std::string, int> initial_level;  // axis name -> uniform halvings
 };
 
 struct TableSpec {
@@ -42,6 +64,9 @@ struct TableSpec {
     // The table's own round_to_accuracy (0: [output]'s), in [output]'s
     // round_measure.
     double round_accuracy = 0;
+    // The table's own adaptive settings (its `adaptive` key): each field set
+    // here wins over [adaptive]'s.
+    AdaptiveSpecSettings adaptive;
 };
 
 // A table formed from other tables of the same spec, with no computing of its
@@ -94,6 +119,7 @@ struct Spec {
     std::vector<InvertedSpec> inverted;
     IntegrationSettings integration;
     OutputSettings output;
+    AdaptiveSpecSettings adaptive;  // [adaptive]
 };
 
 Spec parse_spec_file(const std::string& path);

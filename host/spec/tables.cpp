@@ -99,7 +99,8 @@ TableSpec Parser::build_table(const toml::table& t, const std::string& prefix,
                               const Block& global_params,
                               const std::vector<AxisSrc>& global_axes,
                               const IntegrationSettings& integration, Pos method_pos) const {
-    check_keys(t, prefix, {"name", "quantity", "description", "parameters", "axes", "round_to_accuracy"});
+    check_keys(t, prefix, {"name", "quantity", "description", "parameters", "axes", "round_to_accuracy",
+                           "adaptive"});
     const Pos tpos = pos_of(t);
     TableSpec ts;
     if (auto e = get_number(t, prefix, "round_to_accuracy")) {
@@ -254,6 +255,8 @@ TableSpec Parser::build_table(const toml::table& t, const std::string& prefix,
     for (const Choice& c : local.options) ts.options[c.name] = c.value;
     resolve_critical_axes(kept, ts.fixed);
     for (const AxisSrc& a : kept) ts.axes.push_back(a.axis);
+    if (const toml::table* at = get_table(t, prefix, "adaptive"))
+        ts.adaptive = parse_adaptive(*at, sub(prefix, "adaptive"), false, {&ts});
     return ts;
 }
 
