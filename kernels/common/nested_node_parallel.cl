@@ -77,19 +77,17 @@ __kernel void bt_node(__global const int* options, uint n_options, int quantity,
                       __global const REAL* item_state, __global const REAL* group_state,
                       __global REAL* scratch, __global const REAL* node_x)
 {
-    const uint item = (uint)get_global_id(0);
-    const uint gid = bt_padding_item(item, n_nodes);
+    const uint gid = (uint)get_global_id(0);
+    if (gid >= n_nodes) return;
     const uint g = node_group[gid];
     BT_KERNEL_LOAD_OPTIONS_(o, options, n_options)
     REAL t[BT_HOOK_TERMS];
     bt_hook_term(item_state + (size_t)group_item[g] * (BT_HOOK_ITEM_STATE_SIZE),
                  group_state + (size_t)g * (BT_HOOK_GROUP_STATE_SIZE), o, BT_KERNEL_QUANTITY_(quantity),
                  node_x[gid], t);
-    if (item < n_nodes) {
 #pragma unroll
-        for (uint i = 0; i < (uint)(BT_HOOK_TERMS); ++i)
-            scratch[(size_t)gid * (BT_HOOK_TERMS) + i] = t[i];
-    }
+    for (uint i = 0; i < (uint)(BT_HOOK_TERMS); ++i)
+        scratch[(size_t)gid * (BT_HOOK_TERMS) + i] = t[i];
 }
 
 __kernel void bt_node_reduce(__global const int* options, uint n_options, int quantity,

@@ -36,7 +36,7 @@ __kernel void bt_node_first(__global const int* options, uint n_options, int qua
     const uint node = node_list[list_first + gid];
     BT_KERNEL_LOAD_OPTIONS_(o, options, n_options)
     const REAL term = bt_node_term_first(node, o, BT_KERNEL_QUANTITY_(quantity), node_item,
-                                                    node_offset, first_work, state);
+                                         node_offset, first_work, state);
     if (item < n_nodes) scratch[node - first_node] = term;
 }
 
@@ -50,6 +50,6 @@ __kernel void bt_node_second(__global const int* options, uint n_options, int qu
     const uint node = node_list[list_first + gid];
     BT_KERNEL_LOAD_OPTIONS_(o, options, n_options)
     const REAL term = bt_node_term_second(node, o, BT_KERNEL_QUANTITY_(quantity), node_item,
-                                                     node_offset, first_work, state);
+                                          node_offset, first_work, state);
     if (item < n_nodes) scratch[node - first_node] = term;
 }
