@@ -147,19 +147,22 @@ if [ "$1" = "--pocl" ]; then
   echo "loop vectoriser (all work-group functions built):"
   grep -o 'loop not vectorized: [a-z ]*\|vectorized loop (vectorization width: [0-9]*\|vectorization is not beneficial' "$work/run.log" \
     | sed 's/loop\(kernels\|generated\)$/loop/' | sort | uniq -c | sed 's/^/  /' || echo "  no remark"
-  find "$work/cache" -name parallel.bc | grep -v smallgrid | sort | while read -r bc; do
+  # Every build of each kernel (one per work-group size; "smallgrid" ones
+  # for launches of a single work group).
+  find "$work/cache" -name parallel.bc | sort | while read -r bc; do
     kernel=$(basename "$(dirname "$(dirname "$bc")")")
+    build=$(basename "$(dirname "$bc")")
     clang-15 -S -emit-llvm -Xclang -disable-llvm-passes -x ir "$bc" -o "$work/k.ll" 2>/dev/null
     wide=$(grep -c '<4 x double>' "$work/k.ll" || true)
     if [ -z "$slp" ]; then
-      echo "kernel $kernel: $wide lines with <4 x double>; loads to predicate at 4 lanes by source line:"
+      echo "kernel $kernel ($build): $wide lines with <4 x double>; loads to predicate at 4 lanes by source line:"
       cpu=${POCL_LLVM_CPU_NAME:-native}
       "$opt" -opaque-pointers -mcpu="$cpu" -passes=loop-vectorize -force-vector-width=4 -S "$work/k.ll" \
         -o "$work/kv.ll" 2>/dev/null || "$opt" -mcpu="$cpu" -passes=loop-vectorize \
         -force-vector-width=4 -S "$work/k.ll" -o "$work/kv.ll"
       predicated_loads "$work/kv.ll"
     else
-      echo "kernel $kernel: $wide lines with <4 x double>; 2-wide packs by source line:"
+      echo "kernel $kernel ($build): $wide lines with <4 x double>; 2-wide packs by source line:"
       vector_lines "$work/k.ll" "_pocl_kernel_$kernel" 2
     fi
   done
