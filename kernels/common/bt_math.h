@@ -361,14 +361,17 @@ BT_MATH_INLINE double bt_atan_unit(double t)
     p = p * z + 1.0 / 5.0;
     p = p * z - 1.0 / 3.0;
     double atan_u = u + u * z * p;
-    double hi = j == 1 ? 0.24497866312686414
-              : j == 2 ? 0.4636476090008061
-              : j == 3 ? 0.6435011087932844
-              : j == 4 ? 0.7853981633974483 : 0.0;
-    double lo = j == 1 ? 1.0698755618734451e-17
-              : j == 2 ? 2.2698777452961687e-17
-              : j == 3 ? 1.5834785051444286e-17
-              : j == 4 ? 3.061616997868383e-17 : 0.0;
+    /* atan(j / 4) as hi + lo, picked by j >= ... (0 <= j <= 4): a chain of
+     * j == ... tests is turned into a table load, a gather that an AVX2
+     * target cannot mask when it sits under a branch. */
+    double hi = j >= 4 ? 0.7853981633974483
+              : j >= 3 ? 0.6435011087932844
+              : j >= 2 ? 0.4636476090008061
+              : j >= 1 ? 0.24497866312686414 : 0.0;
+    double lo = j >= 4 ? 3.061616997868383e-17
+              : j >= 3 ? 1.5834785051444286e-17
+              : j >= 2 ? 2.2698777452961687e-17
+              : j >= 1 ? 1.0698755618734451e-17 : 0.0;
     return hi + (lo + atan_u);
 }
 

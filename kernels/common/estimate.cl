@@ -14,7 +14,7 @@ __kernel void bt_estimate(__global const REAL* points, uint stride, __global con
                           __global ACCUM* out_m2)
 {
     const uint gid = (uint)get_global_id(0);
-#if !BT_SAMPLE_BARRIER
+#if !BT_SAMPLE_BARRIER && !defined(BT_KERNEL_ONE_SAMPLE_)
     if (gid >= n_work) return;
 #endif
     /* With the sample-loop barrier every work item of a group must reach the

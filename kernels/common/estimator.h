@@ -108,6 +108,7 @@
  * a constant trip count removes the loop. */
 #if BT_SPEC_METHOD == BT_METHOD_CLOSED || BT_SPEC_METHOD == BT_METHOD_QUADRATURE
 #define BT_KERNEL_BATCH_SIZE_(runtime) (1u)
+#define BT_KERNEL_ONE_SAMPLE_ 1
 #endif
 #else
 #define BT_KERNEL_METHOD_(runtime) (runtime)
@@ -165,6 +166,17 @@ BT_INLINE void bt_load_point(__global const REAL* points, uint w, uint stride, R
 #pragma unroll
     for (uint k = 0; k < BT_MAX_POINT; ++k)
         p[k] = k < stride ? points[(size_t)w * stride + k] : R(0.0);
+}
+
+/* The item a work item `gid` of a launch of n items computes: itself, or
+ * for the items past n (a launch is padded to whole work groups) item 0,
+ * whose result they do not store.  Such kernels have no branch around their
+ * work: a load under a branch that is not consecutive across work items
+ * needs a masked gather, which AVX2 targets lack, and PoCL's work-item loop
+ * then stays scalar there (docs/contributing.md). */
+BT_INLINE uint bt_padding_item(uint gid, uint n)
+{
+    return gid < n ? gid : 0u;
 }
 
 /* The sampler state of a work item's (cell, batch); sample 0. */

@@ -57,12 +57,13 @@ __kernel void bt_node(__global const int* options, uint n_options, int quantity,
                       __global const uint* node_item, __global const uint* node_offset, uint first_work,
                       uint first_node, uint n_nodes, __global const REAL* state, __global REAL* scratch)
 {
-    const uint gid = (uint)get_global_id(0);
-    if (gid >= n_nodes) return;
+    const uint item = (uint)get_global_id(0);
+    const uint gid = bt_padding_item(item, n_nodes);
     const uint node = first_node + gid;
     BT_KERNEL_LOAD_OPTIONS_(o, options, n_options)
-    scratch[gid] = bt_node_term(node, o, BT_KERNEL_QUANTITY_(quantity), node_item, node_offset,
-                                first_work, state);
+    const REAL term = bt_node_term(node, o, BT_KERNEL_QUANTITY_(quantity), node_item, node_offset,
+                                   first_work, state);
+    if (item < n_nodes) scratch[gid] = term;
 }
 
 __kernel void bt_node_sum(__global const REAL* points, uint stride, __global const int* options,

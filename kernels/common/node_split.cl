@@ -31,12 +31,13 @@ __kernel void bt_node_first(__global const int* options, uint n_options, int qua
                             uint first_work, uint first_node, uint n_nodes, __global const REAL* state,
                             __global REAL* scratch, __global const uint* node_list, uint list_first)
 {
-    const uint gid = (uint)get_global_id(0);
-    if (gid >= n_nodes) return;
+    const uint item = (uint)get_global_id(0);
+    const uint gid = bt_padding_item(item, n_nodes);
     const uint node = node_list[list_first + gid];
     BT_KERNEL_LOAD_OPTIONS_(o, options, n_options)
-    scratch[node - first_node] = bt_node_term_first(node, o, BT_KERNEL_QUANTITY_(quantity), node_item,
-                                                    node_offset, first_work, state);
+    const REAL term = bt_node_term_first(node, o, BT_KERNEL_QUANTITY_(quantity), node_item,
+                                         node_offset, first_work, state);
+    if (item < n_nodes) scratch[node - first_node] = term;
 }
 
 __kernel void bt_node_second(__global const int* options, uint n_options, int quantity,
@@ -44,10 +45,11 @@ __kernel void bt_node_second(__global const int* options, uint n_options, int qu
                              uint first_work, uint first_node, uint n_nodes, __global const REAL* state,
                              __global REAL* scratch, __global const uint* node_list, uint list_first)
 {
-    const uint gid = (uint)get_global_id(0);
-    if (gid >= n_nodes) return;
+    const uint item = (uint)get_global_id(0);
+    const uint gid = bt_padding_item(item, n_nodes);
     const uint node = node_list[list_first + gid];
     BT_KERNEL_LOAD_OPTIONS_(o, options, n_options)
-    scratch[node - first_node] = bt_node_term_second(node, o, BT_KERNEL_QUANTITY_(quantity), node_item,
-                                                     node_offset, first_work, state);
+    const REAL term = bt_node_term_second(node, o, BT_KERNEL_QUANTITY_(quantity), node_item,
+                                          node_offset, first_work, state);
+    if (item < n_nodes) scratch[node - first_node] = term;
 }

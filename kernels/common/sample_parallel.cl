@@ -42,14 +42,15 @@ __kernel void bt_sample(__global const REAL* points, uint stride, __global const
                         __global const uint* work_cell, __global const uint* work_batch,
                         uint first_work, uint n_samples, uint batch_size, __global ACCUM* scratch)
 {
-    const uint gid = (uint)get_global_id(0);
-    if (gid >= n_samples) return;
+    const uint item = (uint)get_global_id(0);
+    const uint gid = bt_padding_item(item, n_samples);
     REAL p[BT_MAX_POINT];
     bt_sampler s;
     bt_sample_at(gid, first_work, BT_KERNEL_BATCH_SIZE_(batch_size), points, BT_KERNEL_STRIDE_(stride),
                  key0, key1, work_cell, work_batch, BT_KERNEL_METHOD_(method), p, &s);
     BT_KERNEL_LOAD_OPTIONS_(o, options, n_options)
-    scratch[gid] = (ACCUM)bt_hook_sample(p, o, BT_KERNEL_QUANTITY_(quantity), &s);
+    const ACCUM x = (ACCUM)bt_hook_sample(p, o, BT_KERNEL_QUANTITY_(quantity), &s);
+    if (item < n_samples) scratch[gid] = x;
 }
 
 __kernel void bt_sample_redo(__global const REAL* points, uint stride, __global const int* options,

@@ -251,8 +251,11 @@ BT_INLINE REAL hf_log_k_over_q_series(const hf_psi* P, REAL t)
     REAL bt2 = beta * t2;
     REAL rest = (P->b - beta) * t2 + hf_k_series_rest(P, t);
     REAL aq = a + bt2;
-    if (!(aq > R(0.0))) return R(0.0); /* t = 0 with a = 0 */
-    return hf_log1p(rest / aq) + hf_log1p(bt2);
+    /* 0 where !(aq > 0) (t = 0 with a = 0), by a select: behind an early
+     * return LLVM moves the series' loads of P under the branch, gathers an
+     * AVX2 target cannot mask, and the node kernel stays scalar there. */
+    REAL l = hf_log1p(rest / aq) + hf_log1p(bt2);
+    return aq > R(0.0) ? l : R(0.0);
 }
 
 BT_INLINE REAL hf_log_k_over_q_direct(const hf_psi* P, REAL t)

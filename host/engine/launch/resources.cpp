@@ -5,6 +5,10 @@
 #include <algorithm>
 #include <mutex>
 #include <new>
+#if defined(__linux__)
+#include <dlfcn.h>
+#include <link.h>
+#endif
 
 #include "kernels/common/estimator.h"
 #include "host/engine/kernel_sources.h"
@@ -120,6 +124,62 @@ void LaunchResources::reserve_staged(StagedInputs& target, std::size_t items,
     target.point_doubles = want_doubles;
 }
 
+namespace {
+
+#if defined(__linux__)
+// Sets one LLVM command-line option in every LLVM library loaded in this
+// process (PoCL links libLLVM-N.so and compiles in the calling process);
+// true if one took it.  LLVM's C entry point, so no LLVM headers are needed;
+// it reports a bad option to llvm::nulls() and does not exit.
+bool set_loaded_llvm_option(const char* option) {
+    std::vector<std::string> libraries;
+    dl_iterate_phdr(
+        [](struct dl_phdr_info* info, std::size_t, void* data) {
+            const std::string name = info->dlpi_name ? info->dlpi_name : "";
+            if (name.find("/libLLVM") != std::string::npos)
+                static_cast<std::vector<std::string>*>(data)->push_back(name);
+            return 0;
+        },
+        &libraries);
+    bool set = false;
+    for (const std::string& name : libraries) {
+        void* library = dlopen(name.c_str(), RTLD_LAZY | RTLD_NOLOAD);
+        if (!library) continue;
+        using ParseOptions = void (*)(int, const char* const*, const char*);
+        auto parse = reinterpret_cast<ParseOptions>(dlsym(library, "LLVMParseCommandLineOptions"));
+        if (parse) {
+            const char* argv[] = {"brdftab", option};
+            parse(2, argv, "");
+            set = true;
+        }
+        dlclose(library);
+    }
+    return set;
+}
+#else
+bool set_loaded_llvm_option(const char*) { return false; }
+#endif
+
+// Turns clang's SLP vectoriser off in PoCL's LLVM, once per process; true if
+// it is off.  PoCL runs it on each work item before it builds the work-item
+// loops, and the 2-wide vectors it packs make the loop vectoriser refuse those
+// loops ("instruction return type cannot be vectorized"); which pairs it packs
+// depends on the target's cost model (BT_SLP_SPLIT in kernels/common/compat.h
+// splits the ones skylake-avx512 packs, not those of haswell).  PoCL accepts
+// neither -fno-slp-vectorize nor -mllvm as build options, but its LLVM reads
+// LLVM's own options, process-wide: a threshold no tree reaches keeps SLP
+// from vectorising anything.  Kernels keep their values (SLP reorders no
+// arithmetic); docs/contributing.md, "What keeps PoCL's work-item loop scalar".
+bool pocl_slp_off(const DeviceInfo& device) {
+    if (device.platform_name.find("Portable Computing Language") == std::string::npos) return false;
+    static std::once_flag once;
+    static bool off = false;
+    std::call_once(once, [] { off = set_loaded_llvm_option("-slp-threshold=1000000000"); });
+    return off;
+}
+
+}  // namespace
+
 std::string LaunchResources::build_options(const BatchLaunch& l) const {
     std::string out = "-cl-std=CL1.2";
     out += runtime.device_info().has_fp64 ? " -D BT_HAS_FP64=1" : " -D BT_HAS_FP64=0";
@@ -134,6 +194,12 @@ std::string LaunchResources::build_options(const BatchLaunch& l) const {
     // naming BT_FORCE_INLINE decide instead.
     if (extra.find("BT_FORCE_INLINE") == std::string::npos && l.model->force_inline)
         out += " -D BT_FORCE_INLINE=1";
+    // PoCL's SLP vectoriser off (pocl_slp_off), unless extra kernel options
+    // name BT_POCL_SLP (scripts/slp-pairs.sh sets BT_POCL_SLP=1 to see its
+    // packs).  The define names the setting for PoCL's program cache, whose
+    // key has the build options but not LLVM's.
+    if (extra.find("BT_POCL_SLP") == std::string::npos && pocl_slp_off(runtime.device_info()))
+        out += " -D BT_POCL_SLP=0";
     out += extra;
     return out;
 }
