@@ -521,14 +521,26 @@ private:
 
     // The probes of leaf l: along each axis a, the midpoints of its cells with
     // the other coordinates at nodes (a split along a makes them nodes), and
-    // the cell centres (multilinear cross terms, a feature inside a cell).
+    // the cell centres (cross terms, a feature inside a cell).  Order 1 in
+    // 3-D and up also probes the mixed midpoints (two or more coordinates,
+    // not all, at cell midpoints): a multilinear interpolant's error is, to
+    // leading order, a sum over axes of fixed-sign bumps c_a s_a (1 - s_a),
+    // whose largest magnitude lies at s_a in {0, 1/2}, i.e. at one of these
+    // points; with curvatures of both signs (c_x, c_y > 0 > c_z) it is at a
+    // mixed one (x, y at midpoints, z at a node: c_x + c_y, the centre only
+    // c_x + c_y + c_z).  Order 2 needs no mixed points: its error bumps
+    // change sign between the two cells of a triple, and the centres of the
+    // leaf's cells hold every sign combination.  f(k, axis, odd_mask): axis
+    // >= 0 for a probe odd along that axis only, else -1.
     template <class F>
     void for_each_probe(const BuildLeaf& l, F&& f) const {
         const std::size_t total = std::size_t(std::pow(double(2 * n_ - 1), double(d_)) + 0.5);
+        const bool mixed = o_.patch_order == 1;
         std::array<std::size_t, kMaxDims> i{};
         Key k{};
         for (std::size_t c = 0; c < total; ++c) {
             std::size_t r = c, odd = 0;
+            unsigned mask = 0;
             int odd_axis = -1;
             for (std::size_t a = d_; a-- > 0;) {
                 i[a] = r % (2 * n_ - 1);
@@ -536,11 +548,12 @@ private:
                 if (i[a] & 1) {
                     ++odd;
                     odd_axis = int(a);
+                    mask |= 1u << a;
                 }
             }
-            if (odd != 1 && odd != d_) continue;  // nodes, and mixed points, are not probes
+            if (odd == 0 || (!mixed && odd != 1 && odd != d_)) continue;  // nodes (and, order 2, mixed points)
             for (std::size_t a = 0; a < d_; ++a) k[a] = l.lo[a] + i[a] * (spacing(l, a) / 2);
-            f(k, odd == 1 ? odd_axis : -1);
+            f(k, odd == 1 ? odd_axis : -1, mask);
         }
     }
 
@@ -549,7 +562,7 @@ private:
         pending_set_.clear();
         for (const Key& k : node_order_) want(k);
         for (const BuildLeaf& l : leaves_)
-            if (!l.checked) for_each_probe(l, [&](const Key& k, int) { want(k); });
+            if (!l.checked) for_each_probe(l, [&](const Key& k, int, unsigned) { want(k); });
         if (pending_.empty()) return;
         std::vector<double> t(pending_.size() * d_), v(pending_.size()), s(with_stderr ? pending_.size() : 0);
         for (std::size_t p = 0; p < pending_.size(); ++p)
@@ -620,25 +633,34 @@ private:
     void estimate(std::size_t l) {
         BuildLeaf& lf = leaves_[l];
         lf.axis_err.fill(0);
-        double centre = 0;
-        for_each_probe(lf, [&](const Key& k, int axis) {
+        double centre = 0;  // the largest error of a probe odd along several axes
+        unsigned centre_mask = 0;
+        for_each_probe(lf, [&](const Key& k, int axis, unsigned mask) {
             const double e = measure(interp_raw(lf, k), known_.at(k).value);
-            if (axis >= 0)
+            if (axis >= 0) {
                 lf.axis_err[std::size_t(axis)] = std::max(lf.axis_err[std::size_t(axis)], e);
-            else
-                centre = std::max(centre, e);
+            } else if (e > centre) {
+                centre = e;
+                centre_mask = mask;
+            }
         });
         lf.err = centre;
         for (std::size_t a = 0; a < d_; ++a) lf.err = std::max(lf.err, lf.axis_err[a]);
-        // A centre error with no axis to blame: split the leaf's coarsest axis.
+        // An error no single axis shows: split the axis, among those the worst
+        // such probe lies at midpoints of, whose own error is largest (the
+        // coarsest when none has any).
         if (centre > o_.safety * o_.target) {
             double worst = 0;
             for (std::size_t a = 0; a < d_; ++a) worst = std::max(worst, lf.axis_err[a]);
             if (worst <= o_.safety * o_.target) {
-                std::size_t coarse = 0;
-                for (std::size_t a = 1; a < d_; ++a)
-                    if (lf.level[a] < lf.level[coarse]) coarse = a;
-                lf.axis_err[coarse] = centre;
+                int pick = -1;
+                for (std::size_t a = 0; a < d_; ++a) {
+                    if (!(centre_mask >> a & 1)) continue;
+                    if (pick < 0 || lf.axis_err[a] > lf.axis_err[std::size_t(pick)] ||
+                        (lf.axis_err[a] == lf.axis_err[std::size_t(pick)] && lf.level[a] < lf.level[std::size_t(pick)]))
+                        pick = int(a);
+                }
+                lf.axis_err[std::size_t(pick)] = centre;
             }
         }
         lf.checked = true;

@@ -2,6 +2,8 @@
 #include "host/cli/cli_adaptive.h"
 
 #include <cstdio>
+#include <cstring>
+#include <memory>
 #include <filesystem>
 #include <iostream>
 #include <sstream>
@@ -10,9 +12,14 @@
 #include "host/adaptive/adaptive_io.h"
 #include "host/core/atomic_file.h"
 #include "host/core/error.h"
+#include "host/engine/engine_tuning.h"
+#include "host/generate/checkpoint.h"
 #include "host/io/point_file.h"
 #include "host/plan/certify.h"
 #include "host/spec/spec.h"
+#ifdef BRDFTAB_MPI
+#include "host/generate/distributed.h"
+#endif
 
 namespace brdftab::cli {
 
@@ -49,6 +56,10 @@ void add_adaptive_options(CLI::App& cmd, AdaptiveCliOptions& o) {
                    "adaptive: interpolation inside a patch, per axis: 1 (default, linear between nodes) or 2 "
                    "(quadratic on consecutive node triples)")
         ->check(CLI::IsMember({1, 2}));
+    cmd.add_option("--refine-safety", o.safety,
+                   "adaptive: a patch passes when its largest probe error is <= S x E (default 0.5; "
+                   "docs/adaptive.md, \"Refinement\")")
+        ->check(CLI::Range(0.01, 1.0));
     cmd.add_option("--breakpoint", o.breakpoints,
                    "adaptive: NAME=X puts patch faces on X of axis NAME (a known kink; repeatable). "
                    "A critical axis gets one on its critical node by itself");
@@ -59,33 +70,138 @@ void add_adaptive_options(CLI::App& cmd, AdaptiveCliOptions& o) {
                    "adaptive: NAME=L starts with 2^L patches along axis NAME (default 0; repeatable)");
 }
 
-void run_adaptive_generate(const std::string& spec_path, const std::string& output,
-                           const ComputeOptions& compute, std::optional<double> accuracy, bool absolute,
-                           bool quiet, const AdaptiveCliOptions& o) {
-    if (!accuracy) throw InputError("--representation adaptive needs --accuracy E (the refinement's target)");
-    if (!(*accuracy > 0) || !std::isfinite(*accuracy))
-        throw InputError("--accuracy must be a positive number");
+namespace {
+
+// The checkpoint key of an adaptive run: the tensor one's settings and every
+// option that changes the refinement.
+CheckpointKey adaptive_checkpoint_key(const Spec& spec, const IntegrationSettings& settings, const Backend& backend,
+                                      const ComputeOptions& compute, double accuracy, bool absolute,
+                                      const AdaptiveCliOptions& o) {
+    CheckpointKey key = checkpoint_key(spec, settings, backend, compute.kernel_dir);
+    auto exact = [](double v) {  // the shortest text that reads back as v
+        char b[40];
+        for (int digits = 1; digits <= 17; ++digits) {
+            std::snprintf(b, sizeof b, "%.*g", digits, v);
+            if (std::strtod(b, nullptr) == v) break;
+        }
+        return std::string(b);
+    };
+    std::ostringstream a;
+    a << "accuracy " << exact(accuracy) << (absolute ? " absolute" : " relative") << " floor " << exact(compute.abs_floor)
+      << " max_values " << o.max_values << " patch_nodes " << o.patch_nodes << " patch_order " << o.patch_order
+      << " safety " << exact(o.safety);
+    for (const std::string& b : o.breakpoints) a << " breakpoint " << b;
+    for (const std::string& j : o.jumps) a << " jump " << j;
+    for (const std::string& l : o.initial_levels) a << " initial_level " << l;
+    key.settings.emplace_back("representation", "adaptive");
+    key.settings.emplace_back("adaptive", a.str());
+    return key;
+}
+
+// The run's processes: one, or the ranks of an MPI job.
+struct AdaptiveRun {
+#ifdef BRDFTAB_MPI
+    std::unique_ptr<MpiSession> mpi;
+#endif
+    bool root() const {
+#ifdef BRDFTAB_MPI
+        return !mpi || mpi->rank() == 0;
+#else
+        return true;
+#endif
+    }
+    // Rank 0's bytes on every rank.
+    void share(std::string& bytes) const {
+#ifdef BRDFTAB_MPI
+        if (mpi) mpi->broadcast(bytes);
+#else
+        (void)bytes;
+#endif
+    }
+    AdaptiveEstimator estimator(Backend& backend) const {
+#ifdef BRDFTAB_MPI
+        if (mpi && mpi->size() > 1)
+            return [this, &backend](const ModelInfo& m, const QuantityInfo& q, const std::vector<int>& opts,
+                                    const std::vector<double>& points, const IntegrationSettings& s) {
+                return estimate_at_shared(*mpi, backend, m, q, opts, points, s);
+            };
+#endif
+        (void)backend;
+        return nullptr;
+    }
+};
+
+std::string doubles_bytes(const std::vector<double>& v) {
+    return std::string(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(double));
+}
+
+// Returns the first table whose certificate misses, "" when all pass (and
+// on ranks other than 0).
+std::string run_adaptive(const std::string& spec_path, const std::string& output, const ComputeOptions& compute,
+                         double accuracy, bool absolute, bool quiet, const AdaptiveCliOptions& o,
+                         const AdaptiveRun& run) {
+    const bool root = run.root();
     const Spec spec = parse_spec_file(spec_path);
     if (!spec.recombined.empty() || !spec.errors.empty() || !spec.inverted.empty())
         throw InputError(spec_path + ": --representation adaptive does not handle [[recombined]], [[errors]] "
                          "or [[inverted]] tables; generate a copy of the spec without them");
     const std::string out_path = output.empty() ? spec.output.path : output;
-    check_output_writable(out_path);
-    const OutputLock lock(out_path);
+    std::unique_ptr<OutputLock> lock;
+    if (root) {
+        check_output_writable(out_path);
+        lock = std::make_unique<OutputLock>(out_path);
+    }
     const IntegrationSettings settings = compute.apply(spec.integration);
     check_settings(settings);
     auto backend = compute.make_backend();
-    std::cerr << "brdftab: " << spec.model << ", " << spec.tables.size() << " adaptive table(s) from " << spec_path
-              << " on " << backend->device_name() << ", target max " << (absolute ? "absolute" : "relative")
-              << " error " << sci_text(*accuracy) << ", at most " << o.max_values << " values each\n";
+    if (root)
+        std::cerr << "brdftab: " << spec.model << ", " << spec.tables.size() << " adaptive table(s) from "
+                  << spec_path << " on " << backend->device_name() << ", target max "
+                  << (absolute ? "absolute" : "relative") << " error " << sci_text(accuracy) << ", at most "
+                  << o.max_values << " values each\n";
+
+    // The checkpoint of the refinement rounds (rank 0's; the others get the
+    // logs from it).  An older one is left alone without --resume.
+    std::unique_ptr<Checkpoint> checkpoint;
+    bool checkpoint_is_new = false;
+    std::string use_checkpoint = "0";
+    if (root) {
+        const CheckpointPresence presence = checkpoint_presence(out_path);
+        if (presence != CheckpointPresence::None && !o.resume) {
+            std::cerr << "brdftab: a checkpoint of "
+                      << (presence == CheckpointPresence::InUse ? "a running" : "an interrupted")
+                      << " run exists (" << checkpoint_directory(out_path)
+                      << "); add --resume to continue it. This run starts from the beginning, "
+                         "writes no checkpoint and leaves that one alone.\n";
+        } else {
+            checkpoint_is_new = presence == CheckpointPresence::None;
+            checkpoint = std::make_unique<Checkpoint>(
+                out_path, adaptive_checkpoint_key(spec, settings, *backend, compute, accuracy, absolute, o),
+                o.resume && presence != CheckpointPresence::None, 0.0);
+            if (o.resume && presence == CheckpointPresence::None)
+                std::cerr << "brdftab: no checkpoint to resume from; starting from the beginning\n";
+            else if (o.resume)
+                std::cerr << "brdftab: resuming from " << checkpoint->directory() << ": "
+                          << checkpoint->resumed_summary() << "\n";
+            use_checkpoint = "1";
+        }
+    }
+    run.share(use_checkpoint);
+    const std::string fingerprint =
+        adaptive_checkpoint_key(spec, settings, *backend, compute, accuracy, absolute, o).fingerprint();
+    long stop_after = -1;  // the test hook (cli_adaptive.h)
+    if (const char* hook = environment_setting("BRDFTAB_TEST_ADAPTIVE_STOP")) stop_after = std::atol(hook);
+    long rounds_stored = 0;
 
     AdaptiveGenerateOptions go;
-    go.build.target = *accuracy;
+    go.build.target = accuracy;
     go.build.absolute = absolute;
     if (compute.abs_floor > 0) go.build.floor = compute.abs_floor;
     go.build.max_values = o.max_values;
     go.build.patch_nodes = o.patch_nodes;
     go.build.patch_order = o.patch_order;
+    if (o.safety > 0) go.build.safety = o.safety;
+    go.estimator = run.estimator(*backend);
     for (const std::string& s : o.breakpoints) {
         const auto [name, x] = name_value(s, "--breakpoint");
         go.breakpoints.push_back({name, x, false});
@@ -110,53 +226,123 @@ void run_adaptive_generate(const std::string& spec_path, const std::string& outp
                 throw InputError("--initial-level '" + s + "': the level must be an integer in [0, 16]");
             tgo.build.initial_level[a] = int(lv);
         }
+        AdaptiveCheckpoint ck;
+        if (use_checkpoint == "1") {
+            ck.fingerprint = fingerprint;
+            if (root) ck.stored = checkpoint->adaptive_log(i);
+            run.share(ck.stored);
+            ck.save = [&, i](const std::string& log) {
+                if (root) checkpoint->store_adaptive_log(i, log);
+                if (stop_after >= 0 && ++rounds_stored >= stop_after)
+                    throw Error("BRDFTAB_TEST_ADAPTIVE_STOP: stopped after " + std::to_string(rounds_stored) +
+                                " stored refinement round(s); the checkpoint is kept");
+            };
+            tgo.checkpoint = &ck;
+        }
         const AdaptiveGenerated g = generate_adaptive(spec, i, *backend, settings, tgo, [&](const AdaptiveBuildReport& r) {
-            if (!quiet)
+            if (!quiet && root)
                 std::cerr << "  " << ts.name << ": round " << r.rounds << ", " << r.leaves << " patches, " << r.values
                           << " values, " << r.evaluations << " evaluations, largest probe error "
                           << sci_text(r.estimated_max) << "\n";
         });
-        std::cerr << "  " << ts.name << ": " << g.report.values << " values in " << g.report.leaves << " patches ("
-                  << g.report.evaluations << " evaluations, " << format_seconds(g.seconds) << ")"
-                  << (g.report.budget_hit ? ", value budget reached" : "") << "\n";
+        if (root)
+            std::cerr << "  " << ts.name << ": " << g.report.values << " values in " << g.report.leaves << " patches ("
+                      << g.report.evaluations << " evaluations, " << format_seconds(g.seconds)
+                      << (ck.replayed_rounds ? ", " + std::to_string(ck.replayed_rounds) + " round(s) from the checkpoint"
+                                             : std::string())
+                      << ")" << (g.report.budget_hit ? ", value budget reached" : "") << "\n";
         tables.push_back(g.table);
         // Stored values keep the bits the accuracy needs (rounding error
         // <= 0.1 E, as generate --accuracy does), unless the spec rounds or
         // --full-precision keeps the stored type's own rounding.
         AdaptiveTable& stored = tables.back();
         if (!(stored.data.round_accuracy > 0) && !o.full_precision) {
-            stored.data.round_accuracy = *accuracy;
+            stored.data.round_accuracy = accuracy;
             stored.data.round_absolute = absolute;
         }
         predicted.push_back(g.report.estimated_max);
     }
     // Written whole to the temporary file, read back and certified there (so
     // the certificate includes the storage rounding), the certificates
-    // added, then renamed: a failure leaves no partial output.
-    AtomicOutput out(out_path);
-    write_table_file(out.path(), {}, tables);
+    // added, then renamed: a failure leaves no partial output.  Under MPI the
+    // other ranks certify rank 0's read-back values with it.
+    std::unique_ptr<AtomicOutput> out;
+    if (root) {
+        out = std::make_unique<AtomicOutput>(out_path);
+        write_table_file(out->path(), {}, tables);
+    }
+    const AdaptiveEstimator estimator = run.estimator(*backend);
     for (std::size_t i = 0; i < tables.size(); ++i) {
         const std::string& name = tables[i].data.name;
         CertifyOptions co;
-        co.target = *accuracy;
+        co.target = accuracy;
         co.absolute = absolute;
         if (compute.abs_floor > 0) co.abs_floor = compute.abs_floor;
-        Certificate c = certify_adaptive_file(out.path(), name, *backend, co);
+        AdaptiveTable written = root ? read_adaptive_table(out->path(), name) : tables[i];
+        std::string values = root ? doubles_bytes(written.data.value) : std::string();
+        run.share(values);
+        if (!root) {
+            written.data.value.resize(values.size() / sizeof(double));
+            std::memcpy(written.data.value.data(), values.data(), values.size());
+        }
+        Certificate c = certify_adaptive(written, *backend, co, nullptr, estimator);
         c.predicted_max = predicted[i];
-        std::cerr << "  " << name << ": certificate max " << sci_text(c.max_error) << ", RMS "
-                  << sci_text(c.rms_error) << " over " << c.probes << " probes: "
-                  << (c.passed ? "passed" : "FAILED") << " (" << format_seconds(c.seconds) << ")\n";
+        if (root)
+            std::cerr << "  " << name << ": certificate max " << sci_text(c.max_error) << ", RMS "
+                      << sci_text(c.rms_error) << " over " << c.probes << " probes: "
+                      << (c.passed ? "passed" : "FAILED") << " (" << format_seconds(c.seconds) << ")\n";
         certs.push_back(c);
     }
-    for (const Certificate& c : certs) write_certificate(out.path(), c);
-    out.commit();
+    if (!root) return "";
+    for (const Certificate& c : certs) write_certificate(out->path(), c);
+    out->commit();
+    if (checkpoint) {
+        const std::string why = checkpoint->remove();
+        if (!why.empty())
+            std::cerr << "brdftab: warning: cannot remove the checkpoint " << checkpoint->directory() << ": " << why
+                      << "\n";
+    }
+    (void)checkpoint_is_new;
     std::cout << "wrote " << out_path << "\n";
     for (std::size_t i = 0; i < tables.size(); ++i)
         std::cout << "  " << tables[i].data.name << ": adaptive, " << tables[i].value_count() << " values, "
                   << tables[i].layout.leaf_count() << " patches; certificate max " << sci_text(certs[i].max_error)
                   << (certs[i].passed ? " (passed)" : " (FAILED)") << "\n";
     for (const Certificate& c : certs)
-        if (!c.passed) throw Error("certificate of '" + c.table + "' misses --accuracy " + sci_text(*accuracy));
+        if (!c.passed) return c.table;
+    return "";
+}
+
+}  // namespace
+
+void run_adaptive_generate(const std::string& spec_path, const std::string& output,
+                           const ComputeOptions& compute, std::optional<double> accuracy, bool absolute,
+                           bool quiet, const AdaptiveCliOptions& o) {
+    if (!accuracy) throw InputError("--representation adaptive needs --accuracy E (the refinement's target)");
+    if (!(*accuracy > 0) || !std::isfinite(*accuracy))
+        throw InputError("--accuracy must be a positive number");
+    AdaptiveRun run;
+    std::string missed;
+#ifdef BRDFTAB_MPI
+    if (MpiSession::launched()) run.mpi = std::make_unique<MpiSession>();
+    if (run.mpi && run.mpi->size() > 1) {
+        // A failure on one rank ends the job: the others would wait for it
+        // in the next shared engine run.  Rank 0 reports input errors (every
+        // rank reads the same spec and options), the others their own trouble.
+        try {
+            missed = run_adaptive(spec_path, output, compute, *accuracy, absolute, quiet, o, run);
+        } catch (const std::exception& e) {
+            const bool input = dynamic_cast<const InputError*>(&e) != nullptr;
+            if (run.mpi->rank() == 0 || !input)
+                std::cerr << "brdftab: " << (run.mpi->rank() ? "rank " + std::to_string(run.mpi->rank()) + ": " : "")
+                          << "error: " << e.what() << std::endl;
+            run.mpi->abort(input ? 2 : 1);
+        }
+        run.mpi->finalize();
+    } else
+#endif
+        missed = run_adaptive(spec_path, output, compute, *accuracy, absolute, quiet, o, run);
+    if (!missed.empty()) throw Error("certificate of '" + missed + "' misses --accuracy " + sci_text(*accuracy));
 }
 
 namespace {

@@ -804,6 +804,7 @@ void register_generate(CLI::App& app) {
     state->compute.add_to(*cmd);
     cmd->callback([state] {
         state->adaptive.full_precision = state->full_precision;
+        state->adaptive.resume = state->resume;
         if (state->adaptive.adaptive())
             return run_adaptive_generate(state->spec_path, state->output, state->compute, state->accuracy,
                                          state->absolute, state->quiet, state->adaptive);
