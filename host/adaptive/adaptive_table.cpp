@@ -333,15 +333,30 @@ public:
             evaluate_round(batch, with_stderr, rep);
             for (std::size_t l = 0; l < leaves_.size(); ++l)
                 if (!leaves_[l].checked) estimate(l);
-            // Split the failing leaves, worst first, within the budget.
+            // Split the failing leaves, worst first, within the budget.  Only
+            // those within one split's gain of the worst splittable one (a
+            // split divides a smooth leaf's error by 2^(order + 1)) are split
+            // this round, the others in later rounds.  When the budget ends
+            // the refinement, it has then gone to the worst leaves rather
+            // than to every leaf above the target, so the largest error left
+            // is smaller.  Without a budget the same leaves are split (each
+            // leaf's decision depends on its own probes only), in more rounds.
             std::vector<std::size_t> fail;
             rep.estimated_max = 0;
             rep.leaves_over_target = 0;
             for (std::size_t l = 0; l < leaves_.size(); ++l) {
                 rep.estimated_max = std::max(rep.estimated_max, leaves_[l].err);
                 if (leaves_[l].err > o_.target) ++rep.leaves_over_target;
-                if (leaves_[l].err > o_.safety * o_.target && split_axis(l) >= 0) fail.push_back(l);
             }
+            const double gain = o_.patch_order == 2 ? 8.0 : 4.0;
+            double worst = 0;  // of the leaves that fail and can be split
+            for (std::size_t l = 0; l < leaves_.size(); ++l)
+                if (leaves_[l].err > o_.safety * o_.target && split_axis(l) >= 0)
+                    worst = std::max(worst, leaves_[l].err);
+            const double threshold = std::max(o_.safety * o_.target, worst / gain);
+            for (std::size_t l = 0; l < leaves_.size(); ++l)
+                if (leaves_[l].err > o_.safety * o_.target && leaves_[l].err >= threshold && split_axis(l) >= 0)
+                    fail.push_back(l);
             rep.leaves = leaves_.size();
             rep.values = node_order_.size();
             if (round) round(rep);
@@ -521,21 +536,12 @@ private:
 
     // The probes of leaf l: along each axis a, the midpoints of its cells with
     // the other coordinates at nodes (a split along a makes them nodes), and
-    // the cell centres (cross terms, a feature inside a cell).  Order 1 in
-    // 3-D and up also probes the mixed midpoints (two or more coordinates,
-    // not all, at cell midpoints): a multilinear interpolant's error is, to
-    // leading order, a sum over axes of fixed-sign bumps c_a s_a (1 - s_a),
-    // whose largest magnitude lies at s_a in {0, 1/2}, i.e. at one of these
-    // points; with curvatures of both signs (c_x, c_y > 0 > c_z) it is at a
-    // mixed one (x, y at midpoints, z at a node: c_x + c_y, the centre only
-    // c_x + c_y + c_z).  Order 2 needs no mixed points: its error bumps
-    // change sign between the two cells of a triple, and the centres of the
-    // leaf's cells hold every sign combination.  f(k, axis, odd_mask): axis
-    // >= 0 for a probe odd along that axis only, else -1.
+    // the cell centres (cross terms, a feature inside a cell).  f(k, axis,
+    // odd_mask): axis >= 0 for a probe odd along that axis only, else -1;
+    // odd_mask has bit a set where coordinate a is at a cell midpoint.
     template <class F>
     void for_each_probe(const BuildLeaf& l, F&& f) const {
         const std::size_t total = std::size_t(std::pow(double(2 * n_ - 1), double(d_)) + 0.5);
-        const bool mixed = o_.patch_order == 1;
         std::array<std::size_t, kMaxDims> i{};
         Key k{};
         for (std::size_t c = 0; c < total; ++c) {
@@ -551,7 +557,7 @@ private:
                     mask |= 1u << a;
                 }
             }
-            if (odd == 0 || (!mixed && odd != 1 && odd != d_)) continue;  // nodes (and, order 2, mixed points)
+            if (odd != 1 && odd != d_) continue;  // nodes, and mixed points, are not probes
             for (std::size_t a = 0; a < d_; ++a) k[a] = l.lo[a] + i[a] * (spacing(l, a) / 2);
             f(k, odd == 1 ? odd_axis : -1, mask);
         }
