@@ -7,7 +7,8 @@
 # timings excepted), whether it stopped inside the first table or inside the
 # second; the resumed run replays the logged rounds without the engine.  A
 # resume with another accuracy is refused naming the setting, a damaged log
-# is refused, and without --resume an old checkpoint is left alone.
+# is refused, without --resume an old checkpoint is left alone, and an
+# input error removes the checkpoint its run made.
 # About a minute of CPU.  Usage: adaptive_resume_tests.sh BRDFTAB SOURCE_DIR
 source "$(dirname "$0")/cli_lib.sh"
 cli_setup "$1" "$2"
@@ -67,6 +68,9 @@ expect_grep "adaptive: checkpoint accuracy 0.03" err.txt "the differing setting 
 expect_grep "add --resume to continue it" plain.err "an old checkpoint without --resume"
 same_tables ref.h5 out.h5 && ok || bad "a run beside an old checkpoint differs"
 [ -f out.h5.checkpoint/adaptive-0.log ] && ok || bad "a run without --resume touched the old checkpoint"
+# An input error after the checkpoint was made removes the one this run made.
+expect_exit 2 "a breakpoint on no axis" -- "$BT" "${GEN[@]}" -o bad.h5 --breakpoint nope=1
+[ ! -e bad.h5.checkpoint ] && ok || bad "an input error left the checkpoint this run made"
 # A damaged log: refused, naming it.
 rm -f out.h5
 "$PY" - <<'PY'

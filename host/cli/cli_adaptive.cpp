@@ -215,54 +215,61 @@ std::string run_adaptive(const std::string& spec_path, const std::string& output
     std::vector<AdaptiveTable> tables;
     std::vector<Certificate> certs;
     std::vector<double> predicted;  // the refinements' largest probe errors
-    for (std::size_t i = 0; i < spec.tables.size(); ++i) {
-        const TableSpec& ts = spec.tables[i];
-        AdaptiveGenerateOptions tgo = go;
-        tgo.build.initial_level.assign(ts.axes.size(), 0);
-        for (const std::string& s : o.initial_levels) {
-            const auto [name, lv] = name_value(s, "--initial-level");
-            std::size_t a = 0;
-            while (a < ts.axes.size() && ts.axes[a].name != name) ++a;
-            if (a == ts.axes.size()) throw InputError("--initial-level '" + s + "': table '" + ts.name + "' has no axis '" + name + "'");
-            if (lv < 0 || lv > 16 || lv != std::floor(lv))
-                throw InputError("--initial-level '" + s + "': the level must be an integer in [0, 16]");
-            tgo.build.initial_level[a] = int(lv);
+    // An input error (a breakpoint on no axis, ...) removes the checkpoint
+    // this run created: a resume would meet the same error.
+    try {
+        for (std::size_t i = 0; i < spec.tables.size(); ++i) {
+            const TableSpec& ts = spec.tables[i];
+            AdaptiveGenerateOptions tgo = go;
+            tgo.build.initial_level.assign(ts.axes.size(), 0);
+            for (const std::string& s : o.initial_levels) {
+                const auto [name, lv] = name_value(s, "--initial-level");
+                std::size_t a = 0;
+                while (a < ts.axes.size() && ts.axes[a].name != name) ++a;
+                if (a == ts.axes.size()) throw InputError("--initial-level '" + s + "': table '" + ts.name + "' has no axis '" + name + "'");
+                if (lv < 0 || lv > 16 || lv != std::floor(lv))
+                    throw InputError("--initial-level '" + s + "': the level must be an integer in [0, 16]");
+                tgo.build.initial_level[a] = int(lv);
+            }
+            AdaptiveCheckpoint ck;
+            if (use_checkpoint == "1") {
+                ck.fingerprint = fingerprint;
+                if (root) ck.stored = checkpoint->adaptive_log(i);
+                run.share(ck.stored);
+                ck.save = [&, i](const std::string& log) {
+                    if (root) checkpoint->store_adaptive_log(i, log);
+                    if (stop_after >= 0 && ++rounds_stored >= stop_after)
+                        throw Error("BRDFTAB_TEST_ADAPTIVE_STOP: stopped after " + std::to_string(rounds_stored) +
+                                    " stored refinement round(s); the checkpoint is kept");
+                };
+                tgo.checkpoint = &ck;
+            }
+            const AdaptiveGenerated g = generate_adaptive(spec, i, *backend, settings, tgo, [&](const AdaptiveBuildReport& r) {
+                if (!quiet && root)
+                    std::cerr << "  " << ts.name << ": round " << r.rounds << ", " << r.leaves << " patches, " << r.values
+                              << " values, " << r.evaluations << " evaluations, largest probe error "
+                              << sci_text(r.estimated_max) << "\n";
+            });
+            if (root)
+                std::cerr << "  " << ts.name << ": " << g.report.values << " values in " << g.report.leaves << " patches ("
+                          << g.report.evaluations << " evaluations, " << format_seconds(g.seconds)
+                          << (ck.replayed_rounds ? ", " + std::to_string(ck.replayed_rounds) + " round(s) from the checkpoint"
+                                                 : std::string())
+                          << ")" << (g.report.budget_hit ? ", value budget reached" : "") << "\n";
+            tables.push_back(g.table);
+            // Stored values keep the bits the accuracy needs (rounding error
+            // <= 0.1 E, as generate --accuracy does), unless the spec rounds or
+            // --full-precision keeps the stored type's own rounding.
+            AdaptiveTable& stored = tables.back();
+            if (!(stored.data.round_accuracy > 0) && !o.full_precision) {
+                stored.data.round_accuracy = accuracy;
+                stored.data.round_absolute = absolute;
+            }
+            predicted.push_back(g.report.estimated_max);
         }
-        AdaptiveCheckpoint ck;
-        if (use_checkpoint == "1") {
-            ck.fingerprint = fingerprint;
-            if (root) ck.stored = checkpoint->adaptive_log(i);
-            run.share(ck.stored);
-            ck.save = [&, i](const std::string& log) {
-                if (root) checkpoint->store_adaptive_log(i, log);
-                if (stop_after >= 0 && ++rounds_stored >= stop_after)
-                    throw Error("BRDFTAB_TEST_ADAPTIVE_STOP: stopped after " + std::to_string(rounds_stored) +
-                                " stored refinement round(s); the checkpoint is kept");
-            };
-            tgo.checkpoint = &ck;
-        }
-        const AdaptiveGenerated g = generate_adaptive(spec, i, *backend, settings, tgo, [&](const AdaptiveBuildReport& r) {
-            if (!quiet && root)
-                std::cerr << "  " << ts.name << ": round " << r.rounds << ", " << r.leaves << " patches, " << r.values
-                          << " values, " << r.evaluations << " evaluations, largest probe error "
-                          << sci_text(r.estimated_max) << "\n";
-        });
-        if (root)
-            std::cerr << "  " << ts.name << ": " << g.report.values << " values in " << g.report.leaves << " patches ("
-                      << g.report.evaluations << " evaluations, " << format_seconds(g.seconds)
-                      << (ck.replayed_rounds ? ", " + std::to_string(ck.replayed_rounds) + " round(s) from the checkpoint"
-                                             : std::string())
-                      << ")" << (g.report.budget_hit ? ", value budget reached" : "") << "\n";
-        tables.push_back(g.table);
-        // Stored values keep the bits the accuracy needs (rounding error
-        // <= 0.1 E, as generate --accuracy does), unless the spec rounds or
-        // --full-precision keeps the stored type's own rounding.
-        AdaptiveTable& stored = tables.back();
-        if (!(stored.data.round_accuracy > 0) && !o.full_precision) {
-            stored.data.round_accuracy = accuracy;
-            stored.data.round_absolute = absolute;
-        }
-        predicted.push_back(g.report.estimated_max);
+    } catch (const InputError&) {
+        if (checkpoint && checkpoint_is_new) checkpoint->remove();
+        throw;
     }
     // Written whole to the temporary file, read back and certified there (so
     // the certificate includes the storage rounding), the certificates
@@ -304,7 +311,6 @@ std::string run_adaptive(const std::string& spec_path, const std::string& output
             std::cerr << "brdftab: warning: cannot remove the checkpoint " << checkpoint->directory() << ": " << why
                       << "\n";
     }
-    (void)checkpoint_is_new;
     std::cout << "wrote " << out_path << "\n";
     for (std::size_t i = 0; i < tables.size(); ++i)
         std::cout << "  " << tables[i].data.name << ": adaptive, " << tables[i].value_count() << " values, "
