@@ -238,7 +238,9 @@ std::string run_adaptive(const std::string& spec_path, const std::string& output
                 run.share(ck.stored);
                 ck.save = [&, i](const std::string& log) {
                     if (root) checkpoint->store_adaptive_log(i, log);
-                    if (stop_after >= 0 && ++rounds_stored >= stop_after)
+                    // Rank 0 only stops (the others then end with it): a rank
+                    // that stopped first could end the job before rank 0 stored.
+                    if (root && stop_after >= 0 && ++rounds_stored >= stop_after)
                         throw Error("BRDFTAB_TEST_ADAPTIVE_STOP: stopped after " + std::to_string(rounds_stored) +
                                     " stored refinement round(s); the checkpoint is kept");
                 };
