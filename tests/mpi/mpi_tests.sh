@@ -5,9 +5,10 @@
 # job fail with no output file and a message naming the rank; --resume after
 # it continues from the chunks every rank finished and is bit-identical;
 # dynamic balancing shows in the cells per rank on a spec whose cells differ
-# in cost by orders of magnitude.  The oracle is the one-process file,
+# in cost by orders of magnitude; adaptive tables (docs/adaptive.md) on 1 to
+# 3 ranks and resumed on 2 equal one process's.  The oracle is the one-process file,
 # compared with same_tables.py (every dataset and attribute bit for bit, the
-# timings `created` and `elapsed_seconds` excepted).
+# timings `created`, `elapsed_seconds` and `certificate_seconds` excepted).
 # Usage: mpi_tests.sh BRDFTAB SOURCE_DIR MPIEXEC
 set -u
 HERE=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
