@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <map>
 
@@ -61,6 +62,120 @@ std::vector<double> kernel_points_of(const AdaptiveTable& t, const ModelInputs& 
     }
     return build_kernel_points(*in.model, *in.quantity, named,
                                [&](std::size_t) { return "table '" + t.data.name + "'"; });
+}
+
+// The refinement log of a table (AdaptiveCheckpoint): per round its points
+// in t and the engine's results, in the machine's byte order.
+struct LoggedRound {
+    std::vector<double> t, value, stderr_;
+    std::uint64_t total_samples = 0, unconverged = 0;
+    double achieved = 0;
+};
+
+constexpr char kLogMagic[8] = {'B', 'T', 'A', 'D', 'L', 'O', 'G', '\x01'};
+constexpr std::uint32_t kLogByteOrder = 0x01020304u;
+
+std::uint64_t log_checksum(const std::string& b, std::size_t n) {
+    std::uint64_t h = 0xcbf29ce484222325ull;  // FNV-1a 64
+    for (std::size_t k = 0; k < n; ++k) {
+        h ^= static_cast<unsigned char>(b[k]);
+        h *= 0x100000001b3ull;
+    }
+    return h;
+}
+
+template <class T>
+void put(std::string& out, const T& v) {
+    out.append(reinterpret_cast<const char*>(&v), sizeof v);
+}
+
+void put_doubles(std::string& out, const std::vector<double>& v) {
+    put<std::uint64_t>(out, v.size());
+    out.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(double));
+}
+
+std::string encode_log(const std::vector<LoggedRound>& rounds, const std::string& fingerprint,
+                       const std::string& table, std::size_t dims) {
+    std::string out(kLogMagic, sizeof kLogMagic);
+    put(out, kLogByteOrder);
+    put<std::uint64_t>(out, fingerprint.size());
+    out += fingerprint;
+    put<std::uint64_t>(out, table.size());
+    out += table;
+    put<std::uint64_t>(out, dims);
+    put<std::uint64_t>(out, rounds.size());
+    for (const LoggedRound& r : rounds) {
+        put(out, r.total_samples);
+        put(out, r.unconverged);
+        put(out, r.achieved);
+        put_doubles(out, r.t);
+        put_doubles(out, r.value);
+        put_doubles(out, r.stderr_);
+    }
+    put(out, log_checksum(out, out.size()));
+    return out;
+}
+
+std::vector<LoggedRound> decode_log(const std::string& b, const std::string& fingerprint,
+                                    const std::string& table, std::size_t dims) {
+    const std::string what = "the checkpointed refinement of table '" + table + "'";
+    auto damaged = [&](const std::string& why) {
+        throw InputError(what + " " + why + "; delete the checkpoint directory to start over");
+    };
+    std::uint64_t sum = 0;
+    if (b.size() < sizeof kLogMagic + 8) damaged("is truncated");
+    std::memcpy(&sum, b.data() + b.size() - 8, 8);
+    if (sum != log_checksum(b, b.size() - 8)) damaged("is damaged (checksum mismatch)");
+    std::size_t pos = 0;
+    auto need = [&](std::size_t n) {
+        if (b.size() - 8 - pos < n) damaged("is truncated");
+    };
+    auto get = [&](auto& v) {
+        need(sizeof v);
+        std::memcpy(&v, b.data() + pos, sizeof v);
+        pos += sizeof v;
+    };
+    auto text = [&]() {
+        std::uint64_t n = 0;
+        get(n);
+        need(n);
+        std::string s = b.substr(pos, n);
+        pos += n;
+        return s;
+    };
+    auto doubles = [&](std::vector<double>& v) {
+        std::uint64_t n = 0;
+        get(n);
+        if (n > (b.size() - 8 - pos) / sizeof(double)) damaged("is truncated");
+        v.resize(n);
+        std::memcpy(v.data(), b.data() + pos, n * sizeof(double));
+        pos += n * sizeof(double);
+    };
+    need(sizeof kLogMagic);
+    if (b.compare(0, sizeof kLogMagic, kLogMagic, sizeof kLogMagic) != 0) damaged("is not a brdftab refinement log");
+    pos = sizeof kLogMagic;
+    std::uint32_t order = 0;
+    get(order);
+    if (order != kLogByteOrder) damaged("was written on a machine of another byte order");
+    if (text() != fingerprint) damaged("belongs to other settings");
+    if (text() != table) damaged("holds another table");
+    std::uint64_t d = 0, count = 0;
+    get(d);
+    get(count);
+    if (d != dims) damaged("has another number of axes");
+    std::vector<LoggedRound> rounds(count);
+    for (LoggedRound& r : rounds) {
+        get(r.total_samples);
+        get(r.unconverged);
+        get(r.achieved);
+        doubles(r.t);
+        doubles(r.value);
+        doubles(r.stderr_);
+        if (r.t.size() != r.value.size() * dims || (!r.stderr_.empty() && r.stderr_.size() != r.value.size()))
+            damaged("is inconsistent");
+    }
+    if (pos != b.size() - 8) damaged("has trailing bytes");
+    return rounds;
 }
 
 }  // namespace
@@ -123,18 +238,51 @@ AdaptiveGenerated generate_adaptive(const Spec& spec, std::size_t table, Backend
     double achieved = 0;
     std::size_t unconverged = 0;
     const bool with_stderr = t.data.keep_stderr;
+    const AdaptiveEstimator estimator =
+        options.estimator ? options.estimator
+                          : AdaptiveEstimator([&](const ModelInfo& m, const QuantityInfo& qi, const std::vector<int>& o,
+                                                  const std::vector<double>& points, const IntegrationSettings& is) {
+                                return estimate_at(backend, m, qi, o, points, is);
+                            });
+    AdaptiveCheckpoint* ck = options.checkpoint;
+    std::vector<LoggedRound> log;
+    if (ck && !ck->stored.empty()) log = decode_log(ck->stored, ck->fingerprint, ts.name, d);
+    std::size_t round_index = 0;
+    if (ck) ck->replayed_rounds = 0;
     const AdaptiveBatchFn batch = [&](std::size_t count, const double* tp, double* value, double* err) {
-        const std::vector<double> points = kernel_points_of(t, in, fixed, count, tp);
-        s.cell_base = cell_base;
-        const EstimateResult r = estimate_at(backend, model, q, opts, points, s);
+        LoggedRound r;
+        if (round_index < log.size()) {
+            // A logged round: the same points (bit for bit), the logged results.
+            r = log[round_index];
+            if (r.value.size() != count || std::memcmp(r.t.data(), tp, count * d * sizeof(double)) != 0)
+                throw InputError("the checkpointed refinement of table '" + ts.name + "' asked for other points in "
+                                 "round " + std::to_string(round_index + 1) +
+                                 " than this run; delete the checkpoint directory to start over");
+            ++ck->replayed_rounds;
+        } else {
+            const std::vector<double> points = kernel_points_of(t, in, fixed, count, tp);
+            s.cell_base = cell_base;
+            EstimateResult e = estimator(model, q, opts, points, s);
+            r.t.assign(tp, tp + count * d);
+            r.value = std::move(e.value);
+            r.stderr_ = std::move(e.stderr_);
+            r.total_samples = e.total_samples;
+            r.achieved = e.tolerance_achieved;
+            r.unconverged = e.cells_unconverged;
+        }
         cell_base += count;
         total_samples += r.total_samples;
-        achieved = std::max(achieved, r.tolerance_achieved);
-        unconverged += r.cells_unconverged;
+        achieved = std::max(achieved, r.achieved);
+        unconverged += r.unconverged;
         for (std::size_t k = 0; k < count; ++k) {
             value[k] = r.value[k];
             if (err) err[k] = k < r.stderr_.size() ? r.stderr_[k] : 0.0;
         }
+        if (ck && round_index >= log.size()) {
+            log.push_back(std::move(r));
+            if (ck->save) ck->save(encode_log(log, ck->fingerprint, ts.name, d));
+        }
+        ++round_index;
     };
     std::vector<double> values, stderrs;
     g.report = build_adaptive(d, build, batch, with_stderr, t.layout, values, stderrs, round);
@@ -151,7 +299,7 @@ AdaptiveGenerated generate_adaptive(const Spec& spec, std::size_t table, Backend
 }
 
 Certificate certify_adaptive(const AdaptiveTable& t, Backend& backend, const CertifyOptions& options,
-                             const ProgressFn& progress) {
+                             const ProgressFn& progress, const AdaptiveEstimator& estimator) {
     const double start = now_seconds();
     if (!(options.target > 0) || !std::isfinite(options.target))
         throw InputError("certificate target must be a positive number");
@@ -207,7 +355,8 @@ Certificate certify_adaptive(const AdaptiveTable& t, Backend& backend, const Cer
         if (n == 0) return;
         const std::vector<double> points = kernel_points_of(t, in, fixed, n, tp.data());
         ref.cell_base = cell_base;
-        const EstimateResult r = estimate_at(backend, model, q, in.options, points, ref, progress);
+        const EstimateResult r = estimator ? estimator(model, q, in.options, points, ref)
+                                           : estimate_at(backend, model, q, in.options, points, ref, progress);
         cell_base += n;
         c.reference_method = to_string(r.method);
         std::vector<double> x(d);

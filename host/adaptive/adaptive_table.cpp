@@ -333,15 +333,30 @@ public:
             evaluate_round(batch, with_stderr, rep);
             for (std::size_t l = 0; l < leaves_.size(); ++l)
                 if (!leaves_[l].checked) estimate(l);
-            // Split the failing leaves, worst first, within the budget.
+            // Split the failing leaves, worst first, within the budget.  Only
+            // those within one split's gain of the worst splittable one (a
+            // split divides a smooth leaf's error by 2^(order + 1)) are split
+            // this round, the others in later rounds.  When the budget ends
+            // the refinement, it has then gone to the worst leaves rather
+            // than to every leaf above the target, so the largest error left
+            // is smaller.  Without a budget the same leaves are split (each
+            // leaf's decision depends on its own probes only), in more rounds.
             std::vector<std::size_t> fail;
             rep.estimated_max = 0;
             rep.leaves_over_target = 0;
             for (std::size_t l = 0; l < leaves_.size(); ++l) {
                 rep.estimated_max = std::max(rep.estimated_max, leaves_[l].err);
                 if (leaves_[l].err > o_.target) ++rep.leaves_over_target;
-                if (leaves_[l].err > o_.safety * o_.target && split_axis(l) >= 0) fail.push_back(l);
             }
+            const double gain = o_.patch_order == 2 ? 8.0 : 4.0;
+            double worst = 0;  // of the leaves that fail and can be split
+            for (std::size_t l = 0; l < leaves_.size(); ++l)
+                if (leaves_[l].err > o_.safety * o_.target && split_axis(l) >= 0)
+                    worst = std::max(worst, leaves_[l].err);
+            const double threshold = std::max(o_.safety * o_.target, worst / gain);
+            for (std::size_t l = 0; l < leaves_.size(); ++l)
+                if (leaves_[l].err > o_.safety * o_.target && leaves_[l].err >= threshold && split_axis(l) >= 0)
+                    fail.push_back(l);
             rep.leaves = leaves_.size();
             rep.values = node_order_.size();
             if (round) round(rep);
@@ -521,7 +536,9 @@ private:
 
     // The probes of leaf l: along each axis a, the midpoints of its cells with
     // the other coordinates at nodes (a split along a makes them nodes), and
-    // the cell centres (multilinear cross terms, a feature inside a cell).
+    // the cell centres (cross terms, a feature inside a cell).  f(k, axis,
+    // odd_mask): axis >= 0 for a probe odd along that axis only, else -1;
+    // odd_mask has bit a set where coordinate a is at a cell midpoint.
     template <class F>
     void for_each_probe(const BuildLeaf& l, F&& f) const {
         const std::size_t total = std::size_t(std::pow(double(2 * n_ - 1), double(d_)) + 0.5);
@@ -529,6 +546,7 @@ private:
         Key k{};
         for (std::size_t c = 0; c < total; ++c) {
             std::size_t r = c, odd = 0;
+            unsigned mask = 0;
             int odd_axis = -1;
             for (std::size_t a = d_; a-- > 0;) {
                 i[a] = r % (2 * n_ - 1);
@@ -536,11 +554,12 @@ private:
                 if (i[a] & 1) {
                     ++odd;
                     odd_axis = int(a);
+                    mask |= 1u << a;
                 }
             }
             if (odd != 1 && odd != d_) continue;  // nodes, and mixed points, are not probes
             for (std::size_t a = 0; a < d_; ++a) k[a] = l.lo[a] + i[a] * (spacing(l, a) / 2);
-            f(k, odd == 1 ? odd_axis : -1);
+            f(k, odd == 1 ? odd_axis : -1, mask);
         }
     }
 
@@ -549,7 +568,7 @@ private:
         pending_set_.clear();
         for (const Key& k : node_order_) want(k);
         for (const BuildLeaf& l : leaves_)
-            if (!l.checked) for_each_probe(l, [&](const Key& k, int) { want(k); });
+            if (!l.checked) for_each_probe(l, [&](const Key& k, int, unsigned) { want(k); });
         if (pending_.empty()) return;
         std::vector<double> t(pending_.size() * d_), v(pending_.size()), s(with_stderr ? pending_.size() : 0);
         for (std::size_t p = 0; p < pending_.size(); ++p)
@@ -620,25 +639,34 @@ private:
     void estimate(std::size_t l) {
         BuildLeaf& lf = leaves_[l];
         lf.axis_err.fill(0);
-        double centre = 0;
-        for_each_probe(lf, [&](const Key& k, int axis) {
+        double centre = 0;  // the largest error of a probe odd along several axes
+        unsigned centre_mask = 0;
+        for_each_probe(lf, [&](const Key& k, int axis, unsigned mask) {
             const double e = measure(interp_raw(lf, k), known_.at(k).value);
-            if (axis >= 0)
+            if (axis >= 0) {
                 lf.axis_err[std::size_t(axis)] = std::max(lf.axis_err[std::size_t(axis)], e);
-            else
-                centre = std::max(centre, e);
+            } else if (e > centre) {
+                centre = e;
+                centre_mask = mask;
+            }
         });
         lf.err = centre;
         for (std::size_t a = 0; a < d_; ++a) lf.err = std::max(lf.err, lf.axis_err[a]);
-        // A centre error with no axis to blame: split the leaf's coarsest axis.
+        // An error no single axis shows: split the axis, among those the worst
+        // such probe lies at midpoints of, whose own error is largest (the
+        // coarsest when none has any).
         if (centre > o_.safety * o_.target) {
             double worst = 0;
             for (std::size_t a = 0; a < d_; ++a) worst = std::max(worst, lf.axis_err[a]);
             if (worst <= o_.safety * o_.target) {
-                std::size_t coarse = 0;
-                for (std::size_t a = 1; a < d_; ++a)
-                    if (lf.level[a] < lf.level[coarse]) coarse = a;
-                lf.axis_err[coarse] = centre;
+                int pick = -1;
+                for (std::size_t a = 0; a < d_; ++a) {
+                    if (!(centre_mask >> a & 1)) continue;
+                    if (pick < 0 || lf.axis_err[a] > lf.axis_err[std::size_t(pick)] ||
+                        (lf.axis_err[a] == lf.axis_err[std::size_t(pick)] && lf.level[a] < lf.level[std::size_t(pick)]))
+                        pick = int(a);
+                }
+                lf.axis_err[std::size_t(pick)] = centre;
             }
         }
         lf.checked = true;

@@ -2,6 +2,8 @@
 #include "host/cli/cli_adaptive.h"
 
 #include <cstdio>
+#include <cstring>
+#include <memory>
 #include <filesystem>
 #include <iostream>
 #include <sstream>
@@ -11,11 +13,16 @@
 #include "host/core/atomic_file.h"
 #include "host/core/error.h"
 #include "host/core/text.h"
+#include "host/engine/engine_tuning.h"
+#include "host/generate/checkpoint.h"
 #include "host/io/point_file.h"
 #include "host/plan/adaptive_plan.h"
 #include "host/plan/plan.h"
 #include "host/plan/certify.h"
 #include "host/spec/spec.h"
+#ifdef BRDFTAB_MPI
+#include "host/generate/distributed.h"
+#endif
 
 namespace brdftab::cli {
 
@@ -55,6 +62,10 @@ void add_adaptive_options(CLI::App& cmd, AdaptiveCliOptions& o) {
                    "adaptive: interpolation inside a patch, per axis: 1 (default, linear between nodes) or 2 "
                    "(quadratic on consecutive node triples); overrides the spec's patch_order")
         ->check(CLI::IsMember({1, 2}));
+    cmd.add_option("--refine-safety", o.safety,
+                   "adaptive: a patch passes when its largest probe error is <= S x E (default 0.7 with "
+                   "--patch-order 2, 0.5 with 1; docs/adaptive.md, \"Refinement\")")
+        ->check(CLI::Range(0.01, 1.0));
     cmd.add_option("--breakpoint", o.breakpoints,
                    "adaptive: NAME=X puts patch faces on X of axis NAME (a known kink; repeatable). "
                    "A critical axis gets one on its critical node by itself. Replaces the spec's breakpoints");
@@ -65,6 +76,249 @@ void add_adaptive_options(CLI::App& cmd, AdaptiveCliOptions& o) {
                    "adaptive: NAME=L starts with 2^L patches along axis NAME (default 0; repeatable; wins over "
                    "the spec's initial_level for that axis)");
 }
+
+namespace {
+
+// The checkpoint key of an adaptive run: the tensor one's settings and every
+// option that changes the refinement.
+CheckpointKey adaptive_checkpoint_key(const Spec& spec, const IntegrationSettings& settings, const Backend& backend,
+                                      const ComputeOptions& compute, double accuracy, bool absolute,
+                                      const std::vector<AdaptiveGenerateOptions>& per_table) {
+    CheckpointKey key = checkpoint_key(spec, settings, backend, compute.kernel_dir);
+    auto exact = [](double v) {  // the shortest text that reads back as v
+        char b[40];
+        for (int digits = 1; digits <= 17; ++digits) {
+            std::snprintf(b, sizeof b, "%.*g", digits, v);
+            if (std::strtod(b, nullptr) == v) break;
+        }
+        return std::string(b);
+    };
+    std::ostringstream a;
+    a << "accuracy " << exact(accuracy) << (absolute ? " absolute" : " relative") << " floor " << exact(compute.abs_floor);
+    // Each table's resolved settings (spec keys and options together).
+    for (std::size_t i = 0; i < per_table.size(); ++i) {
+        const AdaptiveBuildOptions& b = per_table[i].build;
+        a << " | table " << spec.tables[i].name << " max_values " << b.max_values << " patch_nodes " << b.patch_nodes
+          << " patch_order " << b.patch_order << " safety " << exact(b.safety) << " initial_level";
+        for (int l : b.initial_level) a << " " << l;
+        for (const NamedBreakpoint& p : per_table[i].breakpoints)
+            a << (p.jump ? " jump " : " breakpoint ") << p.axis << "=" << exact(p.x);
+    }
+    key.settings.emplace_back("representation", "adaptive");
+    key.settings.emplace_back("adaptive", a.str());
+    return key;
+}
+
+// The run's processes: one, or the ranks of an MPI job.
+struct AdaptiveRun {
+#ifdef BRDFTAB_MPI
+    std::unique_ptr<MpiSession> mpi;
+#endif
+    bool root() const {
+#ifdef BRDFTAB_MPI
+        return !mpi || mpi->rank() == 0;
+#else
+        return true;
+#endif
+    }
+    // Rank 0's bytes on every rank.
+    void share(std::string& bytes) const {
+#ifdef BRDFTAB_MPI
+        if (mpi) mpi->broadcast(bytes);
+#else
+        (void)bytes;
+#endif
+    }
+    AdaptiveEstimator estimator(Backend& backend) const {
+#ifdef BRDFTAB_MPI
+        if (mpi && mpi->size() > 1)
+            return [this, &backend](const ModelInfo& m, const QuantityInfo& q, const std::vector<int>& opts,
+                                    const std::vector<double>& points, const IntegrationSettings& s) {
+                return estimate_at_shared(*mpi, backend, m, q, opts, points, s);
+            };
+#endif
+        (void)backend;
+        return nullptr;
+    }
+};
+
+std::string doubles_bytes(const std::vector<double>& v) {
+    return std::string(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(double));
+}
+
+// Returns the first table whose certificate misses, "" when all pass (and
+// on ranks other than 0).
+std::string run_adaptive(const std::string& spec_path, const std::string& output, const ComputeOptions& compute,
+                         double accuracy, bool absolute, bool quiet, const AdaptiveCliOptions& o,
+                         const AdaptiveRun& run) {
+    const bool root = run.root();
+    const Spec spec = parse_spec_file(spec_path);
+    if (!spec.recombined.empty() || !spec.errors.empty() || !spec.inverted.empty())
+        throw InputError(spec_path + ": --representation adaptive does not handle [[recombined]], [[errors]] "
+                         "or [[inverted]] tables; generate a copy of the spec without them");
+    const std::string out_path = output.empty() ? spec.output.path : output;
+    std::unique_ptr<OutputLock> lock;
+    if (root) {
+        check_output_writable(out_path);
+        lock = std::make_unique<OutputLock>(out_path);
+    }
+    const IntegrationSettings settings = compute.apply(spec.integration);
+    check_settings(settings);
+    auto backend = compute.make_backend();
+    if (root)
+        std::cerr << "brdftab: " << spec.model << ", " << spec.tables.size() << " adaptive table(s) from "
+                  << spec_path << " on " << backend->device_name() << ", target max "
+                  << (absolute ? "absolute" : "relative") << " error " << sci_text(accuracy) << "\n";
+
+    // Every table's options: the defaults, [adaptive], the table's own
+    // `adaptive`, then the command line (adaptive_generate_options).
+    const AdaptiveSpecSettings cli = o.overrides();
+    std::vector<AdaptiveGenerateOptions> per_table;
+    for (std::size_t i = 0; i < spec.tables.size(); ++i) {
+        AdaptiveGenerateOptions tgo = adaptive_generate_options(spec, i, cli, accuracy, absolute, compute.abs_floor);
+        if (o.safety > 0) tgo.build.safety = o.safety;
+        tgo.estimator = run.estimator(*backend);
+        per_table.push_back(std::move(tgo));
+    }
+
+    // The checkpoint of the refinement rounds (rank 0's; the others get the
+    // logs from it).  An older one is left alone without --resume.
+    std::unique_ptr<Checkpoint> checkpoint;
+    bool checkpoint_is_new = false;
+    std::string use_checkpoint = "0";
+    if (root) {
+        const CheckpointPresence presence = checkpoint_presence(out_path);
+        if (presence != CheckpointPresence::None && !o.resume) {
+            std::cerr << "brdftab: a checkpoint of "
+                      << (presence == CheckpointPresence::InUse ? "a running" : "an interrupted")
+                      << " run exists (" << checkpoint_directory(out_path)
+                      << "); add --resume to continue it. This run starts from the beginning, "
+                         "writes no checkpoint and leaves that one alone.\n";
+        } else {
+            checkpoint_is_new = presence == CheckpointPresence::None;
+            checkpoint = std::make_unique<Checkpoint>(
+                out_path, adaptive_checkpoint_key(spec, settings, *backend, compute, accuracy, absolute, per_table),
+                o.resume && presence != CheckpointPresence::None, 0.0);
+            if (o.resume && presence == CheckpointPresence::None)
+                std::cerr << "brdftab: no checkpoint to resume from; starting from the beginning\n";
+            else if (o.resume)
+                std::cerr << "brdftab: resuming from " << checkpoint->directory() << ": "
+                          << checkpoint->resumed_summary() << "\n";
+            use_checkpoint = "1";
+        }
+    }
+    run.share(use_checkpoint);
+    const std::string fingerprint =
+        adaptive_checkpoint_key(spec, settings, *backend, compute, accuracy, absolute, per_table).fingerprint();
+    long stop_after = -1;  // the test hook (cli_adaptive.h)
+    if (const char* hook = environment_setting("BRDFTAB_TEST_ADAPTIVE_STOP")) stop_after = std::atol(hook);
+    long rounds_stored = 0;
+
+    std::vector<AdaptiveTable> tables;
+    std::vector<Certificate> certs;
+    std::vector<double> predicted;  // the refinements' largest probe errors
+    // An input error (a breakpoint on no axis, ...) removes the checkpoint
+    // this run created: a resume would meet the same error.
+    try {
+        for (std::size_t i = 0; i < spec.tables.size(); ++i) {
+            const TableSpec& ts = spec.tables[i];
+            AdaptiveGenerateOptions tgo = per_table[i];
+            if (root)
+                std::cerr << "  " << ts.name << ": at most " << tgo.build.max_values << " values, "
+                          << tgo.build.patch_nodes << "-node patches of order " << tgo.build.patch_order << "\n";
+            AdaptiveCheckpoint ck;
+            if (use_checkpoint == "1") {
+                ck.fingerprint = fingerprint;
+                if (root) ck.stored = checkpoint->adaptive_log(i);
+                run.share(ck.stored);
+                ck.save = [&, i](const std::string& log) {
+                    if (root) checkpoint->store_adaptive_log(i, log);
+                    // Rank 0 only stops (the others then end with it): a rank
+                    // that stopped first could end the job before rank 0 stored.
+                    if (root && stop_after >= 0 && ++rounds_stored >= stop_after)
+                        throw Error("BRDFTAB_TEST_ADAPTIVE_STOP: stopped after " + std::to_string(rounds_stored) +
+                                    " stored refinement round(s); the checkpoint is kept");
+                };
+                tgo.checkpoint = &ck;
+            }
+            const AdaptiveGenerated g = generate_adaptive(spec, i, *backend, settings, tgo, [&](const AdaptiveBuildReport& r) {
+                if (!quiet && root)
+                    std::cerr << "  " << ts.name << ": round " << r.rounds << ", " << r.leaves << " patches, " << r.values
+                              << " values, " << r.evaluations << " evaluations, largest probe error "
+                              << sci_text(r.estimated_max) << "\n";
+            });
+            if (root)
+                std::cerr << "  " << ts.name << ": " << g.report.values << " values in " << g.report.leaves << " patches ("
+                          << g.report.evaluations << " evaluations, " << format_seconds(g.seconds)
+                          << (ck.replayed_rounds ? ", " + std::to_string(ck.replayed_rounds) + " round(s) from the checkpoint"
+                                                 : std::string())
+                          << ")" << (g.report.budget_hit ? ", value budget reached" : "") << "\n";
+            tables.push_back(g.table);
+            // Stored values keep the bits the accuracy needs (rounding error
+            // <= 0.1 E, as generate --accuracy does), unless the spec rounds or
+            // --full-precision keeps the stored type's own rounding.
+            AdaptiveTable& stored = tables.back();
+            if (!(stored.data.round_accuracy > 0) && !o.full_precision) {
+                stored.data.round_accuracy = accuracy;
+                stored.data.round_absolute = absolute;
+            }
+            predicted.push_back(g.report.estimated_max);
+        }
+    } catch (const InputError&) {
+        if (checkpoint && checkpoint_is_new) checkpoint->remove();
+        throw;
+    }
+    // Written whole to the temporary file, read back and certified there (so
+    // the certificate includes the storage rounding), the certificates
+    // added, then renamed: a failure leaves no partial output.  Under MPI the
+    // other ranks certify rank 0's read-back values with it.
+    std::unique_ptr<AtomicOutput> out;
+    if (root) {
+        out = std::make_unique<AtomicOutput>(out_path);
+        write_table_file(out->path(), {}, tables);
+    }
+    const AdaptiveEstimator estimator = run.estimator(*backend);
+    for (std::size_t i = 0; i < tables.size(); ++i) {
+        const std::string& name = tables[i].data.name;
+        CertifyOptions co;
+        co.target = accuracy;
+        co.absolute = absolute;
+        if (compute.abs_floor > 0) co.abs_floor = compute.abs_floor;
+        AdaptiveTable written = root ? read_adaptive_table(out->path(), name) : tables[i];
+        std::string values = root ? doubles_bytes(written.data.value) : std::string();
+        run.share(values);
+        if (!root) {
+            written.data.value.resize(values.size() / sizeof(double));
+            std::memcpy(written.data.value.data(), values.data(), values.size());
+        }
+        Certificate c = certify_adaptive(written, *backend, co, nullptr, estimator);
+        c.predicted_max = predicted[i];
+        if (root)
+            std::cerr << "  " << name << ": certificate max " << sci_text(c.max_error) << ", RMS "
+                      << sci_text(c.rms_error) << " over " << c.probes << " probes: "
+                      << (c.passed ? "passed" : "FAILED") << " (" << format_seconds(c.seconds) << ")\n";
+        certs.push_back(c);
+    }
+    if (!root) return "";
+    for (const Certificate& c : certs) write_certificate(out->path(), c);
+    out->commit();
+    if (checkpoint) {
+        const std::string why = checkpoint->remove();
+        if (!why.empty())
+            std::cerr << "brdftab: warning: cannot remove the checkpoint " << checkpoint->directory() << ": " << why
+                      << "\n";
+    }
+    std::cout << "wrote " << out_path << "\n";
+    for (std::size_t i = 0; i < tables.size(); ++i)
+        std::cout << "  " << tables[i].data.name << ": adaptive, " << tables[i].value_count() << " values, "
+                  << tables[i].layout.leaf_count() << " patches; certificate max " << sci_text(certs[i].max_error)
+                  << (certs[i].passed ? " (passed)" : " (FAILED)") << "\n";
+    for (const Certificate& c : certs)
+        if (!c.passed) return c.table;
+    return "";
+}
+
+}  // namespace
 
 void run_adaptive_generate(const std::string& spec_path, const std::string& output,
                            const ComputeOptions& compute, std::optional<double> accuracy, bool absolute,
@@ -77,76 +331,28 @@ void run_adaptive_generate(const std::string& spec_path, const std::string& outp
     if (!(*accuracy > 0) || !std::isfinite(*accuracy))
         throw InputError("--accuracy must be a positive number");
     if (!absolute && spec.adaptive.absolute) absolute = *spec.adaptive.absolute;
-    if (!spec.recombined.empty() || !spec.errors.empty() || !spec.inverted.empty())
-        throw InputError(spec_path + ": --representation adaptive does not handle [[recombined]], [[errors]] "
-                         "or [[inverted]] tables; generate a copy of the spec without them");
-    const std::string out_path = output.empty() ? spec.output.path : output;
-    check_output_writable(out_path);
-    const OutputLock lock(out_path);
-    const IntegrationSettings settings = compute.apply(spec.integration);
-    check_settings(settings);
-    const AdaptiveSpecSettings cli = o.overrides();
-    auto backend = compute.make_backend();
-    std::cerr << "brdftab: " << spec.model << ", " << spec.tables.size() << " adaptive table(s) from " << spec_path
-              << " on " << backend->device_name() << ", target max " << (absolute ? "absolute" : "relative")
-              << " error " << sci_text(*accuracy) << "\n";
-
-    std::vector<AdaptiveTable> tables;
-    std::vector<Certificate> certs;
-    std::vector<double> predicted;  // the refinements' largest probe errors
-    for (std::size_t i = 0; i < spec.tables.size(); ++i) {
-        const TableSpec& ts = spec.tables[i];
-        const AdaptiveGenerateOptions tgo =
-            adaptive_generate_options(spec, i, cli, *accuracy, absolute, compute.abs_floor);
-        std::cerr << "  " << ts.name << ": at most " << tgo.build.max_values << " values, " << tgo.build.patch_nodes
-                  << "-node patches of order " << tgo.build.patch_order << "\n";
-        const AdaptiveGenerated g = generate_adaptive(spec, i, *backend, settings, tgo, [&](const AdaptiveBuildReport& r) {
-            if (!quiet)
-                std::cerr << "  " << ts.name << ": round " << r.rounds << ", " << r.leaves << " patches, " << r.values
-                          << " values, " << r.evaluations << " evaluations, largest probe error "
-                          << sci_text(r.estimated_max) << "\n";
-        });
-        std::cerr << "  " << ts.name << ": " << g.report.values << " values in " << g.report.leaves << " patches ("
-                  << g.report.evaluations << " evaluations, " << format_seconds(g.seconds) << ")"
-                  << (g.report.budget_hit ? ", value budget reached" : "") << "\n";
-        tables.push_back(g.table);
-        // Stored values keep the bits the accuracy needs (rounding error
-        // <= 0.1 E, as generate --accuracy does), unless the spec rounds or
-        // --full-precision keeps the stored type's own rounding.
-        AdaptiveTable& stored = tables.back();
-        if (!(stored.data.round_accuracy > 0) && !o.full_precision) {
-            stored.data.round_accuracy = *accuracy;
-            stored.data.round_absolute = absolute;
+    AdaptiveRun run;
+    std::string missed;
+#ifdef BRDFTAB_MPI
+    if (MpiSession::launched()) run.mpi = std::make_unique<MpiSession>();
+    if (run.mpi && run.mpi->size() > 1) {
+        // A failure on one rank ends the job: the others would wait for it
+        // in the next shared engine run.  Rank 0 reports input errors (every
+        // rank reads the same spec and options), the others their own trouble.
+        try {
+            missed = run_adaptive(spec_path, output, compute, *accuracy, absolute, quiet, o, run);
+        } catch (const std::exception& e) {
+            const bool input = dynamic_cast<const InputError*>(&e) != nullptr;
+            if (run.mpi->rank() == 0 || !input)
+                std::cerr << "brdftab: " << (run.mpi->rank() ? "rank " + std::to_string(run.mpi->rank()) + ": " : "")
+                          << "error: " << e.what() << std::endl;
+            run.mpi->abort(input ? 2 : 1);
         }
-        predicted.push_back(g.report.estimated_max);
-    }
-    // Written whole to the temporary file, read back and certified there (so
-    // the certificate includes the storage rounding), the certificates
-    // added, then renamed: a failure leaves no partial output.
-    AtomicOutput out(out_path);
-    write_table_file(out.path(), {}, tables);
-    for (std::size_t i = 0; i < tables.size(); ++i) {
-        const std::string& name = tables[i].data.name;
-        CertifyOptions co;
-        co.target = *accuracy;
-        co.absolute = absolute;
-        if (compute.abs_floor > 0) co.abs_floor = compute.abs_floor;
-        Certificate c = certify_adaptive_file(out.path(), name, *backend, co);
-        c.predicted_max = predicted[i];
-        std::cerr << "  " << name << ": certificate max " << sci_text(c.max_error) << ", RMS "
-                  << sci_text(c.rms_error) << " over " << c.probes << " probes: "
-                  << (c.passed ? "passed" : "FAILED") << " (" << format_seconds(c.seconds) << ")\n";
-        certs.push_back(c);
-    }
-    for (const Certificate& c : certs) write_certificate(out.path(), c);
-    out.commit();
-    std::cout << "wrote " << out_path << "\n";
-    for (std::size_t i = 0; i < tables.size(); ++i)
-        std::cout << "  " << tables[i].data.name << ": adaptive, " << tables[i].value_count() << " values, "
-                  << tables[i].layout.leaf_count() << " patches; certificate max " << sci_text(certs[i].max_error)
-                  << (certs[i].passed ? " (passed)" : " (FAILED)") << "\n";
-    for (const Certificate& c : certs)
-        if (!c.passed) throw Error("certificate of '" + c.table + "' misses --accuracy " + sci_text(*accuracy));
+        run.mpi->finalize();
+    } else
+#endif
+        missed = run_adaptive(spec_path, output, compute, *accuracy, absolute, quiet, o, run);
+    if (!missed.empty()) throw Error("certificate of '" + missed + "' misses --accuracy " + sci_text(*accuracy));
 }
 
 AdaptiveSpecSettings AdaptiveCliOptions::overrides() const {

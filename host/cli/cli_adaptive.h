@@ -28,8 +28,10 @@ struct AdaptiveCliOptions {
     std::optional<std::size_t> max_values;
     std::optional<std::size_t> patch_nodes;
     std::optional<int> patch_order;  // 1: multilinear patches, 2: piecewise quadratic per axis
+    double safety = 0;    // --refine-safety: a leaf passes at probe error <= safety x E (0: by patch order)
     std::vector<std::string> breakpoints, jumps, initial_levels;  // NAME=X / NAME=L
     bool full_precision = false;  // generate --full-precision: no rounded storage
+    bool resume = false;          // generate --resume: continue from OUTPUT.checkpoint/
     bool adaptive() const { return representation == "adaptive"; }
     // The options as spec settings (NAME=X parsed; InputError naming the option).
     AdaptiveSpecSettings overrides() const;
@@ -43,6 +45,13 @@ void add_adaptive_options(CLI::App& cmd, AdaptiveCliOptions& o);
 // --accuracy the spec's [adaptive] accuracy and measure are used (--abs wins
 // over the measure).  Exit code 1 (Error) when a certificate misses the
 // accuracy; the file is written.
+// The refinement rounds are checkpointed (OUTPUT.checkpoint/, --resume
+// replays them: host/adaptive/adaptive_generate.h AdaptiveCheckpoint); under
+// mpirun every rank refines the same tree and each round's engine run is
+// shared among them (estimate_at_shared), rank 0 writing the file.
+// Test hook: BRDFTAB_TEST_ADAPTIVE_STOP=K in the environment stops the run
+// (exit 1, checkpoint kept) once K refinement rounds of the run, over its
+// tables in order, are computed and stored.
 void run_adaptive_generate(const std::string& spec_path, const std::string& output,
                            const ComputeOptions& compute, std::optional<double> accuracy, bool absolute,
                            bool quiet, const AdaptiveCliOptions& o);

@@ -812,6 +812,7 @@ void register_generate(CLI::App& app) {
     state->compute.add_to(*cmd);
     cmd->callback([state] {
         state->adaptive.full_precision = state->full_precision;
+        state->adaptive.resume = state->resume;
         // tensor | adaptive | auto (cli_adaptive.h): auto compares the two
         // plans for the accuracy and generates the smaller one.
         std::string representation =

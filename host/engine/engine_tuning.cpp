@@ -15,7 +15,7 @@ const char* environment_setting(const char* name) {
     static const char* const kDocumented[] = {
         "BRDFTAB_DEVICE",          "BRDFTAB_SAMPLE_PARALLEL",   "BRDFTAB_NODE_PARALLEL",
         "BRDFTAB_WALK_PARALLEL",   "BRDFTAB_KERNEL_OPTIONS",    "BRDFTAB_TEST_RANK_ABORT",
-        "BRDFTAB_READ_TIMEOUT",    "BRDFTAB_PROGRESS_INTERVAL",
+        "BRDFTAB_READ_TIMEOUT",    "BRDFTAB_PROGRESS_INTERVAL", "BRDFTAB_TEST_ADAPTIVE_STOP",
     };
     if (std::none_of(std::begin(kDocumented), std::end(kDocumented),
                      [&](const char* d) { return std::strcmp(d, name) == 0; }))

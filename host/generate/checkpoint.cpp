@@ -140,6 +140,19 @@ long table_file_index(const std::string& file_name) {
     return std::stol(digits);
 }
 
+std::string adaptive_file(const std::string& dir, std::size_t index) {
+    return dir + "/adaptive-" + std::to_string(index) + ".log";
+}
+
+bool is_adaptive_file(const std::string& name) {
+    const std::string prefix = "adaptive-", suffix = ".log";
+    if (name.size() <= prefix.size() + suffix.size() || name.compare(0, prefix.size(), prefix) ||
+        name.compare(name.size() - suffix.size(), suffix.size(), suffix))
+        return false;
+    const std::string digits = name.substr(prefix.size(), name.size() - prefix.size() - suffix.size());
+    return digits.find_first_not_of("0123456789") == std::string::npos && digits.size() <= 9;
+}
+
 }  // namespace
 
 std::string CheckpointKey::fingerprint() const {
@@ -378,6 +391,14 @@ Checkpoint::Checkpoint(const std::string& output_path, CheckpointKey key, bool r
         // Index the state files (removing any that no manifest vouches for:
         // the run that wrote them died before its manifest, which cannot be).
         for (fs::directory_iterator it(dir_, ec), end; !ec && it != end; it.increment(ec)) {
+            if (is_adaptive_file(it->path().filename().string())) {
+                std::error_code ignored;
+                if (!keep_states)
+                    fs::remove(it->path(), ignored);
+                else
+                    ++resumed_adaptive_;
+                continue;
+            }
             const long k = table_file_index(it->path().filename().string());
             if (k < 0) continue;
             if (!keep_states) {
@@ -415,6 +436,8 @@ Checkpoint::~Checkpoint() {  // a helper holds no lock: lock_fd_ < 0
 
 std::string Checkpoint::resumed_summary() const {
     const std::size_t chunks = resumed_chunks_finished_ + resumed_chunks_partial_;
+    if (resumed_adaptive_ && resumed_finished_ + resumed_partial_ + chunks == 0)
+        return "refinement rounds of " + std::to_string(resumed_adaptive_) + " adaptive table(s)";
     if (resumed_finished_ + resumed_partial_ + chunks == 0) return "nothing stored yet";
     std::string s = std::to_string(resumed_finished_) + " finished table(s), " +
                     std::to_string(resumed_partial_) + " in progress";
@@ -480,6 +503,18 @@ EstimateCheckpoint Checkpoint::hooks(const std::string& path, std::size_t index,
         if (write_cost > 0) write_rate_ = std::max(1e6, static_cast<double>(bytes.size()) / write_cost);
     };
     return hooks;
+}
+
+std::string Checkpoint::adaptive_log(std::size_t index) const {
+    const std::string path = adaptive_file(dir_, index);
+    std::error_code ec;
+    if (resumed_adaptive_ == 0 || !fs::exists(path, ec)) return "";
+    return read_whole_file(path);
+}
+
+void Checkpoint::store_adaptive_log(std::size_t index, const std::string& bytes) {
+    if (helper_) return;  // the owner stores the log
+    write_bytes_atomically(adaptive_file(dir_, index), bytes);
 }
 
 std::string Checkpoint::remove() {

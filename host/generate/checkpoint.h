@@ -10,6 +10,8 @@
 //                     cell c, when a table is computed in chunks
 //                     (host/generate/chunked.h); every process of a
 //                     distributed run stores the chunks it computes here
+//   adaptive-<k>.log  table k of an adaptive run: every refinement round's
+//                     points and values so far (rewritten after each round)
 //   lock              held (flock) by the process writing the directory
 // Every file is replaced atomically (host/core/atomic_file.h), so a killed
 // run leaves the previous complete state.  Random numbers depend only on
@@ -91,6 +93,12 @@ public:
     const std::string& layout() const { return layout_; }
     void record_layout(const std::string& layout);
 
+    // Adaptive tables (host/adaptive/adaptive_generate.h, AdaptiveCheckpoint):
+    // the refinement log of table `index` that an interrupted run stored
+    // (`adaptive-<k>.log`; "" when none), and its atomic replacement.
+    std::string adaptive_log(std::size_t index) const;
+    void store_adaptive_log(std::size_t index, const std::string& bytes);
+
     // Deletes the directory (after the output file is written); returns
     // why it could not, or "".
     std::string remove();
@@ -103,6 +111,7 @@ private:
     int lock_fd_ = -1;
     std::size_t resumed_finished_ = 0, resumed_partial_ = 0;
     std::size_t resumed_chunks_finished_ = 0, resumed_chunks_partial_ = 0;
+    std::size_t resumed_adaptive_ = 0;
     std::vector<std::string> stored_;  // names of the state files present at the start
     std::string layout_;
     bool helper_ = false;

@@ -13,6 +13,7 @@
 #include <iostream>
 
 #include "host/core/error.h"
+#include "host/engine/evaluate.h"
 #include "host/engine/engine_tuning.h"
 #include "host/generate/checkpoint.h"
 
@@ -386,6 +387,107 @@ void remove_temporaries_on_termination(const std::string& temporary_path) {
     sigemptyset(&sa.sa_mask);
     sigaction(SIGTERM, &sa, nullptr);
     sigaction(SIGINT, &sa, nullptr);
+}
+
+namespace {
+
+template <class T>
+void append_bytes(std::string& out, const T& v) {
+    out.append(reinterpret_cast<const char*>(&v), sizeof v);
+}
+
+void append_doubles(std::string& out, const std::vector<double>& v) {
+    append_bytes<std::uint64_t>(out, v.size());
+    out.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(double));
+}
+
+}  // namespace
+
+EstimateResult estimate_at_shared(const MpiSession& session, Backend& backend, const ModelInfo& model,
+                                  const QuantityInfo& quantity, const std::vector<int>& options,
+                                  const std::vector<double>& kernel_points, const IntegrationSettings& settings) {
+    const std::size_t stride = model.point_stride();
+    const std::size_t n = kernel_points.size() / stride;
+    std::string count = std::to_string(n);
+    session.broadcast(count);
+    const int agree = session.max(count == std::to_string(n) ? 0 : 1);
+    if (agree != 0)
+        throw Error("ranks hold different points for one engine run (rank 0: " + count +
+                    "); the runs differ in settings or input");
+    const std::size_t size = static_cast<std::size_t>(session.size()), rank = static_cast<std::size_t>(session.rank());
+    const std::size_t first = n * rank / size, last = n * (rank + 1) / size;
+    EstimateResult part;
+    part.method = Method::Auto;  // none computed here
+    if (last > first) {
+        IntegrationSettings s = settings;
+        s.cell_base = settings.cell_base + first;
+        const std::vector<double> mine(kernel_points.begin() + static_cast<std::ptrdiff_t>(first * stride),
+                                       kernel_points.begin() + static_cast<std::ptrdiff_t>(last * stride));
+        part = estimate_at(backend, model, quantity, options, mine, s);
+    }
+    std::string bytes;
+    append_bytes<std::int32_t>(bytes, static_cast<std::int32_t>(part.method));
+    append_bytes(bytes, part.total_samples);
+    append_bytes(bytes, part.tolerance_achieved);
+    append_bytes<std::uint64_t>(bytes, part.cells_unconverged);
+    append_bytes(bytes, part.elapsed_seconds);
+    append_doubles(bytes, part.value);
+    append_doubles(bytes, part.stderr_);
+    std::string all;
+    const std::vector<std::string> parts = session.gather(bytes);
+    for (const std::string& p : parts) {
+        append_bytes<std::uint64_t>(all, p.size());
+        all += p;
+    }
+    session.broadcast(all);
+    // Every rank unpacks the same bytes in rank order.
+    EstimateResult r;
+    r.method = Method::Auto;
+    std::size_t pos = 0;
+    auto take = [&](void* v, std::size_t k) {
+        if (all.size() - pos < k) throw Error("a rank's engine results are truncated");
+        std::memcpy(v, all.data() + pos, k);
+        pos += k;
+    };
+    auto take_doubles = [&](std::vector<double>& out) {
+        std::uint64_t k = 0;
+        take(&k, sizeof k);
+        if (k > (all.size() - pos) / sizeof(double)) throw Error("a rank's engine results are truncated");
+        const std::size_t at = out.size();
+        out.resize(at + k);
+        take(out.data() + at, k * sizeof(double));
+    };
+    for (std::size_t q = 0; q < size; ++q) {
+        std::uint64_t length = 0;
+        take(&length, sizeof length);
+        std::int32_t method = 0;
+        take(&method, sizeof method);
+        std::uint64_t samples = 0, unconverged = 0;
+        double achieved = 0, elapsed = 0;
+        take(&samples, sizeof samples);
+        take(&achieved, sizeof achieved);
+        take(&unconverged, sizeof unconverged);
+        take(&elapsed, sizeof elapsed);
+        if (static_cast<Method>(method) != Method::Auto && r.method == Method::Auto) r.method = static_cast<Method>(method);
+        r.total_samples += samples;
+        r.tolerance_achieved = std::max(r.tolerance_achieved, achieved);
+        r.cells_unconverged += static_cast<std::size_t>(unconverged);
+        r.elapsed_seconds = std::max(r.elapsed_seconds, elapsed);
+        const std::size_t before = r.value.size();
+        take_doubles(r.value);
+        const std::size_t got = r.value.size() - before;
+        std::vector<double> err;
+        take_doubles(err);
+        if (!err.empty() || !r.stderr_.empty()) {
+            r.stderr_.resize(before, 0.0);
+            err.resize(got, 0.0);
+            r.stderr_.insert(r.stderr_.end(), err.begin(), err.end());
+        }
+    }
+    if (r.value.size() != n) throw Error("the ranks' engine results hold " + std::to_string(r.value.size()) +
+                                         " values for " + std::to_string(n) + " points");
+    if (r.method == Method::Auto) r.method = resolve_method(quantity, settings.method);
+    return r;
 }
 
 }  // namespace brdftab

@@ -110,6 +110,17 @@ private:
 std::uint64_t run_chunk_worker(const MpiSession& session, ChunkComputer& computer,
                                const std::vector<CellChunk>& plan, Checkpoint* checkpoint);
 
+// estimate_at (host/engine/evaluate.h) over kernel points shared among every
+// rank of `session`: rank r computes the points [n r / N, n (r + 1) / N)
+// numbered from settings.cell_base + n r / N, and every rank receives every
+// result (values, stderr, totals), the same bits as one process computing
+// them all.  Every rank calls it with the same points (the adaptive
+// refinement, replicated on each: host/adaptive/adaptive_generate.h); a rank
+// holding another number of points throws Error.
+EstimateResult estimate_at_shared(const MpiSession& session, Backend& backend, const ModelInfo& model,
+                                  const QuantityInfo& quantity, const std::vector<int>& options,
+                                  const std::vector<double>& kernel_points, const IntegrationSettings& settings);
+
 // On SIGTERM/SIGINT (what mpirun sends the surviving ranks when one dies),
 // removes the output's temporary file (TableFileWriter::temporary_path) and
 // exits with 128 + signal: no partial file is left.

@@ -5,9 +5,10 @@
 # job fail with no output file and a message naming the rank; --resume after
 # it continues from the chunks every rank finished and is bit-identical;
 # dynamic balancing shows in the cells per rank on a spec whose cells differ
-# in cost by orders of magnitude.  The oracle is the one-process file,
+# in cost by orders of magnitude; adaptive tables (docs/adaptive.md) on 1 to
+# 3 ranks and resumed on 2 equal one process's.  The oracle is the one-process file,
 # compared with same_tables.py (every dataset and attribute bit for bit, the
-# timings `created` and `elapsed_seconds` excepted).
+# timings `created`, `elapsed_seconds` and `certificate_seconds` excepted).
 # Usage: mpi_tests.sh BRDFTAB SOURCE_DIR MPIEXEC
 set -u
 HERE=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
@@ -171,5 +172,23 @@ fewest=$(echo "$line" | sed 's/ (an even split.*//; s/.*cells per rank://' | tr 
   awk -F': ' 'NR == 1 || $2 < m { m = $2 } END { print m }')
 [ -n "$fewest" ] && [ "$fewest" -lt 101 ] && ok ||
   bad "uneven costs: the rank with the costly chunk computed $fewest cells (want < 101 of 404)"
+
+# Adaptive tables (docs/adaptive.md, "MPI and --resume"): every rank refines
+# the same tree, each round's engine run shared among them; the file of 1, 2
+# and 3 ranks equals one process's, and so does one resumed on 2 ranks after
+# the test hook stopped a 3-rank run after its third round.
+ADAPT=(generate "$DATA/adaptive_inside.toml" --representation adaptive --accuracy 3e-2 --abs -q)
+"$BT" "${ADAPT[@]}" -o aref.h5 >/dev/null 2>err.txt || { bad "adaptive, one process: $(cat err.txt)"; }
+for n in 1 2 3; do
+  expect_exit 0 "adaptive on $n rank(s)" -- mpi "$n" "$BT" "${ADAPT[@]}" -o "a$n.h5"
+  same_tables aref.h5 "a$n.h5" && ok || bad "adaptive on $n rank(s): the file differs from one process"
+done
+BRDFTAB_TEST_ADAPTIVE_STOP=3 mpi 3 "$BT" "${ADAPT[@]}" -o astop.h5 >out.txt 2>err.txt
+[ $? -ne 0 ] && ok || bad "adaptive: the stopped run exited 0"
+[ ! -e astop.h5 ] && [ -f astop.h5.checkpoint/adaptive-0.log ] && ok ||
+  bad "adaptive: the stopped run left an output or no refinement log"
+expect_exit 0 "adaptive --resume on 2 ranks" -- mpi 2 "$BT" "${ADAPT[@]/-q/--resume}" -o astop.h5
+expect_grep "3 round\(s\) from the checkpoint" err.txt "adaptive resume under MPI replays the logged rounds"
+same_tables aref.h5 astop.h5 && ok || bad "adaptive resumed on 2 ranks: the file differs from one process"
 
 cli_summary

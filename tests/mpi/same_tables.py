@@ -2,14 +2,14 @@
 """same_tables.py A.h5 B.h5 [--timings-too]: exit 0 when the two brdftab
 files hold the same tables: every dataset equal byte for byte (dtype, shape,
 values), the same dimension scales, every attribute equal except the
-timings: the file's `created` and each table's `elapsed_seconds` (wall-clock
-times, different on every run).  Object references (DIMENSION_LIST,
+timings: the file's `created` and each table's `elapsed_seconds` and
+`certificate_seconds` (wall-clock times, different on every run).  Object references (DIMENSION_LIST,
 REFERENCE_LIST) are compared through the scales they name."""
 import sys
 import h5py
 import numpy as np
 
-TIMINGS = {"created", "elapsed_seconds"}
+TIMINGS = {"created", "elapsed_seconds", "certificate_seconds"}
 
 
 def main():
