@@ -9,7 +9,8 @@
 # layout defines (Cycles: index z nx ny + y nx + x; textures: R, G per texel,
 # NoV fastest): exactly for float (the tables are float64, the header rounds
 # once to float: 2^-24 relative), to half rounding (2^-11 relative, 2^-25
-# absolute below 2^-14) for half.
+# absolute below 2^-14) for half, and for UE4's 16-bit unorm within half a
+# quantum (0.5/65535) of the value clamped to [0, 1].
 source "$(dirname "$0")/cli_lib.sh"
 cli_setup "$1" "$2"
 CC_BIN=${3:-}
@@ -49,6 +50,28 @@ values = [0.2, 0.6, 1.0]
 name = "alpha"
 spacing = "explicit"
 values = [0.01, 0.3, 0.6, 1.0]
+[[tables]]
+name = "Ag"
+quantity = "split_a"
+[[tables.axes]]
+name = "alpha"
+spacing = "explicit"
+values = [0.001, 0.01]
+[[tables.axes]]
+name = "mu_i"
+spacing = "explicit"
+values = [0.01, 0.5]
+[[tables]]
+name = "Sg"
+quantity = "sheen_albedo"
+[[tables.axes]]
+name = "alpha"
+spacing = "explicit"
+values = [0.001, 0.01]
+[[tables.axes]]
+name = "mu_i"
+spacing = "explicit"
+values = [0.01, 0.5]
 [[tables]]
 name = "B"
 quantity = "split_b"
@@ -92,6 +115,7 @@ EOF
 query_nodes E mu_i=0.0001,0.5,1.0 alpha=1e-8,0.25,1.0
 query_nodes glass eta=1.2,1.5 mu_i=0.2,0.6,1.0 alpha=0.01,0.3,0.6,1.0
 for t in A B E2 S; do query_nodes "$t" alpha=0.01,0.505,1.0 mu_i=0.1,0.4,0.7,1.0; done
+for t in Ag Sg; do query_nodes "$t" alpha=0.001,0.01 mu_i=0.01,0.5; done
 
 expect_exit 0 "export --layout cycles (3-D)" -- \
   "$BT" export luts.h5 --table glass --header glass.h --layout cycles
@@ -117,8 +141,20 @@ h5dump -a /glass/layout_certificate_cycles_max_error cert.h5 >attr.txt 2>&1 && o
 expect_exit 2 "certify --layout ue4: a 3-D table is not a texture" -- \
   "$BT" certify cert.h5 --table glass --layout ue4 -q
 expect_exit 2 "certify needs --accuracy or --layout" -- "$BT" certify cert.h5 --table E -q
-expect_exit 0 "export --layout ue4 (float)" -- \
+expect_exit 0 "export --layout ue4 (UE4's 16-bit unorm, the default)" -- \
   "$BT" export luts.h5 --table A,B --header ue4.h --layout ue4
+expect_grep "static const uint16_t ue4_split_sum_lut\[24\]" ue4.h "UE4's type: two uint16 per texel"
+expect_grep "0 elements outside \[0, 1\] clamped" ue4.h "A and B lie in [0, 1]"
+expect_exit 0 "export --layout ue4 --type float" -- \
+  "$BT" export luts.h5 --table A,B --header ue4f.h --layout ue4 --type float
+expect_grep "static const float ue4_split_sum_lut\[24\]" ue4f.h "--type float"
+# The sheen albedo exceeds 1 near grazing at small alpha: unorm clamps it (and
+# the header says how often).
+expect_exit 0 "export --layout ue4, a channel beyond [0, 1]" -- \
+  "$BT" export luts.h5 --table Ag,Sg --header ue4s.h --layout ue4
+expect_grep " [1-9] elements outside \[0, 1\] clamped" ue4s.h "the header counts the clamped elements"
+expect_exit 2 "filament does not store 16-bit unorm" -- \
+  "$BT" export luts.h5 --table B,E2 --header bad.h --layout filament --type uint16
 # Refusals: wrong axis order, channels on different grids, half for Cycles.
 expect_exit 2 "cycles needs alpha fastest" -- \
   "$BT" export luts.h5 --table B --header bad.h --layout cycles
@@ -140,7 +176,8 @@ if [ -z "$CC_BIN" ] || ! command -v "$CC_BIN" >/dev/null 2>&1; then
   echo "SKIP: no C compiler (pass CMake's CMAKE_C_COMPILER as the third argument)"
 else
   # Print each array in its own order (half decoded here, from the format).
-  for h in glass:table_glass:float e:table_ggx_E:float dfg:DFG_LUT:half dfg3:DFG_LUT:half ue4:ue4_split_sum_lut:float; do
+  for h in glass:table_glass:float e:table_ggx_E:float dfg:DFG_LUT:half dfg3:DFG_LUT:half \
+           ue4:ue4_split_sum_lut:unorm ue4f:ue4_split_sum_lut:float ue4s:ue4_split_sum_lut:unorm; do
     IFS=: read -r file name kind <<<"$h"
     cat >"p_$file.c" <<EOF
 #include <stdio.h>
@@ -156,7 +193,8 @@ static double decode_half(uint16_t h) {
 int main(void) {
     size_t i;
     for (i = 0; i < sizeof $name / sizeof $name[0]; ++i)
-        printf("%.17g\n", $( [ "$kind" = half ] && echo "decode_half($name[i])" || echo "decode($name[i])" ));
+        printf("%.17g\n", $(case $kind in half) echo "decode_half($name[i])" ;;
+                                unorm) echo "$name[i] / 65535.0" ;; *) echo "decode($name[i])" ;; esac));
     return 0;
 }
 EOF
@@ -183,7 +221,11 @@ check("cycles glass", got("glass"), q("glass"), 2.0**-24)
 check("cycles E", got("e"), q("E"), 2.0**-24)
 inter = lambda r, g: [v for pair in zip(r, g) for v in pair]
 check("filament (B, E)", got("dfg"), inter(q("B"), q("E2")), 2.0**-11, 2.0**-25)
-check("ue4 (A, B)", got("ue4"), inter(q("A"), q("B")), 2.0**-24)
+# 16-bit unorm: within half a quantum of the value clamped to [0, 1]
+clamp = lambda v: [min(max(x, 0.0), 1.0) for x in v]
+check("ue4 (A, B) unorm", got("ue4"), clamp(inter(q("A"), q("B"))), 0.0, 0.5 / 65535 + 1e-12)
+check("ue4 (A, S) unorm, clamped", got("ue4s"), clamp(inter(q("Ag"), q("Sg"))), 0.0, 0.5 / 65535 + 1e-12)
+check("ue4 (A, B) float", got("ue4f"), inter(q("A"), q("B")), 2.0**-24)
 inter3 = lambda r, g, b: [v for t in zip(r, g, b) for v in t]
 check("filament (B, E, S)", got("dfg3"), inter3(q("B"), q("E2"), q("S")), 2.0**-11, 2.0**-25)
 sys.exit(1 if fails else 0)

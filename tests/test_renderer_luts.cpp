@@ -550,6 +550,30 @@ TEST_CASE("renderer layouts: element order and the tables each layout accepts")
     }
     CHECK_THROWS_AS(renderer_layout_values({r}, fil), InputError);
     CHECK_THROWS_AS(renderer_layout_values({r, table({{"mu_i", 5}, {"alpha", 3}}, 0)}, fil), InputError);
+    // Filament's texture is binary16 or float, never 16-bit unorm (UE4's type).
+    fil.type = HeaderValueType::Uint16;
+    fil.type_given = true;
+    CHECK_THROWS_AS(export_renderer_header({r, gch}, "unused.h", fil), InputError);
+}
+
+TEST_CASE("ue4 layout storage: 16-bit unorm, q = round(65535 clamp(v, 0, 1))")
+{
+    // UE4 writes PreintegratedGF as (int32)(clamp(v, 0, 1) * 65535 + 0.5) per channel
+    // (SystemTextures.cpp, PF_G16R16): nearest, ties upwards, clamped.
+    using brdftab::renderer_unorm16;
+    CHECK(renderer_unorm16(0.0) == 0u);
+    CHECK(renderer_unorm16(1.0) == 65535u);
+    CHECK(renderer_unorm16(-0.25) == 0u);
+    CHECK(renderer_unorm16(1.75) == 65535u);
+    CHECK(renderer_unorm16(0.5) == 32768u);  // 32767.5: the tie goes up
+    CHECK(renderer_unorm16(1000.49 / 65535) == 1000u);
+    CHECK(renderer_unorm16(1000.51 / 65535) == 1001u);
+    CHECK(renderer_unorm16(1.0 / 65535) == 1u);
+    // Every value in [0, 1] reads back within half a quantum.
+    for (int k = 0; k <= 1000; ++k) {
+        const double v = std::pow(double(k) / 1000, 3);
+        CHECK(std::fabs(renderer_unorm16(v) / 65535.0 - v) <= 0.5 / 65535 + 1e-15);
+    }
 }
 
 // ---------------------------------------------------------------- sheen (cloth)

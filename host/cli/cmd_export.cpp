@@ -375,7 +375,8 @@ void register_export(CLI::App& app) {
     cmd->add_option("--layout", a->layout,
                     "header: a renderer's own array, order and type (docs/renderer-luts.md): "
                     "cycles (one table, float), filament or ue4 (--table R,G: a two-channel "
-                    "texture, filament also R,G,B with its cloth channel; half or float)");
+                    "texture, filament also R,G,B with its cloth channel: half or float; ue4: "
+                    "uint16 = 16-bit unorm as UE4 stores it, float or half)");
     cmd->add_option("--rgb", a->rgb,
                     "MERL, RGL: R,G,B values of a factored table's parameter (e.g. rho) for the red, "
                     "green and blue channels (default: the same value in all three)");

@@ -72,6 +72,11 @@ const char* renderer_layout_name(RendererLayout layout) {
     return "?";
 }
 
+unsigned renderer_unorm16(double v) {
+    const double c = v > 0 ? (v < 1 ? v : 1.0) : 0.0;  // NaN -> 0 (the export refuses NaN)
+    return unsigned(std::floor(c * 65535.0 + 0.5));
+}
+
 std::vector<double> renderer_layout_values(const std::vector<TableData>& channels,
                                            const RendererExportOptions& o) {
     if (o.layout == RendererLayout::Cycles) {
@@ -91,19 +96,22 @@ std::vector<double> renderer_layout_values(const std::vector<TableData>& channel
 void export_renderer_header(const std::vector<TableData>& channels, const std::string& out_path,
                             const RendererExportOptions& o) {
     HeaderValueType type = o.layout == RendererLayout::Filament ? HeaderValueType::Half
+                           : o.layout == RendererLayout::Ue4    ? HeaderValueType::Uint16
                                                                 : HeaderValueType::Float;
     if (o.type_given) type = o.type;
-    if (type == HeaderValueType::Uint16 ||
-        (o.layout == RendererLayout::Cycles && type != HeaderValueType::Float))
+    if ((o.layout == RendererLayout::Cycles && type != HeaderValueType::Float) ||
+        (o.layout == RendererLayout::Filament && type == HeaderValueType::Uint16))
         throw InputError(std::string("--type: --layout ") + renderer_layout_name(o.layout) +
                          " stores " +
-                         (o.layout == RendererLayout::Cycles ? "float only" : "float or half"));
+                         (o.layout == RendererLayout::Cycles ? "float only" : "half or float"));
     const std::vector<double> v = renderer_layout_values(channels, o);
     for (std::size_t k = 0; k < v.size(); ++k)
         if (!std::isfinite(v[k]) || (type == HeaderValueType::Half && std::fabs(v[k]) > 65504.0))
             throw InputError("element " + std::to_string(k) + " (" + std::to_string(v[k]) +
                              ") cannot be stored as " +
-                             (type == HeaderValueType::Half ? "half" : "float"));
+                             (type == HeaderValueType::Half     ? "half"
+                              : type == HeaderValueType::Uint16 ? "16-bit unorm"
+                                                                : "float"));
     std::string name = o.name;
     if (name.empty())
         name = o.layout == RendererLayout::Cycles     ? "table_" + channels[0].name
@@ -139,7 +147,22 @@ void export_renderer_header(const std::vector<TableData>& channels, const std::s
         h << ") interleaved; row r = alpha node r (GL order, first row first), NoV fastest. */\n";
         h << "#define " << name << "_WIDTH " << width << "\n#define " << name << "_HEIGHT "
           << height << "\n";
-        if (type == HeaderValueType::Half) {
+        if (type == HeaderValueType::Uint16) {
+            // UE4's PF_G16R16: two 16-bit unorm channels per texel.
+            std::size_t clamped = 0;
+            for (double x : v) clamped += x < 0 || x > 1;
+            h << "#include <stdint.h>\n/* 16-bit unsigned normalised (UNORM): q = round(65535 "
+                 "clamp(v, 0, 1)), read as q / 65535; "
+              << clamped << " elements outside [0, 1] clamped */\nstatic const uint16_t " << name << "["
+              << v.size() << "] = {";
+            char buf[16];
+            for (std::size_t k = 0; k < v.size(); ++k) {
+                if (k % 8 == 0) h << "\n   ";
+                std::snprintf(buf, sizeof buf, " %u", renderer_unorm16(v[k]));
+                h << buf << (k + 1 < v.size() ? "," : "");
+            }
+            h << "\n};\n";
+        } else if (type == HeaderValueType::Half) {
             h << "#include <stdint.h>\n/* IEEE binary16 bits */\nconst uint16_t " << name << "[] = {";
             char buf[16];
             for (std::size_t k = 0; k < v.size(); ++k) {

@@ -10,8 +10,12 @@
 //             `const uint16_t DFG_LUT[]`, binary16 bits, channels interleaved
 //             per texel, rows in GL order (first row = first alpha node),
 //             NoV fastest.
-//   ue4       the same two-channel grid as `float` (or binary16 with
-//             type = half): R = scale A, G = bias B of the split sum.
+//   ue4       the same two-channel grid: R = scale A, G = bias B of the
+//             split sum, as UE4's PreintegratedGF texture stores them
+//             (PF_G16R16, SystemTextures.cpp): 16-bit unsigned normalised,
+//             `static const uint16_t`, q = round(65535 clamp(v, 0, 1)), read
+//             as q / 65535 (type = uint16, the default), or `float`, or
+//             binary16 (type = half).
 // Library code: no printing.
 #pragma once
 
@@ -32,12 +36,18 @@ const char* renderer_layout_name(RendererLayout layout);
 struct RendererExportOptions {
     RendererLayout layout = RendererLayout::Cycles;
     // Storage: cycles: float only; filament: half (default) or float;
-    // ue4: float (default) or half.  `type_given` false takes the default.
+    // ue4: uint16 (16-bit unorm, the default), float or half.  `type_given`
+    // false takes the default.
     HeaderValueType type = HeaderValueType::Float;
     bool type_given = false;
     std::string name;    // array identifier; empty: the layout's default
     std::string source;  // e.g. the input file name, written in the comment
 };
+
+// 16-bit unsigned normalised storage of v (UNORM16, UE4's G16R16):
+// round(65535 clamp(v, 0, 1)), ties upwards; it reads back as q / 65535,
+// within 0.5/65535 = 7.6e-6 of clamp(v, 0, 1).
+unsigned renderer_unorm16(double v);
 
 // The element sequence of the layout (channel values interleaved per texel
 // for two-channel layouts), as doubles before storage rounding; checks the
