@@ -41,14 +41,11 @@ void throw_zero_direction() { throw InputError("direction vector has zero or NaN
 // Shared by LookupTable::eval_dirs and BoundTable: angular coordinates of
 // (wi, wo) in axis units.  phi is reduced to the phi axis' span (fold or wrap).
 void direction_coords(const LookupTable::AngleLayout& L, const Axis* phi_axis,
-                      const Vec3& wi, const Vec3& wo, double& xi, double& xo,
-                      double& xphi, double& phi_i) {
-    const double mi = unit_z(wi), mo = unit_z(wo);
-    xi = L.mu_i ? mi : std::acos(mi) / L.scale_i;
-    xo = L.mu_o ? mo : std::acos(mo) / L.scale_o;
+                      const Vec3& wi, const Vec3& wo, double& xi, double& xo, double& xphi) {
+    xi = polar_coordinate(wi, L.mu_i, L.per_rad_i);
+    xo = polar_coordinate(wo, L.mu_o, L.per_rad_o);
     // atan2(0, 0) = 0: a direction on the pole gets azimuth 0, both here and
     // in the sampler, so pdf() and sample() agree there too.
-    phi_i = std::atan2(wi.y, wi.x);
     xphi = phi_axis ? phi_coordinate(L, phi_axis->min, phi_difference(wi.x, wi.y, wo.x, wo.y))
                     : 0.0;
 }
@@ -97,9 +94,9 @@ void LookupTable::dirs_point(const double* pc, const Vec3& wi, const Vec3& wo,
                              double* coords) const {
     const std::size_t width = axes().size() + (terms_.empty() ? 0 : 1);
     std::copy(pc, pc + width, coords);
-    double xi, xo, xphi, phi_i;
+    double xi, xo, xphi;
     const Axis* phi_axis = layout_.axis_phi >= 0 ? &axes()[layout_.axis_phi] : nullptr;
-    direction_coords(layout_, phi_axis, wi, wo, xi, xo, xphi, phi_i);
+    direction_coords(layout_, phi_axis, wi, wo, xi, xo, xphi);
     coords[layout_.axis_i] = xi;
     coords[layout_.axis_o] = xo;
     if (phi_axis) coords[layout_.axis_phi] = xphi;
@@ -172,6 +169,7 @@ BoundTable LookupTable::bind(const std::map<std::string, double>& params,
         b.axes_.push_back(a);
         b.layout_.fold_phi = true;
         b.layout_.scale_phi = kDeg;
+        b.layout_.per_rad_phi = 1 / kDeg;
     }
     const std::size_t ni = b.axes_[0].count, no = b.axes_[1].count, np = b.axes_[2].count;
     for (int d = 0; d < 3; ++d) b.fast_[d].build(b.axes_[d]);
@@ -236,22 +234,20 @@ double BoundTable::eval_angles(double xi, double xo, double xphi) const {
 
 BoundTable::Incident BoundTable::incident(const Vec3& wi) const {
     Incident in;
-    const double mi = unit_z(wi);
+    in.xi = polar_coordinate(wi, layout_.mu_i, layout_.per_rad_i);
     in.x = wi.x;
     in.y = wi.y;
-    in.xi = layout_.mu_i ? mi : std::acos(mi) / layout_.scale_i;
     return in;
 }
 
-double BoundTable::eval_from(const Incident& in, double mo, double d) const {
-    const double xo = layout_.mu_o ? mo : std::acos(mo) / layout_.scale_o;
+double BoundTable::eval_from(const Incident& in, double xo, double d) const {
     return eval_angles(in.xi, xo, phi_coordinate(layout_, axes_[2].min, d));
 }
 
 double BoundTable::eval(const Vec3& wi, const Vec3& wo) const {
     const Incident in = incident(wi);
-    const double mo = unit_z(wo);
-    return eval_from(in, mo, phi_difference(in.x, in.y, wo.x, wo.y));
+    const double xo = polar_coordinate(wo, layout_.mu_o, layout_.per_rad_o);
+    return eval_from(in, xo, phi_difference(in.x, in.y, wo.x, wo.y));
 }
 
 void BoundTable::eval_many(const double* wi, const double* wo, std::size_t count,

@@ -72,6 +72,9 @@ struct NodeIndex {
         const double f = (x - lo) * inv_width;
         const std::size_t bins = start.size();
         std::size_t k = f > 0 ? (f < double(bins) ? start[std::size_t(f)] : start[bins - 1]) : 0;
+        // The first step up without a branch (a quarter of the points need
+        // it on evenly spaced nodes), further ones in the loop.
+        if (k + 2 < n) k += std::size_t(!(x < nodes[k + 1]));
         while (k + 2 < n && !(x < nodes[k + 1])) ++k;
         while (k > 0 && x < nodes[k]) --k;
         return k;
@@ -260,6 +263,7 @@ public:
         int axis_i = -1, axis_o = -1, axis_phi = -1;  // indices into axes()
         bool mu_i = false, mu_o = false;              // mu axes instead of theta
         double scale_i = 1, scale_o = 1, scale_phi = 1;  // radians per unit (deg or rad)
+        double per_rad_i = 1, per_rad_o = 1, per_rad_phi = 1;  // units per radian: 1 / scale
         bool fold_phi = true;   // phi_d axis within [0, 180]: fold by isotropy
     };
 
@@ -372,8 +376,10 @@ private:
     double eval_angles(double x_i, double x_o, double phi) const;
     Incident incident(const Vec3& wi) const;          // without the node mixture
     Incident incident_sampled(const Vec3& wi) const;  // with it (sampling only)
-    // At an outgoing direction given by mo = cos(theta_o) and d = phi_o - phi_i.
-    double eval_from(const Incident& in, double mo, double d) const;
+    // At an outgoing direction given by its polar coordinate xo (theta_o or
+    // mu_o in axis units; eval_from) or mo = cos(theta_o) (pdf_from), and
+    // d = phi_o - phi_i.
+    double eval_from(const Incident& in, double xo, double d) const;
     double pdf_from(const Incident& in, double mo, double d) const;
     SampleResult sample_from(const Incident& in, double u1, double u2) const;
     void build_sampling();

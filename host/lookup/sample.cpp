@@ -149,10 +149,17 @@ void BoundTable::build_sampling() {
 
 namespace {
 // Pick cell c with cdf[c] <= u < cdf[c+1] (never a zero-probability cell) and
-// return u rescaled to [0, 1) within it.
+// return u rescaled to [0, 1) within it.  The search is std::upper_bound's
+// over cdf[0..cells], branch-free: its steps depend on `cells` alone.
 std::size_t pick(const double* cdf, std::size_t cells, double& u) {
     u = std::min(std::max(u, 0.0), 1.0);
-    std::size_t c = std::size_t(std::upper_bound(cdf, cdf + cells + 1, u) - cdf);
+    const double* base = cdf;
+    for (std::size_t len = cells + 1; len > 1;) {
+        const std::size_t half = len / 2;
+        base = u < base[half] ? base : base + half;
+        len -= half;
+    }
+    std::size_t c = std::size_t(base - cdf) + (u < *base ? 0 : 1);  // upper_bound
     c = c == 0 ? 0 : c - 1;
     if (c >= cells) c = cells - 1;
     while (c > 0 && !(cdf[c + 1] > cdf[c])) --c;  // u == 1 lands past the last positive cell
@@ -244,16 +251,20 @@ SampleResult BoundTable::sample_from(const Incident& in, double u1, double u2) c
     double ci = 1, si = 0;
     const double r = std::sqrt(in.x * in.x + in.y * in.y);
     if (r > 0) {
-        ci = in.x / r;
-        si = in.y / r;
+        const double inv = 1 / r;
+        ci = in.x * inv;
+        si = in.y * inv;
     }
-    const double cp_ = std::cos(pd), sp = sign * std::sin(pd);
+    double cp_, sp;
+    fast_trig::sincos(pd, sp, cp_);  // |pd| <= 2 pi
+    sp *= sign;
     SampleResult res;
     res.wo = {st * (ci * cp_ - si * sp), st * (si * cp_ + ci * sp), mu};
-    // pdf() and eval() at wo, sharing its cosine and azimuth difference.
+    // pdf() and eval() at wo, sharing its azimuth difference: the same
+    // functions of wo as there, so the same bits.
     const double mo = unit_z(res.wo), d = phi_difference(in.x, in.y, res.wo.x, res.wo.y);
     res.pdf = pdf_from(in, mo, d);
-    res.value = eval_from(in, mo, d);
+    res.value = eval_from(in, polar_coordinate(res.wo, layout_.mu_o, layout_.per_rad_o), d);
     res.weight = res.pdf > 0 ? res.value * std::fabs(mu) / res.pdf : 0.0;
     return res;
 }
