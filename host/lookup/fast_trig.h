@@ -13,6 +13,7 @@
 // host/lookup/fast_trig_fit.py, which also prints the fits' error bounds.
 #pragma once
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 
@@ -44,22 +45,31 @@ inline double atan_reduced(double t) {
 
 // atan2(y, x) in [-pi, pi] for finite y, x, within 2.5e-15 rad of
 // std::atan2 (signed zeros as there: atan2(+-0, -0) = +-pi,
-// atan2(+-0, +0) = +-0).  NaN in, NaN out.
+// atan2(+-0, +0) = +-0).  NaN in, NaN out.  Branch-free: the octant's
+// choices are 0/1 factors and table entries, not conditional jumps, which
+// would be mispredicted half of the time on random directions.
 inline double atan2(double y, double x) {
     using namespace detail;
     const double ax = std::fabs(x), ay = std::fabs(y);
-    const bool swap = ay > ax;
-    const double mx = swap ? ay : ax, mn = swap ? ax : ay;
+    const int swap = ay > ax;
+    const double mx = std::max(ax, ay), mn = std::min(ax, ay);
     // Into |t| <= tan(pi/8) with one division: mn/mx, or past tan(pi/8)
     // atan(mn/mx) = pi/4 + atan((mn - mx)/(mn + mx)).
-    const bool big = mn > kTanPi8 * mx;
-    const double num = big ? mn - mx : mn;
-    double den = big ? mn + mx : mx;
-    den = mx == 0 ? 1.0 : den;  // x = y = 0: t = 0
+    const int big = mn > kTanPi8 * mx;
+    const double b = double(big);
+    const double num = mn - b * mx;
+    const double den = (mx + b * mn) + double(mx == 0);  // x = y = 0: t = 0
     double a = atan_reduced(num / den);
-    a = big ? kPi4 + (a + kPi4Lo) : a;
-    a = swap ? kPi2 - a + kPi2Lo : a;
-    a = std::signbit(x) ? kPi - a + kPiLo : a;
+    // a + pi/4, then pi/2 - a where |y| > |x|, then pi - a where x < 0 (or
+    // -0): offset + sign * a, the offsets' rounding error added apart.
+    static constexpr double kOff[2][2] = {{0, kPi4}, {0, kPi4Lo}};
+    static constexpr double kRef[3][2] = {{0, kPi2}, {0, kPi2Lo}, {1, -1}};
+    static constexpr double kHalf[3][2] = {{0, kPi}, {0, kPiLo}, {1, -1}};
+    a = kOff[0][big] + (a + kOff[1][big]);
+    a = kRef[0][swap] + (kRef[2][swap] * a + kRef[1][swap]);
+    const int neg = std::signbit(x);
+    a = kHalf[0][neg] + (kHalf[2][neg] * a + kHalf[1][neg]);
+    a += (x - x) + (y - y);  // NaN in (which max and min drop), NaN out
     return std::copysign(a, y);
 }
 
@@ -88,10 +98,13 @@ inline void sincos(double x, double& s, double& c) {
                             z2 * (2.08761462684032e-09 + -1.1382632425521717e-11 * z));
     const double sr = r + r * z * sp;
     const double cr = (1 - 0.5 * z) + z2 * cp;
-    const std::int64_t q = std::int64_t(k);
-    const double s0 = (q & 1) ? cr : sr, c0 = (q & 1) ? sr : cr;
-    s = (q & 2) ? -s0 : s0;
-    c = ((q + 1) & 2) ? -c0 : c0;
+    // Quadrant q: (sin, cos) = (sr, cr), (cr, -sr), (-sr, -cr), (-cr, sr),
+    // chosen by index (branch-free).
+    const unsigned q = unsigned(std::int64_t(k)) & 3u;
+    const double v[2] = {sr, cr};
+    static constexpr double kSign[2] = {1, -1};
+    s = kSign[q >> 1] * v[q & 1];
+    c = kSign[((q + 1) >> 1) & 1] * v[(q & 1) ^ 1];
 }
 
 }  // namespace brdftab::fast_trig
