@@ -21,10 +21,11 @@ namespace brdftab::fast_trig {
 
 namespace detail {
 
-// pi, pi/2 and pi/4 as double + the rest of the true value.
+// pi, pi/2, pi/4 and 3 pi/4 as double + the rest of the true value.
 constexpr double kPi = 3.141592653589793, kPiLo = 1.2246467991473532e-16;
 constexpr double kPi2 = 1.5707963267948966, kPi2Lo = 6.123233995736766e-17;
 constexpr double kPi4 = 0.7853981633974483, kPi4Lo = 3.061616997868383e-17;
+constexpr double k3Pi4 = 2.356194490192345, k3Pi4Lo = 9.184850993605148e-17;
 constexpr double kTanPi8 = 0.41421356237309503;
 
 // atan(t) = t + t z h(z), z = t^2, |t| <= tan(pi/8), where the fit of h
@@ -60,15 +61,17 @@ inline double atan2(double y, double x) {
     const double num = mn - b * mx;
     const double den = (mx + b * mn) + double(mx == 0);  // x = y = 0: t = 0
     double a = atan_reduced(num / den);
-    // a + pi/4, then pi/2 - a where |y| > |x|, then pi - a where x < 0 (or
-    // -0): offset + sign * a, the offsets' rounding error added apart.
-    static constexpr double kOff[2][2] = {{0, kPi4}, {0, kPi4Lo}};
-    static constexpr double kRef[3][2] = {{0, kPi2}, {0, kPi2Lo}, {1, -1}};
-    static constexpr double kHalf[3][2] = {{0, kPi}, {0, kPiLo}, {1, -1}};
-    a = kOff[0][big] + (a + kOff[1][big]);
-    a = kRef[0][swap] + (kRef[2][swap] * a + kRef[1][swap]);
-    const int neg = std::signbit(x);
-    a = kHalf[0][neg] + (kHalf[2][neg] * a + kHalf[1][neg]);
+    // a + pi/4 (big), then pi/2 - a where |y| > |x|, then pi - a where x < 0
+    // (or -0): together m pi/4 + sign a, from one table entry per octant,
+    // m pi/4 as a double and the rest of its true value.
+    struct Octant {
+        double hi, lo, sign;
+    };
+    static constexpr Octant kOctant[8] = {
+        {0, 0, 1},          {kPi4, kPi4Lo, 1},    {kPi2, kPi2Lo, -1}, {kPi4, kPi4Lo, -1},
+        {kPi, kPiLo, -1},   {k3Pi4, k3Pi4Lo, -1}, {kPi2, kPi2Lo, 1},  {k3Pi4, k3Pi4Lo, 1}};
+    const Octant& o = kOctant[big | swap << 1 | int(std::signbit(x)) << 2];
+    a = o.hi + (o.sign * a + o.lo);
     a += (x - x) + (y - y);  // NaN in (which max and min drop), NaN out
     return std::copysign(a, y);
 }

@@ -29,7 +29,7 @@ q = (mp.pi / 4) ** 2
 fit("sin S", limit(lambda z: (mp.sin(mp.sqrt(z)) - mp.sqrt(z)) / (z * mp.sqrt(z)), -mp.mpf(1) / 6),
     q, 6, q * mp.pi / 4)
 fit("cos C", limit(lambda z: (mp.cos(mp.sqrt(z)) - 1 + z / 2) / (z * z), mp.mpf(1) / 24), q, 6, q * q)
-for name, v in [("pi", mp.pi), ("pi/2", mp.pi / 2), ("pi/4", mp.pi / 4)]:
+for name, v in [("pi", mp.pi), ("pi/2", mp.pi / 2), ("pi/4", mp.pi / 4), ("3 pi/4", 3 * mp.pi / 4)]:
     print(f"{name} = {float(v)!r} + {float(v - mp.mpf(float(v)))!r}")
 e = mp.floor(mp.log(mp.pi / 2, 2)) - 32
 hi = mp.floor(mp.pi / 2 / mp.mpf(2) ** e) * mp.mpf(2) ** e  # 33 significant bits

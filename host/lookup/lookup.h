@@ -374,6 +374,20 @@ private:
     enum class Kernel : std::uint8_t { GridLinear, GridLinearNonFinite, GridCubic, Adaptive };
 
     double eval_angles(double x_i, double x_o, double phi) const;
+    // The direction kernel (build_direction_kernel()): on a linear grid
+    // kernel in Clamp mode, when each axis' node coordinate u = t (count - 1)
+    // is affine in a quantity q of the directions, u = q dir_a_ + dir_b_
+    // with q the polar angle in radians (linear theta axis), its cosine
+    // (cos-spaced theta axis, linear mu axis) or |phi_o - phi_i| (linear
+    // folded phi_d axis): no unwarp, no division, no range branches.
+    // Incident::xi and the x_o of eval_from() then hold u instead of the
+    // axis coordinate.
+    bool dir_affine_ = false;
+    bool dir_cos_[2] = {false, false};  // axes 0, 1: q = cos(theta)
+    double dir_a_[3] = {0, 0, 0}, dir_b_[3] = {0, 0, 0};
+    void build_direction_kernel();
+    double direction_coord(const Vec3& w, int axis) const;  // axis 0 (wi) or 1 (wo)
+    double eval_u(const double* u) const;
     Incident incident(const Vec3& wi) const;          // without the node mixture
     Incident incident_sampled(const Vec3& wi) const;  // with it (sampling only)
     // At an outgoing direction given by its polar coordinate xo (theta_o or

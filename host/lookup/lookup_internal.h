@@ -118,8 +118,13 @@ BT_LOOKUP_INLINE double unwarp_fast(const FastAxis& f, const Axis& a, double x) 
 // The linear cell of normalised coordinate t: node k = min(floor(u),
 // count - 2) for u = t (count - 1) clamped to [0, count - 1], and the
 // fraction s in [0, 1] (the weights 1 - s, s of nodes k, k + 1).
+BT_LOOKUP_INLINE std::size_t linear_cell_u(const FastAxis& f, double u, double& s);
 BT_LOOKUP_INLINE std::size_t linear_cell(const FastAxis& f, double t, double& s) {
-    double u = t * f.last;
+    return linear_cell_u(f, t * f.last, s);
+}
+
+// The same from the node coordinate u = t (count - 1).
+BT_LOOKUP_INLINE std::size_t linear_cell_u(const FastAxis& f, double u, double& s) {
     if (!(u >= 0)) u = 0;  // also catches NaN from a degenerate warp
     if (u > f.last) u = f.last;
     // Signed conversions: u and k are small non-negative numbers, and the
