@@ -102,6 +102,9 @@ struct FastAxis {
     double pivot = 0;                    // log-complement
     double half_turn = 0, turn = 0;      // periodic: 180 or pi, and twice that
     NodeIndex explicit_nodes;            // explicit
+    // The node list of an independent axis, for guessing a lookup's cell
+    // before its inverse warp is computed (prefetching on large tables).
+    NodeIndex cells;
     void build(const Axis& a);
 };
 
@@ -289,6 +292,10 @@ private:
     template <int D>
     static double adaptive_kernel(const LookupTable& lt, const double* coords, OutOfRange mode);
     double (*linear_)(const LookupTable&, const double*, OutOfRange) = nullptr;
+    // Offsets of the cache lines a linear lookup's corners start on (the
+    // last axis' pair shares them), from the first corner; for the prefetch
+    // of tables of 4 or more axes.
+    std::vector<std::size_t> corner_lines_;
     void dirs_point(const double* param_coords, const Vec3& wi, const Vec3& wo,
                     double* coords) const;
     void resolve_param(double& p, OutOfRange mode) const;
