@@ -276,8 +276,8 @@ TEST_CASE("the bound direction kernel on cos-spaced theta and linear mu axes") {
         "brdf",
         {make_axis("mu_i", "1", 0, 1, 6, Spacing::Linear),
          make_axis("mu_o", "1", -1, 1, 11, Spacing::Linear),
-         make_axis("phi_d", "rad", 0, kPi, 5, Spacing::Linear)},
-        [&](const std::vector<double>& x) { return f(x[0], x[1], x[2] / kDeg); }));
+         make_axis("phi_d", "deg", 0, 180, 5, Spacing::Linear)},
+        [&](const std::vector<double>& x) { return f(x[0], x[1], x[2]); }));
     const BoundTable bc = cos_axes.bind(), bm = mu_axes.bind();
     const BoundTable bc_reject = cos_axes.bind({}, Interpolation::Linear, OutOfRange::Reject);
     std::mt19937_64 rng(12);
@@ -305,6 +305,21 @@ TEST_CASE("the bound direction kernel on cos-spaced theta and linear mu axes") {
     CHECK(worst_mu < 1e-12);
     CHECK(worst_reject < 1e-12);
     CHECK_THROWS_AS(bc_reject.eval(dir(30, 0), dir(120, 0)), InputError);
+    // Each pdf integrates to 1 over the sphere (midpoint rule in (cos theta,
+    // phi); the density is piecewise constant there).
+    for (const BoundTable* b : {&bc, &bm}) {
+        const Vec3 wi = dir(37, 20);
+        const int rows = 200, cols = 400;
+        double integral = 0;
+        for (int r = 0; r < rows; ++r)
+            for (int c = 0; c < cols; ++c) {
+                const double m = -1 + 2 * (r + 0.5) / rows, p = 2 * kPi * (c + 0.5) / cols;
+                const double st = std::sqrt(1 - m * m);
+                integral += b->pdf(wi, {st * std::cos(p), st * std::sin(p), m}) * (2.0 / rows) *
+                            (2 * kPi / cols);
+            }
+        CHECK(integral == doctest::Approx(1).epsilon(2e-3));
+    }
 }
 
 TEST_CASE("batch calls equal the scalar calls bit for bit, also from several threads") {

@@ -240,7 +240,7 @@ void BoundTable::build_direction_kernel() {
         return;
     for (int d = 0; d < 3; ++d) {
         const FastAxis& f = fast_[d];
-        const bool mu = d == 0 ? layout_.mu_i : layout_.mu_o;
+        const bool mu = d == 0 ? layout_.mu_i : d == 1 && layout_.mu_o;
         const double per_rad = d == 0 ? layout_.per_rad_i : d == 1 ? layout_.per_rad_o
                                                                    : layout_.per_rad_phi;
         double a, b;  // u = (q - b') a'
