@@ -258,6 +258,70 @@ TEST_CASE("direction lookups: the azimuth difference and the pole convention") {
     CHECK_THROWS_AS(bt.eval({0, 0, 1}, {NAN, 0, 1}), InputError);
 }
 
+TEST_CASE("the bound direction kernel on cos-spaced theta and linear mu axes") {
+    // f linear in cos(theta_i), cos(theta_o) (mu) and phi_d: multilinear
+    // interpolation on axes evenly spaced in mu reproduces it, so
+    // BoundTable::eval(wi, wo) is f of the true direction cosines; the
+    // Reject table takes the general path and must agree.
+    auto f = [](double mi, double mo, double pd) { return 1 + 2 * mi + 3 * mo + pd / 90; };
+    const LookupTable cos_axes(make_table(
+        "brdf",
+        {make_axis("theta_i", "deg", 0, 90, 9, Spacing::Cos),
+         make_axis("theta_o", "deg", 0, 90, 12, Spacing::Cos),
+         make_axis("phi_d", "deg", 0, 180, 7, Spacing::Linear)},
+        [&](const std::vector<double>& x) {
+            return f(std::cos(x[0] * kDeg), std::cos(x[1] * kDeg), x[2]);
+        }));
+    const LookupTable mu_axes(make_table(
+        "brdf",
+        {make_axis("mu_i", "1", 0, 1, 6, Spacing::Linear),
+         make_axis("mu_o", "1", -1, 1, 11, Spacing::Linear),
+         make_axis("phi_d", "deg", 0, 180, 5, Spacing::Linear)},
+        [&](const std::vector<double>& x) { return f(x[0], x[1], x[2]); }));
+    const BoundTable bc = cos_axes.bind(), bm = mu_axes.bind();
+    const BoundTable bc_reject = cos_axes.bind({}, Interpolation::Linear, OutOfRange::Reject);
+    std::mt19937_64 rng(12);
+    std::uniform_real_distribution<double> U(0, 1);
+    double worst_cos = 0, worst_mu = 0, worst_reject = 0;
+    for (int n = 0; n < 5000; ++n) {
+        const double ti = 90 * U(rng), to = 180 * U(rng), pi = 360 * U(rng), po = 360 * U(rng);
+        const Vec3 wi = dir(ti, pi), wo = dir(to, po);
+        const double pd = std::fabs(std::remainder(po - pi, 360.0));
+        // Below the horizon the cos axes clamp theta_o to 90 degrees: mu_o = 0.
+        const double mo_clamped = std::max(wo.z, 0.0);
+        worst_cos = std::max(worst_cos, std::fabs(bc.eval(wi, wo) - f(wi.z, mo_clamped, pd)));
+        worst_mu = std::max(worst_mu, std::fabs(bm.eval(wi, wo) - f(wi.z, wo.z, pd)));
+        if (to < 90)
+            worst_reject = std::max(worst_reject, std::fabs(bc_reject.eval(wi, wo) - bc.eval(wi, wo)));
+        // Its pdf and sample agree bit for bit.
+        const SampleResult s = bc.sample(wi, U(rng), U(rng));
+        CHECK(same_bits(s.pdf, bc.pdf(wi, s.wo)));
+        CHECK(same_bits(s.value, bc.eval(wi, s.wo)));
+    }
+    CAPTURE(worst_cos);
+    CAPTURE(worst_mu);
+    CAPTURE(worst_reject);
+    CHECK(worst_cos < 1e-12);
+    CHECK(worst_mu < 1e-12);
+    CHECK(worst_reject < 1e-12);
+    CHECK_THROWS_AS(bc_reject.eval(dir(30, 0), dir(120, 0)), InputError);
+    // Each pdf integrates to 1 over the sphere (midpoint rule in (cos theta,
+    // phi); the density is piecewise constant there).
+    for (const BoundTable* b : {&bc, &bm}) {
+        const Vec3 wi = dir(37, 20);
+        const int rows = 200, cols = 400;
+        double integral = 0;
+        for (int r = 0; r < rows; ++r)
+            for (int c = 0; c < cols; ++c) {
+                const double m = -1 + 2 * (r + 0.5) / rows, p = 2 * kPi * (c + 0.5) / cols;
+                const double st = std::sqrt(1 - m * m);
+                integral += b->pdf(wi, {st * std::cos(p), st * std::sin(p), m}) * (2.0 / rows) *
+                            (2 * kPi / cols);
+            }
+        CHECK(integral == doctest::Approx(1).epsilon(2e-3));
+    }
+}
+
 TEST_CASE("batch calls equal the scalar calls bit for bit, also from several threads") {
     // Cos-spaced theta axes, a linear phi_d axis and a log parameter axis.
     const TableData t = random_table({test::axis("theta_i", "deg", 0, 90, 8, Spacing::Cos),

@@ -41,14 +41,11 @@ void throw_zero_direction() { throw InputError("direction vector has zero or NaN
 // Shared by LookupTable::eval_dirs and BoundTable: angular coordinates of
 // (wi, wo) in axis units.  phi is reduced to the phi axis' span (fold or wrap).
 void direction_coords(const LookupTable::AngleLayout& L, const Axis* phi_axis,
-                      const Vec3& wi, const Vec3& wo, double& xi, double& xo,
-                      double& xphi, double& phi_i) {
-    const double mi = unit_z(wi), mo = unit_z(wo);
-    xi = L.mu_i ? mi : std::acos(mi) / L.scale_i;
-    xo = L.mu_o ? mo : std::acos(mo) / L.scale_o;
+                      const Vec3& wi, const Vec3& wo, double& xi, double& xo, double& xphi) {
+    xi = polar_coordinate(wi, L.mu_i, L.per_rad_i);
+    xo = polar_coordinate(wo, L.mu_o, L.per_rad_o);
     // atan2(0, 0) = 0: a direction on the pole gets azimuth 0, both here and
     // in the sampler, so pdf() and sample() agree there too.
-    phi_i = std::atan2(wi.y, wi.x);
     xphi = phi_axis ? phi_coordinate(L, phi_axis->min, phi_difference(wi.x, wi.y, wo.x, wo.y))
                     : 0.0;
 }
@@ -97,9 +94,9 @@ void LookupTable::dirs_point(const double* pc, const Vec3& wi, const Vec3& wo,
                              double* coords) const {
     const std::size_t width = axes().size() + (terms_.empty() ? 0 : 1);
     std::copy(pc, pc + width, coords);
-    double xi, xo, xphi, phi_i;
+    double xi, xo, xphi;
     const Axis* phi_axis = layout_.axis_phi >= 0 ? &axes()[layout_.axis_phi] : nullptr;
-    direction_coords(layout_, phi_axis, wi, wo, xi, xo, xphi, phi_i);
+    direction_coords(layout_, phi_axis, wi, wo, xi, xo, xphi);
     coords[layout_.axis_i] = xi;
     coords[layout_.axis_o] = xo;
     if (phi_axis) coords[layout_.axis_phi] = xphi;
@@ -172,6 +169,7 @@ BoundTable LookupTable::bind(const std::map<std::string, double>& params,
         b.axes_.push_back(a);
         b.layout_.fold_phi = true;
         b.layout_.scale_phi = kDeg;
+        b.layout_.per_rad_phi = 1 / kDeg;
     }
     const std::size_t ni = b.axes_[0].count, no = b.axes_[1].count, np = b.axes_[2].count;
     for (int d = 0; d < 3; ++d) b.fast_[d].build(b.axes_[d]);
@@ -197,7 +195,8 @@ BoundTable LookupTable::bind(const std::map<std::string, double>& params,
     b.kernel_ = interp == Interpolation::Cubic ? BoundTable::Kernel::GridCubic
                 : all_finite(b.values_)            ? BoundTable::Kernel::GridLinear
                                                    : BoundTable::Kernel::GridLinearNonFinite;
-    b.build_sampling();
+    b.build_sampling();  // with the axis coordinates (the direction kernel is off)
+    b.build_direction_kernel();
     return b;
 }
 
@@ -234,24 +233,82 @@ double BoundTable::eval_angles(double xi, double xo, double xphi) const {
     return contract(ws, strides, 3, values_.data());
 }
 
+void BoundTable::build_direction_kernel() {
+    dir_affine_ = false;
+    if (mode_ != OutOfRange::Clamp ||
+        !(kernel_ == Kernel::GridLinear || kernel_ == Kernel::GridLinearNonFinite))
+        return;
+    for (int d = 0; d < 3; ++d) {
+        const FastAxis& f = fast_[d];
+        const bool mu = d == 0 ? layout_.mu_i : d == 1 && layout_.mu_o;
+        const double per_rad = d == 0 ? layout_.per_rad_i : d == 1 ? layout_.per_rad_o
+                                                                   : layout_.per_rad_phi;
+        double a, b;  // u = (q - b') a'
+        if (f.warp == FastAxis::Warp::Linear && f.span > 0 && (d < 2 || layout_.fold_phi)) {
+            // theta or |phi_d| in radians times per_rad, or mu.
+            a = (mu ? 1.0 : per_rad) * f.last / f.span;
+            b = -f.min * f.last / f.span;
+            if (d < 2) dir_cos_[d] = mu;
+        } else if (d < 2 && !mu && f.warp == FastAxis::Warp::Cos && f.dc != 0) {
+            a = f.last / f.dc;  // t = (cos(theta) - c0) / dc
+            b = -f.c0 * f.last / f.dc;
+            dir_cos_[d] = true;
+        } else {
+            return;
+        }
+        dir_a_[d] = a;
+        dir_b_[d] = b;
+    }
+    dir_affine_ = true;
+}
+
+double BoundTable::direction_coord(const Vec3& w, int axis) const {
+    if (!dir_affine_)
+        return axis == 0 ? polar_coordinate(w, layout_.mu_i, layout_.per_rad_i)
+                         : polar_coordinate(w, layout_.mu_o, layout_.per_rad_o);
+    const double q = dir_cos_[axis] ? unit_z(w) : polar_coordinate(w, false, 1.0);
+    return q * dir_a_[axis] + dir_b_[axis];
+}
+
+// The direction kernel's lookup at node coordinates u (clamped here).  With
+// finite values the corners are blended as a + s (b - a), two operations a
+// blend instead of contract()'s three (the direction kernel is bound to no
+// other lookup's bits); with non-finite ones as contract() does, which
+// skips zero weights.
+double BoundTable::eval_u(const double* u) const {
+    const std::size_t strides[3] = {stride_i_, stride_o_, 1};
+    double s[3];
+    std::size_t offset = 0;
+#pragma GCC unroll 3
+    for (int d = 0; d < 3; ++d) offset += linear_cell_u(fast_[d], u[d], s[d]) * strides[d];
+    const double* v = values_.data() + offset;
+    if (kernel_ != Kernel::GridLinear) return multilinear<3, true>(v, strides, s);
+    const std::size_t si = stride_i_, so = stride_o_;
+    auto lerp = [](double a, double b, double t) { return a + t * (b - a); };
+    const double c00 = lerp(v[0], v[1], s[2]), c01 = lerp(v[so], v[so + 1], s[2]);
+    const double c10 = lerp(v[si], v[si + 1], s[2]), c11 = lerp(v[si + so], v[si + so + 1], s[2]);
+    return lerp(lerp(c00, c01, s[1]), lerp(c10, c11, s[1]), s[0]);
+}
+
 BoundTable::Incident BoundTable::incident(const Vec3& wi) const {
     Incident in;
-    const double mi = unit_z(wi);
+    in.xi = direction_coord(wi, 0);
     in.x = wi.x;
     in.y = wi.y;
-    in.xi = layout_.mu_i ? mi : std::acos(mi) / layout_.scale_i;
     return in;
 }
 
-double BoundTable::eval_from(const Incident& in, double mo, double d) const {
-    const double xo = layout_.mu_o ? mo : std::acos(mo) / layout_.scale_o;
+double BoundTable::eval_from(const Incident& in, double xo, double d) const {
+    if (dir_affine_) {
+        const double u[3] = {in.xi, xo, std::fabs(d) * dir_a_[2] + dir_b_[2]};
+        return eval_u(u);
+    }
     return eval_angles(in.xi, xo, phi_coordinate(layout_, axes_[2].min, d));
 }
 
 double BoundTable::eval(const Vec3& wi, const Vec3& wo) const {
     const Incident in = incident(wi);
-    const double mo = unit_z(wo);
-    return eval_from(in, mo, phi_difference(in.x, in.y, wo.x, wo.y));
+    return eval_from(in, direction_coord(wo, 1), phi_difference(in.x, in.y, wo.x, wo.y));
 }
 
 void BoundTable::eval_many(const double* wi, const double* wo, std::size_t count,

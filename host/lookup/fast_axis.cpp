@@ -47,6 +47,7 @@ void FastAxis::build(const Axis& a) {
     tol = 1e-9 * (a.max - a.min);
     span = a.max - a.min;
     dependent = a.dependent();
+    if (!dependent && a.values.size() >= 2) cells.build(a.values);
     mirror = a.name == "phi_d" && a.spacing == Spacing::Linear && std::fabs(a.min) < 1e-9 &&
              (a.unit == "rad" ? std::fabs(a.max - lookup_internal::kPi) < 1e-9
                               : std::fabs(a.max - 180.0) < 1e-9);

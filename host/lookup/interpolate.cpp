@@ -201,6 +201,28 @@ double LookupTable::linear_kernel(const LookupTable& lt, const double* coords, O
     const std::size_t* strides = lt.strides_.data();
     double s[D];
     std::size_t offset = 0;
+    if constexpr (D >= 4) {
+        // Tables of 4 or more axes rarely fit the caches, and the inverse
+        // warps (a log, divisions) delay the corner loads: start them from
+        // the cells' node-index guesses (a prefetch, correct but for
+        // rounding at a node), then compute the exact cell.
+        std::size_t guess = 0;
+#pragma GCC unroll 8
+        for (int d = 0; d < D; ++d) {
+            const FastAxis& f = fast[d];
+            double x = coords[d];
+            x = x > f.min ? (x < f.max ? x : f.max) : f.min;  // NaN: min
+            guess += f.cells.cell(x) * strides[d];
+        }
+        const double* v = lt.pieces_.front().value.data() + guess;
+        const std::size_t* lines = lt.corner_lines_.data();
+        const std::size_t last = strides[D - 1];
+#pragma GCC unroll 16
+        for (std::size_t corner = 0; corner < (std::size_t(1) << (D - 1)); ++corner) {
+            __builtin_prefetch(v + lines[corner]);
+            __builtin_prefetch(v + lines[corner] + last);
+        }
+    }
 #pragma GCC unroll 8
     for (int d = 0; d < D; ++d) {
         const double x = resolve_fast(fast[d], ax[d], coords[d], mode, lt.pieces_.front().name);
@@ -237,6 +259,10 @@ void LookupTable::choose_linear_kernel() {
                                &linear_kernel<5, false>, &linear_kernel<6, false>,
                                &linear_kernel<7, false>, &linear_kernel<8, false>};
     linear_ = finite ? plain[dims - 1] : skip[dims - 1];
+    corner_lines_.assign(std::size_t(1) << (dims - 1), 0);
+    for (std::size_t corner = 0; corner < corner_lines_.size(); ++corner)
+        for (std::size_t d = 0; d + 1 < dims; ++d)
+            if ((corner >> d) & 1) corner_lines_[corner] += strides_[d];
 }
 
 double LookupTable::eval_point(const double* coords, Interpolation interp,

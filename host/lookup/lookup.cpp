@@ -268,6 +268,9 @@ void LookupTable::init_angles() {
             L.scale_phi = kDeg;
         }
     }
+    L.per_rad_i = 1 / L.scale_i;
+    L.per_rad_o = 1 / L.scale_o;
+    L.per_rad_phi = 1 / L.scale_phi;
     layout_ = L;
 }
 

@@ -72,6 +72,9 @@ struct NodeIndex {
         const double f = (x - lo) * inv_width;
         const std::size_t bins = start.size();
         std::size_t k = f > 0 ? (f < double(bins) ? start[std::size_t(f)] : start[bins - 1]) : 0;
+        // The first step up without a branch (a quarter of the points need
+        // it on evenly spaced nodes), further ones in the loop.
+        if (k + 2 < n) k += std::size_t(!(x < nodes[k + 1]));
         while (k + 2 < n && !(x < nodes[k + 1])) ++k;
         while (k > 0 && x < nodes[k]) --k;
         return k;
@@ -99,6 +102,9 @@ struct FastAxis {
     double pivot = 0;                    // log-complement
     double half_turn = 0, turn = 0;      // periodic: 180 or pi, and twice that
     NodeIndex explicit_nodes;            // explicit
+    // The node list of an independent axis, for guessing a lookup's cell
+    // before its inverse warp is computed (prefetching on large tables).
+    NodeIndex cells;
     void build(const Axis& a);
 };
 
@@ -260,6 +266,7 @@ public:
         int axis_i = -1, axis_o = -1, axis_phi = -1;  // indices into axes()
         bool mu_i = false, mu_o = false;              // mu axes instead of theta
         double scale_i = 1, scale_o = 1, scale_phi = 1;  // radians per unit (deg or rad)
+        double per_rad_i = 1, per_rad_o = 1, per_rad_phi = 1;  // units per radian: 1 / scale
         bool fold_phi = true;   // phi_d axis within [0, 180]: fold by isotropy
     };
 
@@ -285,6 +292,10 @@ private:
     template <int D>
     static double adaptive_kernel(const LookupTable& lt, const double* coords, OutOfRange mode);
     double (*linear_)(const LookupTable&, const double*, OutOfRange) = nullptr;
+    // Offsets of the cache lines a linear lookup's corners start on (the
+    // last axis' pair shares them), from the first corner; for the prefetch
+    // of tables of 4 or more axes.
+    std::vector<std::size_t> corner_lines_;
     void dirs_point(const double* param_coords, const Vec3& wi, const Vec3& wo,
                     double* coords) const;
     void resolve_param(double& p, OutOfRange mode) const;
@@ -370,10 +381,26 @@ private:
     enum class Kernel : std::uint8_t { GridLinear, GridLinearNonFinite, GridCubic, Adaptive };
 
     double eval_angles(double x_i, double x_o, double phi) const;
+    // The direction kernel (build_direction_kernel()): on a linear grid
+    // kernel in Clamp mode, when each axis' node coordinate u = t (count - 1)
+    // is affine in a quantity q of the directions, u = q dir_a_ + dir_b_
+    // with q the polar angle in radians (linear theta axis), its cosine
+    // (cos-spaced theta axis, linear mu axis) or |phi_o - phi_i| (linear
+    // folded phi_d axis): no unwarp, no division, no range branches.
+    // Incident::xi and the x_o of eval_from() then hold u instead of the
+    // axis coordinate.
+    bool dir_affine_ = false;
+    bool dir_cos_[2] = {false, false};  // axes 0, 1: q = cos(theta)
+    double dir_a_[3] = {0, 0, 0}, dir_b_[3] = {0, 0, 0};
+    void build_direction_kernel();
+    double direction_coord(const Vec3& w, int axis) const;  // axis 0 (wi) or 1 (wo)
+    double eval_u(const double* u) const;
     Incident incident(const Vec3& wi) const;          // without the node mixture
     Incident incident_sampled(const Vec3& wi) const;  // with it (sampling only)
-    // At an outgoing direction given by mo = cos(theta_o) and d = phi_o - phi_i.
-    double eval_from(const Incident& in, double mo, double d) const;
+    // At an outgoing direction given by its polar coordinate xo (theta_o or
+    // mu_o in axis units; eval_from) or mo = cos(theta_o) (pdf_from), and
+    // d = phi_o - phi_i.
+    double eval_from(const Incident& in, double xo, double d) const;
     double pdf_from(const Incident& in, double mo, double d) const;
     SampleResult sample_from(const Incident& in, double u1, double u2) const;
     void build_sampling();

@@ -13,6 +13,7 @@
 
 #include "host/core/grid.h"
 #include "host/core/table.h"
+#include "host/lookup/fast_trig.h"
 #include "host/lookup/lookup.h"
 
 namespace brdftab::lookup_internal {
@@ -117,8 +118,13 @@ BT_LOOKUP_INLINE double unwarp_fast(const FastAxis& f, const Axis& a, double x) 
 // The linear cell of normalised coordinate t: node k = min(floor(u),
 // count - 2) for u = t (count - 1) clamped to [0, count - 1], and the
 // fraction s in [0, 1] (the weights 1 - s, s of nodes k, k + 1).
+BT_LOOKUP_INLINE std::size_t linear_cell_u(const FastAxis& f, double u, double& s);
 BT_LOOKUP_INLINE std::size_t linear_cell(const FastAxis& f, double t, double& s) {
-    double u = t * f.last;
+    return linear_cell_u(f, t * f.last, s);
+}
+
+// The same from the node coordinate u = t (count - 1).
+BT_LOOKUP_INLINE std::size_t linear_cell_u(const FastAxis& f, double u, double& s) {
     if (!(u >= 0)) u = 0;  // also catches NaN from a degenerate warp
     if (u > f.last) u = f.last;
     // Signed conversions: u and k are small non-negative numbers, and the
@@ -208,19 +214,31 @@ BT_LOOKUP_INLINE double unit_z(const Vec3& w) {
     return std::min(1.0, std::max(-1.0, w.z / l));
 }
 
+// The coordinate of w's polar angle on a mu axis (unit_z()) or on a theta
+// axis: atan2(sqrt(x^2 + y^2), z) in radians times `per_rad` (axis units
+// per radian), from the fast atan2 (fast_trig.h, within 2.5e-15 rad of
+// std::acos(unit_z(w))), without normalising w.  The same InputError as
+// unit_z() for a zero or NaN vector.
+BT_LOOKUP_INLINE double polar_coordinate(const Vec3& w, bool mu, double per_rad) {
+    if (mu) return unit_z(w);
+    const double r2 = w.x * w.x + w.y * w.y;
+    if (!(r2 + w.z * w.z > 0)) throw_zero_direction();
+    return fast_trig::atan2(std::sqrt(r2), w.z) * per_rad;
+}
+
 // phi_o - phi_i in (-pi, pi] from the tangent components of wi and wo, with
 // phi = atan2(y, x) (0 on the pole).  One atan2 of the cross and dot
 // products instead of the difference of two: the same angle up to rounding
-// (a few 1e-16 rad).  A direction on the pole keeps azimuth 0, as in the
-// sampler.
+// (a few 1e-16 rad), and the fast atan2 adds at most 2.5e-15 rad.  A
+// direction on the pole keeps azimuth 0, as in the sampler.
 BT_LOOKUP_INLINE double phi_difference(double ix, double iy, double ox, double oy) {
     double d;
     if (ix == 0 && iy == 0)
-        d = std::atan2(oy, ox);
+        d = fast_trig::atan2(oy, ox);
     else if (ox == 0 && oy == 0)
-        d = -std::atan2(iy, ix);
+        d = -fast_trig::atan2(iy, ix);
     else
-        d = std::atan2(ix * oy - iy * ox, ix * ox + iy * oy);
+        d = fast_trig::atan2(ix * oy - iy * ox, ix * ox + iy * oy);
     if (d <= -kPi) d += 2 * kPi;
     return d;
 }
@@ -229,17 +247,19 @@ BT_LOOKUP_INLINE double phi_difference(double ix, double iy, double ox, double o
 // |d| when the axis is folded (isotropy), else wrapped into
 // [min, min + 360).
 BT_LOOKUP_INLINE double phi_coordinate(const LookupTable::AngleLayout& L, double axis_min, double d) {
-    if (L.fold_phi) return std::fabs(d) / L.scale_phi;
-    const double period = 2 * kPi / L.scale_phi;
-    double v = std::fmod(d / L.scale_phi - axis_min, period);
-    if (v < 0) v += period;
+    if (L.fold_phi) return std::fabs(d) * L.per_rad_phi;
+    const double period = 2 * kPi * L.per_rad_phi;
+    double v = d * L.per_rad_phi - axis_min;
+    if (!(v >= 0 && v < period)) {
+        v = std::fmod(v, period);
+        if (v < 0) v += period;
+    }
     return axis_min + v;
 }
 
 // Angular coordinates of (wi, wo) in axis units, phi reduced to the phi
 // axis' span (directions.cpp).
 void direction_coords(const LookupTable::AngleLayout& L, const Axis* phi_axis,
-                      const Vec3& wi, const Vec3& wo, double& xi, double& xo,
-                      double& xphi, double& phi_i);
+                      const Vec3& wi, const Vec3& wo, double& xi, double& xo, double& xphi);
 
 }  // namespace brdftab::lookup_internal

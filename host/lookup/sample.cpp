@@ -149,10 +149,17 @@ void BoundTable::build_sampling() {
 
 namespace {
 // Pick cell c with cdf[c] <= u < cdf[c+1] (never a zero-probability cell) and
-// return u rescaled to [0, 1) within it.
+// return u rescaled to [0, 1) within it.  The search is std::upper_bound's
+// over cdf[0..cells], branch-free: its steps depend on `cells` alone.
 std::size_t pick(const double* cdf, std::size_t cells, double& u) {
     u = std::min(std::max(u, 0.0), 1.0);
-    std::size_t c = std::size_t(std::upper_bound(cdf, cdf + cells + 1, u) - cdf);
+    const double* base = cdf;
+    for (std::size_t len = cells + 1; len > 1;) {
+        const std::size_t half = len / 2;
+        base = u < base[half] ? base : base + half;
+        len -= half;
+    }
+    std::size_t c = std::size_t(base - cdf) + (u < *base ? 0 : 1);  // upper_bound
     c = c == 0 ? 0 : c - 1;
     if (c >= cells) c = cells - 1;
     while (c > 0 && !(cdf[c + 1] > cdf[c])) --c;  // u == 1 lands past the last positive cell
@@ -163,9 +170,13 @@ std::size_t pick(const double* cdf, std::size_t cells, double& u) {
 }  // namespace
 
 void BoundTable::node_mixture(double xi, std::size_t& j0, double& w1) const {
-    xi = resolve_fast(fast_[0], axes_[0], xi, mode_, name_);
     double s;
-    j0 = linear_cell(fast_[0], unwarp_fast(fast_[0], axes_[0], xi), s);
+    if (dir_affine_) {  // xi is the node coordinate u
+        j0 = linear_cell_u(fast_[0], xi, s);
+    } else {
+        xi = resolve_fast(fast_[0], axes_[0], xi, mode_, name_);
+        j0 = linear_cell(fast_[0], unwarp_fast(fast_[0], axes_[0], xi), s);
+    }
     w1 = s;
 }
 
@@ -177,14 +188,23 @@ BoundTable::Incident BoundTable::incident_sampled(const Vec3& wi) const {
 
 // The mixture of the two theta_i nodes' piecewise-constant densities at wo.
 double BoundTable::pdf_from(const Incident& in, double mu, double d) const {
-    const double phi = phi_coordinate(layout_, axes_[2].min, d) * layout_.scale_phi;
     // theta_o cell: mu outside the nodes' range has density 0.
     const std::size_t no = mu_nodes_o_.size(), np = phi_nodes_.size();
     const double lo = std::min(mu_nodes_o_[0], mu_nodes_o_[no - 1]);
     const double hi = std::max(mu_nodes_o_[0], mu_nodes_o_[no - 1]);
     if (mu < lo || mu > hi) return 0;
-    const std::size_t k = mu_index_.cell(layout_.mu_o ? mu : -mu);
-    const std::size_t l = phi_index_.cell(phi);
+    std::size_t k, l;
+    double s;
+    // With the direction kernel, the cells of axes evenly spaced in mu and
+    // of the phi_d axis follow from its affine node coordinates.
+    if (dir_affine_ && dir_cos_[1])
+        k = linear_cell_u(fast_[1], mu * dir_a_[1] + dir_b_[1], s);
+    else
+        k = mu_index_.cell(layout_.mu_o ? mu : -mu);
+    if (dir_affine_)
+        l = linear_cell_u(fast_[2], std::fabs(d) * dir_a_[2] + dir_b_[2], s);
+    else
+        l = phi_index_.cell(phi_coordinate(layout_, axes_[2].min, d) * layout_.scale_phi);
     const std::size_t cells = (no - 1) * (np - 1), c = k * (np - 1) + l;
     const double w1 = in.w1;
     double p = 0;
@@ -213,27 +233,24 @@ void BoundTable::pdf_many(const double* wi, const double* wo, std::size_t count,
 SampleResult BoundTable::sample_from(const Incident& in, double u1, double u2) const {
     // Choose the theta_i node with probability equal to its interpolation
     // weight, re-using u1.
+    // Both choices below are taken at random, half of the time each: as 0/1
+    // factors, not branches, which would be mispredicted as often.
     const double w1 = in.w1;
-    std::size_t j = in.j0;
     u1 = std::min(std::max(u1, 0.0), 1.0);
-    if (w1 > 0 && u1 < w1) {
-        j = in.j0 + 1;
-        u1 = u1 / w1;
-    } else if (w1 < 1) {
-        u1 = (u1 - w1) / (1 - w1);
-    }
+    const int up = w1 > 0 && u1 < w1;  // node j0 + 1, u1 rescaled from [0, w1)
+    const double upf = double(up);
+    const std::size_t j = in.j0 + std::size_t(up);
+    const double num = u1 - (1 - upf) * w1, den = upf * w1 + (1 - upf) * (1 - w1);
+    u1 = den > 0 ? num / den : u1;
     const std::size_t no = mu_nodes_o_.size(), np = phi_nodes_.size();
     const std::size_t co = no - 1, cp = np - 1;
     const std::size_t k = pick(cdf_o_.data() + j * no, co, u1);
     const std::size_t l = pick(cdf_phi_.data() + (j * co + k) * np, cp, u2);
     double sign = 1;
     if (phi_mult_ == 2) {  // mirror: phi_d and -phi_d equally likely
-        if (u2 < 0.5) {
-            u2 *= 2;
-        } else {
-            sign = -1;
-            u2 = 2 * u2 - 1;
-        }
+        const double neg = double(u2 >= 0.5);
+        sign = 1 - 2 * neg;
+        u2 = 2 * u2 - neg;
     }
     // Uniform in (cos theta, phi) inside the cell: constant density in solid angle.
     const double mu = mu_nodes_o_[k] + u1 * (mu_nodes_o_[k + 1] - mu_nodes_o_[k]);
@@ -244,16 +261,20 @@ SampleResult BoundTable::sample_from(const Incident& in, double u1, double u2) c
     double ci = 1, si = 0;
     const double r = std::sqrt(in.x * in.x + in.y * in.y);
     if (r > 0) {
-        ci = in.x / r;
-        si = in.y / r;
+        const double inv = 1 / r;
+        ci = in.x * inv;
+        si = in.y * inv;
     }
-    const double cp_ = std::cos(pd), sp = sign * std::sin(pd);
+    double cp_, sp;
+    fast_trig::sincos(pd, sp, cp_);  // |pd| <= 2 pi
+    sp *= sign;
     SampleResult res;
     res.wo = {st * (ci * cp_ - si * sp), st * (si * cp_ + ci * sp), mu};
-    // pdf() and eval() at wo, sharing its cosine and azimuth difference.
+    // pdf() and eval() at wo, sharing its azimuth difference: the same
+    // functions of wo as there, so the same bits.
     const double mo = unit_z(res.wo), d = phi_difference(in.x, in.y, res.wo.x, res.wo.y);
     res.pdf = pdf_from(in, mo, d);
-    res.value = eval_from(in, mo, d);
+    res.value = eval_from(in, direction_coord(res.wo, 1), d);
     res.weight = res.pdf > 0 ? res.value * std::fabs(mu) / res.pdf : 0.0;
     return res;
 }
