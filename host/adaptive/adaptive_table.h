@@ -117,7 +117,8 @@ struct AdaptiveTable {
     void to_x(const double* t, double* x) const;
     // Value at a point in axis units.
     double eval(const double* x) const;
-    std::size_t value_count() const { return data.value.size(); }
+    std::size_t value_count() const { return data.value.size(); }  // every node's, hanging ones included
+    std::size_t stored_count() const { return layout.stored_count(data.value.size()); }
 };
 
 // A declared breakpoint of one axis, in t.
