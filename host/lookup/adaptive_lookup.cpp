@@ -142,13 +142,15 @@ double adaptive_value(const AdaptiveTable& at, const AdaptiveKernel& k, const Tr
     double t[D];
     t_of<D>(at, fast, dependency, x, t);
     // The grid cell of t: floor(t 2^bits) is exact (a power of two).
-    const double g = double(std::size_t{1} << k.grid_bits);
-    const std::size_t last = (std::size_t{1} << k.grid_bits) - 1;
     std::size_t cell = 0;
 #pragma GCC unroll 8
-    for (int d = 0; d < D; ++d)
-        cell = (cell << k.grid_bits) | std::min(static_cast<std::size_t>(t[d] * g), last);
-    const std::size_t leaf = leaf_at(tree, t, k.start[cell]);
+    for (int d = 0; d < D; ++d) {
+        const std::size_t per = std::size_t{1} << k.grid_bits[d];
+        cell = (cell << k.grid_bits[d]) | std::min(static_cast<std::size_t>(t[d] * double(per)), per - 1);
+    }
+    const std::uint32_t s = k.start[cell];
+    const std::size_t leaf =
+        s & AdaptiveKernel::kStartLeaf ? std::size_t(s & ~AdaptiveKernel::kStartLeaf) : leaf_at(tree, t, s);
     if constexpr (Order > 0)
         return leaf_packed<D, Order>(k, leaf, t);
     else
@@ -222,14 +224,47 @@ AdaptiveKernel choose_kernel(const AdaptiveTable& at) {
         }
     }
     k.value = !same ? kernel_for<0>(dims) : order == 2 ? kernel_for<2>(dims) : kernel_for<1>(dims);
-    // The start grid: at most 2^15 cells, at most 2^6 per axis.
-    k.grid_bits = unsigned(std::min<std::size_t>(6, 15 / dims));
-    const std::size_t per = std::size_t{1} << k.grid_bits, cells = std::size_t{1} << (k.grid_bits * dims);
+    // The start grid: 2^16 cells (256 KiB; more cost more in cache misses
+    // than they save in descent on bench/bench_lookup's table), the bits
+    // shared out among the axes by the leaves' mean depth along each
+    // (weighted by volume: where a uniform query lands), at most 10 per axis.
+    std::vector<double> depth(dims, 0.0);
+    for (std::size_t l = 0; l < leaves; ++l) {
+        const double* b = L.box.data() + l * dims * 2;
+        double vol = 1;
+        for (std::size_t a = 0; a < dims; ++a) vol *= b[2 * a + 1] - b[2 * a];
+        for (std::size_t a = 0; a < dims; ++a) depth[a] += vol * -std::log2(b[2 * a + 1] - b[2 * a]);
+    }
+    unsigned total = 0;
+    for (std::size_t a = 0; a < dims; ++a) {
+        k.grid_bits[a] = unsigned(std::clamp(std::ceil(depth[a]) + 1, 0.0, 10.0));
+        total += k.grid_bits[a];
+    }
+    const unsigned budget = 16;
+    while (total > budget) {
+        std::size_t m = 0;
+        for (std::size_t a = 1; a < dims; ++a)
+            if (k.grid_bits[a] > k.grid_bits[m]) m = a;
+        --k.grid_bits[m];
+        --total;
+    }
+    // Bits left over go to the axes deepest against the bits they have.
+    while (total < budget) {
+        std::size_t m = dims;
+        for (std::size_t a = 0; a < dims; ++a)
+            if (k.grid_bits[a] < 10 && (m == dims || depth[a] - k.grid_bits[a] > depth[m] - k.grid_bits[m])) m = a;
+        if (m == dims) break;
+        ++k.grid_bits[m];
+        ++total;
+    }
+    const std::size_t cells = std::size_t{1} << total;
     k.start.assign(cells, 0);
     for (std::size_t c = 0; c < cells; ++c) {
         double lo[8], hi[8];  // the cell's closed box [lo, hi] in t
-        for (std::size_t a = 0; a < dims; ++a) {
-            const std::size_t i = (c >> (k.grid_bits * (dims - 1 - a))) & (per - 1);
+        std::size_t r = c;
+        for (std::size_t a = dims; a-- > 0;) {
+            const std::size_t per = std::size_t{1} << k.grid_bits[a], i = r & (per - 1);
+            r >>= k.grid_bits[a];
             lo[a] = double(i) / double(per);
             hi[a] = double(i + 1) / double(per);
         }
@@ -243,7 +278,9 @@ AdaptiveKernel choose_kernel(const AdaptiveTable& at) {
             else
                 break;  // the cut crosses the cell
         }
-        k.start[c] = node;
+        k.start[c] = L.split_axis[node] < 0 && L.lower[node] < AdaptiveKernel::kStartLeaf
+                         ? AdaptiveKernel::kStartLeaf | L.lower[node]
+                         : node;
     }
     return k;
 }

@@ -114,10 +114,13 @@ struct AdaptiveKernel {
     std::size_t leaf_stride = 0;
     std::shared_ptr<const std::vector<double>> leaf_blocks;
     const double* leaves = nullptr;
-    // A uniform grid of 2^grid_bits cells per axis over t: per cell the
-    // deepest tree node whose box holds the whole cell, where the descent
-    // starts (it would reach that node anyway: the same leaf).
-    unsigned grid_bits = 0;
+    // A uniform grid of 2^grid_bits[a] cells along axis a over t (cells
+    // numbered with the last axis fastest): per cell the deepest tree node
+    // whose box holds the whole cell, where the descent starts (it would
+    // reach that node anyway: the same leaf), or kStartLeaf | the leaf when
+    // that node is a leaf.
+    static constexpr std::uint32_t kStartLeaf = 0x80000000u;
+    unsigned grid_bits[8] = {0, 0, 0, 0, 0, 0, 0, 0};
     std::vector<std::uint32_t> start;
     // The value at resolved coordinates x (every axis inside its range).
     double (*value)(const AdaptiveTable& at, const AdaptiveKernel& k, const TreeNode* tree,
