@@ -13,6 +13,7 @@
 
 #include "test_support.h"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <functional>
@@ -495,6 +496,20 @@ TEST_CASE("adaptive tables round-trip through HDF5; tensor readers refuse them")
     CHECK(worst <= 0.1 * t.data.round_accuracy);
     CHECK(r32.data.round_accuracy == t.data.round_accuracy);
 
+    // A hanging node constrained by a leaf that has it as its own node
+    // would need its own value: the reader refuses the file.
+    {
+        REQUIRE(!t.layout.hanging_leaf.empty());
+        AdaptiveTable bad = t;
+        const std::size_t first = bad.layout.stored_count(bad.data.value.size());
+        const std::size_t per = bad.layout.nodes_per_leaf();
+        const auto at = std::find(bad.layout.leaf_nodes.begin(), bad.layout.leaf_nodes.end(), std::uint32_t(first));
+        REQUIRE(at != bad.layout.leaf_nodes.end());
+        bad.layout.hanging_leaf[0] = std::uint32_t(std::size_t(at - bad.layout.leaf_nodes.begin()) / per);
+        const std::string pb = (dir / "h.h5").string();
+        write_table_file(pb, {}, {bad});
+        CHECK_THROWS_WITH_AS(read_adaptive_table(pb, "albedo"), doctest::Contains("hanging node"), InputError);
+    }
     // A damaged layout is refused, naming the table.
     t.layout.leaf_nodes[0] = std::uint32_t(t.data.value.size());
     CHECK_THROWS_WITH_AS(write_table_file((dir / "c.h5").string(), {}, {t}), doctest::Contains("leaf_nodes"),
