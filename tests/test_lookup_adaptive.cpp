@@ -42,8 +42,9 @@ using Fn = std::function<double(const double*)>;
 
 // A 4-D adaptive table over (theta_i, theta_o, phi_d, alpha) of f(t).
 AdaptiveTable make_table(const Fn& f, double target, std::size_t max_values,
-                         const std::vector<std::vector<AdaptiveBreakpoint>>& bp) {
+                         const std::vector<std::vector<AdaptiveBreakpoint>>& bp, int order = 1) {
     AdaptiveBuildOptions o;
+    o.patch_order = order;
     o.target = target;
     o.max_values = max_values;
     o.breakpoints = bp;
@@ -111,50 +112,56 @@ TEST_CASE("adaptive lookup: a piecewise multilinear function in t is reproduced 
 }
 
 TEST_CASE("adaptive lookup: eval, eval_many and the file path equal AdaptiveTable::eval bit for bit") {
-    const AdaptiveTable at = make_table(smooth, 1e-3, 30000, {});
-    REQUIRE(at.layout.leaf_count() > 20);  // the tree descent is exercised
-    const auto dir_path = test::scratch_dir(BT_BINARY_DIR, "test_lookup_adaptive", "io");
-    const std::string path = (dir_path / "a.h5").string();
-    write_table_file(path, {}, {at});
-    const LookupTable mem(at);
-    const LookupTable file = LookupTable::open(path, "f");
-    CHECK(file.is_adaptive());
-    CHECK(file.coordinate_names() == std::vector<std::string>{"theta_i", "theta_o", "phi_d", "alpha"});
-    const AdaptiveTable back = read_adaptive_table(path, "f");
-    std::mt19937_64 rng(5);
-    std::uniform_real_distribution<double> u(0, 1);
-    const std::size_t n = 5000;
-    std::vector<double> pts(4 * n), many(n);
-    for (std::size_t k = 0; k < n; ++k) {
-        double* x = pts.data() + 4 * k;
-        x[0] = 90 * u(rng);
-        x[1] = 90 * u(rng);
-        x[2] = 180 * u(rng);
-        x[3] = 0.01 + 0.99 * u(rng);
-        if (k % 50 == 0) x[1] = 90;  // the upper end
-        if (k % 50 == 1) x[3] = 1.3;  // outside alpha: clamped alike
+    for (int order : {1, 2}) {
+        CAPTURE(order);
+        // A breakpoint on theta_o: leaf boxes whose bounds are not dyadic.
+        const AdaptiveTable at = make_table(smooth, 1e-3, 30000, {{}, {{0.3, false}}, {}, {}}, order);
+        REQUIRE(at.layout.leaf_count() > 20);  // the tree descent is exercised
+        REQUIRE(!at.layout.hanging_leaf.empty());
+        const auto dir_path = test::scratch_dir(BT_BINARY_DIR, "test_lookup_adaptive", "io");
+        const std::string path = (dir_path / ("a" + std::to_string(order) + ".h5")).string();
+        write_table_file(path, {}, {at});
+        const LookupTable mem(at);
+        const LookupTable file = LookupTable::open(path, "f");
+        CHECK(file.is_adaptive());
+        CHECK(file.coordinate_names() == std::vector<std::string>{"theta_i", "theta_o", "phi_d", "alpha"});
+        const AdaptiveTable back = read_adaptive_table(path, "f");
+        std::mt19937_64 rng(5);
+        std::uniform_real_distribution<double> u(0, 1);
+        const std::size_t n = 5000;
+        std::vector<double> pts(4 * n), many(n);
+        for (std::size_t k = 0; k < n; ++k) {
+            double* x = pts.data() + 4 * k;
+            x[0] = 90 * u(rng);
+            x[1] = 90 * u(rng);
+            x[2] = 180 * u(rng);
+            x[3] = 0.01 + 0.99 * u(rng);
+            if (k % 50 == 0) x[1] = 90;  // the upper end
+            if (k % 50 == 1) x[3] = 1.3;  // outside alpha: clamped alike
+        }
+        file.eval_many(pts.data(), n, many.data());
+        std::size_t same = 0;
+        for (std::size_t k = 0; k < n; ++k) {
+            const double* x = pts.data() + 4 * k;
+            const double ref = back.eval(x);
+            const double v = file.eval(x);
+            same += v == ref && mem.eval(x) == at.eval(x) && many[k] == v &&
+                    file.eval(std::vector<double>(x, x + 4)) == v;
+        }
+        CHECK(same == n);
+        if (order == 2) continue;
+        // Out-of-range policy, cubic and the tensor-only calls.
+        CHECK_THROWS_WITH_AS(file.eval({10.0, 10.0, 10.0, 1.3}, Interpolation::Linear, OutOfRange::Reject),
+                             doctest::Contains("alpha"), InputError);
+        CHECK_THROWS_WITH_AS(file.eval({10.0, 10.0, 10.0, 0.5}, Interpolation::Cubic),
+                             doctest::Contains("adaptive"), InputError);
+        CHECK_THROWS_WITH_AS(file.bind({{"alpha", 0.5}}, Interpolation::Cubic), doctest::Contains("adaptive"),
+                             InputError);
+        std::vector<std::size_t> cells;
+        CHECK_THROWS_AS(file.stencil_cells({10.0, 10.0, 10.0, 0.5}, Interpolation::Linear, OutOfRange::Clamp, cells),
+                        InputError);
+        CHECK(stderr_lookup(file) == nullptr);  // no stderr stored
     }
-    file.eval_many(pts.data(), n, many.data());
-    std::size_t same = 0;
-    for (std::size_t k = 0; k < n; ++k) {
-        const double* x = pts.data() + 4 * k;
-        const double ref = back.eval(x);
-        const double v = file.eval(x);
-        same += v == ref && mem.eval(x) == at.eval(x) && many[k] == v &&
-                file.eval(std::vector<double>(x, x + 4)) == v;
-    }
-    CHECK(same == n);
-    // Out-of-range policy, cubic and the tensor-only calls.
-    CHECK_THROWS_WITH_AS(file.eval({10.0, 10.0, 10.0, 1.3}, Interpolation::Linear, OutOfRange::Reject),
-                         doctest::Contains("alpha"), InputError);
-    CHECK_THROWS_WITH_AS(file.eval({10.0, 10.0, 10.0, 0.5}, Interpolation::Cubic),
-                         doctest::Contains("adaptive"), InputError);
-    CHECK_THROWS_WITH_AS(file.bind({{"alpha", 0.5}}, Interpolation::Cubic), doctest::Contains("adaptive"),
-                         InputError);
-    std::vector<std::size_t> cells;
-    CHECK_THROWS_AS(file.stencil_cells({10.0, 10.0, 10.0, 0.5}, Interpolation::Linear, OutOfRange::Clamp, cells),
-                    InputError);
-    CHECK(stderr_lookup(file) == nullptr);  // no stderr stored
 }
 
 TEST_CASE("adaptive lookup: eval_dirs and bind agree with eval at the directions' coordinates") {

@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include <nlohmann/json.hpp>
 
@@ -55,8 +56,15 @@ void add_adaptive_table(TableFileWriter& out, const AdaptiveTable& t) {
     Handle group(H5Gopen2(file, t.data.name.c_str(), H5P_DEFAULT), H5Gclose, "H5Gopen2", t.data.name);
     const AdaptiveLayout& L = t.layout;
     const bool with_stderr = t.data.keep_stderr && !t.data.stderr_.empty();
-    detail::write_real_dataset(group, "value", t.data.value, t.data, false);
-    if (with_stderr) detail::write_real_dataset(group, "stderr", t.data.stderr_, t.data, true);
+    // The stored nodes only: a reader computes the hanging ones from them
+    // (AdaptiveLayout::resolve_hanging), so they follow the rounded values.
+    const std::size_t stored = L.stored_count(t.data.value.size());
+    const std::vector<double> value(t.data.value.begin(), t.data.value.begin() + std::ptrdiff_t(stored));
+    detail::write_real_dataset(group, "value", value, t.data, false);
+    if (with_stderr) {
+        const std::vector<double> se(t.data.stderr_.begin(), t.data.stderr_.begin() + std::ptrdiff_t(stored));
+        detail::write_real_dataset(group, "stderr", se, t.data, true);
+    }
     const std::uint64_t tn = L.split_axis.size(), leaves = L.leaf_count();
     const int c = t.data.compression;
     detail::write_plain_dataset(group, "tree_axis", H5T_STD_I32LE, H5T_NATIVE_INT32, {tn}, L.split_axis.data(), c);
@@ -71,8 +79,11 @@ void add_adaptive_table(TableFileWriter& out, const AdaptiveTable& t) {
                                 L.box.data(), c);
     detail::write_plain_dataset(group, "leaf_nodes", H5T_STD_U32LE, H5T_NATIVE_UINT32,
                                 {leaves, L.nodes_per_leaf()}, L.leaf_nodes.data(), c);
+    if (!L.hanging_leaf.empty())
+        detail::write_plain_dataset(group, "hanging_leaf", H5T_STD_U32LE, H5T_NATIVE_UINT32,
+                                    {L.hanging_leaf.size()}, L.hanging_leaf.data(), c);
     double max_abs = 0;
-    for (double v : t.data.value)
+    for (double v : value)
         if (std::isfinite(v)) max_abs = std::max(max_abs, std::fabs(v));
     detail::write_description(group, t.data, max_abs, with_stderr);
     write_string_attr(group, "representation", "adaptive");
@@ -139,14 +150,26 @@ AdaptiveTable read_adaptive_table(const TableReader& reader, const std::string& 
             if (got != want) throw InputError(where + "dataset '" + std::string(ds) + "' has the wrong shape");
             return got;
         };
-        const std::uint64_t n = shape("value", {0})[0];
-        t.data.value = detail::read_reals(group, "value", n, &t.data.stored_type, &t.data.compression);
+        const std::uint64_t stored = shape("value", {0})[0];
+        t.data.value = detail::read_reals(group, "value", stored, &t.data.stored_type, &t.data.compression);
         if (has_attr(group, "stored_type")) t.data.stored_type = parse_stored_type(read_string_attr(group, "stored_type"));
         t.data.keep_stderr = detail::has_dataset(group, "stderr");
         if (t.data.keep_stderr) {
-            shape("stderr", {n});
-            t.data.stderr_ = detail::read_reals(group, "stderr", n);
+            shape("stderr", {stored});
+            t.data.stderr_ = detail::read_reals(group, "stderr", stored);
         }
+        // The hanging nodes: values stored + 0 .. stored + H - 1.
+        std::uint64_t hanging = 0;
+        if (detail::has_dataset(group, "hanging_leaf")) {
+            hanging = shape("hanging_leaf", {0})[0];
+            if (hanging > (std::uint64_t{1} << 32) - stored)
+                throw InputError(where + "hanging_leaf is too long");
+            L.hanging_leaf.resize(hanging);
+            if (hanging) detail::read_native(group, "hanging_leaf", H5T_NATIVE_UINT32, L.hanging_leaf.data());
+        }
+        const std::uint64_t n = stored + hanging;
+        t.data.value.resize(n, std::numeric_limits<double>::quiet_NaN());
+        if (t.data.keep_stderr) t.data.stderr_.resize(n, std::numeric_limits<double>::quiet_NaN());
         const std::uint64_t tn = shape("tree_axis", {0})[0];
         if (tn == 0 || tn > (std::uint64_t{1} << 32)) throw InputError(where + "tree_axis is empty or too long");
         shape("tree_split", {tn});
@@ -170,6 +193,8 @@ AdaptiveTable read_adaptive_table(const TableReader& reader, const std::string& 
         detail::read_native(group, "leaf_box", H5T_NATIVE_DOUBLE, L.box.data());
         detail::read_native(group, "leaf_nodes", H5T_NATIVE_UINT32, L.leaf_nodes.data());
         L.check(n, where);
+        L.resolve_hanging(t.data.value.data(), n, where);
+        if (t.data.keep_stderr) L.resolve_hanging(t.data.stderr_.data(), n, where);
         if (has_attr(group, "adaptive_target")) t.target = read_double_attr(group, "adaptive_target");
         if (has_attr(group, "adaptive_measure")) t.absolute = read_string_attr(group, "adaptive_measure") == "absolute";
         if (has_attr(group, "adaptive_estimated_max"))

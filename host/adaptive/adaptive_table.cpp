@@ -63,7 +63,7 @@ double eval_leaf_quadratic(const AdaptiveLayout& L, std::size_t leaf, const doub
     }
     for (std::size_t a = 0; a < d; ++a) {
         const double lo = b[2 * a], hi = b[2 * a + 1];
-        double u = (std::clamp(t[a], lo, hi) - lo) / (hi - lo) * double(n - 1);
+        double u = (std::clamp(t[a], lo, hi) - lo) * (double(n - 1) / (hi - lo));
         u = std::clamp(u, 0.0, double(n - 1));
         base += adaptive_stencil(u, n, 2, w[a]) * stride[a];
     }
@@ -101,7 +101,7 @@ double AdaptiveLayout::eval_leaf(std::size_t leaf, const double* t, const double
     }
     for (std::size_t a = 0; a < dims; ++a) {
         const double lo = b[2 * a], hi = b[2 * a + 1];
-        double u = (std::clamp(t[a], lo, hi) - lo) / (hi - lo) * double(n - 1);
+        double u = (std::clamp(t[a], lo, hi) - lo) * (double(n - 1) / (hi - lo));
         u = std::clamp(u, 0.0, double(n - 1));
         std::size_t i = std::min(static_cast<std::size_t>(u), n - 2);
         frac[a] = u - double(i);
@@ -171,6 +171,68 @@ void AdaptiveLayout::check(std::size_t value_count, const std::string& where) co
     }
     if (std::find(seen_leaf.begin(), seen_leaf.end(), 0) != seen_leaf.end())
         fail("a leaf is not reached by the tree");
+    if (hanging_leaf.size() > value_count)
+        fail("hanging_leaf has " + std::to_string(hanging_leaf.size()) + " entries for " +
+             std::to_string(value_count) + " nodes");
+    for (std::uint32_t c : hanging_leaf)
+        if (c >= leaves) fail("hanging_leaf names leaf " + std::to_string(c) + " of " + std::to_string(leaves));
+}
+
+void AdaptiveLayout::resolve_hanging(double* values, std::size_t value_count, const std::string& where) const {
+    const std::size_t h = hanging_leaf.size(), first = value_count - h, per = nodes_per_leaf(), n = patch_nodes;
+    if (h == 0) return;
+    auto fail = [&](std::size_t j, const std::string& m) {
+        throw InputError(where + "hanging node " + std::to_string(first + j) + " (hanging_leaf[" +
+                         std::to_string(j) + "]): " + m);
+    };
+    // Each hanging node's first entry in leaf_nodes: its position.
+    constexpr std::size_t kNone = ~std::size_t{0};
+    std::vector<std::size_t> entry(h, kNone);
+    for (std::size_t e = 0; e < leaf_nodes.size(); ++e) {
+        const std::uint32_t v = leaf_nodes[e];
+        if (v >= first && v < value_count && entry[v - first] == kNone) entry[v - first] = e;
+    }
+    const double grid = 4294967296.0;  // 2^32
+    std::size_t stride[8], base_digit[8];
+    double w[8][3];
+    for (std::size_t a = dims, s = 1; a-- > 0; s *= n) stride[a] = s;
+    for (std::size_t j = 0; j < h; ++j) {
+        if (entry[j] == kNone) fail(j, "no leaf lists it");
+        const std::size_t l = entry[j] / per, c = hanging_leaf[j];
+        const double* bl = box.data() + l * dims * 2;
+        const double* bc = box.data() + c * dims * 2;
+        std::size_t base = 0;
+        for (std::size_t a = 0; a < dims; ++a) {
+            const std::size_t i = entry[j] % per / stride[a] % n;
+            const double t = bl[2 * a] + double(i) * ((bl[2 * a + 1] - bl[2 * a]) / double(n - 1));
+            double u = (t - bc[2 * a]) * (double(n - 1) / (bc[2 * a + 1] - bc[2 * a]));
+            if (!(u >= -1e-9 && u <= double(n - 1) + 1e-9)) fail(j, "it lies outside its leaf " + std::to_string(c));
+            u = std::clamp(std::nearbyint(u * grid) / grid, 0.0, double(n - 1));
+            base_digit[a] = adaptive_stencil(u, n, patch_order, w[a]);
+            base += base_digit[a] * stride[a];
+        }
+        const std::uint32_t* nodes = leaf_nodes.data() + c * per;
+        const std::size_t m = std::size_t(patch_order) + 1;
+        std::size_t digit[8] = {0, 0, 0, 0, 0, 0, 0, 0};
+        double sum = 0;
+        for (;;) {
+            double wt = 1;
+            std::size_t idx = base;
+            for (std::size_t a = 0; a < dims; ++a) {
+                wt *= w[a][digit[a]];
+                idx += digit[a] * stride[a];
+            }
+            if (wt != 0) {
+                if (nodes[idx] >= first + j) fail(j, "its leaf's interpolant needs node " +
+                                                         std::to_string(nodes[idx]) + ", not yet known");
+                sum += wt * values[nodes[idx]];
+            }
+            std::size_t a = 0;
+            while (a < dims && ++digit[a] == m) digit[a++] = 0;
+            if (a == dims) break;
+        }
+        values[first + j] = sum;
+    }
 }
 
 // ------------------------------------------------------------------ table --
@@ -324,10 +386,16 @@ public:
                 for (std::size_t l = 0, e = leaves_.size(); l < e; ++l) split(l, a);
         }
         for (std::size_t l = 0; l < leaves_.size(); ++l) add_leaf_nodes(l);
+        if (o_.continuity) {
+            std::vector<std::size_t> all(leaves_.size());
+            std::iota(all.begin(), all.end(), std::size_t{0});
+            initial_balance_splits_ = balance(std::move(all));
+        }
     }
 
     AdaptiveBuildReport run(const AdaptiveBatchFn& batch, bool with_stderr, const AdaptiveRoundFn& round) {
         AdaptiveBuildReport rep;
+        rep.balance_splits = initial_balance_splits_;
         for (;;) {
             ++rep.rounds;
             evaluate_round(batch, with_stderr, rep);
@@ -365,14 +433,26 @@ public:
                              [&](std::size_t x, std::size_t y) { return leaves_[x].err > leaves_[y].err; });
             std::size_t done = 0;
             for (std::size_t l : fail) {
+                if (!leaves_[l].checked) continue;  // already halved by the balance
                 const int a = split_axis(l);
                 if (node_order_.size() + new_nodes_of_split(l, std::size_t(a)) > o_.max_values) {
                     rep.budget_hit = true;
                     break;
                 }
+                // The split and the halvings the balance rule needs after it,
+                // undone together when they pass the budget.
+                begin_journal();
                 const std::size_t upper = split(l, std::size_t(a));
                 add_leaf_nodes(l);
                 add_leaf_nodes(upper);
+                const std::size_t extra = o_.continuity ? balance({l, upper}) : 0;
+                if (node_order_.size() > o_.max_values) {
+                    roll_back();
+                    rep.budget_hit = true;
+                    break;
+                }
+                journal_.on = false;
+                rep.balance_splits += extra;
                 ++done;
             }
             if (done == 0) break;
@@ -390,14 +470,6 @@ public:
 
     void finish(bool with_stderr, AdaptiveLayout& layout, std::vector<double>& values,
                 std::vector<double>& stderr_, AdaptiveBuildReport& rep) {
-        values.resize(node_order_.size());
-        if (with_stderr) stderr_.resize(node_order_.size());
-        for (std::size_t i = 0; i < node_order_.size(); ++i) {
-            const Known& k = known_.at(node_order_[i]);
-            values[i] = k.value;
-            if (with_stderr) stderr_[i] = k.stderr_;
-        }
-        if (o_.continuity) enforce_continuity(values, rep);
         layout = AdaptiveLayout{};
         layout.dims = d_;
         layout.patch_nodes = n_;
@@ -408,17 +480,71 @@ public:
             layout.lower.push_back(b.lower);
             layout.upper.push_back(b.axis >= 0 ? b.upper : b.lower);
         }
-        const std::size_t per = layout.nodes_per_leaf();
-        layout.leaf_nodes.reserve(leaves_.size() * per);
-        for (const BuildLeaf& l : leaves_) {
+        for (const BuildLeaf& l : leaves_)
             for (std::size_t a = 0; a < d_; ++a) {
                 layout.box.push_back(maps_[a].t(l.lo[a]));
                 layout.box.push_back(maps_[a].t(l.hi[a]));
             }
-            for_each_node(l, [&](const Key& k) { layout.leaf_nodes.push_back(node_index_.at(k)); });
+        // The hanging nodes (with continuity) and their constraining leaves:
+        // the largest leaf that holds the node without having it as a node
+        // (any of them gives the same value in a balanced tree).  Stored
+        // nodes first in the order of creation, then the hanging ones,
+        // coarsest position first: every value a constraint needs comes
+        // before it (its stencil nodes are coarser along the axes where they
+        // differ from it, and equal along the others).
+        const std::size_t total = node_order_.size();
+        std::vector<std::uint32_t> constraint(total, kFree);
+        std::vector<std::uint32_t> hold;
+        if (o_.continuity)
+            for (std::uint32_t i = 0; i < total; ++i) {
+                hold.clear();
+                containing(node_order_[i], 0, hold);
+                for (std::uint32_t m : hold)
+                    if (!is_node_of(leaves_[m], node_order_[i]) &&
+                        (constraint[i] == kFree || level_sum(m) < level_sum(constraint[i])))
+                        constraint[i] = m;
+            }
+        std::vector<std::uint32_t> order;  // new position -> creation index
+        std::vector<std::uint32_t> hanging;
+        for (std::uint32_t i = 0; i < total; ++i) (constraint[i] == kFree ? order : hanging).push_back(i);
+        std::stable_sort(hanging.begin(), hanging.end(), [&](std::uint32_t x, std::uint32_t y) {
+            return coarseness(node_order_[x]) > coarseness(node_order_[y]);
+        });
+        order.insert(order.end(), hanging.begin(), hanging.end());
+        std::vector<std::uint32_t> position(total);
+        for (std::uint32_t p = 0; p < total; ++p) position[order[p]] = p;
+        for (std::uint32_t i : hanging) layout.hanging_leaf.push_back(constraint[i]);
+        const std::size_t per = layout.nodes_per_leaf();
+        layout.leaf_nodes.reserve(leaves_.size() * per);
+        for (const BuildLeaf& l : leaves_)
+            for_each_node(l, [&](const Key& k) { layout.leaf_nodes.push_back(position[node_index_.at(k)]); });
+        values.assign(total, std::numeric_limits<double>::quiet_NaN());
+        if (with_stderr) stderr_.assign(total, std::numeric_limits<double>::quiet_NaN());
+        const std::size_t stored = total - hanging.size();
+        for (std::size_t p = 0; p < stored; ++p) {
+            const Known& k = known_.at(node_order_[order[p]]);
+            values[p] = k.value;
+            if (with_stderr) stderr_[p] = k.stderr_;
+        }
+        layout.resolve_hanging(values.data(), total, "adaptive refinement: ");
+        if (with_stderr) layout.resolve_hanging(stderr_.data(), total, "adaptive refinement: ");
+        // Every leaf that holds a hanging node agrees with its value.
+        rep.hanging_nodes = hanging.size();
+        rep.continuity_residual = 0;
+        std::array<double, kMaxDims> t{};
+        for (std::uint32_t i : hanging) {
+            const Key& k = node_order_[i];
+            for (std::size_t a = 0; a < d_; ++a) t[a] = maps_[a].t(k[a]);
+            hold.clear();
+            containing(k, 0, hold);
+            for (std::uint32_t m : hold)
+                if (!is_node_of(leaves_[m], k)) {
+                    const double e = std::fabs(layout.eval_leaf(m, t.data(), values.data()) - values[position[i]]);
+                    rep.continuity_residual = std::max(rep.continuity_residual, std::isnan(e) ? HUGE_VAL : e);
+                }
         }
         rep.leaves = leaves_.size();
-        rep.values = values.size();
+        rep.values = total;
     }
 
 private:
@@ -455,6 +581,10 @@ private:
         BuildLeaf up = leaves_[l];
         const std::uint64_t mid = leaves_[l].lo[a] + (leaves_[l].hi[a] - leaves_[l].lo[a]) / 2;
         const std::uint32_t t = leaves_[l].tree;
+        if (journal_.on) {
+            journal_.leaves.emplace_back(l, leaves_[l]);
+            journal_.nodes.emplace_back(t, nodes_[t]);
+        }
         BuildLeaf& low = leaves_[l];
         low.hi[a] = mid;
         up.lo[a] = mid;
@@ -684,75 +814,117 @@ private:
         if (x >= b.upper_lo) containing(k, b.upper, out);
     }
 
-    struct Constraint {
-        std::uint32_t node;
-        std::vector<std::uint32_t> corner;
-        std::vector<double> weight;
-        int coarseness = 0;
+    static constexpr std::uint32_t kFree = ~std::uint32_t{0};
+
+    int level_sum(std::size_t l) const {
+        int s = 0;
+        for (std::size_t a = 0; a < d_; ++a) s += leaves_[l].level[a];
+        return s;
+    }
+
+    // How coarse a node's position is: the sum over axes of the trailing
+    // zero bits of its offset in its breakpoint interval (64 at the
+    // interval's start).  A leaf's nodes sit on multiples of its spacing, so
+    // the stencil nodes of a hanging node have more trailing zeros along the
+    // axes where it is not on the leaf's grid, and the same along the others.
+    int coarseness(const Key& k) const {
+        int s = 0;
+        for (std::size_t a = 0; a < d_; ++a) {
+            const std::uint64_t q = k[a] - maps_[a].off[maps_[a].interval(k[a])];
+            s += q == 0 ? 64 : __builtin_ctzll(q);
+        }
+        return s;
+    }
+
+    // The leaves whose closed boxes meet leaf box `box`.
+    void touching(const BuildLeaf& box, std::uint32_t node, std::vector<std::uint32_t>& out) const {
+        const BuildNode& b = nodes_[node];
+        if (b.axis < 0) {
+            out.push_back(b.lower);
+            return;
+        }
+        const std::size_t a = std::size_t(b.axis);
+        if (box.lo[a] <= b.lower_hi) touching(box, b.lower, out);
+        if (box.hi[a] >= b.upper_lo) touching(box, b.upper, out);
+    }
+
+    // The balance rule: leaves x and y whose closed boxes meet in a set of
+    // two or more dimensions are nested there, one at least as fine as the
+    // other along every axis of the set.  When they are not, returns the
+    // halving that mends it in `leaf`, `axis`: of the two, the leaf that
+    // needs fewer halvings (a tie: the coarser in all), along its axis that
+    // is coarsest against the other.
+    bool unbalanced(std::size_t x, std::size_t y, std::size_t& leaf, std::size_t& axis) const {
+        const BuildLeaf &X = leaves_[x], &Y = leaves_[y];
+        int shared = 0, cost_x = 0, cost_y = 0, gap_x = 0, gap_y = 0;
+        std::size_t axis_x = 0, axis_y = 0;
+        for (std::size_t a = 0; a < d_; ++a) {
+            const std::uint64_t lo = std::max(X.lo[a], Y.lo[a]), hi = std::min(X.hi[a], Y.hi[a]);
+            if (lo >= hi) continue;  // they only touch along a
+            ++shared;
+            const int g = X.level[a] - Y.level[a];  // > 0: x finer along a
+            if (g < 0 && -g > gap_x) gap_x = -g, axis_x = a;
+            if (g > 0 && g > gap_y) gap_y = g, axis_y = a;
+            (g < 0 ? cost_x : cost_y) += std::abs(g);
+        }
+        if (shared < 2 || gap_x == 0 || gap_y == 0) return false;
+        const bool pick_x = cost_x != cost_y ? cost_x < cost_y : level_sum(x) <= level_sum(y);
+        leaf = pick_x ? x : y;
+        axis = pick_x ? axis_x : axis_y;
+        return true;
+    }
+
+    // Halves leaves until the balance rule holds between `work` and every
+    // leaf they meet (and between the new halves and theirs); returns the
+    // halvings.  Ends: each halving refines, and a leaf coarser than another
+    // along an axis can always be halved along it.
+    std::size_t balance(std::vector<std::size_t> work) {
+        std::size_t splits = 0;
+        std::vector<std::uint32_t> near;
+        while (!work.empty()) {
+            const std::size_t l = work.back();
+            work.pop_back();
+            near.clear();
+            touching(leaves_[l], 0, near);
+            for (std::uint32_t m : near) {
+                std::size_t leaf = 0, axis = 0;
+                if (m == l || !unbalanced(l, m, leaf, axis)) continue;
+                const std::size_t upper = split(leaf, axis);
+                add_leaf_nodes(leaf);
+                add_leaf_nodes(upper);
+                ++splits;
+                work.push_back(upper);
+                work.push_back(leaf);
+                if (leaf != l) work.push_back(l);
+                break;
+            }
+        }
+        return splits;
+    }
+
+    // Undo of a split with its balance halvings.
+    struct JournalLog {
+        bool on = false;
+        std::size_t leaf_count = 0, node_count = 0, order_count = 0;
+        std::vector<std::pair<std::size_t, BuildLeaf>> leaves;
+        std::vector<std::pair<std::size_t, BuildNode>> nodes;
     };
-
-    void enforce_continuity(std::vector<double>& values, AdaptiveBuildReport& rep) {
-        std::vector<Constraint> cs, ties;  // enforced; further ones, measured only
-        std::vector<std::uint32_t> hold;
-        std::vector<char> hanging(node_order_.size(), 0);
-        for (std::uint32_t i = 0; i < node_order_.size(); ++i) {
-            const Key& k = node_order_[i];
-            hold.clear();
-            containing(k, 0, hold);
-            // The coarsest leaf first: its constraint is the one enforced.
-            auto volume = [&](std::uint32_t m) {
-                double v = 1;
-                for (std::size_t a = 0; a < d_; ++a) v *= double(leaves_[m].hi[a] - leaves_[m].lo[a]);
-                return v;
-            };
-            std::stable_sort(hold.begin(), hold.end(),
-                             [&](std::uint32_t x, std::uint32_t y) { return volume(x) > volume(y); });
-            for (std::uint32_t m : hold) {
-                const BuildLeaf& l = leaves_[m];
-                if (is_node_of(l, k)) continue;
-                Constraint c;
-                c.node = i;
-                for (std::size_t a = 0; a < d_; ++a)
-                    c.coarseness -= int(__builtin_ctzll(k[a] | (std::uint64_t{1} << 62)));
-                for_each_weight(l, k, [&](const Key& q, double w) {
-                    c.corner.push_back(node_index_.at(q));
-                    c.weight.push_back(w);
-                });
-                (hanging[i] ? ties : cs).push_back(c);
-                hanging[i] = 1;
-            }
-        }
-        // Coarse positions first, so that most chains settle in one sweep.
-        std::stable_sort(cs.begin(), cs.end(),
-                         [](const Constraint& x, const Constraint& y) { return x.coarseness < y.coarseness; });
-        rep.hanging_nodes = std::size_t(std::count(hanging.begin(), hanging.end(), 1));
-        double scale = 0;
-        for (double v : values)
-            if (std::isfinite(v)) scale = std::max(scale, std::fabs(v));
-        const double tol = 1e-15 * std::max(scale, 1e-300);
-        auto apply = [&](const Constraint& c) {
-            double s = 0;
-            for (std::size_t j = 0; j < c.corner.size(); ++j) s += c.weight[j] * values[c.corner[j]];
-            return s;
-        };
-        rep.continuity_sweeps = 0;
-        for (int sweep = 0; sweep < 200; ++sweep) {
-            double change = 0;
-            for (const Constraint& c : cs) {
-                const double v = apply(c);
-                change = std::max(change, std::fabs(v - values[c.node]));
-                values[c.node] = v;
-            }
-            ++rep.continuity_sweeps;
-            if (!(change > tol)) break;
-        }
-        rep.continuity_residual = 0;
-        for (const Constraint& c : cs)
-            rep.continuity_residual = std::max(rep.continuity_residual, std::fabs(apply(c) - values[c.node]));
-        rep.tied_nodes = ties.size();
-        rep.tie_crack = 0;
-        for (const Constraint& c : ties) rep.tie_crack = std::max(rep.tie_crack, std::fabs(apply(c) - values[c.node]));
-
+    void begin_journal() {
+        journal_.on = true;
+        journal_.leaf_count = leaves_.size();
+        journal_.node_count = nodes_.size();
+        journal_.order_count = node_order_.size();
+        journal_.leaves.clear();
+        journal_.nodes.clear();
+    }
+    void roll_back() {
+        for (std::size_t k = journal_.leaves.size(); k-- > 0;) leaves_[journal_.leaves[k].first] = journal_.leaves[k].second;
+        for (std::size_t k = journal_.nodes.size(); k-- > 0;) nodes_[journal_.nodes[k].first] = journal_.nodes[k].second;
+        leaves_.resize(journal_.leaf_count);
+        nodes_.resize(journal_.node_count);
+        for (std::size_t i = journal_.order_count; i < node_order_.size(); ++i) node_index_.erase(node_order_[i]);
+        node_order_.resize(journal_.order_count);
+        journal_.on = false;
     }
 
     std::size_t d_;
@@ -768,6 +940,8 @@ private:
     std::vector<Key> pending_;
     std::unordered_map<Key, char, KeyHash> pending_set_;
     double max_abs_ = 0;
+    JournalLog journal_;
+    std::size_t initial_balance_splits_ = 0;
 };
 
 void check_build_options(std::size_t dims, const AdaptiveBuildOptions& o) {

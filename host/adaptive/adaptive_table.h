@@ -13,14 +13,16 @@
 // across it.
 //
 // Continuity elsewhere: a node of one leaf that lies on the closed box of
-// another leaf without being one of its nodes (a hanging node) takes that
-// leaf's interpolated value; this is iterated to a fixed point (nested
-// grids: the common trace of two leaves on a face is then the interpolant
-// on the coarser node set in each direction), so the table is continuous
-// across every face that is not a declared jump.  Order 2: the same where
-// one leaf's face nodes refine the other's along every tangent axis (its
-// triples nest in the coarse ones); a 3-D face between leaves finer along
-// different tangent axes can keep a gap (docs/adaptive.md, "Continuity").
+// another leaf without being one of its nodes (a hanging node) is not
+// stored: its value is that leaf's interpolant at it, computed when the
+// table is read, in an order where every value it needs is known
+// (AdaptiveLayout::resolve_hanging).  The refinement keeps the tree
+// balanced: two leaves whose boxes meet in a set of two or more dimensions
+// are nested there (one is at least as fine as the other along every axis
+// of that set).  Then every leaf that holds a hanging node gives it the same
+// value, and the table is continuous across every face that is not a
+// declared jump, for both patch orders and whatever rounding the stored
+// values had (docs/adaptive.md, "Continuity").
 //
 // Evaluation descends the tree (flat arrays), then interpolates in the leaf:
 // no allocation.  Library code: no printing.
@@ -62,6 +64,10 @@ struct AdaptiveLayout {
     // Leaf l's n^dims nodes, row-major (last axis fastest): indices into the
     // values, node (i_0, ..., i_{d-1}) at t_a = lo_a + i_a (hi_a - lo_a)/(n-1).
     std::vector<std::uint32_t> leaf_nodes;
+    // Hanging nodes: with H = hanging_leaf.size() and N values in all, values
+    // N - H .. N - 1 are not stored; value N - H + j is leaf hanging_leaf[j]'s
+    // interpolant at that node, computed for j = 0, 1, ... (resolve_hanging).
+    std::vector<std::uint32_t> hanging_leaf;
 
     std::size_t leaf_count() const { return dims ? box.size() / (2 * dims) : 0; }
     std::size_t nodes_per_leaf() const;
@@ -73,6 +79,16 @@ struct AdaptiveLayout {
     double eval(const double* t, const double* values) const {
         return eval_leaf(leaf_of(t), t, values);
     }
+    // Values N - H .. N - 1 of `values` (N = value_count) from the others,
+    // in order (docs/format.md "Adaptive tables"): the node's position from
+    // the first leaf_nodes entry that holds it, its coordinate u in the
+    // constraining leaf rounded to a multiple of 2^-32 (exact: the position
+    // is dyadic in that leaf), then that leaf's interpolant with every
+    // nonzero weight on a value already known.  InputError (prefixed by
+    // `where`) when a hanging node is listed by no leaf, lies outside its
+    // constraining leaf, or needs a value not yet computed.
+    void resolve_hanging(double* values, std::size_t value_count, const std::string& where) const;
+    std::size_t stored_count(std::size_t value_count) const { return value_count - hanging_leaf.size(); }
     // InputError (prefixed by `where`) unless the arrays are consistent:
     // sizes, patch_order 1 or 2 (2 with an odd patch_nodes >= 3), child
     // indices in range and forming a tree over every leaf, boxes
@@ -101,7 +117,8 @@ struct AdaptiveTable {
     void to_x(const double* t, double* x) const;
     // Value at a point in axis units.
     double eval(const double* x) const;
-    std::size_t value_count() const { return data.value.size(); }
+    std::size_t value_count() const { return data.value.size(); }  // every node's, hanging ones included
+    std::size_t stored_count() const { return layout.stored_count(data.value.size()); }
 };
 
 // A declared breakpoint of one axis, in t.
@@ -121,11 +138,12 @@ struct AdaptiveBuildOptions {
     // midpoint probes see about half the largest error of a kink inside a
     // cell).
     double safety = 0.5;
-    std::size_t max_values = 65536;  // stop refining before more stored nodes
+    std::size_t max_values = 65536;  // stop refining before more nodes (stored and hanging)
     int max_level = 24;              // dyadic halvings per axis, at most
     std::vector<int> initial_level;  // per axis (empty: 0): uniform start
     std::vector<std::vector<AdaptiveBreakpoint>> breakpoints;  // per axis (may be empty)
-    // Enforce continuity across faces that are not declared jumps.
+    // Continuity across faces that are not declared jumps: the balance rule
+    // and hanging nodes (false: every node stored with its own value).
     bool continuity = true;
 };
 
@@ -139,18 +157,19 @@ using AdaptiveBatchFn = std::function<void(std::size_t count, const double* t, d
 
 // What the refinement did (for the CLI's summary and the docs' figures).
 struct AdaptiveBuildReport {
-    std::size_t rounds = 0, evaluations = 0, leaves = 0, values = 0;
-    std::size_t hanging_nodes = 0, continuity_sweeps = 0;
-    double continuity_residual = 0;  // largest |constraint - value| left (absolute)
-    // Nodes that hang in two leaves or more (3-D and up: edges where leaves
-    // refined along different axes meet): only the coarsest leaf's
-    // constraint is enforced (enforcing all ties the interpolants together
-    // far around); tie_crack is the largest gap left at such a node.
-    std::size_t tied_nodes = 0;
-    double tie_crack = 0;
+    std::size_t rounds = 0, evaluations = 0, leaves = 0;
+    std::size_t values = 0;  // every node's value (stored ones and hanging ones)
+    // Nodes whose values are interpolated from a neighbouring leaf (not
+    // stored), and the leaf halvings the balance rule added.
+    std::size_t hanging_nodes = 0, balance_splits = 0;
+    // Largest |value - leaf interpolant| over every hanging node and every
+    // leaf whose closed box holds it (rounding only: the balance makes them
+    // agree).
+    double continuity_residual = 0;
     double estimated_max = 0;        // largest leaf probe error, in the measure
     std::size_t leaves_over_target = 0;
     bool budget_hit = false;
+    std::size_t stored() const { return values - hanging_nodes; }
 };
 using AdaptiveRoundFn = std::function<void(const AdaptiveBuildReport&)>;
 

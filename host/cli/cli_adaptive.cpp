@@ -244,12 +244,12 @@ std::string run_adaptive(const std::string& spec_path, const std::string& output
             const AdaptiveGenerated g = generate_adaptive(spec, i, *backend, settings, tgo, [&](const AdaptiveBuildReport& r) {
                 if (!quiet && root)
                     std::cerr << "  " << ts.name << ": round " << r.rounds << ", " << r.leaves << " patches, " << r.values
-                              << " values, " << r.evaluations << " evaluations, largest probe error "
+                              << " nodes, " << r.evaluations << " evaluations, largest probe error "
                               << sci_text(r.estimated_max) << "\n";
             });
             if (root)
-                std::cerr << "  " << ts.name << ": " << g.report.values << " values in " << g.report.leaves << " patches ("
-                          << g.report.evaluations << " evaluations, " << format_seconds(g.seconds)
+                std::cerr << "  " << ts.name << ": " << g.report.stored() << " values in " << g.report.leaves << " patches ("
+                          << g.report.hanging_nodes << " hanging nodes, " << g.report.evaluations << " evaluations, " << format_seconds(g.seconds)
                           << (ck.replayed_rounds ? ", " + std::to_string(ck.replayed_rounds) + " round(s) from the checkpoint"
                                                  : std::string())
                           << ")" << (g.report.budget_hit ? ", value budget reached" : "") << "\n";
@@ -310,7 +310,7 @@ std::string run_adaptive(const std::string& spec_path, const std::string& output
     }
     std::cout << "wrote " << out_path << "\n";
     for (std::size_t i = 0; i < tables.size(); ++i)
-        std::cout << "  " << tables[i].data.name << ": adaptive, " << tables[i].value_count() << " values, "
+        std::cout << "  " << tables[i].data.name << ": adaptive, " << tables[i].stored_count() << " values, "
                   << tables[i].layout.leaf_count() << " patches; certificate max " << sci_text(certs[i].max_error)
                   << (certs[i].passed ? " (passed)" : " (FAILED)") << "\n";
     for (const Certificate& c : certs)
@@ -498,10 +498,10 @@ std::vector<double> axis_values(const AdaptiveTable& t, const std::map<std::stri
 void print_adaptive_summary(const AdaptiveTable& t, bool values) {
     const TableData& d = t.data;
     std::cout << "  " << d.name << ": " << d.model << " " << d.quantity << " [" << d.units << "], adaptive: "
-              << t.value_count() << " values in " << t.layout.leaf_count() << " patches of " << t.layout.patch_nodes
+              << t.stored_count() << " values in " << t.layout.leaf_count() << " patches of " << t.layout.patch_nodes
               << "^" << d.axes.size() << " nodes ("
               << (t.layout.patch_order == 2 ? "piecewise quadratic" : "multilinear") << "), " << method_attribute(d) << ", " << stored_type_name(d.stored_type)
-              << "\n";
+              << ", " << t.layout.hanging_leaf.size() << " hanging nodes interpolated\n";
     for (std::size_t a = 0; a < d.axes.size(); ++a) {
         const Axis& ax = d.axes[a];
         std::cout << "    " << ax.name << " [" << ax.min << ", " << ax.max << "] " << ax.unit << ", warp "

@@ -570,7 +570,7 @@ std::string adaptive_eval(const std::string& id) {
          "        const double lo = box[2 * k], hi = box[2 * k + 1];\n"
          "        double v = t[k] < lo ? lo : (t[k] > hi ? hi : t[k]), u;\n"
          "        size_t i;\n"
-         "        u = (v - lo) / (hi - lo) * (double)(" + N + " - 1);\n"
+         "        u = (v - lo) * ((double)(" + N + " - 1) / (hi - lo));\n"
          "        if (u < 0) u = 0;\n"
          "        if (u > (double)(" + N + " - 1)) u = (double)(" + N + " - 1);\n"
          "        i = (size_t)u;\n"
@@ -638,7 +638,8 @@ void export_c_header(const AdaptiveTable& at, const std::string& out_path,
     h += "/* Adaptive table (docs/adaptive.md): " + id + "_eval descends the k-d tree to the\n"
          "   leaf holding t and interpolates its " + std::to_string(at.layout.patch_nodes) +
          "^DIMS-node patch multilinearly in t\n"
-         "   (instead of one tensor grid; " + id + "_values holds one value per stored node). */\n";
+         "   (instead of one tensor grid; " + id + "_values holds one value per node, the\n"
+         "   hanging nodes' already interpolated from their leaves). */\n";
     h += header_preamble(table, id, guard, st, options.type, has_pivot, has_explicit);
     h += adaptive_arrays(at.layout, id) + "\n";
     std::string f = lookup_functions(id, st, has_pivot, has_explicit);

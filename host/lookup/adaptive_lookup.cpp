@@ -57,115 +57,214 @@ BT_LOOKUP_INLINE void t_of(const AdaptiveTable& at, const FastAxis* fast, const 
     }
 }
 
-// AdaptiveLayout::eval_leaf's multilinear interpolant unrolled for D axes,
-// in its order of operations (the same bits): the cell of each axis in the
-// leaf's box, then the 2^D corners, zero weights skipped.
-template <int D>
-BT_LOOKUP_INLINE double leaf_multilinear(const AdaptiveLayout& L, const AdaptiveKernel& k,
-                                         std::size_t leaf, const double* t, const double* values) {
-    const std::size_t n = L.patch_nodes;
-    const double* b = L.box.data() + leaf * D * 2;
-    const std::uint32_t* nodes = L.leaf_nodes.data() + leaf * k.nodes_per_leaf;
+// AdaptiveLayout::eval_leaf unrolled for D axes and patch order `Order`, on
+// the leaf's packed block: in its order of operations (the same bits).
+// Order 1: per axis the cell in the leaf's box and the weight of its second
+// node, then the 2^D corners; order 2: per axis the node triple and its
+// three Lagrange weights, then the 3^D terms (first axis fastest).  Zero
+// weights are skipped, as there.
+template <int D, int Order>
+BT_LOOKUP_INLINE double leaf_packed(const AdaptiveKernel& k, std::size_t leaf, const double* t) {
+    const double* p = k.leaves + leaf * k.leaf_stride;
+    const double* v = p + 3 * D;
+    const std::size_t n = k.patch_nodes;
     std::size_t base = 0;
-    double frac[D];
-#pragma GCC unroll 8
-    for (int a = 0; a < D; ++a) {
-        const double lo = b[2 * a], hi = b[2 * a + 1];
-        double u = (std::clamp(t[a], lo, hi) - lo) / (hi - lo) * double(n - 1);
-        u = std::clamp(u, 0.0, double(n - 1));
-        const std::size_t i = std::min(static_cast<std::size_t>(u), n - 2);
-        frac[a] = u - double(i);
-        base += i * k.stride[a];
-    }
-    double sum = 0;
-#pragma GCC unroll 256
-    for (std::size_t corner = 0; corner < (std::size_t{1} << D); ++corner) {
-        double w = 1;
-        std::size_t idx = base;
+    if constexpr (Order == 1) {
+        double frac[D];
 #pragma GCC unroll 8
         for (int a = 0; a < D; ++a) {
-            if (corner >> a & 1) {
-                w *= frac[a];
-                idx += k.stride[a];
-            } else {
-                w *= 1 - frac[a];
-            }
+            const double lo = p[3 * a], hi = p[3 * a + 1];
+            double u = (std::clamp(t[a], lo, hi) - lo) * p[3 * a + 2];
+            u = std::clamp(u, 0.0, double(n - 1));
+            const std::size_t i = std::min(static_cast<std::size_t>(u), n - 2);
+            frac[a] = u - double(i);
+            base += i * k.stride[a];
         }
-        if (w != 0) sum += w * values[nodes[idx]];
+        double sum = 0;
+#pragma GCC unroll 256
+        for (std::size_t corner = 0; corner < (std::size_t{1} << D); ++corner) {
+            double w = 1;
+            std::size_t idx = base;
+#pragma GCC unroll 8
+            for (int a = 0; a < D; ++a) {
+                if (corner >> a & 1) {
+                    w *= frac[a];
+                    idx += k.stride[a];
+                } else {
+                    w *= 1 - frac[a];
+                }
+            }
+            if (w != 0) sum += w * v[idx];
+        }
+        return sum;
+    } else {
+        double w[D][3];
+        const std::size_t pairs = (n - 1) / 2;
+#pragma GCC unroll 8
+        for (int a = 0; a < D; ++a) {
+            const double lo = p[3 * a], hi = p[3 * a + 1];
+            double u = (std::clamp(t[a], lo, hi) - lo) * p[3 * a + 2];
+            u = std::clamp(u, 0.0, double(n - 1));
+            const std::size_t i = 2 * std::min(static_cast<std::size_t>(u / 2), pairs - 1);
+            const double s = u - double(i);
+            w[a][0] = 0.5 * (s - 1) * (s - 2);
+            w[a][1] = s * (2 - s);
+            w[a][2] = 0.5 * s * (s - 1);
+            base += i * k.stride[a];
+        }
+        constexpr std::size_t terms = [] {
+            std::size_t m = 1;
+            for (int a = 0; a < D; ++a) m *= 3;
+            return m;
+        }();
+        double sum = 0;
+#pragma GCC unroll 81
+        for (std::size_t c = 0; c < terms; ++c) {
+            double wt = 1;
+            std::size_t idx = base, r = c;
+#pragma GCC unroll 8
+            for (int a = 0; a < D; ++a) {
+                const std::size_t j = r % 3;
+                r /= 3;
+                wt *= w[a][j];
+                idx += j * k.stride[a];
+            }
+            if (wt != 0) sum += wt * v[idx];
+        }
+        return sum;
     }
-    return sum;
 }
 
-// The kernels: Unrolled: leaf_multilinear; otherwise the layout's own
-// eval_leaf (whatever its patches are).
-template <int D, bool Unrolled>
+// The kernels: Order 1 or 2: leaf_packed; 0: the layout's own eval_leaf.
+template <int D, int Order>
 double adaptive_value(const AdaptiveTable& at, const AdaptiveKernel& k, const TreeNode* tree,
                       const FastAxis* fast, const int* dependency, const double* x) {
     double t[D];
     t_of<D>(at, fast, dependency, x, t);
     // The grid cell of t: floor(t 2^bits) is exact (a power of two).
-    const double g = double(std::size_t{1} << k.grid_bits);
-    const std::size_t last = (std::size_t{1} << k.grid_bits) - 1;
     std::size_t cell = 0;
 #pragma GCC unroll 8
-    for (int d = 0; d < D; ++d)
-        cell = (cell << k.grid_bits) | std::min(static_cast<std::size_t>(t[d] * g), last);
-    const std::size_t leaf = leaf_at(tree, t, k.start[cell]);
-    if constexpr (Unrolled)
-        return leaf_multilinear<D>(at.layout, k, leaf, t, at.data.value.data());
+    for (int d = 0; d < D; ++d) {
+        const std::size_t per = std::size_t{1} << k.grid_bits[d];
+        cell = (cell << k.grid_bits[d]) | std::min(static_cast<std::size_t>(t[d] * double(per)), per - 1);
+    }
+    const std::uint32_t s = k.start[cell];
+    const std::size_t leaf =
+        s & AdaptiveKernel::kStartLeaf ? std::size_t(s & ~AdaptiveKernel::kStartLeaf) : leaf_at(tree, t, s);
+    if constexpr (Order > 0)
+        return leaf_packed<D, Order>(k, leaf, t);
     else
         return at.layout.eval_leaf(leaf, t, at.data.value.data());
 }
 
-// The kernel for the table's axis count.  The unrolled interpolant is taken
-// only when it gives eval_leaf's bits at the centre and at two off-centre
-// points of every leaf, so a patch that is not multilinear keeps the
-// layout's own interpolation.
+template <int Order>
+using KernelFn = double (*)(const AdaptiveTable&, const AdaptiveKernel&, const TreeNode*, const FastAxis*,
+                            const int*, const double*);
+
+template <int Order>
+KernelFn<Order> kernel_for(std::size_t dims) {
+    static const KernelFn<Order> fns[] = {&adaptive_value<1, Order>, &adaptive_value<2, Order>,
+                                          &adaptive_value<3, Order>, &adaptive_value<4, Order>,
+                                          &adaptive_value<5, Order>, &adaptive_value<6, Order>,
+                                          &adaptive_value<7, Order>, &adaptive_value<8, Order>};
+    return fns[dims - 1];
+}
+
+template <int Order>
+double packed_leaf_value(const AdaptiveKernel& k, std::size_t dims, std::size_t leaf, const double* t) {
+    using Fn = double (*)(const AdaptiveKernel&, std::size_t, const double*);
+    static const Fn fns[] = {&leaf_packed<1, Order>, &leaf_packed<2, Order>, &leaf_packed<3, Order>,
+                             &leaf_packed<4, Order>, &leaf_packed<5, Order>, &leaf_packed<6, Order>,
+                             &leaf_packed<7, Order>, &leaf_packed<8, Order>};
+    return fns[dims - 1](k, leaf, t);
+}
+
+// The kernel for the table's axis count and patch order, its leaves packed.
+// The unrolled interpolant is taken only when it gives eval_leaf's bits at
+// the centre and at two off-centre points of every leaf; otherwise the
+// layout's own interpolation serves.
 AdaptiveKernel choose_kernel(const AdaptiveTable& at) {
     const AdaptiveLayout& L = at.layout;
-    const std::size_t dims = L.dims;
+    const std::size_t dims = L.dims, leaves = L.leaf_count();
     AdaptiveKernel k;
     k.nodes_per_leaf = L.nodes_per_leaf();
+    k.patch_nodes = L.patch_nodes;
     std::size_t s = 1;
     for (std::size_t a = dims; a-- > 0;) {
         k.stride[a] = s;
         s *= L.patch_nodes;
     }
-    using Fn = decltype(k.value);
-    static const Fn unrolled[] = {&adaptive_value<1, true>, &adaptive_value<2, true>,
-                                  &adaptive_value<3, true>, &adaptive_value<4, true>,
-                                  &adaptive_value<5, true>, &adaptive_value<6, true>,
-                                  &adaptive_value<7, true>, &adaptive_value<8, true>};
-    static const Fn general[] = {&adaptive_value<1, false>, &adaptive_value<2, false>,
-                                 &adaptive_value<3, false>, &adaptive_value<4, false>,
-                                 &adaptive_value<5, false>, &adaptive_value<6, false>,
-                                 &adaptive_value<7, false>, &adaptive_value<8, false>};
-    using Leaf = double (*)(const AdaptiveLayout&, const AdaptiveKernel&, std::size_t, const double*,
-                            const double*);
-    static const Leaf leaf_fns[] = {&leaf_multilinear<1>, &leaf_multilinear<2>, &leaf_multilinear<3>,
-                                    &leaf_multilinear<4>, &leaf_multilinear<5>, &leaf_multilinear<6>,
-                                    &leaf_multilinear<7>, &leaf_multilinear<8>};
-    bool same = true;
+    k.leaf_stride = 3 * dims + k.nodes_per_leaf;
+    auto blocks = std::make_shared<std::vector<double>>(leaves * k.leaf_stride);
     const double* v = at.data.value.data();
-    for (std::size_t l = 0; same && l < L.leaf_count(); ++l) {
+    for (std::size_t l = 0; l < leaves; ++l) {
+        double* p = blocks->data() + l * k.leaf_stride;
+        const double* b = L.box.data() + l * dims * 2;
+        for (std::size_t a = 0; a < dims; ++a) {
+            p[3 * a] = b[2 * a];
+            p[3 * a + 1] = b[2 * a + 1];
+            p[3 * a + 2] = double(L.patch_nodes - 1) / (b[2 * a + 1] - b[2 * a]);  // as eval_leaf forms it
+        }
+        const std::uint32_t* nodes = L.leaf_nodes.data() + l * k.nodes_per_leaf;
+        for (std::size_t i = 0; i < k.nodes_per_leaf; ++i) p[3 * dims + i] = v[nodes[i]];
+    }
+    k.leaf_blocks = blocks;
+    k.leaves = blocks->data();
+    const int order = L.patch_order;
+    bool same = true;
+    for (std::size_t l = 0; same && l < leaves; ++l) {
         const double* b = L.box.data() + l * dims * 2;
         for (double f : {0.5, 0.3, 0.8125}) {
             double t[8];
             for (std::size_t a = 0; a < dims; ++a)
                 t[a] = b[2 * a] + (a % 2 ? 1 - f : f) * (b[2 * a + 1] - b[2 * a]);
-            const double x = leaf_fns[dims - 1](L, k, l, t, v), y = L.eval_leaf(l, t, v);
+            const double x = order == 2 ? packed_leaf_value<2>(k, dims, l, t) : packed_leaf_value<1>(k, dims, l, t);
+            const double y = L.eval_leaf(l, t, v);
             same = same && (x == y || (std::isnan(x) && std::isnan(y)));
         }
     }
-    k.value = same ? unrolled[dims - 1] : general[dims - 1];
-    // The start grid: at most 2^15 cells, at most 2^6 per axis.
-    k.grid_bits = unsigned(std::min<std::size_t>(6, 15 / dims));
-    const std::size_t per = std::size_t{1} << k.grid_bits, cells = std::size_t{1} << (k.grid_bits * dims);
+    k.value = !same ? kernel_for<0>(dims) : order == 2 ? kernel_for<2>(dims) : kernel_for<1>(dims);
+    // The start grid: 2^16 cells (256 KiB; more cost more in cache misses
+    // than they save in descent on bench/bench_lookup's table), the bits
+    // shared out among the axes by the leaves' mean depth along each
+    // (weighted by volume: where a uniform query lands), at most 10 per axis.
+    std::vector<double> depth(dims, 0.0);
+    for (std::size_t l = 0; l < leaves; ++l) {
+        const double* b = L.box.data() + l * dims * 2;
+        double vol = 1;
+        for (std::size_t a = 0; a < dims; ++a) vol *= b[2 * a + 1] - b[2 * a];
+        for (std::size_t a = 0; a < dims; ++a) depth[a] += vol * -std::log2(b[2 * a + 1] - b[2 * a]);
+    }
+    unsigned total = 0;
+    for (std::size_t a = 0; a < dims; ++a) {
+        k.grid_bits[a] = unsigned(std::clamp(std::ceil(depth[a]) + 1, 0.0, 10.0));
+        total += k.grid_bits[a];
+    }
+    const unsigned budget = 16;
+    while (total > budget) {
+        std::size_t m = 0;
+        for (std::size_t a = 1; a < dims; ++a)
+            if (k.grid_bits[a] > k.grid_bits[m]) m = a;
+        --k.grid_bits[m];
+        --total;
+    }
+    // Bits left over go to the axes deepest against the bits they have.
+    while (total < budget) {
+        std::size_t m = dims;
+        for (std::size_t a = 0; a < dims; ++a)
+            if (k.grid_bits[a] < 10 && (m == dims || depth[a] - k.grid_bits[a] > depth[m] - k.grid_bits[m])) m = a;
+        if (m == dims) break;
+        ++k.grid_bits[m];
+        ++total;
+    }
+    const std::size_t cells = std::size_t{1} << total;
     k.start.assign(cells, 0);
     for (std::size_t c = 0; c < cells; ++c) {
         double lo[8], hi[8];  // the cell's closed box [lo, hi] in t
-        for (std::size_t a = 0; a < dims; ++a) {
-            const std::size_t i = (c >> (k.grid_bits * (dims - 1 - a))) & (per - 1);
+        std::size_t r = c;
+        for (std::size_t a = dims; a-- > 0;) {
+            const std::size_t per = std::size_t{1} << k.grid_bits[a], i = r & (per - 1);
+            r >>= k.grid_bits[a];
             lo[a] = double(i) / double(per);
             hi[a] = double(i + 1) / double(per);
         }
@@ -179,7 +278,9 @@ AdaptiveKernel choose_kernel(const AdaptiveTable& at) {
             else
                 break;  // the cut crosses the cell
         }
-        k.start[c] = node;
+        k.start[c] = L.split_axis[node] < 0 && L.lower[node] < AdaptiveKernel::kStartLeaf
+                         ? AdaptiveKernel::kStartLeaf | L.lower[node]
+                         : node;
     }
     return k;
 }

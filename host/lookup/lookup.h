@@ -113,11 +113,20 @@ struct FastAxis {
 struct TreeNode;
 struct AdaptiveKernel {
     std::size_t stride[8] = {0, 0, 0, 0, 0, 0, 0, 0};  // of a leaf's nodes, per axis
-    std::size_t nodes_per_leaf = 0;
-    // A uniform grid of 2^grid_bits cells per axis over t: per cell the
-    // deepest tree node whose box holds the whole cell, where the descent
-    // starts (it would reach that node anyway: the same leaf).
-    unsigned grid_bits = 0;
+    std::size_t nodes_per_leaf = 0, patch_nodes = 0;
+    // Leaf l's block at leaves + l * leaf_stride: per axis lo, hi and
+    // (n - 1)/(hi - lo) of its box, then its n^dims node values in patch
+    // order (copies: no index to follow).
+    std::size_t leaf_stride = 0;
+    std::shared_ptr<const std::vector<double>> leaf_blocks;
+    const double* leaves = nullptr;
+    // A uniform grid of 2^grid_bits[a] cells along axis a over t (cells
+    // numbered with the last axis fastest): per cell the deepest tree node
+    // whose box holds the whole cell, where the descent starts (it would
+    // reach that node anyway: the same leaf), or kStartLeaf | the leaf when
+    // that node is a leaf.
+    static constexpr std::uint32_t kStartLeaf = 0x80000000u;
+    unsigned grid_bits[8] = {0, 0, 0, 0, 0, 0, 0, 0};
     std::vector<std::uint32_t> start;
     // The value at resolved coordinates x (every axis inside its range).
     double (*value)(const AdaptiveTable& at, const AdaptiveKernel& k, const TreeNode* tree,

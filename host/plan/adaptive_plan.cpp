@@ -139,7 +139,7 @@ AdaptivePlan predict_adaptive_plan(const Spec& spec, Backend& backend, const Int
             const AdaptiveGenerated g = generate_adaptive(spec, i, backend, settings, go);
             AdaptivePilotRun r;
             r.target = target;
-            r.values = g.report.values;
+            r.values = g.report.stored();  // hanging nodes are not stored
             r.evaluations = g.report.evaluations;
             r.leaves = g.report.leaves;
             r.seconds = g.seconds;

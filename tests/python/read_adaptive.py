@@ -66,6 +66,70 @@ def inverse_warp(ds, x, point):
     raise SystemExit(f"unknown spacing {spacing!r}")
 
 
+def stencil(u, n, order):
+    """First stencil node and weights of patch coordinate u (format.md, step 3)."""
+    if order == 2:
+        i = 2 * min(int(math.floor(u / 2)), (n - 1) // 2 - 1)
+        s = u - i
+        return i, [0.5 * (s - 1) * (s - 2), s * (2 - s), 0.5 * s * (s - 1)]
+    i = min(int(math.floor(u)), n - 2)
+    return i, [1 - (u - i), u - i]
+
+
+def interpolate(value, nodes, box, leaf, u, n, order):
+    """Leaf `leaf`'s interpolant at patch coordinates u (step 4); the value
+    indices with a nonzero weight are returned too."""
+    d = len(u)
+    base, weights = [], []
+    for a in range(d):
+        i, w = stencil(u[a], n, order)
+        base.append(i)
+        weights.append(w)
+    total, used = 0.0, []
+    for combo in itertools.product(*[range(len(w)) for w in weights]):
+        w, idx = 1.0, 0
+        for a in range(d):
+            w *= weights[a][combo[a]]
+            idx = idx * n + base[a] + combo[a]
+        if w != 0:
+            total += w * value[nodes[leaf, idx]]
+            used.append(int(nodes[leaf, idx]))
+    return total, used
+
+
+def resolve_hanging(value, nodes, box, hanging_leaf, n, order):
+    """Appends the hanging nodes' values to `value` (format.md, "Hanging
+    nodes"), in the order of hanging_leaf."""
+    stored = len(value)
+    d = box.shape[1]
+    flat = nodes.reshape(-1)
+    ids, first = np.unique(flat, return_index=True)
+    first_entry = dict(zip(ids.tolist(), first.tolist()))
+    out = list(value)
+    per = nodes.shape[1]
+    for j, c in enumerate(hanging_leaf):
+        m = stored + j
+        e = first_entry[m]
+        leaf, k = divmod(e, per)
+        digits = []
+        for _ in range(d):
+            k, r = divmod(k, n)
+            digits.append(r)
+        digits.reverse()  # the last axis varies fastest
+        u = []
+        for a in range(d):
+            lo, hi = box[leaf, a]
+            t = lo + digits[a] * ((hi - lo) / (n - 1))
+            clo, chi = box[c, a]
+            x = (t - clo) * ((n - 1) / (chi - clo))
+            x = round(x * 2.0**32) / 2.0**32
+            u.append(min(max(x, 0.0), n - 1.0))
+        v, used = interpolate(out, nodes, box, c, u, n, order)
+        assert all(i < m for i in used), "a hanging node needs a later one"
+        out.append(v)
+    return np.array(out)
+
+
 def main():
     path, table, points = sys.argv[1:4]
     with h5py.File(path, "r") as f:
@@ -82,6 +146,8 @@ def main():
         tree_child = g["tree_child"][...]
         box = g["leaf_box"][...]
         nodes = g["leaf_nodes"][...]
+        if "hanging_leaf" in g:
+            value = resolve_hanging(value, nodes, box, g["hanging_leaf"][...].tolist(), n, order)
         axes = [g[name] for name in names]
         with open(points, newline="") as fp:
             rows = list(csv.reader(fp))
@@ -98,28 +164,12 @@ def main():
             while tree_axis[k] >= 0:
                 k = tree_child[k][0] if t[tree_axis[k]] < tree_split[k] else tree_child[k][1]
             leaf = tree_child[k][0]
-            # Per axis: the stencil's first node and its weights.
-            base, weights = [], []
+            u = []
             for a in range(d):
                 lo, hi = box[leaf, a]
-                u = (min(max(t[a], lo), hi) - lo) / (hi - lo) * (n - 1)
-                u = min(max(u, 0.0), n - 1.0)
-                if order == 2:
-                    i = 2 * min(int(math.floor(u / 2)), (n - 1) // 2 - 1)
-                    s = u - i
-                    weights.append([0.5 * (s - 1) * (s - 2), s * (2 - s), 0.5 * s * (s - 1)])
-                else:
-                    i = min(int(math.floor(u)), n - 2)
-                    weights.append([1 - (u - i), u - i])
-                base.append(i)
-            total = 0.0
-            for combo in itertools.product(*[range(len(w)) for w in weights]):
-                w, idx = 1.0, 0
-                for a in range(d):
-                    w *= weights[a][combo[a]]
-                    idx = idx * n + base[a] + combo[a]
-                if w != 0:
-                    total += w * value[nodes[leaf, idx]]
+                x = (min(max(t[a], lo), hi) - lo) * ((n - 1) / (hi - lo))
+                u.append(min(max(x, 0.0), n - 1.0))
+            total, _ = interpolate(value, nodes, box, leaf, u, n, order)
             out.writerow(row + [repr(float(total))])
 
 
