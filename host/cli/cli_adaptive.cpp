@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <cstring>
 #include <memory>
+#include <optional>
 #include <filesystem>
 #include <iostream>
 #include <sstream>
@@ -376,7 +377,15 @@ AdaptiveSpecSettings AdaptiveCliOptions::overrides() const {
 std::string generate_representation(const std::string& spec_path, const AdaptiveCliOptions& o,
                                     bool accuracy_given) {
     if (!o.representation.empty()) return o.representation;
-    const Spec spec = parse_spec_file(spec_path);
+    // A spec that does not parse is reported by the path it then takes (the
+    // tensor one reports once for all the ranks of an MPI job).
+    std::optional<Spec> parsed;
+    try {
+        parsed = parse_spec_file(spec_path);
+    } catch (const InputError&) {
+        return accuracy_given ? "auto" : "tensor";
+    }
+    const Spec& spec = *parsed;
     if (spec.output.representation != "tensor") return spec.output.representation;
     // [output] representation = "tensor" written out, or left out: the
     // parser cannot tell them apart in the Spec, so read the key itself.
