@@ -1,6 +1,7 @@
 #include "host/core/text.h"
 
 #include <cstdio>
+#include <sstream>
 
 namespace brdftab {
 
@@ -16,6 +17,13 @@ namespace brdftab {
 
 std::string unit_suffix(const std::string& unit) {
     return unit.empty() || unit == "1" ? std::string() : " " + unit;
+}
+
+std::string scientific_text(double v, int digits) {
+    std::ostringstream s;
+    s.precision(digits);
+    s << std::scientific << v;
+    return s.str();
 }
 
 }  // namespace brdftab

@@ -7,18 +7,14 @@
 #include <sstream>
 
 #include "host/core/error.h"
+#include "host/core/text.h"
 #include "host/plan/certify.h"
 
 namespace brdftab {
 
 namespace {
 
-std::string sci(double v) {
-    std::ostringstream s;
-    s.precision(3);
-    s << std::scientific << v;
-    return s.str();
-}
+std::string sci(double v) { return scientific_text(v, 3); }
 
 std::string count_text(double v) {
     std::ostringstream s;

@@ -4,6 +4,7 @@
 #include <limits>
 #include <sstream>
 
+#include "host/core/text.h"
 #include "host/core/error.h"
 #include "host/lookup/lookup.h"
 #include "host/plan/certify.h"
@@ -14,12 +15,7 @@
 namespace brdftab {
 
 namespace {
-std::string sci(double v) {
-    std::ostringstream s;
-    s.precision(3);
-    s << std::scientific << v;
-    return s.str();
-}
+std::string sci(double v) { return scientific_text(v, 3); }
 // The set's marginal cost per cell and fixed cost under a plan (the
 // computed tables only: pilots[i] is c.tables[i]).
 void record_cost(SceneTableSet& set, const std::vector<TablePilot>& pilots, const Candidate& c) {
