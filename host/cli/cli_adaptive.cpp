@@ -149,11 +149,10 @@ std::string doubles_bytes(const std::vector<double>& v) {
 
 // Returns the first table whose certificate misses, "" when all pass (and
 // on ranks other than 0).
-std::string run_adaptive(const std::string& spec_path, const std::string& output, const ComputeOptions& compute,
+std::string run_adaptive(const Spec& spec, const std::string& spec_path, const std::string& output, const ComputeOptions& compute,
                          double accuracy, bool absolute, bool quiet, const AdaptiveCliOptions& o,
                          const AdaptiveRun& run) {
     const bool root = run.root();
-    const Spec spec = parse_spec_file(spec_path);
     if (!spec.recombined.empty() || !spec.errors.empty() || !spec.inverted.empty())
         throw InputError(spec_path + ": --representation adaptive does not handle [[recombined]], [[errors]] "
                          "or [[inverted]] tables; generate a copy of the spec without them");
@@ -341,7 +340,7 @@ void run_adaptive_generate(const std::string& spec_path, const std::string& outp
         // in the next shared engine run.  Rank 0 reports input errors (every
         // rank reads the same spec and options), the others their own trouble.
         try {
-            missed = run_adaptive(spec_path, output, compute, *accuracy, absolute, quiet, o, run);
+            missed = run_adaptive(spec, spec_path, output, compute, *accuracy, absolute, quiet, o, run);
         } catch (const std::exception& e) {
             const bool input = dynamic_cast<const InputError*>(&e) != nullptr;
             if (run.mpi->rank() == 0 || !input)
@@ -352,7 +351,7 @@ void run_adaptive_generate(const std::string& spec_path, const std::string& outp
         run.mpi->finalize();
     } else
 #endif
-        missed = run_adaptive(spec_path, output, compute, *accuracy, absolute, quiet, o, run);
+        missed = run_adaptive(spec, spec_path, output, compute, *accuracy, absolute, quiet, o, run);
     if (!missed.empty()) throw Error("certificate of '" + missed + "' misses --accuracy " + sci_text(*accuracy));
 }
 
